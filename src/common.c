@@ -1,0 +1,191 @@
+/* common.c - errors, threads, timing, progress and atomic output (see common.h). */
+#include "common.h"
+#include <errno.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#include <ctype.h>
+
+int prt_fail(prt_error *err, const char *fmt, ...) {
+    if (err) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err->msg, sizeof err->msg, fmt, ap);
+        va_end(ap);
+        /* One line: fold any newline a caller let through. */
+        for (char *p = err->msg; *p; p++)
+            if (*p == '\n' || *p == '\r') *p = ' ';
+    }
+    return -1;
+}
+
+double prt_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int prt_thread_count(int requested) {
+    if (requested > 0) return requested;
+    const char *e = getenv("PRT_THREADS");
+    if (e && atoi(e) > 0) return atoi(e);
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)(n > 64 ? 64 : n) : 1;
+}
+
+typedef struct pf_shared {
+    atomic_int next;
+    int n, grain;
+    prt_range_fn fn;
+    void *ctx;
+} pf_shared;
+
+typedef struct pf_arg { pf_shared *s; int thread; } pf_arg;
+
+static void *pf_worker(void *p) {
+    pf_arg *a = p;
+    pf_shared *s = a->s;
+    for (;;) {
+        int b = atomic_fetch_add(&s->next, s->grain);
+        if (b >= s->n) break;
+        int e = b + s->grain < s->n ? b + s->grain : s->n;
+        s->fn(s->ctx, b, e, a->thread);
+    }
+    return NULL;
+}
+
+void prt_parallel_for(int n, int grain, int nthreads, prt_range_fn fn, void *ctx) {
+    if (n <= 0) return;
+    if (grain < 1) grain = 1;
+    nthreads = prt_thread_count(nthreads);
+    int chunks = (n + grain - 1) / grain;
+    if (nthreads > chunks) nthreads = chunks;
+    pf_shared s = { .n = n, .grain = grain, .fn = fn, .ctx = ctx };
+    atomic_init(&s.next, 0);
+    if (nthreads <= 1) {
+        pf_arg a = { &s, 0 };
+        pf_worker(&a);
+        return;
+    }
+    pthread_t th[64];
+    pf_arg args[64];
+    int started = 0;
+    for (int t = 1; t < nthreads; t++) {
+        args[t] = (pf_arg){ &s, t };
+        if (pthread_create(&th[t], NULL, pf_worker, &args[t]) == 0) started = t;
+        else break;
+    }
+    args[0] = (pf_arg){ &s, 0 };
+    pf_worker(&args[0]);
+    for (int t = 1; t <= started; t++) pthread_join(th[t], NULL);
+}
+
+void prt_bar_init(prt_bar *bar, FILE *out, bool quiet) {
+    memset(bar, 0, sizeof *bar);
+    bar->out = out ? out : stderr;
+    bar->tty = isatty(fileno(bar->out));
+    bar->quiet = quiet;
+    bar->last_decile = -1;
+}
+
+static void fmt_secs(char *buf, size_t cap, double s) {
+    if (s < 0 || s != s) s = 0;
+    if (s < 60) snprintf(buf, cap, "%.1fs", s);
+    else if (s < 3600) snprintf(buf, cap, "%dm%02ds", (int)s / 60, (int)s % 60);
+    else snprintf(buf, cap, "%dh%02dm", (int)s / 3600, ((int)s % 3600) / 60);
+}
+
+bool prt_bar_report(void *user, const char *stage, double fraction) {
+    prt_bar *bar = user;
+    if (!bar || bar->quiet) return true;
+    double now = prt_now();
+    if (strncmp(bar->stage, stage, sizeof bar->stage - 1) != 0) {
+        if (bar->stage[0]) prt_bar_done(bar);
+        snprintf(bar->stage, sizeof bar->stage, "%s", stage);
+        bar->t_start = now;
+        bar->t_last = 0;
+        bar->last_decile = -1;
+    }
+    if (fraction < 0) fraction = 0;
+    if (fraction > 1) fraction = 1;
+    double el = now - bar->t_start;
+    double eta = fraction > 1e-6 ? el * (1 - fraction) / fraction : 0;
+    char e1[32], e2[32];
+    fmt_secs(e1, sizeof e1, el);
+    fmt_secs(e2, sizeof e2, eta);
+    if (bar->tty) {
+        if (now - bar->t_last < 0.1 && fraction < 1) return true;
+        bar->t_last = now;
+        char cells[41];
+        int w = 40, fill = (int)(fraction * w + 0.5);
+        for (int i = 0; i < w; i++) cells[i] = i < fill ? '#' : '.';
+        cells[w] = 0;
+        fprintf(bar->out, "\r%-22s [%s] %5.1f%%  %s elapsed, ETA %s   ", stage, cells, 100 * fraction, e1, e2);
+        fflush(bar->out);
+    } else {
+        int d = (int)(fraction * 10);
+        if (d > bar->last_decile) {
+            bar->last_decile = d;
+            fprintf(bar->out, "%s: %3d%%  (%s elapsed, ETA %s)\n", stage, d * 10, e1, e2);
+            fflush(bar->out);
+        }
+    }
+    return true;
+}
+
+void prt_bar_done(prt_bar *bar) {
+    if (!bar || bar->quiet || !bar->stage[0]) return;
+    char e1[32];
+    fmt_secs(e1, sizeof e1, prt_now() - bar->t_start);
+    if (bar->tty) fprintf(bar->out, "\r\033[K%-22s done in %s\n", bar->stage, e1);
+    else fprintf(bar->out, "%s: done in %s\n", bar->stage, e1);
+    fflush(bar->out);
+    bar->stage[0] = 0;
+}
+
+FILE *prt_atomic_open(const char *path, char *tmp, size_t tmpcap, prt_error *err) {
+    if (!path || !*path) { prt_fail(err, "empty output path"); return NULL; }
+    snprintf(tmp, tmpcap, "%s.tmp.%ld", path, (long)getpid());
+    FILE *f = fopen(tmp, "wb");
+    if (!f) { prt_fail(err, "%s: cannot write: %s", path, strerror(errno)); return NULL; }
+    return f;
+}
+
+int prt_atomic_commit(FILE *f, const char *tmp, const char *path, prt_error *err) {
+    int bad = ferror(f);
+    if (fflush(f) != 0) bad = 1;
+    if (fclose(f) != 0) bad = 1;
+    if (bad) { remove(tmp); return prt_fail(err, "%s: write failed (disk full?)", path); }
+    if (rename(tmp, path) != 0) {
+        int e = errno;
+        remove(tmp);
+        return prt_fail(err, "%s: cannot rename temporary file: %s", path, strerror(e));
+    }
+    return 0;
+}
+
+void prt_atomic_abort(FILE *f, const char *tmp) {
+    if (f) fclose(f);
+    if (tmp && *tmp) remove(tmp);
+}
+
+void prt_path_ext(const char *path, char ext[16]) {
+    ext[0] = 0;
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    if (!dot || (slash && dot < slash)) return;
+    size_t i = 0;
+    for (const char *p = dot + 1; *p && i < 15; p++) ext[i++] = (char)tolower((unsigned char)*p);
+    ext[i] = 0;
+}
+
+void *prt_calloc(size_t count, size_t size, prt_error *err) {
+    if (count && size > SIZE_MAX / count) { prt_fail(err, "allocation too large"); return NULL; }
+    void *p = calloc(count ? count : 1, size ? size : 1);
+    if (!p) prt_fail(err, "out of memory allocating %zu bytes", count * size);
+    return p;
+}

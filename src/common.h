@@ -1,0 +1,75 @@
+/* common.h - errors, threads, timing, progress and atomic file output for prt.
+ *
+ * Errors: a function that can fail on user input returns 0 on success and -1
+ * on failure, having written one line (no trailing newline) into a caller's
+ * prt_error that names the file and the problem. Callers print err.msg. Bugs
+ * (broken invariants) are assert()s, never error codes.
+ *
+ * Threads: prt_parallel_for runs fn over [0,n) in chunks of `grain` on
+ * prt_thread_count() threads with dynamic scheduling (atomic counter), so
+ * uneven work (occluded vs open vertices) balances across both cores.
+ *
+ * Progress: a long stage calls a prt_progress_fn; returning false cancels the
+ * stage (which then fails with "cancelled"). prt_bar is the standard callback:
+ * a bar with ETA on a terminal, plain lines every 10% otherwise.
+ *
+ * Output files: prt_atomic_open writes to "<path>.tmp.<pid>"; prt_atomic_commit
+ * flushes and renames over <path>; prt_atomic_abort removes the temporary. So a
+ * crash or an error never leaves a partial file under the final name.
+ *
+ * No mutable globals: all state lives in structs the caller owns. */
+#ifndef PRT_COMMON_H
+#define PRT_COMMON_H
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#define PRT_VERSION_STRING "0.1.0"
+
+typedef struct prt_error { char msg[1024]; } prt_error;
+
+/* Writes a printf-style message into err (if non-NULL). Returns -1. */
+int prt_fail(prt_error *err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+/* Monotonic wall-clock seconds. */
+double prt_now(void);
+
+/* Threads to use: requested if > 0, else $PRT_THREADS if set, else online CPUs. */
+int prt_thread_count(int requested);
+
+/* fn(ctx, begin, end, thread_index) over [0,n) in chunks of `grain` items. */
+typedef void (*prt_range_fn)(void *ctx, int begin, int end, int thread);
+void prt_parallel_for(int n, int grain, int nthreads, prt_range_fn fn, void *ctx);
+
+/* Progress: return false to cancel. fraction in [0,1]. Thread-safe callers only
+ * call it from one thread (precompute calls it from the thread that finishes a chunk
+ * under its own lock). */
+typedef bool (*prt_progress_fn)(void *user, const char *stage, double fraction);
+
+/* Standard progress reporter (use &bar as `user` with prt_bar_report). */
+typedef struct prt_bar {
+    FILE *out;          /* stderr by default (NULL means stderr) */
+    bool tty;           /* draw a bar with ETA (set by prt_bar_init from isatty) */
+    bool quiet;         /* print nothing */
+    char stage[64];
+    double t_start, t_last;
+    int last_decile;
+} prt_bar;
+void prt_bar_init(prt_bar *bar, FILE *out, bool quiet);
+bool prt_bar_report(void *bar, const char *stage, double fraction);
+/* Ends the current stage line (prints elapsed time). */
+void prt_bar_done(prt_bar *bar);
+
+/* Atomic output: see header. tmp must hold at least 4096 bytes. */
+FILE *prt_atomic_open(const char *path, char *tmp, size_t tmpcap, prt_error *err);
+int prt_atomic_commit(FILE *f, const char *tmp, const char *path, prt_error *err);
+void prt_atomic_abort(FILE *f, const char *tmp);
+
+/* Lowercase extension of path without the dot ("" if none), into ext[16]. */
+void prt_path_ext(const char *path, char ext[16]);
+
+/* Allocation that reports failure through err: returns NULL and fills err. */
+void *prt_calloc(size_t count, size_t size, prt_error *err);
+
+#endif

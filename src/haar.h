@@ -1,0 +1,36 @@
+/* haar.h - orthonormal 2D Haar wavelets on cube-map faces (section 4.1.1).
+ *
+ * The nonstandard decomposition: at each level, every 2x2 block of averages
+ * becomes one average and three details (horizontal, vertical, diagonal), with
+ * the orthonormal factor 1/2, so the transform preserves the L2 norm and inner
+ * products (Parseval) and <light, transport> may be computed in either domain.
+ *
+ * Coefficient order. After the in-place transform a res x res face holds the
+ * usual quadrant layout (the 2^l x 2^l top-left square holds levels < l). The
+ * "wavelet index" of quadrant position (i, j) is face*res*res + morton(i, j)
+ * (bits of i and j interleaved, i in the even bits), so coarse levels are
+ * contiguous at the start of each face: index 0 of a face is its scaling
+ * coefficient, the first 256 indices of a face are all levels up to 16x16.
+ * Light vectors and transport vectors use the same wavelet index space, which
+ * keeps sparse transport vectors' indices clustered into few 256-blocks.
+ *
+ * res must be a power of two. Pure functions, thread-safe. */
+#ifndef PRT_HAAR_H
+#define PRT_HAAR_H
+#include "common.h"
+
+/* In-place forward transform of one row-major res x res face; tmp holds res*res floats. */
+void haar_forward(float *face, int res, float *tmp);
+/* In-place inverse of haar_forward. */
+void haar_inverse(float *face, int res, float *tmp);
+/* Morton (Z-order) index of (i, j): i in even bits, j in odd bits. */
+uint32_t haar_morton(uint32_t i, uint32_t j);
+/* Inverse of haar_morton. */
+void haar_unmorton(uint32_t m, uint32_t *i, uint32_t *j);
+
+/* Whole cube: row-major texels (cubemap.h indexing) of one channel -> wavelet-index order.
+ * in and out may not alias; tmp holds 2*res*res floats. */
+void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp);
+/* Wavelet-index order -> row-major texels. */
+void haar_cube_inverse(const float *wavelet, int res, float *texels, float *tmp);
+#endif

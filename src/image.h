@@ -1,0 +1,52 @@
+/* image.h - float RGB(A) images read and written through OpenImageIO.
+ *
+ * OpenImageIO speaks C++ only; src/image_oiio.cpp wraps it behind this C
+ * header and is the only C++ in prt.
+ *
+ * Usage:
+ *     prt_image im; prt_error err;
+ *     if (image_read("city.exr", &im, &err)) puts(err.msg);
+ *     image_desc d = { .exposure = 0 };                 // zero means defaults
+ *     if (image_write("out.png", &im, &d, &err)) puts(err.msg);
+ *     image_free(&im);
+ *
+ * image_read returns linear float pixels (any format OIIO reads: EXR, HDR,
+ * PFM, PNG...; 8-bit formats are converted from sRGB to linear), always 3
+ * channels (grey is replicated, alpha dropped). Rows top to bottom.
+ *
+ * image_write picks the format from the extension: .exr writes linear 32-bit
+ * float (half for .exr with d.half) RGB; .png/.jpg/.tif/.ppm write 8-bit sRGB after
+ * exposure (2^exposure) and the tone map (d.tonemap: 0 clamp, 1 Reinhard,
+ * 2 ACES fit; default clamp). Non-finite pixels are written as 0. The file is written to a
+ * temporary name and renamed, so no partial file is left behind.
+ *
+ * Errors: one line naming the file (missing, unreadable, unsupported format,
+ * zero size). Ownership: data belongs to the image; image_free frees it. */
+#ifndef PRT_IMAGE_H
+#define PRT_IMAGE_H
+#include "common.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct prt_image {
+    int w, h, c;     /* c is 3 (RGB) or 4 (RGBA) */
+    float *data;     /* [h][w][c], row 0 at the top */
+} prt_image;
+
+typedef struct image_desc {
+    float exposure;  /* stops, for 8-bit output */
+    int tonemap;     /* 0 clamp, 1 Reinhard, 2 ACES */
+    bool half;       /* EXR: half floats */
+} image_desc;
+
+int image_alloc(prt_image *im, int w, int h, int c, prt_error *err);
+int image_read(const char *path, prt_image *out, prt_error *err);
+int image_write(const char *path, const prt_image *im, const image_desc *desc, prt_error *err);
+void image_free(prt_image *im);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,41 @@
+/* precompute.h - the precomputation pipeline: BRDF factorization, visibility,
+ * direct transport (Eq. 3), wavelet compression, and interreflection passes.
+ *
+ * Usage:
+ *     precompute_desc d = { .N = 128 };    // zero fields mean defaults
+ *     prt_data out;
+ *     if (precompute_run(&scene, &d, &out, &err)) puts(err.msg);
+ *     // scene now belongs to out.scene
+ *
+ * Direct pass, per vertex (both cores, dynamic scheduling): the visibility cube
+ * at vis_res (128) is ray cast; for each 64-res lighting texel j,
+ *   T_k(x, j) = g_k(w_j) * sum over its 2x2 sub-texels s of V(x, w_s) max(n.w_s, 0) dw_s
+ * (Eq. 3 integrated over the texel with exact solid angles; g_k is smooth at the
+ * light maps' 48x48 resolution, so it is evaluated once at the texel centre);
+ * each face is Haar transformed, the N largest coefficients kept, quantized.
+ *
+ * Cancelling: the progress callback returning false stops the run with error "cancelled". */
+#ifndef PRT_PRECOMPUTE_H
+#define PRT_PRECOMPUTE_H
+#include "prtfile.h"
+
+typedef struct precompute_desc {
+    int N;                  /* coefficients per vector; 0: 128 */
+    int max_terms;          /* K cap for glossy materials; 0: 4 */
+    float term_error;       /* > 0: smallest K meeting this relative BRDF error (capped) */
+    int qbits;              /* 8 (default), 16, 32 */
+    int vis_res;            /* 0: 128 (64 * supersampling 2); 64, 128, 256 allowed */
+    brdf_param param;       /* BRDF parameterization */
+    int bounces;            /* maximum interreflection passes; 0: none */
+    int gather_res;         /* 0: 32 */
+    float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
+    int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
+    int nthreads;           /* 0: all cores */
+    prt_progress_fn progress;
+    void *progress_user;
+    bool quiet;             /* do not print the plan */
+} precompute_desc;
+
+/* Runs the pipeline. Takes ownership of *scene (zeroed on return). Returns 0 or -1. */
+int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out, prt_error *err);
+#endif

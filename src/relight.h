@@ -1,0 +1,28 @@
+/* relight.h - CPU relighting: colour = h(view) . g(light) per vertex (Eq. 5).
+ *
+ * Usage:
+ *     relight_ctx *rc = relight_create(&data, &err);     // data is SHARED: keep it alive
+ *     relight_set_light(rc, L);       // light change: sparse T x L for every vector (both cores)
+ *     relight_view(rc, eye, rgb);     // view change: view maps at each vertex's view direction
+ *     relight_destroy(rc);
+ *
+ * The light-dependent K-vectors g are cached between calls, so a view change
+ * costs only the view-map lookups and a K-term dot product per vertex. kmax
+ * limits the terms used (0: all). Lambertian materials skip the lookups. */
+#ifndef PRT_RELIGHT_H
+#define PRT_RELIGHT_H
+#include "prtfile.h"
+
+typedef struct relight_ctx relight_ctx;
+
+relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err);
+void relight_destroy(relight_ctx *rc);
+/* L: [CUBE_TEXELS][4] light vector (light.h). */
+void relight_set_light(relight_ctx *rc, const float (*L)[4]);
+/* The cached light-dependent K-vectors ([3 * nvecs]). */
+const float *relight_gvec(const relight_ctx *rc);
+/* Per-vertex outgoing radiance toward eye: rgb[3*nverts]. kmax 0 = all terms. */
+void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb);
+/* Outgoing radiance of vertex v toward a unit world direction wo (for tests and the reference). */
+void relight_vertex(const relight_ctx *rc, int v, const float wo[3], int kmax, float rgb[3]);
+#endif

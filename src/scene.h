@@ -1,0 +1,67 @@
+/* scene.h - a scene: models with transforms and materials, plus an optional floor.
+ *
+ * A scene is what `prt precompute` reads: either one OBJ (with --material and
+ * --floor flags) or a small JSON file:
+ *
+ *     { "models": [ { "obj": "bunny.obj",          (path relative to the JSON file)
+ *                     "material": "phong:kd=0.6,0.05,0.05;ks=0.4;n=50",
+ *                     "scale": 1.0, "translate": [0,0,0], "rotate_y": 0 },
+ *                   { "sphere": {"center":[0,1,0], "radius":1}, "material": "lambert:kd=0.8" } ],
+ *       "floor": { "vertices": 31000, "material": "lambert:kd=0.7", "size": 3.0 } }
+ *
+ * Models may also be procedural: "sphere", "box" ({"min":[..],"max":[..],"open_top":true}),
+ * "torus", "plane". The floor is a tessellated plane just below the models
+ * (at the lowest y minus 0.1% of the scene size so that a touching model does not
+ * z-fight), centred under them, `size` times the models' largest horizontal extent
+ * (default 3), with about `vertices` vertices (default 31,000).
+ *
+ * Materials are BRDF spec strings (see brdf.h: brdf_parse). Identical specs
+ * share one material. The scene's mesh holds every model merged; mesh.mat[v]
+ * indexes scene.materials.
+ *
+ * Ownership: scene_free frees the mesh and materials. */
+#ifndef PRT_SCENE_H
+#define PRT_SCENE_H
+#include "common.h"
+#include "mesh.h"
+#include "brdf.h"
+
+#define PRT_MAX_MATERIALS 64
+
+typedef struct prt_scene {
+    prt_mesh mesh;
+    int nmaterials;
+    brdf_params materials[PRT_MAX_MATERIALS];
+    char material_spec[PRT_MAX_MATERIALS][256];   /* the spec string each came from */
+    int floor_first_vertex;    /* first vertex of the floor, or -1 when there is none */
+    float bmin[3], bmax[3];    /* bounds of everything, floor included */
+    mesh_load_stats load_stats; /* summed over OBJ models */
+} prt_scene;
+
+typedef struct scene_desc {
+    const char *material;   /* spec for an OBJ given alone (NULL: "lambert:kd=0.8") */
+    int floor;              /* 1: add a floor, 0: none, -1: as the JSON file says (default 0 for OBJ) */
+    int floor_verts;        /* 0: as the JSON says, else 31000 */
+    const char *floor_material; /* NULL: "lambert:kd=0.7" */
+} scene_desc;
+
+/* Loads an OBJ (one model) or a .json scene. desc may be NULL. */
+int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err);
+
+/* Builds a scene from a mesh already in memory (takes ownership of *mesh, zeroing it). */
+int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_error *err);
+
+/* Adds a floor under the current contents (see header comment). */
+int scene_add_floor(prt_scene *s, int verts, float size, const char *material, prt_error *err);
+
+/* Adds (or finds) a material by spec; returns its index or -1 with err set. */
+int scene_material(prt_scene *s, const char *spec, prt_error *err);
+
+/* Recomputes s->bmin/bmax. */
+void scene_update_bounds(prt_scene *s);
+
+/* The built-in demo scene: a glossy sphere, a diffuse torus and a glossy box over a floor. */
+int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err);
+
+void scene_free(prt_scene *s);
+#endif

@@ -1,0 +1,78 @@
+/* transport.h - the set of compressed transport vectors of a scene.
+ *
+ * Vertex v has vec_first[v+1] - vec_first[v] vectors: one per BRDF term k of its
+ * material (K of that material), vector vec_first[v] + k. Vector i holds
+ * coef_first[i+1] - coef_first[i] coefficients (at most N; fewer when the
+ * vector has fewer non-zeros, e.g. 0 for a fully occluded vertex), sorted by
+ * wavelet index. Their indices are stored as runs over the 96 blocks of 256
+ * (section 4.1.2, with the block bytes run-length coded because sorted indices
+ * share blocks): vector i's runs are runs[2*r], runs[2*r+1] for r in
+ * run_first[i] .. run_first[i+1]-1, each (block, count-1), covering its
+ * coefficients in order. Coefficient values depend on qbits:
+ *   8:  packed[c] = offset | r<<8 | g<<16 | b<<24 (sparse.h), value = q * scale[3*i+ch]
+ *   16: offs[c] and q16[3c+ch], value = q * scale[3*i+ch]
+ *   32: offs[c] and f32[3c+ch] (no quantization; scale unused, 1)
+ *
+ * Building: transport_init sizes the set for nverts vertices with the given
+ * vectors per vertex and N; transport_store (thread-safe for distinct vectors)
+ * selects, quantizes and stores one dense vector; transport_finish compacts the
+ * storage. After finish the set is immutable and can be written to a .prt file.
+ *
+ * Runtime: transport_light (Eq. 5's T x L for every vector) computes the
+ * light-dependent K-vectors: g[3*i+ch] = sum_c value(c, ch) * L[index(c)][ch].
+ * L is the light vector in wavelet-index order as float[4] per index (RGB and
+ * padding, 16-byte aligned).
+ *
+ * Ownership: all arrays belong to the set; transport_free frees them. */
+#ifndef PRT_TRANSPORT_H
+#define PRT_TRANSPORT_H
+#include "common.h"
+#include "sparse.h"
+
+typedef struct prt_transport {
+    int nverts, nvecs;
+    int N;                  /* coefficients kept per vector (max) */
+    int qbits;              /* 8, 16 or 32 (float) */
+    uint32_t *vec_first;    /* [nverts+1] */
+    uint32_t *coef_first;   /* [nvecs+1] */
+    uint32_t *run_first;    /* [nvecs+1] */
+    uint8_t *runs;          /* [2*nruns] (block, count-1) */
+    float *scale;           /* [3*nvecs] dequantization step per channel */
+    uint32_t *packed;       /* qbits 8: [ncoefs] */
+    uint8_t *offs;          /* qbits 16/32: [ncoefs] block offsets */
+    int16_t *q16;           /* qbits 16: [3*ncoefs] */
+    float *f32;             /* qbits 32: [3*ncoefs] */
+    /* Build-time staging (NULL after transport_finish). */
+    uint32_t *stage_count;  /* [nvecs] coefficients stored per vector */
+    uint32_t *stage_idx;    /* [nvecs*N] wavelet indices */
+    float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping) */
+} prt_transport;
+
+/* Sizes a set: nverts vertices, vertex v has nvec_of_vertex[v] vectors (vectors numbered
+ * consecutively). N in 1..CUBE_TEXELS, qbits 8/16/32. Returns 0 or -1 (OOM/bad args). */
+int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int N, int qbits, prt_error *err);
+/* Selects, quantizes and stages vector i from dense wavelet coefficients r,g,b[CUBE_TEXELS].
+ * scratch holds 2*CUBE_TEXELS floats + CUBE_TEXELS uint32 (use transport_scratch_size()).
+ * Returns the L2 error squared of the stored approximation (truncation + quantization). */
+double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
+size_t transport_scratch_size(void);
+/* Compacts staged vectors into the final arrays. Returns 0 or -1 (OOM). */
+int transport_finish(prt_transport *t, prt_error *err);
+
+/* Decodes vector i (after finish) into dense planar r,g,b[CUBE_TEXELS] (zeros elsewhere). */
+void transport_decode(const prt_transport *t, int i, float *r, float *g, float *b);
+/* Calls fn(ctx, index, r, g, b) for every stored coefficient of vector i, in index order. */
+void transport_foreach(const prt_transport *t, int i, void (*fn)(void *ctx, uint32_t index, float r, float g, float b), void *ctx);
+/* Number of coefficients and runs stored in all. */
+size_t transport_ncoefs(const prt_transport *t);
+size_t transport_nruns(const prt_transport *t);
+/* Bytes the coefficient data takes (what the file stores for it). */
+size_t transport_bytes(const prt_transport *t);
+
+/* Light-dependent K-vectors of every vector: g[3*i + ch] (Eq. 5). L: [CUBE_TEXELS][4]. Both cores. */
+void transport_light(const prt_transport *t, const float (*L)[4], float *g, int nthreads);
+/* The same for vectors [first, last) only (the runtime's inner kernel). */
+void transport_light_range(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
+
+void transport_free(prt_transport *t);
+#endif

@@ -1,0 +1,49 @@
+/* visibility.h - ray casting with Embree 3 (section 4.1's visibility cube maps).
+ *
+ * Usage:
+ *     vis_scene *vs = vis_create(&mesh, &err);   // mesh buffers are SHARED: keep mesh alive
+ *     uint8_t vis[6*128*128]; long traced, hits;
+ *     vis_cube(vs, p, n, 128, vis, &traced, &hits);
+ *     vis_destroy(vs);
+ *
+ * vis_cube traces one occlusion ray per cube texel centre whose direction is
+ * in the upper hemisphere of n (n.w > 0); other texels are not traced and get
+ * 0. vis[i] = 1 when the ray escapes to the environment. Rays go out in 4x4
+ * texel packets (rtcOccluded16: neighbouring texels are coherent).
+ *
+ * Self-intersection: rays start at p + eps * n with tnear = eps, where eps is
+ * 1e-4 of the scene's bounding-box diagonal plus 1e-6 * the largest coordinate
+ * magnitude (so a model far from the origin keeps float precision), and the
+ * origin is nudged along the ray as well, so models at any scale and position work.
+ *
+ * Thread-safe: any number of threads may call vis_cube / vis_closest on one
+ * vis_scene at once. */
+#ifndef PRT_VISIBILITY_H
+#define PRT_VISIBILITY_H
+#include "common.h"
+#include "mesh.h"
+
+typedef struct vis_scene vis_scene;
+
+typedef struct vis_hit {
+    int tri;        /* triangle index, -1 for a miss */
+    float u, v;     /* barycentrics: point = (1-u-v) P0 + u P1 + v P2 */
+    float t;        /* distance */
+    float ng[3];    /* geometric normal (unnormalized, as Embree gives it) */
+} vis_hit;
+
+/* Builds the BVH over m (buffers shared, not copied). Returns NULL with err set on failure. */
+vis_scene *vis_create(const prt_mesh *m, prt_error *err);
+void vis_destroy(vis_scene *vs);
+/* The self-intersection offset used for this scene. */
+float vis_eps(const vis_scene *vs);
+
+/* Occlusion cube map at res (see header). traced/hits (may be NULL) get ray counts. */
+void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, uint8_t *vis, long *traced, long *hits);
+/* First hit along org + t dir, t in (tnear, tfar). Returns true on a hit. */
+bool vis_closest(const vis_scene *vs, const float org[3], const float dir[3], float tnear, float tfar, vis_hit *hit);
+/* Closest hits for n rays at once (packets of 16). dirs [3n]; all from one origin. */
+void vis_closest_many(const vis_scene *vs, const float org[3], const float *dirs, int n, float tnear, vis_hit *hits);
+/* True when anything blocks org + t dir for t in (tnear, tfar). */
+bool vis_occluded(const vis_scene *vs, const float org[3], const float dir[3], float tnear, float tfar);
+#endif
