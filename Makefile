@@ -21,14 +21,14 @@ endif
 # Debian packages the project needs; `make deps` installs the missing ones.
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
             liblapacke-dev libopenblas-dev libosmesa6-dev libglfw3-dev libgl-dev libegl-dev \
-            zlib1g-dev xvfb xauth
+            zlib1g-dev libcjson-dev xvfb xauth
 
 INCS    := -Isrc -Ibrdf -Igpu
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
 LDLIBS  := -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
-           -lz -lm -lpthread -lstdc++
+           -lcjson -lz -lm -lpthread -lstdc++
 LDFLAGS += -pthread $(SANFLAGS)
 
 # Library: every source in src/, brdf/, gpu/ except the command-line front end (src/cli_*.c, src/main.c).

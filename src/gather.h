@@ -1,0 +1,45 @@
+/* gather.h - interreflection passes by gathering transport vectors (sections
+ * 3.2 and 4.2, Eq. 6-8).
+ *
+ * One pass turns the transport of pass i (T^i, compressed and quantized,
+ * decoded on the fly) into pass i+1:
+ *   T^{i+1}_k(x) = sum over gather-cube texels w with a hit x~ = x~(x, w):
+ *                  [ sum_l h_l(x~, -w) T^i_l(x~) ] g_k(x, w) (n.w) dw          (Eq. 8)
+ * The rays come from a global-frame cube map of gather_res (32) per vertex,
+ * upper hemisphere only; a ray that hits the scene contributes the complement
+ * transport (Eq. 6), one that escapes contributes nothing. T^i at x~ is
+ * interpolated from the hit triangle's three vertices with the barycentric
+ * weights (more accurate than the paper's nearest vertex by false colour).
+ * Weights are first combined per (neighbour vertex, term), so each
+ * neighbour's N coefficients are decoded once per vertex. Vertex x's K
+ * results are accumulated densely (K x 3 x 24,576 floats per thread), Haar
+ * coefficients are already in the wavelet domain (gathering is linear), then
+ * truncated to N and quantized into `next`.
+ *
+ * gather_sum forms direct + bounces: a sparse merge of two sets with the same
+ * layout, truncated again to N and requantized.
+ *
+ * Energy of a set: sum over vectors and channels of the squared coefficients
+ * (gather_energy); precompute compares each pass with the direct pass. */
+#ifndef PRT_GATHER_H
+#define PRT_GATHER_H
+#include "prtfile.h"
+#include "visibility.h"
+
+typedef struct gather_desc {
+    int res;                 /* gather cube resolution; 0: 32 */
+    int nthreads;            /* 0: all cores */
+    prt_progress_fn progress;
+    void *progress_user;
+    const char *stage;       /* progress stage name ("bounce 1") */
+} gather_desc;
+
+/* One pass from prev to next over d's scene and factors (d->transport is ignored).
+ * next is initialized here with prev's layout, N and qbits. Returns 0 or -1 (cancelled / OOM). */
+int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *prev, const gather_desc *desc,
+                prt_transport *next, prt_error *err);
+/* out = a + b, truncated to N and requantized (a and b share layout). Returns 0 or -1. */
+int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt_transport *out, prt_error *err);
+/* Sum of squared dequantized coefficients over all vectors and channels. */
+double gather_energy(const prt_transport *t);
+#endif
