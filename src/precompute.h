@@ -26,6 +26,7 @@ typedef struct precompute_desc {
     int qbits;              /* 8 (default), 16, 32 */
     int vis_res;            /* 0: 128 (64 * supersampling 2); 64, 128, 256 allowed */
     brdf_param param;       /* BRDF parameterization */
+    int sh_order;           /* 0: Haar wavelets (the paper); 3..10: spherical harmonics of that order (baseline) */
     int bounces;            /* maximum interreflection passes; 0: none */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */

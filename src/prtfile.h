@@ -42,6 +42,7 @@ typedef struct prt_data {
     prt_transport transport;
     int vis_res;        /* visibility cube resolution (128) */
     int gather_res;     /* gathering cube resolution (32) */
+    int sh_order;       /* 0: Haar wavelet basis; else spherical harmonics of this order */
     prt_stats stats;
     char plan[4096];    /* the effects plan, as printed */
 } prt_data;
