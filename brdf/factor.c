@@ -517,7 +517,7 @@ bool brdf_factor_uv(const brdf_factor *f, const float w[3], float *x, float *y) 
 }
 
 /* Bilinear fetch of all K*3 values of map at (x, y); x wraps for the polar parameterization. */
-static void fetch(const brdf_factor *f, const float *map, float x, float y, float *out) {
+static void fetch(const brdf_factor *f, const float *restrict map, float x, float y, float *restrict out) {
     int res = f->res, m = f->K * 3;
     float fx = x * res - 0.5f, fy = y * res - 0.5f;
     float flx = floorf(fx), fly = floorf(fy), tx = fx - flx, ty = fy - fly;
@@ -531,8 +531,8 @@ static void fetch(const brdf_factor *f, const float *map, float x, float y, floa
     }
     y0 = y0 < 0 ? 0 : y0 > res - 1 ? res - 1 : y0;
     y1 = y1 < 0 ? 0 : y1 > res - 1 ? res - 1 : y1;
-    const float *a = map + ((size_t)y0 * res + x0) * m, *b = map + ((size_t)y0 * res + x1) * m;
-    const float *c = map + ((size_t)y1 * res + x0) * m, *d = map + ((size_t)y1 * res + x1) * m;
+    const float *restrict a = map + ((size_t)y0 * res + x0) * m, *restrict b = map + ((size_t)y0 * res + x1) * m;
+    const float *restrict c = map + ((size_t)y1 * res + x0) * m, *restrict d = map + ((size_t)y1 * res + x1) * m;
     float w00 = (1 - tx) * (1 - ty), w01 = tx * (1 - ty), w10 = (1 - tx) * ty, w11 = tx * ty;
     for (int i = 0; i < m; i++) out[i] = w00 * a[i] + w01 * b[i] + w10 * c[i] + w11 * d[i];
 }
