@@ -319,6 +319,11 @@ static void test_sampling(void) {
             CHECK(mismatch == 0, "%s: %d samples whose pdf differs from brdf_pdf", models[m], mismatch);
             CHECK_LE(total, 1.0 + 2e-3, "%s theta %g: pdf integral", models[m], thetas[t]);
             CHECK_NEAR(total, frac, 5e-3, "%s theta %g: pdf integral vs accepted fraction", models[m], thetas[t]);
+            if (t == 0) {
+                /* near the normal little of any lobe falls under the horizon (GGX's long tail most) */
+                CHECK(total > 0.9, "%s theta 10: pdf integral %g", models[m], total);
+                printf("  sampling %-36s theta 10: pdf integral %.4f, accepted %.4f\n", models[m], total, frac);
+            }
             /* chi-square over bins expecting >= 20 samples; the rest pooled into one bin */
             double chi2 = 0, pool_e = 0;
             int pool_c = 0, dof = 0;
