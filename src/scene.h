@@ -9,8 +9,15 @@
  *                   { "sphere": {"center":[0,1,0], "radius":1}, "material": "lambert:kd=0.8" } ],
  *       "floor": { "vertices": 31000, "material": "lambert:kd=0.7", "size": 3.0 } }
  *
- * Models may also be procedural: "sphere", "box" ({"min":[..],"max":[..],"open_top":true}),
- * "torus", "plane". The floor is a tessellated plane just below the models
+ * Models may also be procedural (defaults in brackets):
+ *     "sphere": {"center":[0,0,0], "radius":1, "rings":32, "segments":64}
+ *     "box":    {"min":[-.5,0,-.5], "max":[.5,1,.5], "open_top":false, "n":8}
+ *     "torus":  {"center":[0,0,0], "major":1, "minor":0.25, "nu":64, "nv":32}
+ *     "plane":  {"x":[-1,1], "z":[-1,1], "height":0, "nx":32, "nz":32}
+ * A model has exactly one shape key, plus optional "material" (default
+ * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_y"
+ * (degrees; p' = scale * Ry * p + translate) and "name" (ignored). "floor" may also
+ * be true/false; a top-level "comment" is ignored. Any other key is an error. The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
  * (default 3), with about `vertices` vertices (default 31,000).
