@@ -58,7 +58,10 @@ int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_err
 /* Builds a scene from a mesh already in memory (takes ownership of *mesh, zeroing it). */
 int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_error *err);
 
-/* Adds a floor under the current contents (see header comment). */
+/* Adds a floor under the current contents (see header comment): an n x n grid,
+ * n = round(sqrt(verts)) (at least 2); verts <= 0 is an error; size 0 means 3;
+ * material NULL means "lambert:kd=0.7". Sets floor_first_vertex; fails if there is
+ * already a floor or no geometry. On failure the scene is unchanged. */
 int scene_add_floor(prt_scene *s, int verts, float size, const char *material, prt_error *err);
 
 /* Adds (or finds) a material by spec; returns its index or -1 with err set. */
