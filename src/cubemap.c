@@ -38,7 +38,7 @@ void cube_texel_dir(int res, int idx, float dir[3]) {
     cube_dir(res, f, (float)(r % res) + 0.5f, (float)(r / res) + 0.5f, dir);
 }
 
-/* Face by major axis (ties prefer x, then y, as in most GL implementations), then
+/* Face by major axis (ties prefer x, then y: deterministic on face edges), then
  * the GL 4.6 table 8.19 sc/tc formulas, mapped to texel units in [0, res]. */
 void cube_lookup(int res, const float dir[3], int *face, float *x, float *y) {
     float ax = fabsf(dir[0]), ay = fabsf(dir[1]), az = fabsf(dir[2]);

@@ -15,7 +15,8 @@
  * every coarse level precedes finer ones within a face (haar.h).
  *
  * Speed: each level streams its n x n region once into tmp and copies it back;
- * a 64x64 face costs about 5.5K block operations (a few microseconds). */
+ * a 64x64 face is 1,365 block operations (about 2 us; the Morton scatter of a
+ * whole cube adds a few more). */
 #include "haar.h"
 #include <assert.h>
 #include <string.h>

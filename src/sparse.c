@@ -5,8 +5,9 @@
  * non-negative float orders like its bits): histograms over 11 + 11 + 10 bits
  * find the n-th largest energy exactly, then one pass in index order keeps every
  * larger energy and the lowest-index ones equal to it. So "the n largest, ties
- * to the lower index" costs five branch-light passes over the vector (about 40 us
- * for 24,576 coefficients) instead of a comparison sort or a branchy quickselect.
+ * to the lower index" costs five branch-light passes over the vector (tens of
+ * microseconds for 24,576 coefficients) instead of a comparison sort or a
+ * branchy quickselect.
  * Zero (and non-finite) coefficients never become candidates, so an occluded
  * vertex stores nothing. */
 #include "sparse.h"
