@@ -15,7 +15,7 @@
  * The runtime kernel (Eq. 5, T x L) walks each vector's runs with a base pointer
  * L + 256*block and accumulates value * L[offset] in float RGB(A) lanes: with
  * 8-bit data one 32-bit word gives the offset and the three int8 values, which
- * SSE4.1 sign-extends to four int32 lanes in one instruction; the per-channel
+ * SSE4.1 sign-extends to int32 lanes straight from memory; the per-channel
  * scale is applied once per vector at the end. Vectors are split across both
  * cores in chunks of a few thousand. */
 #include "transport.h"
@@ -266,35 +266,58 @@ size_t transport_bytes(const prt_transport *t) {
 
 static inline float finite_or_zero(float x) { return isfinite(x) ? x : 0.f; }
 
-/* Eq. 5's g = T x L for vectors [first, last): 8-bit words, SSE4.1 when available. */
+#ifdef __SSE4_1__
+/* acc += L[base + offset] * (r, g, b, junk) for the 8-bit word at wp. The three int8
+ * values are sign-extended straight from memory starting at the word's byte 1, so
+ * lane 3 holds the next word's offset byte: it multiplies L's padding lane, which is
+ * never read. That read touches one byte past the word, so the very last word of the
+ * array goes through mac8_safe, which shifts the word in a register instead. */
+static inline __m128 mac8(__m128 acc, const float (*base)[4], const uint32_t *wp) {
+    int32_t rgbx;
+    memcpy(&rgbx, (const char *)wp + 1, sizeof rgbx);
+    __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(rgbx)));
+    return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
+}
+static inline __m128 mac8_safe(__m128 acc, const float (*base)[4], const uint32_t *wp) {
+    __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(*wp >> 8))));
+    return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
+}
+#endif
+
+/* Eq. 5's g = T x L for vectors [first, last): 8-bit words, SSE4.1 when available.
+ * Runs give the block base; two accumulators hide the add latency; the scale is
+ * applied once per vector. */
 static void light_range8(const prt_transport *t, const float (*L)[4], float *g, int first, int last) {
     const uint32_t *packed = t->packed;
     const uint8_t *runs = t->runs;
+    const uint32_t *array_end = packed + t->coef_first[t->nvecs];
     for (int i = first; i < last; i++) {
         const uint32_t *w = packed + t->coef_first[i];
         uint32_t r0 = t->run_first[i], r1 = t->run_first[i + 1];
 #ifdef __SSE4_1__
         __m128 a0 = _mm_setzero_ps(), a1 = _mm_setzero_ps();
-        for (uint32_t r = r0; r < r1; r++) {
-            const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
-            const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
-            /* two independent accumulators hide the add latency */
-            for (; w + 1 < end; w += 2) {
-                __m128i q0 = _mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(w[0] >> 8)));
-                __m128i q1 = _mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(w[1] >> 8)));
-                a0 = _mm_add_ps(a0, _mm_mul_ps(_mm_loadu_ps(base[w[0] & 255u]), _mm_cvtepi32_ps(q0)));
-                a1 = _mm_add_ps(a1, _mm_mul_ps(_mm_loadu_ps(base[w[1] & 255u]), _mm_cvtepi32_ps(q1)));
+        if (packed + t->coef_first[i + 1] < array_end) {
+            for (uint32_t r = r0; r < r1; r++) {
+                const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
+                const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
+                for (; w + 1 < end; w += 2) {
+                    a0 = mac8(a0, base, w);
+                    a1 = mac8(a1, base, w + 1);
+                }
+                if (w < end) a0 = mac8(a0, base, w++);
             }
-            if (w < end) {
-                __m128i q0 = _mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(w[0] >> 8)));
-                a0 = _mm_add_ps(a0, _mm_mul_ps(_mm_loadu_ps(base[w[0] & 255u]), _mm_cvtepi32_ps(q0)));
-                w++;
+        } else {   /* the vector that ends the array */
+            for (uint32_t r = r0; r < r1; r++) {
+                const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
+                const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
+                for (; w < end; w++) a0 = mac8_safe(a0, base, w);
             }
         }
         float acc[4];
         _mm_storeu_ps(acc, _mm_add_ps(a0, a1));
 #else
         float acc[4] = { 0, 0, 0, 0 };
+        (void)array_end;
         for (uint32_t r = r0; r < r1; r++) {
             const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
             const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
