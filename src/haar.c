@@ -73,6 +73,7 @@ void haar_inverse(float *face, int res, float *tmp) {
     for (int n = 2; n <= res; n *= 2) inverse_level(face, res, n, tmp);
 }
 
+/* Bits 0..15 of x moved to the even bit positions 0, 2, ..., 30. */
 static uint32_t spread16(uint32_t x) {
     x &= 0xFFFFu;
     x = (x | (x << 8)) & 0x00FF00FFu;
@@ -82,6 +83,7 @@ static uint32_t spread16(uint32_t x) {
     return x;
 }
 
+/* Inverse of spread16: the even bits of x packed into bits 0..15. */
 static uint32_t compact16(uint32_t x) {
     x &= 0x55555555u;
     x = (x | (x >> 1)) & 0x33333333u;

@@ -147,6 +147,7 @@ typedef struct view_job {
     float *rgb;
 } view_job;
 
+/* prt_parallel_for body: shades vertices [begin, end) toward the eye. */
 static void view_chunk(void *p, int begin, int end, int thread) {
     const view_job *j = p;
     const relight_vert *verts = j->rc->verts;

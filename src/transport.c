@@ -231,6 +231,7 @@ void transport_foreach(const prt_transport *t, int i, void (*fn)(void *ctx, uint
 }
 
 typedef struct decode_ctx { float *r, *g, *b; } decode_ctx;
+/* transport_foreach callback: scatters one coefficient into the dense planar arrays. */
 static void decode_one(void *p, uint32_t index, float r, float g, float b) {
     decode_ctx *d = p;
     d->r[index] = r; d->g[index] = g; d->b[index] = b;
@@ -278,6 +279,7 @@ static inline __m128 mac8(__m128 acc, const float (*base)[4], const uint32_t *wp
     __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(rgbx)));
     return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
 }
+/* mac8 without reading past the word. */
 static inline __m128 mac8_safe(__m128 acc, const float (*base)[4], const uint32_t *wp) {
     __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(*wp >> 8))));
     return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
@@ -363,6 +365,7 @@ void transport_light_range(const prt_transport *t, const float (*L)[4], float *g
 }
 
 typedef struct light_ctx { const prt_transport *t; const float (*L)[4]; float *g; } light_ctx;
+/* prt_parallel_for body: one chunk of vectors. */
 static void light_chunk(void *p, int begin, int end, int thread) {
     light_ctx *c = p;
     transport_light_range(c->t, c->L, c->g, begin, end);
