@@ -13,6 +13,10 @@
  *   - bounce passes continue while a pass carries at least bounce_threshold of
  *     the direct pass's energy (squared L2 norm of the transport, gather_energy);
  *   - force_bounces overrides both.
+ * The plan goes to stderr (with the command's other status lines) before the
+ * direct pass's progress bar starts; what is learnt later (the full pass's hit
+ * fraction when it contradicts the sample, each bounce's energy) is appended
+ * to out->plan for `prt info` but not printed over the bar.
  * The visibility statistics and the time estimate come from a strided sample
  * of ~200 vertices that are fully computed first (their work is kept), so the
  * plan costs almost nothing extra.
@@ -88,6 +92,7 @@ typedef struct pc_ctx {
     long total;
     prt_progress_fn progress;
     void *progress_user;
+    bool report;            /* false during the planning sample, so the plan prints before any bar */
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
@@ -237,7 +242,7 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     if (atomic_load(&c->cancelled)) return;
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
     long done = atomic_fetch_add(&c->done, end - begin) + (end - begin);
-    if (c->progress) {
+    if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
         if (!atomic_load(&c->cancelled) &&
             !c->progress(c->progress_user, "visibility+transport", (double)done / (double)c->total))
@@ -547,7 +552,8 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     } else {
         plan_add(plan, pcap, "  estimate: direct pass %s\n", e1);
     }
-    if (!d.quiet) { fputs(plan, stdout); fflush(stdout); }
+    /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
+    if (!d.quiet) { fputs(plan, stderr); fflush(stderr); }
 
     /* 3b. The rest of the direct pass. */
     {
@@ -557,9 +563,11 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
             order[nsample + k++] = v;
         }
         c.order = order + nsample;
+        c.report = true;
+        ts = prt_now();
         prt_parallel_for(m->nverts - nsample, PC_GRAIN, nthreads, pc_range, &c);
     }
-    double t_direct = prt_now() - ts;
+    double t_direct = t_sample + (prt_now() - ts);
     if (atomic_load(&c.cancelled)) { prt_fail(err, "cancelled"); goto fail; }
     {
         double tv = 0, tb = 0, es = 0;
@@ -586,8 +594,6 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
         if (full != plan_bounces) {
             plan_add(plan, pcap, "  after the direct pass: %.2f%% of all rays hit geometry, so interreflections are %s\n",
                      100 * out->stats.hit_fraction, full ? "on after all" : "off after all");
-            if (!d.quiet) printf("  after the direct pass: %.2f%% of all rays hit geometry, so interreflections are %s\n",
-                                 100 * out->stats.hit_fraction, full ? "on after all" : "off after all");
             plan_bounces = full;
         }
     }
@@ -620,7 +626,6 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
             snprintf(line, sizeof line, "  bounce %d: %.2f%% of the direct energy in %.1fs%s\n", b, 100 * e,
                      out->stats.t_bounce[b - 1], stop ? " (below the threshold: last pass)" : "");
             plan_add(plan, pcap, "%s", line);
-            if (!d.quiet) { fputs(line, stdout); fflush(stdout); }
             if (stop) break;
         }
     }
