@@ -295,9 +295,9 @@ static void free_threads(gather_thread *th, int nth) {
 
 /* Checks that t is a finished set whose layout fits; returns 0 or -1. */
 static int check_set(const prt_transport *t, const char *what, prt_error *err) {
+    if (t && t->stage_count) return prt_fail(err, "gather: %s transport set is not finished", what);
     if (!t || !t->vec_first || !t->coef_first || !t->run_first || t->nverts < 0 || t->nvecs < 0)
         return prt_fail(err, "gather: %s transport set is empty", what);
-    if (t->stage_count) return prt_fail(err, "gather: %s transport set is not finished", what);
     if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32)
         return prt_fail(err, "gather: %s transport set has unsupported qbits %d", what, t->qbits);
     return 0;

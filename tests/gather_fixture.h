@@ -21,12 +21,15 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Helpers unused by one of the two tests must not warn. */
+#define FX_FN static __attribute__((unused))
+
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
 
 /* Turns a mesh inside out: negated normals, reversed winding. */
-static void fx_flip(prt_mesh *m) {
+FX_FN void fx_flip(prt_mesh *m) {
     for (int i = 0; i < 3 * m->nverts; i++) m->nrm[i] = -m->nrm[i];
     for (int t = 0; t < m->ntris; t++) {
         uint32_t a = m->tris[3 * t + 1];
@@ -36,7 +39,7 @@ static void fx_flip(prt_mesh *m) {
 }
 
 /* Fills d->factors for every scene material (max_terms terms). Returns 0 or -1. */
-static int fx_factor_all(prt_data *d, int max_terms) {
+FX_FN int fx_factor_all(prt_data *d, int max_terms) {
     prt_error err;
     brdf_factor_desc fd = { .max_terms = max_terms };
     for (int i = 0; i < d->scene.nmaterials; i++)
@@ -47,7 +50,7 @@ static int fx_factor_all(prt_data *d, int max_terms) {
     return 0;
 }
 
-static void fx_free(prt_data *d) {
+FX_FN void fx_free(prt_data *d) {
     for (int i = 0; i < d->scene.nmaterials; i++) brdf_factor_free(&d->factors[i]);
     transport_free(&d->transport);
     scene_free(&d->scene);
@@ -63,7 +66,7 @@ typedef struct fx_direct_ctx {
     const float *dir, *dw;      /* 64-res texel directions and solid angles */
 } fx_direct_ctx;
 
-static void fx_direct_range(void *ctx, int begin, int end, int thread) {
+FX_FN void fx_direct_range(void *ctx, int begin, int end, int thread) {
     (void)thread;
     fx_direct_ctx *c = ctx;
     const prt_mesh *m = &c->d->scene.mesh;
@@ -96,7 +99,7 @@ static void fx_direct_range(void *ctx, int begin, int end, int thread) {
 }
 
 /* Builds the direct transport of d's scene (K of each vertex's material) into out. Returns 0 or -1. */
-static int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, prt_transport *out) {
+FX_FN int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, prt_transport *out) {
     const prt_mesh *m = &d->scene.mesh;
     prt_error err;
     int *cnt = malloc(sizeof(int) * (size_t)m->nverts);
@@ -119,7 +122,7 @@ static int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, p
 
 /* A probe set: every vector i holds the single coefficient (index idx_of[i] or 0) with per-channel
  * values val[3*i..] (float storage, N coefficients kept per vector later on). */
-static int fx_probe_set(const prt_transport *layout, const uint32_t *idx_of, const float *val, int N, prt_transport *out) {
+FX_FN int fx_probe_set(const prt_transport *layout, const uint32_t *idx_of, const float *val, int N, prt_transport *out) {
     prt_error err;
     int *cnt = malloc(sizeof(int) * (size_t)layout->nverts);
     for (int v = 0; v < layout->nverts; v++) cnt[v] = (int)(layout->vec_first[v + 1] - layout->vec_first[v]);
@@ -139,7 +142,7 @@ static int fx_probe_set(const prt_transport *layout, const uint32_t *idx_of, con
 }
 
 /* Wavelet-domain light vector of a constant environment of radiance L (all channels). */
-static void fx_const_light(float L, float *Lw /* [3][CUBE_TEXELS] */) {
+FX_FN void fx_const_light(float L, float *Lw /* [3][CUBE_TEXELS] */) {
     float *pix = malloc(sizeof(float) * CUBE_TEXELS), *tmp = malloc(sizeof(float) * 2 * CUBE_RES * CUBE_RES);
     for (int j = 0; j < CUBE_TEXELS; j++) pix[j] = L;
     for (int ch = 0; ch < 3; ch++) haar_cube_forward(pix, CUBE_RES, Lw + ch * CUBE_TEXELS, tmp);
@@ -147,7 +150,7 @@ static void fx_const_light(float L, float *Lw /* [3][CUBE_TEXELS] */) {
 }
 
 /* T_i . L per channel (dense decode). */
-static void fx_dot(const prt_transport *t, int i, const float *Lw, double out[3], float *buf /* [3][CUBE_TEXELS] */) {
+FX_FN void fx_dot(const prt_transport *t, int i, const float *Lw, double out[3], float *buf /* [3][CUBE_TEXELS] */) {
     transport_decode(t, i, buf, buf + CUBE_TEXELS, buf + 2 * CUBE_TEXELS);
     for (int ch = 0; ch < 3; ch++) {
         double s = 0;
@@ -157,7 +160,7 @@ static void fx_dot(const prt_transport *t, int i, const float *Lw, double out[3]
 }
 
 /* Outgoing radiance of a Lambertian vertex v (K = 1) under the light Lw: h . (T . L) (Eq. 5). */
-static void fx_lambert_radiance(const prt_data *d, const prt_transport *t, int v, const float *Lw, double rgb[3], float *buf) {
+FX_FN void fx_lambert_radiance(const prt_data *d, const prt_transport *t, int v, const float *Lw, double rgb[3], float *buf) {
     const brdf_factor *f = &d->factors[d->scene.mesh.mat[v]];
     const float up[3] = { 0, 0, 1 };
     float h[3 * BRDF_MAX_SIGMA];

@@ -58,6 +58,50 @@ static double vf_rect(double px, double pz, double x0, double x1, double z0, dou
            vf_corner(x0 - px, z0 - pz, c);
 }
 
+/* Does the ray from p along d hit the other plane's square [-1,1]^2 at height hp? */
+static bool hits_square(const float p[3], const float d[3], float hp) {
+    if (fabsf(d[1]) < 1e-12f) return false;
+    float t = (hp - p[1]) / d[1];
+    if (t <= 0) return false;
+    float x = p[0] + t * d[0], z = p[2] + t * d[2];
+    return x >= -1 && x <= 1 && z >= -1 && z <= 1;
+}
+
+/* Bound on |midpoint cube cubature - exact| of (1/pi) int_square cos dw at vertex p (normal n, square at
+ * height hp): a texel whose centre and four corners agree and that holds no corner of the square can be
+ * off by at most the spread of cos over it; any other texel by at most its largest cos. */
+static double cubature_bound(const float p[3], const float n[3], float hp, int res) {
+    int nt = 6 * res * res;
+    uint8_t *mixed = calloc((size_t)nt, 1);
+    for (int cx = -1; cx <= 1; cx += 2)
+        for (int cz = -1; cz <= 1; cz += 2) {
+            float d[3] = { cx - p[0], hp - p[1], cz - p[2] };
+            v3_normalize(d);
+            mixed[cube_texel_index(res, d)] = 1;
+        }
+    double b = 0;
+    for (int i = 0; i < nt; i++) {
+        int f = i / (res * res), ij = i % (res * res), ti = ij % res, tj = ij / res;
+        const float px[5] = { ti + 0.5f, ti, ti + 1, ti, ti + 1 }, py[5] = { tj + 0.5f, tj, tj, tj + 1, tj + 1 };
+        int in = 0;
+        double cmin = 2, cmax = 0;
+        for (int k = 0; k < 5; k++) {
+            float d[3];
+            cube_dir(res, f, px[k], py[k], d);
+            double c = v3_dot(d, n);
+            if (c < 0) c = 0;
+            if (c < cmin) cmin = c;
+            if (c > cmax) cmax = c;
+            in += hits_square(p, d, hp);
+        }
+        double dw = cube_texel_solid_angle(res, ti, tj);
+        if (in == 0 && !mixed[i]) continue;
+        b += (in == 5 && !mixed[i] ? cmax - cmin : cmax) * dw;
+    }
+    free(mixed);
+    return b / M_PI;
+}
+
 static void test_analytic(void) {
     prt_data d;
     vis_scene *vs;
@@ -75,17 +119,19 @@ static void test_analytic(void) {
     prt_transport probe;
     CHECK(fx_probe_set(&layout, NULL, val, 16, &probe) == 0, "probe set");
     const int res[2] = { 32, 64 };
-    const double tol[2] = { 0.01, 0.005 };
+    const double tol[2] = { 0.015, 0.0075 };   /* O(1/res) silhouette aliasing */
     for (int ri = 0; ri < 2; ri++) {
         prt_transport next;
         prt_error err;
         gather_desc gd = { .res = res[ri] };
         CHECK(gather_pass(&d, vs, &probe, &gd, &next, &err) == 0, "%s", err.msg);
-        double worst = 0, sum = 0;
+        double worst = 0, sum = 0, bsum = 0;
         int cnt = 0;
+        bool within = true;
         for (int v = 0; v < m->nverts; v++) {
-            const float *p = m->pos + 3 * v;
+            const float *p = m->pos + 3 * v, *nv = m->nrm + 3 * v;
             double F = vf_rect(p[0], p[2], -1, 1, -1, 1, 1.0);
+            double bound = cubature_bound(p, nv, nv[1] > 0 ? 1.f : 0.f, res[ri]);
             const brdf_params *bp = &d.scene.materials[m->mat[v]];
             float h[3 * BRDF_MAX_SIGMA];
             brdf_factor_view(&d.factors[m->mat[v]], up, h);
@@ -95,12 +141,15 @@ static void test_analytic(void) {
             for (int ch = 0; ch < 3; ch++) {
                 double want = bp->kd[ch] * F, e = fabs(got[ch] - want);
                 if (e > worst) worst = e;
+                within &= e <= bp->kd[ch] * bound + 1e-6;
                 sum += e;
+                bsum += bp->kd[ch] * bound;
                 cnt++;
             }
         }
-        printf("analytic view factor, gather res %d: max |error| %.5f, mean %.5f (albedo x F up to %.3f)\n", res[ri],
-               worst, sum / cnt, 0.8 * vf_rect(0, 0, -1, 1, -1, 1, 1));
+        printf("analytic view factor, gather res %d: |error| max %.5f mean %.5f; cubature bound mean %.5f "
+               "(albedo x F up to %.3f)\n", res[ri], worst, sum / cnt, bsum / cnt, 0.8 * vf_rect(0, 0, -1, 1, -1, 1, 1));
+        CHECK(within, "res %d: radiance of a pass = albedo x analytic view factor within the cubature bound", res[ri]);
         CHECK_LE(worst, tol[ri], "res %d: radiance of a pass = albedo x analytic view factor", res[ri]);
         transport_free(&next);
     }
@@ -270,17 +319,34 @@ static void test_glossy(void) {
         printf("exact pass vs brute force (res 32), light %d: relative L2 %.2e\n", l, e);
         CHECK_LE(e, 2e-5, "light %d", l);
     }
-    /* Brute force at twice the resolution: the cubature error of the 32-res gather cube. */
+    /* Brute force at res 64 against passes at 16 and 32: the gather cube's cubature error. It is
+     * silhouette aliasing of each neighbour triangle, O(1/res) in size but not monotone in res for
+     * this axis-aligned scene (texel edges fall on or off the square's edges by turns; the analytic
+     * test above bounds it per vertex); a few percent per vertex at res 32. */
     memset(bf, 0, sizeof(double) * nvecs * NL * 3);
     bc.res = 64;
     prt_parallel_for(d.scene.mesh.nverts, 2, 0, brute_range, &bc);
-    double e64 = 0;
-    for (int l = 0; l < NL; l++) {
-        double e = proj_rel(pg, bf, nvecs, l);
-        if (e > e64) e64 = e;
+    double ec[2] = { 0, 0 }, er[2] = { 0, 0 };
+    for (int ri = 0; ri < 2; ri++) {
+        prt_transport t;
+        gather_desc gr = { .res = ri == 0 ? 16 : 32 };
+        CHECK(gather_pass(&d, vs, &ex0, &gr, &t, &err) == 0, "%s", err.msg);
+        double *pt = calloc((size_t)nvecs * NL * 3, sizeof(double));
+        project(&t, L, pt);
+        ec[ri] = proj_rel(pt, bf, nvecs, 0);
+        for (int l = 1; l < NL; l++) {
+            double e = proj_rel(pt, bf, nvecs, l);
+            if (e > er[ri]) er[ri] = e;
+        }
+        printf("exact pass at res %d vs brute force at res 64: constant light %.4f, random lights up to %.4f\n",
+               gr.res, ec[ri], er[ri]);
+        free(pt);
+        transport_free(&t);
     }
-    printf("exact pass (res 32) vs brute force at res 64: relative L2 up to %.4f over the %d lights\n", e64, NL);
-    CHECK_LE(e64, 0.02, "32-res cubature within 2%% of 64-res");
+    for (int ri = 0; ri < 2; ri++) {
+        CHECK_LE(ec[ri], 0.05, "res %d: constant-light projections within 5%% (RMS) of res 64", ri ? 32 : 16);
+        CHECK_LE(er[ri], 0.10, "res %d: random-light projections within 10%% (RMS) of res 64", ri ? 32 : 16);
+    }
 
     /* (c) compressed path. */
     t0 = prt_now();
