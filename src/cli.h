@@ -12,4 +12,5 @@ int cli_brdf(int argc, char **argv);
 int cli_view(int argc, char **argv);
 int cli_reference(int argc, char **argv);
 int cli_compare(int argc, char **argv);
+int cli_bench(int argc, char **argv);
 #endif

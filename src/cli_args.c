@@ -1,0 +1,92 @@
+/* cli_args.c - argument helpers for the prt subcommands (see cli_args.h). */
+#include "cli_args.h"
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int cli_error(const char *cmd, const char *fmt, ...) {
+    va_list ap;
+    fprintf(stderr, "prt %s: ", cmd);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return 1;
+}
+
+int cli_opt(const char *cmd, int argc, char **argv, int *i, const char *name, const char **val) {
+    if (strcmp(argv[*i], name) != 0) return 0;
+    if (*i + 1 >= argc) { cli_error(cmd, "%s needs a value", name); return -1; }
+    *val = argv[++*i];
+    return 1;
+}
+
+bool cli_int(const char *cmd, const char *name, const char *s, int lo, int hi, int *out) {
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) {
+        cli_error(cmd, "bad value for %s: '%s' (expected an integer in %d..%d)", name, s, lo, hi);
+        return false;
+    }
+    *out = (int)v;
+    return true;
+}
+
+bool cli_float(const char *cmd, const char *name, const char *s, float lo, float hi, float *out) {
+    char *end;
+    errno = 0;
+    float v = strtof(s, &end);
+    if (errno || end == s || *end || !isfinite(v) || v < lo || v > hi) {
+        cli_error(cmd, "bad value for %s: '%s' (expected a number in %g..%g)", name, s, lo, hi);
+        return false;
+    }
+    *out = v;
+    return true;
+}
+
+bool cli_size(const char *cmd, const char *s, int *w, int *h) {
+    int a, b;
+    char x, extra;
+    if (sscanf(s, "%d%c%d%c", &a, &x, &b, &extra) != 3 || (x != 'x' && x != 'X') || a < 1 || b < 1 || a > 16384 ||
+        b > 16384) {
+        cli_error(cmd, "bad --size '%s' (expected WxH, e.g. 800x600)", s);
+        return false;
+    }
+    *w = a;
+    *h = b;
+    return true;
+}
+
+bool cli_is_help(const char *a) { return !strcmp(a, "-h") || !strcmp(a, "--help"); }
+
+#include "cubemap.h"
+#include "light.h"
+#include "shbasis.h"
+
+int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out) {
+    probe_layout lay = PROBE_AUTO;
+    if (layout && probe_parse_layout(layout, &lay) != 0)
+        return cli_error(cmd, "unknown probe layout '%s' (latlong, angular, vcross, hcross, auto)", layout);
+    prt_error err = { { 0 } };
+    if (probe_load(path, lay, out, &err)) return cli_error(cmd, "%s", err.msg);
+    if (out->clamped_negative)
+        fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0\n", path, out->clamped_negative);
+    if (out->clamped_nonfinite)
+        fprintf(stderr, "warning: %s: %ld texel(s) with NaN or Inf clamped to 0\n", path, out->clamped_nonfinite);
+    return 0;
+}
+
+float (*cli_light_vector(const prt_probe *p, const float *R, int sh_order))[4] {
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    float (*L)[4] = light_alloc();
+    if (!cube || !L) { free(cube); free(L); return NULL; }
+    probe_to_cube(p, CUBE_RES, R, 0, cube);
+    if (sh_order > 0) sh_light_from_cube(cube, CUBE_RES, sh_order, L);
+    else light_from_cube(cube, NULL, L, NULL);
+    free(cube);
+    return L;
+}

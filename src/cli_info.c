@@ -1,0 +1,77 @@
+/* cli_info.c - `prt info`: what a .prt file holds and what it cost to make. */
+#include "cli.h"
+#include "cli_args.h"
+#include "prtfile.h"
+#include <string.h>
+#include <sys/stat.h>
+
+static const char *k_cmd = "info";
+
+int cli_info(int argc, char **argv) {
+    const char *in = NULL;
+    for (int i = 1; i < argc; i++) {
+        if (cli_is_help(argv[i])) {
+            puts("usage: prt info FILE.prt\n\nPrints sizes, vertices, BRDF terms per material with their singular values\n"
+                 "and approximation error, coefficients kept, quantization, per-stage timings and the effects plan.");
+            return 0;
+        }
+        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s'", argv[i]); return 2; }
+        if (in) { cli_error(k_cmd, "more than one input file"); return 2; }
+        in = argv[i];
+    }
+    if (!in) { cli_error(k_cmd, "no input .prt file"); return 2; }
+    prt_error err = { { 0 } };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    struct stat st;
+    double mb = stat(in, &st) == 0 ? st.st_size / 1e6 : 0;
+    const prt_scene *s = &d.scene;
+    const prt_transport *t = &d.transport;
+    const prt_stats *ps = &d.stats;
+    printf("file          %s (%.2f MB, format version %d)\n", in, mb, PRTFILE_VERSION);
+    printf("geometry      %d vertices, %d triangles%s\n", s->mesh.nverts, s->mesh.ntris,
+           s->floor_first_vertex >= 0 ? "" : ", no floor");
+    if (s->floor_first_vertex >= 0)
+        printf("              floor: %d vertices (from vertex %d)\n", s->mesh.nverts - s->floor_first_vertex,
+               s->floor_first_vertex);
+    printf("bounds        [%g %g %g] - [%g %g %g]\n", s->bmin[0], s->bmin[1], s->bmin[2], s->bmax[0], s->bmax[1],
+           s->bmax[2]);
+    printf("basis         %s\n", d.sh_order ? "spherical harmonics" : "Haar wavelets, 6x64x64 cube (24,576)");
+    if (d.sh_order) printf("              order %d (%d coefficients)\n", d.sh_order, d.sh_order * d.sh_order);
+    printf("transport     %d vectors, N = %d kept per vector, %s, %zu coefficients, %zu block runs, %.2f MB\n",
+           t->nvecs, t->N, t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t),
+           transport_nruns(t), transport_bytes(t) / 1e6);
+    printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
+    printf("visibility    %dx%dx6 cube, 2x2 box-filtered to 64x64x6; %.1f%% of rays hit geometry\n", d.vis_res,
+           d.vis_res, 100 * ps->hit_fraction);
+    printf("materials     %d\n", s->nmaterials);
+    for (int m = 0; m < s->nmaterials; m++) {
+        const brdf_factor *f = &d.factors[m];
+        int nv = 0;
+        for (int v = 0; v < s->mesh.nverts; v++) nv += s->mesh.mat[v] == m;
+        printf("  [%d] %s\n      %d vertices, K = %d term%s (%s, %dx%d, %s), rel. BRDF error with K terms %.2f%%\n", m,
+               s->material_spec[m], nv, f->K, f->K == 1 ? "" : "s", f->lambertian ? "Lambertian" : "glossy", f->res,
+               f->res, f->param == BRDF_PARAM_POLAR ? "polar Eq. 11" : "grid Eq. 10",
+               100 * f->rel_rms[f->K < f->nsigma ? f->K : f->nsigma]);
+        printf("      error vs K:");
+        for (int k = 1; k <= f->nsigma && k <= 16; k *= 2) printf("  K=%d %.2f%%", k, 100 * f->rel_rms[k]);
+        printf("\n      singular values (R):");
+        for (int k = 0; k < f->nsigma && k < 8; k++) printf(" %.4g", f->sigma[0][k]);
+        printf("\n");
+    }
+    printf("interreflect  %d pass(es), gather cube %dx%dx6\n", ps->bounces, d.gather_res, d.gather_res);
+    for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++)
+        printf("              pass %d: %.3f%% of the direct energy, %.1fs\n", b + 1, 100 * ps->bounce_energy[b],
+               ps->t_bounce[b]);
+    printf("timings       BRDF %.2fs, visibility %.2fs, wavelet+quantization %.2fs", ps->t_brdf, ps->t_visibility,
+           ps->t_transport);
+    double tb = 0;
+    for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++) tb += ps->t_bounce[b];
+    if (ps->bounces) printf(", bounces %.2fs", tb);
+    printf(", total %.2fs\n", ps->t_total);
+    if (ps->peak_rss_bytes) printf("peak memory   %.2f GB\n", ps->peak_rss_bytes / 1e9);
+    if (d.plan[0]) printf("effects plan\n%s%s", d.plan, d.plan[strlen(d.plan) - 1] == '\n' ? "" : "\n");
+    prt_data_free(&d);
+    return 0;
+}

@@ -1,0 +1,171 @@
+/* cli_render.c - `prt render`: .prt file + light probe -> relit image (PNG or EXR).
+ *
+ * Pipeline (section 4.3): probe -> filtered 6x64x64 cube (rotated) -> Haar light
+ * vector (16-bit) -> light-dependent K-vectors (sparse T x L) -> per-vertex colour
+ * h(view) . g (Eq. 5) -> rasterized with OSMesa (CPU backend) or the GLSL runtime
+ * (--backend gl). PNG is tone-mapped with --exposure; EXR is linear radiance. */
+#include "cli.h"
+#include "cli_args.h"
+#include "glrt.h"
+#include "image.h"
+#include "probe.h"
+#include "prtfile.h"
+#include "relight.h"
+#include "render.h"
+#include <stdlib.h>
+#include <string.h>
+
+static const char *k_cmd = "render";
+
+static void help(void) {
+    puts("usage: prt render FILE.prt --probe PROBE -o OUT.png|OUT.exr [options]\n"
+         "\n"
+         "  --probe PROBE           HDR light probe (EXR, HDR, PFM...; latlong, angular or cross)\n"
+         "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
+         "  -o OUT                  .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance)\n"
+         "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera position, target and vertical FOV (default: framed)\n"
+         "  --size WxH              image size (default 800x600)\n"
+         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
+         "  --exposure E            exposure in stops for PNG output (default 0)\n"
+         "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
+         "  --terms K               use only the first K BRDF terms (default: all)\n"
+         "  --backend cpu|gl        CPU relighting + OSMesa raster (default) or the GLSL runtime\n"
+         "  --no-background         black background instead of the probe\n"
+         "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
+         "  --threads T             worker threads (default: all cores)\n");
+}
+
+/* Writes per-vertex radiance as CSV (vertex,r,g,b) atomically. */
+static int write_vertices(const char *path, const float *rgb, int n, prt_error *err) {
+    char tmp[4096];
+    FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
+    if (!f) return -1;
+    fprintf(f, "vertex,r,g,b\n");
+    for (int v = 0; v < n; v++) fprintf(f, "%d,%.8g,%.8g,%.8g\n", v, rgb[3 * v], rgb[3 * v + 1], rgb[3 * v + 2]);
+    return prt_atomic_commit(f, tmp, path, err);
+}
+
+int cli_render(int argc, char **argv) {
+    const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
+    const char *vert_out = NULL, *v;
+    int w = 800, h = 600, kmax = 0, nthreads = 0, tonemap = 0;
+    float exposure = 0;
+    bool gl = false, background = true;
+    for (int i = 1; i < argc; i++) {
+        int r;
+        if (cli_is_help(argv[i])) { help(); return 0; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--layout", &layout))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--camera", &cam_s))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--light-rotation", &rot_s))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertices", &vert_out))) { if (r < 0) return 2; continue; }
+        if (!strcmp(argv[i], "--no-background")) { background = false; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
+            if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--exposure", &v))) {
+            if (r < 0 || !cli_float(k_cmd, "--exposure", v, -64, 64, &exposure)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--tonemap", &v))) {
+            if (r < 0) return 2;
+            if (!strcmp(v, "clamp")) tonemap = 0;
+            else if (!strcmp(v, "reinhard")) tonemap = 1;
+            else if (!strcmp(v, "aces")) tonemap = 2;
+            else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", v) + 1;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &kmax)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &nthreads)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--backend", &v))) {
+            if (r < 0) return 2;
+            if (!strcmp(v, "cpu")) gl = false;
+            else if (!strcmp(v, "gl")) gl = true;
+            else return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", v) + 1;
+            continue;
+        }
+        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
+        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
+        in = argv[i];
+    }
+    if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
+    if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
+    if (!out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
+    char ext[16];
+    prt_path_ext(out, ext);
+    if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif") && strcmp(ext, "hdr"))
+        return cli_error(k_cmd, "%s: unsupported output format '.%s' (use .png or .exr)", out, ext);
+    float R[9];
+    if (rot_s && probe_parse_rotation(rot_s, R) != 0)
+        return cli_error(k_cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", rot_s);
+
+    prt_error err = { { 0 } };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    double t0 = prt_now();
+    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    double t_read = prt_now() - t0;
+    prt_camera cam;
+    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    if (cam_s && camera_parse(cam_s, &cam) != 0) {
+        prt_data_free(&d);
+        return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    }
+    prt_probe probe;
+    memset(&probe, 0, sizeof probe);
+    if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }
+
+    double t1 = prt_now();
+    float (*L)[4] = cli_light_vector(&probe, rot_s ? R : NULL, d.sh_order);
+    double t_light = prt_now() - t1;
+    int rc = 1;
+    float *rgb = NULL;
+    relight_ctx *rcx = NULL;
+    prt_image img = { 0 };
+    if (!L) { cli_error(k_cmd, "out of memory"); goto done; }
+    render_desc rd = { .width = w, .height = h, .camera = cam, .background = background ? &probe : NULL,
+                       .background_rotation = rot_s ? R : NULL };
+    double t_lc = 0, t_vc = 0, t_raster = 0;
+    if (gl) {
+        double t2 = prt_now();
+        if (glrt_render_image(&d, L, &rd, kmax, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+        t_raster = prt_now() - t2;
+    } else {
+        rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
+        rcx = relight_create(&d, nthreads, &err);
+        if (!rgb || !rcx) { cli_error(k_cmd, "%s", rcx ? "out of memory" : err.msg); goto done; }
+        double t2 = prt_now();
+        relight_set_light(rcx, L);
+        double t3 = prt_now();
+        relight_view(rcx, cam.eye, kmax, rgb);
+        double t4 = prt_now();
+        t_lc = t3 - t2;
+        t_vc = t4 - t3;
+        if (render_vertex_colors(&d.scene.mesh, rgb, &rd, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+        t_raster = prt_now() - t4;
+        if (vert_out && write_vertices(vert_out, rgb, d.scene.mesh.nverts, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+    }
+    image_desc idesc = { .exposure = exposure, .tonemap = tonemap };
+    double t5 = prt_now();
+    if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+    fprintf(stderr, "wrote %s (%dx%d): read %.2fs, light vector %.3fs, light change %.1f ms, view change %.1f ms, "
+                    "raster %.3fs, write %.3fs\n",
+            out, w, h, t_read, t_light, 1e3 * t_lc, 1e3 * t_vc, t_raster, prt_now() - t5);
+    rc = 0;
+done:
+    relight_destroy(rcx);
+    free(rgb);
+    free(L);
+    image_free(&img);
+    probe_free(&probe);
+    prt_data_free(&d);
+    return rc;
+}
