@@ -238,7 +238,7 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zf
 }
 
 /* proj * view (column-major). */
-static void mvp_of(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]) {
+void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]) {
     float zn, zf, view[16], proj[16];
     gldraw_clip(d, cam, &zn, &zf);
     camera_matrices(cam, (float)w / (float)h, zn, zf, view, proj);
@@ -258,7 +258,7 @@ int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const f
     gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)d->nverts * 3 * sizeof(float), d->scratch);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
     float mvp[16];
-    mvp_of(d, cam, w, h, mvp);
+    gldraw_mvp(d, cam, w, h, mvp);
     gl->UseProgram(d->prog_vc);
     gl->UniformMatrix4fv(gl->GetUniformLocation(d->prog_vc, "u_mvp"), 1, GL_FALSE, mvp);
     gl->Enable(GL_DEPTH_TEST);

@@ -51,6 +51,8 @@ int gldraw_target(gldraw *d, int w, int h, prt_error *err);
 void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]);
 /* Near and far clip distances that hold the mesh bounds for cam. */
 void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar);
+/* proj * view (column-major) for cam on a w x h target, clip planes from gldraw_clip. */
+void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]);
 /* Uploads rgb[3*nverts] (non-finite -> 0) and draws the mesh with Gouraud colours. */
 int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
 /* Reads the bound FBO's colour into out (allocated here, 3 channels, top row first, finite). */
