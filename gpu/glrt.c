@@ -526,6 +526,10 @@ static void run_light(glrt *rt, glrt_light_method m) {
     gl->UseProgram(0);
 }
 
+/* Every entry point makes the runtime's context current first: another context (for example
+ * render_vertex_colors' own) may have been made current on this thread in between. */
+static int current(glrt *rt, prt_error *err) { return glctx_make_current(rt->ctx, err); }
+
 /* Runs method m twice after a warm-up (the first run compiles on software GL) and returns the best
  * wall-clock milliseconds, finished. */
 static double time_method(glrt *rt, glrt_light_method m) {
@@ -548,6 +552,7 @@ static bool method_available(const glrt *rt, glrt_light_method m) {
 }
 
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
+    if (current(rt, err)) return -1;
     if (m == GLRT_LIGHT_AUTO) {
         /* Time every kernel on the light currently uploaded (values do not change the cost). */
         glrt_light_method best = GLRT_LIGHT_AUTO;
@@ -655,7 +660,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
 
 void glrt_destroy(glrt *rt) {
     if (!rt) return;
-    if (rt->gl) {
+    if (rt->gl && current(rt, NULL) == 0) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
                           rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->ebo };
@@ -680,6 +685,7 @@ void glrt_destroy(glrt *rt) {
 
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
     double t0 = prt_now();
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_L);
     gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, L);
@@ -697,6 +703,7 @@ int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
 }
 
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err) {
+    if (current(rt, err)) return -1;
     rt->bg_rotated = R != NULL;
     if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
     return gldraw_set_probe(&rt->draw, p, err);
@@ -704,6 +711,7 @@ int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_erro
 
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
     double t0 = prt_now();
     if (gldraw_target(&rt->draw, w, h, err)) return -1;
     gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
@@ -739,12 +747,16 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
 }
 
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
+    if (current(rt, err)) return -1;
     if (gldraw_target(&rt->draw, w, h, err)) return -1;
     gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
     return gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
 }
 
-int glrt_read(glrt *rt, prt_image *out, prt_error *err) { return gldraw_read(&rt->draw, out, err); }
+int glrt_read(glrt *rt, prt_image *out, prt_error *err) {
+    if (current(rt, err)) return -1;
+    return gldraw_read(&rt->draw, out, err);
+}
 
 int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_image *out, prt_error *err) {
     memset(out, 0, sizeof *out);
@@ -753,11 +765,13 @@ int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_ima
 }
 
 void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops) {
+    if (current(rt, NULL)) return;
     gldraw_present(&rt->draw, win_w, win_h, exposure_stops);
 }
 
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err) {
     const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
     float *tmp = prt_calloc((size_t)4 * rt->nvecs + 4, sizeof(float), err);
     if (!tmp) return -1;
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
