@@ -4,6 +4,7 @@
  * test, float read-back, and the tone-mapped blit for the viewer's window.
  * See gldraw.h. */
 #include "gldraw.h"
+#include "font6x13.h"
 #include "probe.h"
 #include <math.h>
 #include <stdlib.h>
@@ -334,4 +335,142 @@ void gldraw_free(gldraw *d) {
     }
     free(d->scratch);
     memset(d, 0, sizeof *d);
+}
+
+/* ---------------------------------------------------------------- text */
+
+
+static const char *k_text_vs =
+    "#version 330 core\n"
+    "layout(location = 0) in vec4 a;\n" /* x, y in pixels from the top-left; u, v in atlas texels */
+    "uniform vec2 u_win;\n"
+    "out vec2 v_uv;\n"
+    "void main() { v_uv = a.zw; gl_Position = vec4(2.0 * a.x / u_win.x - 1.0, 1.0 - 2.0 * a.y / u_win.y, 0.0, 1.0); }\n";
+
+static const char *k_text_fs =
+    "#version 330 core\n"
+    "uniform sampler2D u_font;\n"
+    "uniform vec4 u_color;\n"
+    "uniform int u_box;\n"
+    "in vec2 v_uv;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    "    float a = u_box != 0 ? 1.0 : texelFetch(u_font, ivec2(v_uv), 0).r;\n"
+    "    if (a < 0.5) discard;\n"
+    "    o_color = u_color;\n"
+    "}\n";
+
+int gltext_init(gltext *t, const gl_api *gl, prt_error *err) {
+    memset(t, 0, sizeof *t);
+    t->gl = gl;
+    if (!(t->prog = glctx_program(gl, k_text_vs, k_text_fs, "text", err))) return -1;
+    /* Atlas: the 95 glyphs side by side, one byte per pixel. */
+    uint8_t atlas[FONT_H][95 * FONT_W];
+    for (int g = 0; g < 95; g++)
+        for (int r = 0; r < FONT_H; r++)
+            for (int c = 0; c < FONT_W; c++) atlas[r][g * FONT_W + c] = (k_font[g][r] & (0x80 >> c)) ? 255 : 0;
+    gl->GenTextures(1, &t->tex);
+    gl->BindTexture(GL_TEXTURE_2D, t->tex);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_R8, 95 * FONT_W, FONT_H, 0, GL_RED, GL_UNSIGNED_BYTE, atlas);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->GenVertexArrays(1, &t->vao);
+    gl->GenBuffers(1, &t->vbo);
+    gl->BindVertexArray(t->vao);
+    gl->BindBuffer(GL_ARRAY_BUFFER, t->vbo);
+    gl->EnableVertexAttribArray(0);
+    gl->VertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    return glctx_check(gl, "text init", err);
+}
+
+/* Appends one quad (two triangles) of pixel rectangle (x0,y0)-(x1,y1) with atlas rectangle (u0,v0)-(u1,v1). */
+static float *quad(float *p, float x0, float y0, float x1, float y1, float u0, float v0, float u1, float v1) {
+    const float q[6][4] = { { x0, y0, u0, v0 }, { x1, y0, u1, v0 }, { x1, y1, u1, v1 },
+                            { x0, y0, u0, v0 }, { x1, y1, u1, v1 }, { x0, y1, u0, v1 } };
+    memcpy(p, q, sizeof q);
+    return p + 24;
+}
+
+int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const char *text) {
+    const gl_api *gl = t->gl;
+    if (scale < 1) scale = 1;
+    int n = (int)strlen(text), lines = 1, cols = 0, maxcols = 0;
+    for (int i = 0; i < n; i++) {
+        if (text[i] == '\n') { lines++; cols = 0; }
+        else if (++cols > maxcols) maxcols = cols;
+    }
+    if (n + 1 > t->cap) {
+        float *nv = realloc(t->verts, sizeof(float) * 24 * (size_t)(n + 1));
+        if (!nv) return 0;
+        t->verts = nv;
+        t->cap = n + 1;
+    }
+    const int lh = (FONT_H + 1) * scale, pad = 4;
+    float *p = t->verts;
+    int cx = x, cy = y, glyphs = 0;
+    for (int i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)text[i];
+        if (c == '\n') { cx = x; cy += lh; continue; }
+        if (c < 32 || c > 126) c = '?';
+        float u0 = (float)((c - 32) * FONT_W);
+        p = quad(p, (float)cx, (float)cy, (float)(cx + FONT_W * scale), (float)(cy + FONT_H * scale), u0, 0,
+                 u0 + FONT_W, FONT_H);
+        glyphs++;
+        cx += FONT_W * scale;
+    }
+    float box[24];
+    quad(box, (float)(x - pad), (float)(y - pad), (float)(x + maxcols * FONT_W * scale + pad),
+         (float)(y + lines * lh + pad), 0, 0, 0, 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl->Viewport(0, 0, win_w, win_h);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->Enable(GL_BLEND);
+    gl->BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    gl->UseProgram(t->prog);
+    gl->Uniform2f(gl->GetUniformLocation(t->prog, "u_win"), (float)win_w, (float)win_h);
+    gl->Uniform1i(gl->GetUniformLocation(t->prog, "u_font"), 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_2D, t->tex);
+    gl->BindVertexArray(t->vao);
+    gl->BindBuffer(GL_ARRAY_BUFFER, t->vbo);
+    GLint lbox = gl->GetUniformLocation(t->prog, "u_box"), lcol = gl->GetUniformLocation(t->prog, "u_color");
+    /* Box. */
+    gl->BufferData(GL_ARRAY_BUFFER, sizeof box, box, GL_STREAM_DRAW);
+    gl->Uniform1i(lbox, 1);
+    gl->Uniform4fv(lcol, 1, (const float[4]){ 0, 0, 0, 0.55f });
+    gl->DrawArrays(GL_TRIANGLES, 0, 6);
+    /* Shadow, then the glyphs. */
+    gl->Uniform1i(lbox, 0);
+    for (int pass = 0; pass < 2 && glyphs; pass++) {
+        if (pass == 0)
+            for (int i = 0; i < glyphs * 6; i++) { t->verts[4 * i] += 1; t->verts[4 * i + 1] += 1; }
+        else
+            for (int i = 0; i < glyphs * 6; i++) { t->verts[4 * i] -= 1; t->verts[4 * i + 1] -= 1; }
+        gl->BufferData(GL_ARRAY_BUFFER, sizeof(float) * 24 * (size_t)glyphs, t->verts, GL_STREAM_DRAW);
+        gl->Uniform4fv(lcol, 1, pass == 0 ? (const float[4]){ 0, 0, 0, 1 } : (const float[4]){ 1, 1, 0.92f, 1 });
+        gl->DrawArrays(GL_TRIANGLES, 0, glyphs * 6);
+    }
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->Disable(GL_BLEND);
+    gl->UseProgram(0);
+    return lines * lh + 2 * pad;
+}
+
+void gltext_free(gltext *t) {
+    const gl_api *gl = t->gl;
+    if (gl) {
+        if (t->prog) gl->DeleteProgram(t->prog);
+        if (t->tex) gl->DeleteTextures(1, &t->tex);
+        if (t->vao) gl->DeleteVertexArrays(1, &t->vao);
+        if (t->vbo) gl->DeleteBuffers(1, &t->vbo);
+    }
+    free(t->verts);
+    memset(t, 0, sizeof *t);
 }

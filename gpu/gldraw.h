@@ -62,6 +62,20 @@ int gldraw_read(gldraw *d, prt_image *out, prt_error *err);
 void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops);
 void gldraw_free(gldraw *d);
 
+/* On-screen text in the 6x13 X11 "Fixed" bitmap font (font6x13.h), drawn with GL over the
+ * current framebuffer: a translucent dark box, then white glyphs with a 1-pixel shadow. */
+typedef struct gltext {
+    const gl_api *gl;
+    GLuint prog, tex, vao, vbo;
+    float *verts;       /* scratch: 6 vertices x 4 floats per glyph */
+    int cap;            /* glyphs the scratch holds */
+} gltext;
+int gltext_init(gltext *t, const gl_api *gl, prt_error *err);
+/* Draws text ('\n' separates lines) with its top-left corner at (x, y) pixels from the top-left of a
+ * win_w x win_h framebuffer, glyphs scaled by an integer factor. Returns the height drawn in pixels. */
+int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const char *text);
+void gltext_free(gltext *t);
+
 /* Row-major 3x3 R -> column-major GL mat3 of R^T (what the background shader wants). */
 void gldraw_mat3_transpose_gl(const float R[9], float out[9]);
 #endif

@@ -91,6 +91,8 @@ void glrt_destroy(glrt *rt);
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
 /* Probe shown behind the scene (NULL: black); R as render_desc.background_rotation (may be NULL). */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err);
+/* Changes only the background's rotation (R NULL: none); the probe stays uploaded. */
+void glrt_set_background_rotation(glrt *rt, const float R[9]);
 /* Renders into the glrt's float target (w x h): background, then the scene relit with the
  * current light. kmax 0 = all terms. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err);
