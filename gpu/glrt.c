@@ -153,10 +153,19 @@ static const char *k_light_warp =
 static const char *k_view_common =
     "uniform samplerBuffer t_view;\n"
     "uniform ivec4 u_mat[NMAT];\n" /* x: first view texel, y: res, z: K, w: param | 2 * lambertian */
+    /* brdf_frame: Eq. 10's s without cancellation near n.y = -1, the fixed limit within 1e-6 of
+     * (0,-1,0), s made orthogonal to n; t = n x s. */
     "void frame(vec3 n, out vec3 s, out vec3 t) {\n"
-    "    float a = n.y + 1.0;\n"
-    "    vec3 v = vec3(a * a + n.z * n.z - n.x * n.x, -2.0 * a * n.x, -2.0 * n.x * n.z);\n"
-    "    if (dot(v, v) < 1e-24 || a < 1e-6) { s = vec3(1.0, 0.0, 0.0); } else s = normalize(v);\n"
+    "    float r2 = n.x * n.x + n.z * n.z;\n"
+    "    vec3 v;\n"
+    "    if (n.y < 0.0 && r2 < 1e-12) v = vec3(1.0, 0.0, 0.0);\n"
+    "    else {\n"
+    "        float a = n.y >= 0.0 ? n.y + 1.0 : r2 / (1.0 - n.y);\n"
+    "        v = vec3(a * a + n.z * n.z - n.x * n.x, -2.0 * a * n.x, -2.0 * n.x * n.z);\n"
+    "    }\n"
+    "    v -= dot(v, n) * n;\n"
+    "    float l = length(v);\n"
+    "    s = l > 1e-30 ? v / l : (abs(n.x) < 0.9 ? normalize(cross(n, vec3(1.0, 0.0, 0.0))) : normalize(cross(n, vec3(0.0, 1.0, 0.0))));\n"
     "    t = cross(n, s);\n"
     "}\n"
     /* Sum_k<kuse h_k(w) g[k]: w local view direction. */
@@ -194,7 +203,8 @@ static const char *k_view_common =
     "    frame(n, s, t);\n"
     "    vec3 wo = normalize(eye - pos);\n"
     "    int kuse = kmax > 0 ? min(kmax, mi.z) : mi.z;\n"
-    "    return shade(mi, vec3(dot(wo, s), dot(wo, t), dot(wo, n)), g, kuse);\n"
+    /* Radiance is clamped at zero as the CPU runtime does (a truncated SVD can dip below). */
+    "    return max(shade(mi, vec3(dot(wo, s), dot(wo, t), dot(wo, n)), g, kuse), vec3(0.0));\n"
     "}\n";
 
 static const char *k_view_vs =
