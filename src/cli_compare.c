@@ -21,7 +21,7 @@ static void help(void) {
          "  ref_noise    sqrt(sum stderr^2 / sum b^2) when B has stderr columns (its noise floor)\n"
          "\n"
          "  --error-image OUT.png   false-colour map of per-pixel relative error (turbo, log scale:\n"
-         "                          dark blue 0.1% or less, green ~3%, dark red 100% or more)\n"
+         "                          black <= 0.1%, blue 0.2%, green 3%, orange 10%, dark red >= 100%)\n"
          "  -v, --verbose           also print item counts and the worst item\n");
 }
 

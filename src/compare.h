@@ -14,8 +14,8 @@
  * When B is all zero: both metrics are 0 if A is all zero too, otherwise an error.
  *
  * Error image (images only): per pixel e = |a - b| / max(|b|, 1% of mean |b|), shown
- * through the "turbo" colour map on a log scale: log10(e) from -3 (0.1%, dark blue)
- * to 0 (100% or more, dark red).
+ * through the "turbo" colour map on a log scale: log10(e) from -3 (0.1% or less: near
+ * black) through blue (0.2%), green (3%), orange (10%) to 0 (100% or more: dark red).
  *
  * Inputs: two images of the same size (any format image_read reads; EXR for radiance),
  * or two per-vertex CSV files with a header naming columns r, g, b and optionally vertex
