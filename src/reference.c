@@ -16,7 +16,9 @@
  * normal as shading normal, exactly what PRT's transport (Eq. 3, 6-8) assumes.
  *
  * Environment sampling uses a latitude-longitude grid in the probe's frame
- * (for a latlong probe: its own pixels). Within a cell, directions are uniform in
+ * (for a latlong probe: its own pixels), cells drawn in O(1) by Walker's alias
+ * method (Vose's construction; a CDF binary search was a quarter of the run time
+ * from cache misses over 512K cells). Within a cell, directions are uniform in
  * solid angle (phi uniform, cos(theta) uniform), so the pdf is exactly
  * P(cell) / Omega(cell) with Omega(cell) = dphi (cos theta0 - cos theta1): the
  * estimator stays unbiased whatever probe_eval's filter does inside the cell, as
@@ -50,8 +52,8 @@ struct ref_ctx {
     /* Environment distribution over an ew x eh latlong grid in the probe frame. */
     int ew, eh;
     double total;         /* sum of cell weights (0: black probe, no environment sampling) */
-    double *row_cdf;      /* [eh+1] */
-    double *col_cdf;      /* [eh*(ew+1)] */
+    float *alias_prob;    /* [eh*ew] Walker/Vose alias table: keep cell i with this probability, */
+    uint32_t *alias;      /* [eh*ew] else take alias[i] (O(1) sampling, one cache miss) */
     float *cell_pdf;      /* [eh*ew] solid-angle pdf of each cell: P(cell) / Omega(cell) */
     double *cos_edge;     /* [eh+1] cos(theta) at row edges, from +1 (zenith) down to -1 */
 };
@@ -147,11 +149,16 @@ static int env_build(ref_ctx *rc, prt_error *err) {
     rc->eh = eh;
     size_t ncell = (size_t)ew * eh;
     float *lum = prt_calloc(ncell, sizeof(float), err);
-    rc->row_cdf = prt_calloc((size_t)eh + 1, sizeof(double), err);
-    rc->col_cdf = prt_calloc((size_t)eh * (ew + 1), sizeof(double), err);
+    double *wgt = prt_calloc(ncell, sizeof(double), err);
+    uint32_t *work = prt_calloc(ncell, sizeof(uint32_t), err);
+    rc->alias_prob = prt_calloc(ncell, sizeof(float), err);
+    rc->alias = prt_calloc(ncell, sizeof(uint32_t), err);
     rc->cell_pdf = prt_calloc(ncell, sizeof(float), err);
     rc->cos_edge = prt_calloc((size_t)eh + 1, sizeof(double), err);
-    if (!lum || !rc->row_cdf || !rc->col_cdf || !rc->cell_pdf || !rc->cos_edge) { free(lum); return -1; }
+    if (!lum || !wgt || !work || !rc->alias_prob || !rc->alias || !rc->cell_pdf || !rc->cos_edge) {
+        free(lum); free(wgt); free(work);
+        return -1;
+    }
     for (int y = 0; y <= eh; y++) rc->cos_edge[y] = cos(REF_PI * y / eh);
     rc->cos_edge[0] = 1.0;
     rc->cos_edge[eh] = -1.0;
@@ -174,8 +181,6 @@ static int env_build(ref_ctx *rc, prt_error *err) {
     double dphi = 2 * REF_PI / ew, total = 0;
     for (int y = 0; y < eh; y++) {
         double omega = dphi * (rc->cos_edge[y] - rc->cos_edge[y + 1]);
-        double *cdf = rc->col_cdf + (size_t)y * (ew + 1);
-        cdf[0] = 0;
         for (int x = 0; x < ew; x++) {
             float m = 0;
             for (int dy = -1; dy <= 1; dy++) {
@@ -186,45 +191,51 @@ static int env_build(ref_ctx *rc, prt_error *err) {
                     m = fmaxf(m, lum[(size_t)yy * ew + xx]);
                 }
             }
-            double wgt = omega * (0.5 * lum[(size_t)y * ew + x] + 0.5 * m);
-            cdf[x + 1] = cdf[x] + wgt;
+            double w = omega * (0.5 * lum[(size_t)y * ew + x] + 0.5 * m);
+            wgt[(size_t)y * ew + x] = w;
+            total += w;
         }
-        rc->row_cdf[y + 1] = rc->row_cdf[y] + cdf[ew];
-        total += cdf[ew];
     }
     rc->total = total;
     if (total > 0) {
         for (int y = 0; y < eh; y++) {
             double omega = dphi * (rc->cos_edge[y] - rc->cos_edge[y + 1]);
-            const double *cdf = rc->col_cdf + (size_t)y * (ew + 1);
             for (int x = 0; x < ew; x++)
-                rc->cell_pdf[(size_t)y * ew + x] = (float)((cdf[x + 1] - cdf[x]) / total / omega);
+                rc->cell_pdf[(size_t)y * ew + x] = (float)(wgt[(size_t)y * ew + x] / total / omega);
         }
+        /* Vose's alias method: scaled probabilities n p_i; "small" cells (< 1) are topped up by
+         * one "large" cell each. work holds the small stack from the bottom, large from the top. */
+        size_t ns = 0, nl = ncell;
+        for (size_t i = 0; i < ncell; i++) {
+            wgt[i] = wgt[i] / total * (double)ncell;
+            if (wgt[i] < 1.0) work[ns++] = (uint32_t)i;
+            else work[--nl] = (uint32_t)i;
+        }
+        while (ns > 0 && nl < ncell) {
+            uint32_t sm = work[--ns], lg = work[nl];
+            rc->alias_prob[sm] = (float)wgt[sm];
+            rc->alias[sm] = lg;
+            wgt[lg] -= 1.0 - wgt[sm];
+            if (wgt[lg] < 1.0) { nl++; work[ns++] = lg; }
+        }
+        /* Leftovers are 1 up to rounding. */
+        while (nl < ncell) { uint32_t i = work[nl++]; rc->alias_prob[i] = 1.f; rc->alias[i] = i; }
+        while (ns > 0) { uint32_t i = work[--ns]; rc->alias_prob[i] = 1.f; rc->alias[i] = i; }
     }
     free(lum);
+    free(wgt);
+    free(work);
     return 0;
-}
-
-/* Largest i in [0, n) with cdf[i] <= t (cdf ascending, cdf[0] = 0), skipping zero-width bins. */
-static int cdf_find(const double *cdf, int n, double t) {
-    int lo = 0, hi = n;   /* cdf[lo] <= t < cdf[hi] */
-    while (hi - lo > 1) {
-        int mid = (lo + hi) / 2;
-        if (cdf[mid] <= t) lo = mid;
-        else hi = mid;
-    }
-    while (lo < n - 1 && cdf[lo + 1] <= t) lo++;
-    while (lo > 0 && cdf[lo + 1] == cdf[lo]) lo--;   /* t at the very top: step back to a non-empty bin */
-    return lo;
 }
 
 /* Samples the environment: direction w (world) and its solid-angle pdf. */
 bool ref_env_sample(const ref_ctx *rc, const float u[4], float w[3], float *pdf) {
     if (rc->total <= 0) { *pdf = 0; return false; }
-    int y = cdf_find(rc->row_cdf, rc->eh, u[0] * rc->row_cdf[rc->eh]);
-    const double *cdf = rc->col_cdf + (size_t)y * (rc->ew + 1);
-    int x = cdf_find(cdf, rc->ew, u[1] * cdf[rc->ew]);
-    float p = rc->cell_pdf[(size_t)y * rc->ew + x];
+    size_t ncell = (size_t)rc->ew * rc->eh, i = (size_t)(u[0] * (double)ncell);
+    if (i >= ncell) i = ncell - 1;
+    if (u[1] >= rc->alias_prob[i]) i = rc->alias[i];
+    int y = (int)(i / rc->ew), x = (int)(i % rc->ew);
+    float p = rc->cell_pdf[i];
     if (!(p > 0)) { *pdf = 0; return false; }
     double cos_t = rc->cos_edge[y] + (rc->cos_edge[y + 1] - rc->cos_edge[y]) * u[3];
     float d[3];
@@ -274,8 +285,8 @@ ref_ctx *ref_create(const prt_scene *scene, const prt_probe *probe, const float 
 void ref_destroy(ref_ctx *rc) {
     if (!rc) return;
     if (rc->vs) vis_destroy(rc->vs);
-    free(rc->row_cdf);
-    free(rc->col_cdf);
+    free(rc->alias_prob);
+    free(rc->alias);
     free(rc->cell_pdf);
     free(rc->cos_edge);
     free(rc);
