@@ -43,6 +43,10 @@
 #define REF_RR_DEPTH 3         /* Russian roulette starts after this many bounces */
 #define REF_MAX_THREADS 64
 
+/* Alias-table entry: keep cell i with probability prob, else take alias; the pdfs of both
+ * outcomes ride along so a draw touches one 16-byte entry. */
+struct ref_alias { float prob; uint32_t alias; float pdf, pdf_alias; };
+
 struct ref_ctx {
     const prt_scene *scene;
     const prt_probe *probe;
@@ -52,8 +56,7 @@ struct ref_ctx {
     /* Environment distribution over an ew x eh latlong grid in the probe frame. */
     int ew, eh;
     double total;         /* sum of cell weights (0: black probe, no environment sampling) */
-    float *alias_prob;    /* [eh*ew] Walker/Vose alias table: keep cell i with this probability, */
-    uint32_t *alias;      /* [eh*ew] else take alias[i] (O(1) sampling, one cache miss) */
+    struct ref_alias *table; /* [eh*ew] Walker/Vose alias table (O(1) sampling, one cache line per draw) */
     float *cell_pdf;      /* [eh*ew] solid-angle pdf of each cell: P(cell) / Omega(cell) */
     double *cos_edge;     /* [eh+1] cos(theta) at row edges, from +1 (zenith) down to -1 */
 };
@@ -151,11 +154,10 @@ static int env_build(ref_ctx *rc, prt_error *err) {
     float *lum = prt_calloc(ncell, sizeof(float), err);
     double *wgt = prt_calloc(ncell, sizeof(double), err);
     uint32_t *work = prt_calloc(ncell, sizeof(uint32_t), err);
-    rc->alias_prob = prt_calloc(ncell, sizeof(float), err);
-    rc->alias = prt_calloc(ncell, sizeof(uint32_t), err);
+    rc->table = prt_calloc(ncell, sizeof *rc->table, err);
     rc->cell_pdf = prt_calloc(ncell, sizeof(float), err);
     rc->cos_edge = prt_calloc((size_t)eh + 1, sizeof(double), err);
-    if (!lum || !wgt || !work || !rc->alias_prob || !rc->alias || !rc->cell_pdf || !rc->cos_edge) {
+    if (!lum || !wgt || !work || !rc->table || !rc->cell_pdf || !rc->cos_edge) {
         free(lum); free(wgt); free(work);
         return -1;
     }
@@ -213,14 +215,18 @@ static int env_build(ref_ctx *rc, prt_error *err) {
         }
         while (ns > 0 && nl < ncell) {
             uint32_t sm = work[--ns], lg = work[nl];
-            rc->alias_prob[sm] = (float)wgt[sm];
-            rc->alias[sm] = lg;
+            rc->table[sm].prob = (float)wgt[sm];
+            rc->table[sm].alias = lg;
             wgt[lg] -= 1.0 - wgt[sm];
             if (wgt[lg] < 1.0) { nl++; work[ns++] = lg; }
         }
         /* Leftovers are 1 up to rounding. */
-        while (nl < ncell) { uint32_t i = work[nl++]; rc->alias_prob[i] = 1.f; rc->alias[i] = i; }
-        while (ns > 0) { uint32_t i = work[--ns]; rc->alias_prob[i] = 1.f; rc->alias[i] = i; }
+        while (nl < ncell) { uint32_t i = work[nl++]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
+        while (ns > 0) { uint32_t i = work[--ns]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
+        for (size_t i = 0; i < ncell; i++) {
+            rc->table[i].pdf = rc->cell_pdf[i];
+            rc->table[i].pdf_alias = rc->cell_pdf[rc->table[i].alias];
+        }
     }
     free(lum);
     free(wgt);
@@ -233,9 +239,10 @@ bool ref_env_sample(const ref_ctx *rc, const float u[4], float w[3], float *pdf)
     if (rc->total <= 0) { *pdf = 0; return false; }
     size_t ncell = (size_t)rc->ew * rc->eh, i = (size_t)(u[0] * (double)ncell);
     if (i >= ncell) i = ncell - 1;
-    if (u[1] >= rc->alias_prob[i]) i = rc->alias[i];
+    const struct ref_alias *e = &rc->table[i];
+    float p = e->pdf;
+    if (u[1] >= e->prob) { i = e->alias; p = e->pdf_alias; }
     int y = (int)(i / rc->ew), x = (int)(i % rc->ew);
-    float p = rc->cell_pdf[i];
     if (!(p > 0)) { *pdf = 0; return false; }
     double cos_t = rc->cos_edge[y] + (rc->cos_edge[y + 1] - rc->cos_edge[y]) * u[3];
     float d[3];
@@ -285,8 +292,7 @@ ref_ctx *ref_create(const prt_scene *scene, const prt_probe *probe, const float 
 void ref_destroy(ref_ctx *rc) {
     if (!rc) return;
     if (rc->vs) vis_destroy(rc->vs);
-    free(rc->alias_prob);
-    free(rc->alias);
+    free(rc->table);
     free(rc->cell_pdf);
     free(rc->cos_edge);
     free(rc);
