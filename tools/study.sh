@@ -200,7 +200,7 @@ measure() { # index id
   local pre_s vis_s tr_s bo_s mb light view kk basis coeffs
   pre_s=$(summary_s "$L.pre" total); vis_s=$(summary_s "$L.pre" visibility)
   tr_s=$(summary_s "$L.pre" transport); bo_s=$(summary_s "$L.pre" bounce)
-  mb=$(awk '/^file/ { gsub(/\(/, "", $3); print $3 }' "$L.info")
+  mb=$(stat -c %s "$f" | awk '{ printf "%.4f", $1 / 1e6 }')
   "$PRT" bench "$f" --probe "$DATA/probes/$SHARP.exr" --frames "$FRAMES" > "$L.bench" 2>&1 || die "prt bench $id failed"
   light=$(awk '/^light change:/ { print $3 }' "$L.bench"); view=$(awk '/^view change:/ { print $3 }' "$L.bench")
   kk=$(grep -o 'max K = [0-9]*' "$L.bench" | awk '{ print $4 }')

@@ -23,6 +23,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 UNC = 24576
 # knob -> (label, x column, x label, log x?, the knob's value for a row)
@@ -38,6 +39,18 @@ KNOBS = {
     "gather": ("gathering cube resolution (1 bounce)", "bounce_s", "bounce pass (s)", True,
                lambda r: f"{r['gather_res']}^2"),
 }
+
+
+def logaxes(ax, x=True, y=True):
+    """Log axes labelled 1, 2, 5 x 10^k in plain numbers (narrow ranges keep readable ticks)."""
+    fmt = FuncFormatter(lambda v, _: f"{v:g}")
+    for on, axis, setter in ((x, ax.xaxis, ax.set_xscale), (y, ax.yaxis, ax.set_yscale)):
+        if not on:
+            continue
+        setter("log")
+        axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        axis.set_major_formatter(fmt)
+        axis.set_minor_formatter(NullFormatter())
 
 
 def fnum(x):
@@ -97,9 +110,7 @@ def plot_knobs(rows, meta, scene, out):
         noise = [r["ref_vert_noise"] for r in pts if r["ref_vert_noise"] == r["ref_vert_noise"]]
         if noise:
             ax.axhline(max(noise), color="gray", lw=0.8, ls=":", label="reference noise (vertex)")
-        if logx and all(x > 0 for x in xs):
-            ax.set_xscale("log")
-        ax.set_yscale("log")
+        logaxes(ax, x=logx and all(x > 0 for x in xs))
         ax.set_xlabel(xlabel)
         ax.set_ylabel("relative RMS error")
         ax.set_title(label, fontsize=10)
@@ -151,12 +162,12 @@ def plot_pareto(rows, meta, out):
                 ax.scatter([r[xcol] for r in b], [r["vert_rel_rmse"] for r in b], c=colours[basis], s=18,
                            label="Haar wavelets" if basis == "haar" else "spherical harmonics")
             front = pareto_front(pts, xcol)
-            ax.plot([r[xcol] for r in front], [r["vert_rel_rmse"] for r in front], "k-", lw=1, label="Pareto front")
+            ax.plot([r[xcol] for r in front], [r["vert_rel_rmse"] for r in front], "k-", lw=1, drawstyle="steps-post",
+                    label="Pareto front")
             for r in front:
                 ax.annotate(short(r), (r[xcol], r["vert_rel_rmse"]), textcoords="offset points", xytext=(3, 3),
                             fontsize=7)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            logaxes(ax)
             ax.set_xlabel(xlabel)
             ax.set_ylabel("relative RMS error (per vertex)")
             ax.set_title(f"{scene} under {sharp}, direct lighting", fontsize=10)
@@ -194,8 +205,7 @@ def plot_sh_haar(rows, meta, out):
             for col, ls, what in (("vert_rel_rmse", "-", "vertex"), ("img_rel_rmse", ":", "image")):
                 ax.plot(cs, [s[col] for _, s, _ in pairs], "o" + ls, color="C3", label=f"SH ({what})")
                 ax.plot(cs, [h[col] for _, _, h in pairs], "s" + ls, color="C0", label=f"Haar ({what})")
-            ax.set_xscale("log")
-            ax.set_yscale("log")
+            logaxes(ax)
             ax.set_xticks(cs)
             ax.set_xticklabels([str(c) for c in cs], fontsize=7)
             ax.set_xlabel("coefficients per transport vector (8-bit)")
@@ -249,13 +259,13 @@ def headline(rows, meta):
                 f"- **{scene}, {probe}, defaults** (N = 128, K = {r['K']}, 8-bit, visibility 2x, direct): "
                 f"per-vertex error {pct(r['vert_rel_rmse'])}% (max {pct(r['vert_max_rel_err'], 1)}%), "
                 f"image error {pct(r['img_rel_rmse'])}%; precompute {r['precompute_s']:.1f} s, "
-                f"{r['file_mb']:.2f} MB, light change {r['light_ms']:.2f} ms, view change {r['view_ms']:.2f} ms "
+                f"{r['file_mb']:.3g} MB, light change {r['light_ms']:.2f} ms, view change {r['view_ms']:.2f} ms "
                 f"(reference noise {pct(r['ref_vert_noise'], 3)}% per vertex, {pct(r['ref_img_noise'], 2)}% image)")
         u = [r for r in rows if r["scene"] == scene and r["probe"] == sharp and r["N"] == str(UNC)]
         if u:
             r = u[0]
             lines.append(f"- **{scene}, {sharp}, uncompressed** (all 24,576 coefficients, float): per-vertex error "
-                         f"{pct(r['vert_rel_rmse'])}%, image {pct(r['img_rel_rmse'])}%; {r['file_mb']:.1f} MB, "
+                         f"{pct(r['vert_rel_rmse'])}%, image {pct(r['img_rel_rmse'])}%; {r['file_mb']:.3g} MB, "
                          f"light change {r['light_ms']:.1f} ms")
         for probe in (sharp, soft):
             pairs = sh_haar_pairs(rows, scene, probe)
@@ -277,7 +287,7 @@ def table(rows):
         out.append("| " + " | ".join([
             r["scene"], r["probe"], " ".join(r["sweeps"]), r["basis"], coeffs, r["K"], q,
             f"{int(r['vis_res']) // 64}x", r["bounces"], r["gather_res"], f"{r['precompute_s']:.1f}",
-            f"{r['file_mb']:.2f}", f"{r['light_ms']:.2f}", f"{r['view_ms']:.2f}", pct(r["vert_rel_rmse"]),
+            f"{r['file_mb']:.3g}", f"{r['light_ms']:.3g}", f"{r['view_ms']:.2f}", pct(r["vert_rel_rmse"]),
             pct(r["vert_max_rel_err"], 1), pct(r["img_rel_rmse"]), pct(r["img_max_rel_err"], 1),
             f"{pct(r['ref_vert_noise'], 3)} / {pct(r['ref_img_noise'], 2)}"]) + " |")
     return out
