@@ -28,7 +28,7 @@
 typedef struct prt_mesh {
     int nverts, ntris;
     float *pos;        /* [3*nverts] world-space positions */
-    float *nrm;        /* [3*nverts] unit smooth normals (area-and-angle weighted) */
+    float *nrm;        /* [3*nverts] unit smooth normals (angle weighted) */
     uint32_t *tris;    /* [3*ntris] counter-clockwise vertex indices */
     uint16_t *mat;     /* [nverts] material index per vertex (0 after loading) */
 } prt_mesh;
@@ -47,7 +47,8 @@ int mesh_load_obj(const char *path, mesh_load_stats *stats, prt_mesh *out, prt_e
 int mesh_parse_obj(const char *name, const char *text, size_t len, mesh_load_stats *stats, prt_mesh *out, prt_error *err);
 
 /* Recomputes smooth vertex normals from the triangles (angle-weighted). A vertex
- * whose triangles cancel gets the normal of its largest triangle. */
+ * whose triangles cancel gets the normal of its largest triangle; one with no
+ * triangle of nonzero area gets (0,1,0). Allocates m->nrm if it is NULL. */
 void mesh_compute_normals(prt_mesh *m);
 
 /* Applies p' = s * R * p + t to positions (R a row-major 3x3 rotation) and rotates normals. */

@@ -9,8 +9,15 @@
  *                   { "sphere": {"center":[0,1,0], "radius":1}, "material": "lambert:kd=0.8" } ],
  *       "floor": { "vertices": 31000, "material": "lambert:kd=0.7", "size": 3.0 } }
  *
- * Models may also be procedural: "sphere", "box" ({"min":[..],"max":[..],"open_top":true}),
- * "torus", "plane". The floor is a tessellated plane just below the models
+ * Models may also be procedural (defaults in brackets):
+ *     "sphere": {"center":[0,0,0], "radius":1, "rings":32, "segments":64}
+ *     "box":    {"min":[-.5,0,-.5], "max":[.5,1,.5], "open_top":false, "n":8}
+ *     "torus":  {"center":[0,0,0], "major":1, "minor":0.25, "nu":64, "nv":32}
+ *     "plane":  {"x":[-1,1], "z":[-1,1], "height":0, "nx":32, "nz":32}
+ * A model has exactly one shape key, plus optional "material" (default
+ * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_y"
+ * (degrees; p' = scale * Ry * p + translate) and "name" (ignored). "floor" may also
+ * be true/false; a top-level "comment" is ignored. Any other key is an error. The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
  * (default 3), with about `vertices` vertices (default 31,000).
@@ -51,7 +58,10 @@ int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_err
 /* Builds a scene from a mesh already in memory (takes ownership of *mesh, zeroing it). */
 int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_error *err);
 
-/* Adds a floor under the current contents (see header comment). */
+/* Adds a floor under the current contents (see header comment): an n x n grid,
+ * n = round(sqrt(verts)) (at least 2); verts <= 0 is an error; size 0 means 3;
+ * material NULL means "lambert:kd=0.7". Sets floor_first_vertex; fails if there is
+ * already a floor or no geometry. On failure the scene is unchanged. */
 int scene_add_floor(prt_scene *s, int verts, float size, const char *material, prt_error *err);
 
 /* Adds (or finds) a material by spec; returns its index or -1 with err set. */

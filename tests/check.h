@@ -14,19 +14,29 @@
 
 typedef struct check_state { int pass, fail; } check_state;
 extern check_state check_g;
+#include <stdarg.h>
+/* Prints an optional printf-style note after a failure (no format attribute, so an
+ * empty note is not a -Wformat-zero-length warning). */
+static inline void check_note(const char *fmt, ...) {
+    va_list ap;
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+}
 
 #define CHECK(cond, ...) do { if (cond) check_g.pass++; else { check_g.fail++; \
     fprintf(stderr, "FAIL %s:%d: %s: ", __FILE__, __LINE__, #cond); \
-    fprintf(stderr, "" __VA_ARGS__); fprintf(stderr, "\n"); } } while (0)
+    check_note("" __VA_ARGS__); } } while (0)
 /* |a-b| <= tol, and both finite. */
 #define CHECK_NEAR(a, b, tol, ...) do { double a_ = (a), b_ = (b), t_ = (tol); \
     if (isfinite(a_) && isfinite(b_) && fabs(a_ - b_) <= t_) check_g.pass++; else { check_g.fail++; \
     fprintf(stderr, "FAIL %s:%d: %s = %.9g vs %s = %.9g (tol %.3g): ", __FILE__, __LINE__, #a, a_, #b, b_, t_); \
-    fprintf(stderr, "" __VA_ARGS__); fprintf(stderr, "\n"); } } while (0)
+    check_note("" __VA_ARGS__); } } while (0)
 #define CHECK_LE(a, b, ...) do { double a_ = (a), b_ = (b); \
     if (isfinite(a_) && isfinite(b_) && a_ <= b_) check_g.pass++; else { check_g.fail++; \
     fprintf(stderr, "FAIL %s:%d: %s = %.9g > %s = %.9g: ", __FILE__, __LINE__, #a, a_, #b, b_); \
-    fprintf(stderr, "" __VA_ARGS__); fprintf(stderr, "\n"); } } while (0)
+    check_note("" __VA_ARGS__); } } while (0)
 
 /* Prints the counts for run_tests.sh; returns the process exit status. */
 int check_summary(void);

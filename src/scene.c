@@ -1,0 +1,474 @@
+/* scene.c - scenes for prt: models with transforms and materials, plus a floor.
+ *
+ * A scene is the one merged mesh that precomputation samples (one transport
+ * vector per vertex, Wang, Tran & Luebke 2006 Sec. 3) with a material index per
+ * vertex. It comes from an OBJ alone, from a small JSON file (parsed with
+ * cJSON) listing OBJ and procedural models, or from the built-in demo.
+ *
+ * The floor matters for the paper's look: the shadows a model casts on it are
+ * the visibility term the precomputation captures, so it is a finely
+ * tessellated diffuse plane (about 31,000 vertices for the bunny benchmark,
+ * Table I), centred under the models and lowered by 0.1% of the scene size so
+ * a model resting on it does not z-fight with it.
+ *
+ * Errors name the scene file and the problem (a JSON syntax error with its
+ * line and column, a key of the wrong type, an unknown key, a model that fails
+ * to load). */
+#include "scene.h"
+#include "vec3.h"
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define SCENE_DEFAULT_MATERIAL "lambert:kd=0.8"
+#define SCENE_DEFAULT_FLOOR_MATERIAL "lambert:kd=0.7"
+#define SCENE_DEFAULT_FLOOR_VERTS 31000
+#define SCENE_DEFAULT_FLOOR_SIZE 3.0f
+#define SCENE_MAX_JSON_BYTES (16 << 20)
+
+void scene_free(prt_scene *s) {
+    mesh_free(&s->mesh);
+    memset(s, 0, sizeof *s);
+    s->floor_first_vertex = -1;
+}
+
+void scene_update_bounds(prt_scene *s) { mesh_bounds(&s->mesh, s->bmin, s->bmax); }
+
+/* Returns the index of the material with this spec, adding it if new; -1 with err set. */
+int scene_material(prt_scene *s, const char *spec, prt_error *err) {
+    if (!spec || !*spec) return prt_fail(err, "empty material spec");
+    size_t len = strlen(spec);
+    if (len >= sizeof s->material_spec[0])
+        return prt_fail(err, "material spec '%.40s...' too long (%zu characters, at most %zu)", spec, len,
+                        sizeof s->material_spec[0] - 1);
+    for (int i = 0; i < s->nmaterials; i++)
+        if (strcmp(s->material_spec[i], spec) == 0) return i;
+    brdf_params p;
+    memset(&p, 0, sizeof p);
+    if (brdf_parse(spec, &p, err) != 0) return -1;
+    /* Different spellings of one material ("lambert:kd=0.8" and "lambert:kd=0.8,0.8,0.8")
+     * share it too: compare canonical forms. */
+    char canon[512], other[512];
+    brdf_format(&p, canon, sizeof canon);
+    for (int i = 0; i < s->nmaterials; i++) {
+        brdf_format(&s->materials[i], other, sizeof other);
+        if (strcmp(canon, other) == 0) return i;
+    }
+    if (s->nmaterials >= PRT_MAX_MATERIALS)
+        return prt_fail(err, "too many materials (at most %d): '%s'", PRT_MAX_MATERIALS, spec);
+    int i = s->nmaterials++;
+    s->materials[i] = p;
+    memcpy(s->material_spec[i], spec, len + 1);
+    return i;
+}
+
+static void set_material(prt_mesh *m, int mat) {
+    for (int v = 0; v < m->nverts; v++) m->mat[v] = (uint16_t)mat;
+}
+
+/* Takes *mesh (zeroed on return, success or not). */
+int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->floor_first_vertex = -1;
+    out->mesh = *mesh;
+    memset(mesh, 0, sizeof *mesh);
+    if (!out->mesh.mat && out->mesh.nverts > 0 && !(out->mesh.mat = calloc((size_t)out->mesh.nverts, sizeof(uint16_t)))) {
+        scene_free(out);
+        return prt_fail(err, "out of memory");
+    }
+    int mat = scene_material(out, material ? material : SCENE_DEFAULT_MATERIAL, err);
+    if (mat < 0) { scene_free(out); return -1; }
+    set_material(&out->mesh, mat);
+    scene_update_bounds(out);
+    return 0;
+}
+
+int scene_add_floor(prt_scene *s, int verts, float size, const char *material, prt_error *err) {
+    if (s->floor_first_vertex >= 0) return prt_fail(err, "the scene already has a floor");
+    if (verts <= 0 || verts > (1 << 24))
+        return prt_fail(err, "floor: vertex count must be between 1 and %d (got %d)", 1 << 24, verts);
+    if (size == 0.f) size = SCENE_DEFAULT_FLOOR_SIZE;
+    if (!(size > 0.f) || !isfinite(size)) return prt_fail(err, "floor: size must be positive (got %g)", (double)size);
+    if (s->mesh.nverts <= 0) return prt_fail(err, "floor: the scene has no models to put a floor under");
+    int mat = scene_material(s, material ? material : SCENE_DEFAULT_FLOOR_MATERIAL, err);
+    if (mat < 0) return -1;
+    float bmin[3], bmax[3], d[3];
+    mesh_bounds(&s->mesh, bmin, bmax);
+    v3_sub(d, bmax, bmin);
+    float extent = fmaxf(d[0], d[2]);
+    if (!(extent > 0.f)) extent = d[1] > 0.f ? d[1] : 1.f; /* a vertical sliver: use its height */
+    float diag = v3_len(d);
+    if (!(diag > 0.f)) diag = extent;
+    float half = 0.5f * size * extent;
+    float cx = 0.5f * (bmin[0] + bmax[0]), cz = 0.5f * (bmin[2] + bmax[2]);
+    float y = bmin[1] - 1e-3f * diag;
+    /* A square grid with n*n as close to verts as possible (176^2 = 30,976 for 31,000). */
+    int n = (int)lround(sqrt((double)verts));
+    if (n < 2) n = 2;
+    prt_mesh floor;
+    if (mesh_make_plane(&floor, cx - half, cx + half, cz - half, cz + half, y, n, n, err) != 0) return -1;
+    set_material(&floor, mat);
+    int first = s->mesh.nverts;
+    int rc = mesh_append(&s->mesh, &floor, err);
+    mesh_free(&floor);
+    if (rc != 0) return -1;
+    s->floor_first_vertex = first;
+    scene_update_bounds(s);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- JSON scenes */
+
+/* Context for error messages: "scene.json: models[2].sphere.radius: ...". */
+typedef struct json_ctx {
+    const char *path;
+    char where[160];
+    prt_error *err;
+} json_ctx;
+
+static int jfail_type(json_ctx *c, const char *key, const char *want) {
+    return prt_fail(c->err, "%s: %s%s%s: expected %s", c->path, c->where, *c->where ? "." : "", key, want);
+}
+
+/* Reads an optional finite number; returns 0 (absent: *out unchanged) or -1. */
+static int jnum(json_ctx *c, const cJSON *obj, const char *key, double *out) {
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!it) return 0;
+    if (!cJSON_IsNumber(it) || !isfinite(it->valuedouble)) return jfail_type(c, key, "a number");
+    *out = it->valuedouble;
+    return 0;
+}
+
+static int jfloat(json_ctx *c, const cJSON *obj, const char *key, float *out) {
+    double d = *out;
+    if (jnum(c, obj, key, &d)) return -1;
+    if (fabs(d) > 1e30) return jfail_type(c, key, "a number of reasonable size");
+    *out = (float)d;
+    return 0;
+}
+
+static int jint(json_ctx *c, const cJSON *obj, const char *key, int lo, int hi, int *out) {
+    double d = *out;
+    if (jnum(c, obj, key, &d)) return -1;
+    if (d != floor(d) || d < lo || d > hi) {
+        char want[64];
+        snprintf(want, sizeof want, "an integer in [%d, %d]", lo, hi);
+        return jfail_type(c, key, want);
+    }
+    *out = (int)d;
+    return 0;
+}
+
+static int jbool(json_ctx *c, const cJSON *obj, const char *key, bool *out) {
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!it) return 0;
+    if (!cJSON_IsBool(it)) return jfail_type(c, key, "true or false");
+    *out = cJSON_IsTrue(it);
+    return 0;
+}
+
+/* An array of n finite numbers. */
+static int jvec(json_ctx *c, const cJSON *obj, const char *key, int n, float *out) {
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(obj, key);
+    if (!it) return 0;
+    char want[48];
+    snprintf(want, sizeof want, "an array of %d numbers", n);
+    if (!cJSON_IsArray(it) || cJSON_GetArraySize(it) != n) return jfail_type(c, key, want);
+    for (int i = 0; i < n; i++) {
+        const cJSON *e = cJSON_GetArrayItem(it, i);
+        if (!cJSON_IsNumber(e) || !isfinite(e->valuedouble) || fabs(e->valuedouble) > 1e30) return jfail_type(c, key, want);
+        out[i] = (float)e->valuedouble;
+    }
+    return 0;
+}
+
+/* Fails on any key of obj not in the NULL-terminated list. */
+static int jkeys(json_ctx *c, const cJSON *obj, const char *const *allowed) {
+    for (const cJSON *it = obj->child; it; it = it->next) {
+        bool ok = false;
+        for (const char *const *a = allowed; *a && !ok; a++) ok = it->string && strcmp(it->string, *a) == 0;
+        if (!ok) {
+            char list[256] = "";
+            for (const char *const *a = allowed; *a; a++) {
+                strncat(list, *a, sizeof list - strlen(list) - 1);
+                if (a[1]) strncat(list, ", ", sizeof list - strlen(list) - 1);
+            }
+            return prt_fail(c->err, "%s: %s%sunknown key '%.60s' (expected one of: %s)", c->path, c->where,
+                            *c->where ? ": " : "", it->string ? it->string : "?", list);
+        }
+    }
+    return 0;
+}
+
+/* Joins dir (of the JSON file) and a relative path into out[cap]. */
+static void join_path(const char *json_path, const char *rel, char *out, size_t cap) {
+    const char *slash = strrchr(json_path, '/');
+    if (rel[0] == '/' || !slash) snprintf(out, cap, "%s", rel);
+    else snprintf(out, cap, "%.*s/%s", (int)(slash - json_path), json_path, rel);
+}
+
+/* Builds one model's mesh (untransformed) from its geometry key. */
+static int json_geometry(json_ctx *c, const cJSON *model, prt_mesh *m, prt_scene *s) {
+    static const char *const kinds[] = { "obj", "sphere", "box", "torus", "plane" };
+    const cJSON *g = NULL;
+    int kind = -1;
+    for (int k = 0; k < 5; k++) {
+        const cJSON *it = cJSON_GetObjectItemCaseSensitive(model, kinds[k]);
+        if (!it) continue;
+        if (g) return prt_fail(c->err, "%s: %s: has both '%s' and '%s' (one shape per model)", c->path, c->where, kinds[kind], kinds[k]);
+        g = it;
+        kind = k;
+    }
+    if (!g) return prt_fail(c->err, "%s: %s: no shape (expected one of obj, sphere, box, torus, plane)", c->path, c->where);
+    if (kind == 0) {
+        if (!cJSON_IsString(g) || !*g->valuestring) return jfail_type(c, "obj", "a file name");
+        char objpath[4096];
+        join_path(c->path, g->valuestring, objpath, sizeof objpath);
+        mesh_load_stats st;
+        prt_error e2;
+        if (mesh_load_obj(objpath, &st, m, &e2) != 0) return prt_fail(c->err, "%s: %s: %s", c->path, c->where, e2.msg);
+        s->load_stats.obj_vertices += st.obj_vertices;
+        s->load_stats.faces += st.faces;
+        s->load_stats.welded += st.welded;
+        s->load_stats.degenerate += st.degenerate;
+        s->load_stats.unused += st.unused;
+        return 0;
+    }
+    if (!cJSON_IsObject(g)) return jfail_type(c, kinds[kind], "an object");
+    size_t wl = strlen(c->where);
+    snprintf(c->where + wl, sizeof c->where - wl, ".%s", kinds[kind]);
+    prt_error e2;
+    int rc = -1;
+    if (kind == 1) {
+        static const char *const keys[] = { "center", "radius", "rings", "segments", NULL };
+        float ctr[3] = { 0, 0, 0 }, r = 1;
+        int rings = 32, segs = 64;
+        if (jkeys(c, g, keys) || jvec(c, g, "center", 3, ctr) || jfloat(c, g, "radius", &r) ||
+            jint(c, g, "rings", 2, 4096, &rings) || jint(c, g, "segments", 3, 4096, &segs)) return -1;
+        rc = mesh_make_sphere(m, ctr, r, rings, segs, &e2);
+    } else if (kind == 2) {
+        static const char *const keys[] = { "min", "max", "open_top", "n", NULL };
+        float lo[3] = { -0.5f, 0, -0.5f }, hi[3] = { 0.5f, 1, 0.5f };
+        bool open = false;
+        int n = 8;
+        if (jkeys(c, g, keys) || jvec(c, g, "min", 3, lo) || jvec(c, g, "max", 3, hi) || jbool(c, g, "open_top", &open) ||
+            jint(c, g, "n", 1, 1024, &n)) return -1;
+        rc = mesh_make_box(m, lo, hi, n, open, &e2);
+    } else if (kind == 3) {
+        static const char *const keys[] = { "center", "major", "minor", "nu", "nv", NULL };
+        float ctr[3] = { 0, 0, 0 }, R = 1, r = 0.25f;
+        int nu = 64, nv = 32;
+        if (jkeys(c, g, keys) || jvec(c, g, "center", 3, ctr) || jfloat(c, g, "major", &R) || jfloat(c, g, "minor", &r) ||
+            jint(c, g, "nu", 3, 4096, &nu) || jint(c, g, "nv", 3, 4096, &nv)) return -1;
+        rc = mesh_make_torus(m, ctr, R, r, nu, nv, &e2);
+    } else {
+        static const char *const keys[] = { "x", "z", "height", "nx", "nz", NULL };
+        float x[2] = { -1, 1 }, z[2] = { -1, 1 }, h = 0;
+        int nx = 32, nz = 32;
+        if (jkeys(c, g, keys) || jvec(c, g, "x", 2, x) || jvec(c, g, "z", 2, z) || jfloat(c, g, "height", &h) ||
+            jint(c, g, "nx", 2, 4096, &nx) || jint(c, g, "nz", 2, 4096, &nz)) return -1;
+        rc = mesh_make_plane(m, x[0], x[1], z[0], z[1], h, nx, nz, &e2);
+    }
+    if (rc != 0) return prt_fail(c->err, "%s: %s: %s", c->path, c->where, e2.msg);
+    c->where[wl] = 0;
+    return 0;
+}
+
+/* Rotation by deg degrees about +y (right-handed: +x turns towards -z). */
+static void rot_y(float R[9], double deg) {
+    double a = deg * M_PI / 180.0;
+    float cs = (float)cos(a), sn = (float)sin(a);
+    const float M[9] = { cs, 0, sn, 0, 1, 0, -sn, 0, cs };
+    memcpy(R, M, sizeof M);
+}
+
+static int json_model(json_ctx *c, const cJSON *model, int index, const scene_desc *desc, prt_scene *s) {
+    snprintf(c->where, sizeof c->where, "models[%d]", index);
+    if (!cJSON_IsObject(model)) return prt_fail(c->err, "%s: %s: expected an object", c->path, c->where);
+    static const char *const keys[] = { "obj", "sphere", "box", "torus", "plane", "material", "scale", "translate",
+                                        "rotate_y", "name", NULL };
+    if (jkeys(c, model, keys)) return -1;
+    const cJSON *mat = cJSON_GetObjectItemCaseSensitive(model, "material");
+    const cJSON *name = cJSON_GetObjectItemCaseSensitive(model, "name");
+    if (mat && !cJSON_IsString(mat)) return jfail_type(c, "material", "a BRDF spec string");
+    if (name && !cJSON_IsString(name)) return jfail_type(c, "name", "a string");
+    float scale = 1, t[3] = { 0, 0, 0 }, ry = 0;
+    if (jfloat(c, model, "scale", &scale) || jvec(c, model, "translate", 3, t) || jfloat(c, model, "rotate_y", &ry)) return -1;
+    if (!(scale > 0)) return jfail_type(c, "scale", "a positive number");
+    const char *spec = mat ? mat->valuestring : desc && desc->material ? desc->material : SCENE_DEFAULT_MATERIAL;
+    prt_error e2;
+    int mi = scene_material(s, spec, &e2);
+    if (mi < 0) return prt_fail(c->err, "%s: %s.material: %s", c->path, c->where, e2.msg);
+    prt_mesh m;
+    if (json_geometry(c, model, &m, s)) return -1;
+    if (scale != 1 || ry != 0 || t[0] != 0 || t[1] != 0 || t[2] != 0) {
+        float R[9];
+        rot_y(R, ry);
+        mesh_transform(&m, R, scale, t);
+    }
+    set_material(&m, mi);
+    int rc = mesh_append(&s->mesh, &m, c->err);
+    mesh_free(&m);
+    return rc;
+}
+
+static char *read_text(const char *path, size_t *len, prt_error *err) {
+    struct stat sb;
+    if (stat(path, &sb) != 0) { prt_fail(err, "%s: cannot open: %s", path, strerror(errno)); return NULL; }
+    if (!S_ISREG(sb.st_mode)) { prt_fail(err, "%s: not a regular file", path); return NULL; }
+    if (sb.st_size > SCENE_MAX_JSON_BYTES) { prt_fail(err, "%s: too large for a scene file", path); return NULL; }
+    FILE *f = fopen(path, "rb");
+    if (!f) { prt_fail(err, "%s: cannot open: %s", path, strerror(errno)); return NULL; }
+    char *buf = malloc((size_t)sb.st_size + 1);
+    if (!buf) { fclose(f); prt_fail(err, "%s: out of memory", path); return NULL; }
+    *len = fread(buf, 1, (size_t)sb.st_size, f);
+    bool bad = ferror(f);
+    fclose(f);
+    if (bad) { free(buf); prt_fail(err, "%s: read error", path); return NULL; }
+    buf[*len] = 0;
+    return buf;
+}
+
+static int json_scene(const char *path, const scene_desc *desc, prt_scene *s, prt_error *err) {
+    size_t len = 0;
+    char *text = read_text(path, &len, err);
+    if (!text) return -1;
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithLengthOpts(text, len, &end, 0);
+    if (!root) {
+        /* Line and column of where cJSON gave up. */
+        if (!end || end < text || end > text + len) end = text + len;
+        int line = 1, col = 1;
+        for (const char *p = text; p < end; p++) {
+            if (*p == '\n') { line++; col = 1; } else col++;
+        }
+        int rc = len == 0 ? prt_fail(err, "%s: empty file (expected a JSON scene)", path)
+                          : prt_fail(err, "%s:%d:%d: JSON syntax error", path, line, col);
+        free(text);
+        return rc;
+    }
+    free(text);
+    json_ctx c = { .path = path, .err = err };
+    int rc = -1;
+    static const char *const top[] = { "models", "floor", "comment", NULL };
+    const cJSON *models = NULL, *fl = NULL;
+    if (!cJSON_IsObject(root)) { prt_fail(err, "%s: expected a JSON object at the top level", path); goto done; }
+    if (jkeys(&c, root, top)) goto done;
+    models = cJSON_GetObjectItemCaseSensitive(root, "models");
+    if (!models) { prt_fail(err, "%s: no \"models\" array", path); goto done; }
+    if (!cJSON_IsArray(models) || cJSON_GetArraySize(models) == 0) { jfail_type(&c, "models", "a non-empty array"); goto done; }
+    int i = 0;
+    for (const cJSON *m = models->child; m; m = m->next, i++)
+        if (json_model(&c, m, i, desc, s)) goto done;
+
+    /* Floor: the JSON's, unless desc forces one on or off. */
+    fl = cJSON_GetObjectItemCaseSensitive(root, "floor");
+    snprintf(c.where, sizeof c.where, "floor");
+    bool want = false;
+    int verts = SCENE_DEFAULT_FLOOR_VERTS;
+    float size = SCENE_DEFAULT_FLOOR_SIZE;
+    const char *fmat = SCENE_DEFAULT_FLOOR_MATERIAL;
+    if (fl) {
+        c.where[0] = 0;
+        if (cJSON_IsBool(fl)) want = cJSON_IsTrue(fl);
+        else if (cJSON_IsObject(fl)) {
+            static const char *const fk[] = { "vertices", "material", "size", NULL };
+            snprintf(c.where, sizeof c.where, "floor");
+            want = true;
+            if (jkeys(&c, fl, fk) || jint(&c, fl, "vertices", 1, 1 << 24, &verts) || jfloat(&c, fl, "size", &size)) goto done;
+            if (!(size > 0)) { jfail_type(&c, "size", "a positive number"); goto done; }
+            const cJSON *fm = cJSON_GetObjectItemCaseSensitive(fl, "material");
+            if (fm && !cJSON_IsString(fm)) { jfail_type(&c, "material", "a BRDF spec string"); goto done; }
+            if (fm) fmat = fm->valuestring;
+        } else { jfail_type(&c, "floor", "an object or true/false"); goto done; }
+    }
+    if (desc && desc->floor >= 0) want = desc->floor == 1;
+    if (desc && desc->floor_verts > 0) verts = desc->floor_verts;
+    if (desc && desc->floor_material) fmat = desc->floor_material;
+    if (want) {
+        prt_error e2;
+        if (scene_add_floor(s, verts, size, fmat, &e2)) { prt_fail(err, "%s: %s", path, e2.msg); goto done; }
+    }
+    rc = 0;
+done:
+    cJSON_Delete(root);
+    return rc;
+}
+
+int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->floor_first_vertex = -1;
+    char ext[16];
+    prt_path_ext(path, ext);
+    if (strcmp(ext, "obj") == 0) {
+        prt_mesh m;
+        mesh_load_stats st;
+        if (mesh_load_obj(path, &st, &m, err) != 0) return -1;
+        if (scene_from_mesh(&m, desc ? desc->material : NULL, out, err) != 0) return -1;
+        out->load_stats = st;
+        if (desc && desc->floor == 1) {
+            prt_error e2;
+            if (scene_add_floor(out, desc->floor_verts > 0 ? desc->floor_verts : SCENE_DEFAULT_FLOOR_VERTS,
+                                SCENE_DEFAULT_FLOOR_SIZE, desc->floor_material, &e2) != 0) {
+                scene_free(out);
+                return prt_fail(err, "%s: %s", path, e2.msg);
+            }
+        }
+        return 0;
+    }
+    if (strcmp(ext, "json") == 0) {
+        if (json_scene(path, desc, out, err) != 0) { scene_free(out); return -1; }
+        scene_update_bounds(out);
+        return 0;
+    }
+    return prt_fail(err, "%s: unknown scene format '%s' (expected .obj or .json)", path, ext[0] ? ext : "no extension");
+}
+
+/* ---------------------------------------------------------------- the demo */
+
+/* Adds a procedural shape with a material and a rotation about y then a translation. */
+static int demo_add(prt_scene *s, prt_mesh *m, const char *spec, const float R[9], const float t[3], prt_error *err) {
+    int mi = scene_material(s, spec, err);
+    if (mi < 0) { mesh_free(m); return -1; }
+    if (R) mesh_transform(m, R, 1.f, t);
+    set_material(m, mi);
+    int rc = mesh_append(&s->mesh, m, err);
+    mesh_free(m);
+    return rc;
+}
+
+int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->floor_first_vertex = -1;
+    if (floor_verts <= 0) return prt_fail(err, "demo: floor vertex count must be positive (got %d)", floor_verts);
+    /* Unit-ish composition on y = 0, about 2.3 wide: a sun 45 degrees up casts
+     * shadows as long as each object is tall, all landing on the 3x floor. */
+    prt_mesh m;
+    const float origin[3] = { 0, 0, 0 };
+    /* A glossy red sphere resting on the floor, left. */
+    const float sc[3] = { -0.75f, 0.45f, 0.2f };
+    if (mesh_make_sphere(&m, sc, 0.45f, 40, 80, err) ||
+        demo_add(out, &m, "phong:kd=0.55,0.07,0.05;ks=0.35;n=80", NULL, NULL, err)) goto fail;
+    /* A diffuse blue torus standing on its rim, behind, turned 30 degrees. */
+    float R[9], Rx[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 }, Ry[9];
+    rot_y(Ry, 30.0);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            R[3 * i + j] = Ry[3 * i] * Rx[j] + Ry[3 * i + 1] * Rx[3 + j] + Ry[3 * i + 2] * Rx[6 + j];
+    const float tt[3] = { 0.1f, 0.47f, -0.55f };
+    if (mesh_make_torus(&m, origin, 0.35f, 0.12f, 64, 32, err) ||
+        demo_add(out, &m, "lambert:kd=0.15,0.35,0.65", R, tt, err)) goto fail;
+    /* A glossy gold-ish GGX box, right, turned -25 degrees. */
+    const float lo[3] = { -0.3f, 0.f, -0.3f }, hi[3] = { 0.3f, 0.6f, 0.3f }, bt[3] = { 0.7f, 0.f, 0.3f };
+    rot_y(R, -25.0);
+    if (mesh_make_box(&m, lo, hi, 12, false, err) ||
+        demo_add(out, &m, "ggx:kd=0.45,0.35,0.15;ks=0.6,0.5,0.3;alpha=0.15", R, bt, err)) goto fail;
+    if (scene_add_floor(out, floor_verts, SCENE_DEFAULT_FLOOR_SIZE, SCENE_DEFAULT_FLOOR_MATERIAL, err)) goto fail;
+    return 0;
+fail:
+    scene_free(out);
+    return -1;
+}
