@@ -327,6 +327,10 @@ static void eval_cross(const prt_probe *p, const float d[3], float rgb[3]) {
 
 /* Bilinear radiance of the probe in unit direction d. */
 void probe_eval(const prt_probe *p, const float d[3], float rgb[3]) {
+    if (!isfinite(d[0]) || !isfinite(d[1]) || !isfinite(d[2]) || !p->img.data) {
+        rgb[0] = rgb[1] = rgb[2] = 0.f;
+        return;
+    }
     switch (p->layout) {
     case PROBE_LATLONG: eval_latlong(p, d, rgb); break;
     case PROBE_ANGULAR: eval_angular(p, d, rgb); break;
@@ -575,6 +579,7 @@ static void cube_rows(void *ctx, int begin, int end, int thread) {
 
 /* Area-averaged cube map of the rotated probe into out_rgb[6*res*res*3]. */
 void probe_to_cube(const prt_probe *p, int res, const float R[9], int ss, float *out_rgb) {
+    if (res <= 0) return;
     if (ss <= 0) ss = 4;
     if (ss > PROBE_MAX_SS) ss = PROBE_MAX_SS;
     cube_job J = { .p = p, .res = res, .ss = ss, .out = out_rgb };
