@@ -141,7 +141,9 @@ static const float vis_face_b[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 },
 /* Fills vis[6*res*res] (1 = escapes); see visibility.h.
  * n.d is linear in (sc, tc) on a face, so its extremes over a 4x4 packet's texel centres are at
  * the packet's corner centres: a packet with all four corners below the horizon is skipped
- * without touching its lanes, and one with all four above needs no per-lane test. */
+ * without touching its lanes, and one with all four above needs no per-lane test. Texel
+ * coordinates (i + 0.5) 2/res - 1 are exact in float for res a power of two, so the per-lane
+ * test gives exactly opposite answers for antipodal texels: exactly half the cube is traced. */
 void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, uint8_t *vis, long *traced, long *hits) {
     const float eps = vs->eps;
     const float inv = 2.0f / (float)res;
@@ -178,8 +180,10 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
                 const float s3 = 3 * inv;
                 float c00 = no + sc0 * na + tc0 * nb, c10 = c00 + s3 * na, c01 = c00 + s3 * nb, c11 = c10 + s3 * nb;
                 float cmax = fmaxf(fmaxf(c00, c10), fmaxf(c01, c11)), cmin = fminf(fminf(c00, c10), fminf(c01, c11));
-                if (!(cmax > 0)) continue;
-                const bool all_up = cmin > 0 && bi + 4 <= res && bj + 4 <= res;
+                /* the margin covers rounding, so the shortcuts agree with the per-lane test exactly
+                 * (which keeps antipodal texels' decisions complementary) */
+                if (!(cmax > -1e-5f)) continue;
+                const bool all_up = cmin > 1e-5f && bi + 4 <= res && bj + 4 <= res;
                 int nvalid = 0;
                 for (int l = 0; l < 16; l++) {
                     const int i = bi + (l & 3), j = bj + (l >> 2);
