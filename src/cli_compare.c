@@ -1,0 +1,54 @@
+/* cli_compare.c - `prt compare A B [--error-image OUT.png]`: error of A against the reference B.
+ *
+ * Prints one line "rel_rmse=... max_rel_err=..." (plus "ref_noise=..." when B is a
+ * per-vertex CSV carrying standard errors) on stdout; the metrics are defined in compare.h. */
+#include "cli.h"
+#include "cli_args.h"
+#include "compare.h"
+#include <stdio.h>
+#include <string.h>
+
+static const char *k_cmd = "compare";
+
+static void help(void) {
+    puts("usage: prt compare A B [--error-image OUT.png]\n"
+         "\n"
+         "Compares A against the reference B: two images of the same size (EXR for radiance)\n"
+         "or two per-vertex CSV files (from prt render --vertices / prt reference --vertices).\n"
+         "Prints one line:  rel_rmse=X max_rel_err=Y [ref_noise=Z]\n"
+         "  rel_rmse     sqrt(sum (a-b)^2 / sum b^2) over all pixels (vertices) and channels\n"
+         "  max_rel_err  max |a-b|/|b| (RGB norms) over items with |b| above 1% of the mean |b|\n"
+         "  ref_noise    sqrt(sum stderr^2 / sum b^2) when B has stderr columns (its noise floor)\n"
+         "\n"
+         "  --error-image OUT.png   false-colour map of per-pixel relative error (turbo, log scale:\n"
+         "                          black <= 0.1%, blue 0.2%, green 3%, orange 10%, dark red >= 100%)\n"
+         "  -v, --verbose           also print item counts and the worst item\n");
+}
+
+/* Entry point of `prt compare` (see cli.h). */
+int cli_compare(int argc, char **argv) {
+    const char *files[2] = { NULL, NULL }, *errimg = NULL;
+    int nfiles = 0;
+    bool verbose = false;
+    for (int i = 1; i < argc; i++) {
+        int r;
+        if (cli_is_help(argv[i])) { help(); return 0; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--error-image", &errimg))) { if (r < 0) return 2; continue; }
+        if (!strcmp(argv[i], "-v") || !strcmp(argv[i], "--verbose")) { verbose = true; continue; }
+        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
+        if (nfiles == 2) { cli_error(k_cmd, "more than two files ('%s')", argv[i]); return 2; }
+        files[nfiles++] = argv[i];
+    }
+    if (nfiles < 2) { cli_error(k_cmd, "needs two files: A (result) and B (reference) (see --help)"); return 2; }
+    cmp_result r;
+    prt_error err = { { 0 } };
+    if (cmp_files(files[0], files[1], errimg, &r, &err)) return cli_error(k_cmd, "%s", err.msg);
+    printf("rel_rmse=%.6g max_rel_err=%.6g", r.rel_rmse, r.max_rel_err);
+    if (r.ref_noise >= 0) printf(" ref_noise=%.6g", r.ref_noise);
+    printf("\n");
+    if (verbose)
+        fprintf(stderr, "%ld items compared, %ld above the 1%% floor, worst item %d\n", r.items, r.items_in_max,
+                r.worst_item);
+    if (errimg) fprintf(stderr, "wrote %s\n", errimg);
+    return 0;
+}

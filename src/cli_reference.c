@@ -1,0 +1,175 @@
+/* cli_reference.c - `prt reference`: the path-traced ground truth of a .prt file's scene.
+ *
+ * Reads the scene back from the .prt file (mesh and analytic BRDF parameters per
+ * material, not the factorized ones), renders the same camera and size as
+ * `prt render` into a linear EXR, and optionally the per-vertex radiance toward
+ * the camera with standard errors (the quantity PRT computes, Eq. 5), so that
+ * `prt compare` can measure PRT's error against it (reference.h). */
+#include "cli.h"
+#include "cli_args.h"
+#include "image.h"
+#include "probe.h"
+#include "prtfile.h"
+#include "reference.h"
+#include "render.h"
+#include <stdlib.h>
+#include <string.h>
+
+static const char *k_cmd = "reference";
+
+static void help(void) {
+    puts("usage: prt reference FILE.prt --probe PROBE -o OUT.exr [options]\n"
+         "\n"
+         "Path-traced reference (analytic BRDFs, full-resolution probe with importance sampling,\n"
+         "MIS, Embree visibility) of the scene stored in FILE.prt, from the camera prt render uses.\n"
+         "\n"
+         "  --probe PROBE           HDR light probe (as for prt render)\n"
+         "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
+         "  -o OUT.exr              linear radiance image (.exr; .png etc. are tone-mapped 8-bit)\n"
+         "  --spp N                 samples per pixel and per vertex (default 64)\n"
+         "  --bounces B             0 direct only (default; a .prt with no bounce passes), B > 0 at most\n"
+         "                          B interreflection bounces, -1 to convergence (Russian roulette)\n"
+         "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera (default: framed as by prt render)\n"
+         "  --size WxH              image size (default 800x600)\n"
+         "  --vertices OUT.csv      also write per-vertex radiance toward the camera with standard\n"
+         "                          errors: vertex,r,g,b,stderr_r,stderr_g,stderr_b\n"
+         "  --vertex-spp N          samples per vertex (default: --spp)\n"
+         "  --no-image              only the per-vertex CSV (needs --vertices; -o not needed)\n"
+         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
+         "  --seed S                random seed (default 1); results are deterministic per seed\n"
+         "  --no-background         black background instead of the probe\n"
+         "  --threads T             worker threads (default: all cores)\n"
+         "  --quiet                 no progress output\n");
+}
+
+/* Entry point of `prt reference` (see cli.h). */
+int cli_reference(int argc, char **argv) {
+    const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
+    const char *vert_out = NULL, *v;
+    int w = 800, h = 600, spp = 64, vspp = 0, bounces = 0, nthreads = 0;
+    unsigned long long seed = 1;
+    bool background = true, quiet = false, no_image = false;
+    for (int i = 1; i < argc; i++) {
+        int r;
+        if (cli_is_help(argv[i])) { help(); return 0; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--layout", &layout))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--camera", &cam_s))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--light-rotation", &rot_s))) { if (r < 0) return 2; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertices", &vert_out))) { if (r < 0) return 2; continue; }
+        if (!strcmp(argv[i], "--no-background")) { background = false; continue; }
+        if (!strcmp(argv[i], "--no-image")) { no_image = true; continue; }
+        if (!strcmp(argv[i], "--quiet") || !strcmp(argv[i], "-q")) { quiet = true; continue; }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
+            if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--spp", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--spp", v, 1, 1 << 24, &spp)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertex-spp", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--vertex-spp", v, 1, 1 << 24, &vspp)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--bounces", v, -1, 1000, &bounces)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
+            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &nthreads)) return 2;
+            continue;
+        }
+        if ((r = cli_opt(k_cmd, argc, argv, &i, "--seed", &v))) {
+            if (r < 0) return 2;
+            char *end;
+            seed = strtoull(v, &end, 10);
+            if (end == v || *end) { cli_error(k_cmd, "bad value for --seed: '%s' (expected an integer)", v); return 2; }
+            continue;
+        }
+        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
+        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
+        in = argv[i];
+    }
+    if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
+    if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
+    if (no_image && !vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
+    if (!no_image && !out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
+    if (!no_image) {
+        char ext[16];
+        prt_path_ext(out, ext);
+        if (strcmp(ext, "exr") && strcmp(ext, "png") && strcmp(ext, "hdr") && strcmp(ext, "tif") && strcmp(ext, "jpg"))
+            return cli_error(k_cmd, "%s: unsupported output format '.%s' (use .exr)", out, ext);
+    }
+    float R[9];
+    if (rot_s && probe_parse_rotation(rot_s, R) != 0)
+        return cli_error(k_cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", rot_s);
+
+    prt_error err = { { 0 } };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    prt_camera cam;
+    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    if (cam_s && camera_parse(cam_s, &cam) != 0) {
+        prt_data_free(&d);
+        return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    }
+    prt_probe probe;
+    memset(&probe, 0, sizeof probe);
+    if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }
+
+    int rc = 1;
+    ref_ctx *ref = NULL;
+    float *rgb = NULL, *se = NULL, *ise = NULL;
+    prt_image img = { 0 };
+    prt_bar bar;
+    prt_bar_init(&bar, stderr, quiet);
+    ref = ref_create(&d.scene, &probe, rot_s ? R : NULL, &err);
+    if (!ref) { cli_error(k_cmd, "%s", err.msg); goto done; }
+    ref_desc rd = { .spp = spp, .bounces = bounces, .seed = seed, .nthreads = nthreads,
+                    .black_background = !background, .progress = prt_bar_report, .progress_user = &bar };
+    if (!quiet)
+        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d\n",
+                d.scene.mesh.nverts, d.scene.mesh.ntris, d.scene.nmaterials, probe.img.w, probe.img.h, bounces, spp);
+    if (vert_out) {
+        int n = d.scene.mesh.nverts;
+        rgb = malloc(sizeof(float) * 3 * (size_t)n);
+        se = malloc(sizeof(float) * 3 * (size_t)n);
+        if (!rgb || !se) { cli_error(k_cmd, "out of memory"); goto done; }
+        ref_desc vd = rd;
+        vd.spp = vspp ? vspp : spp;
+        vd.stage = "reference vertices";
+        ref_stats st;
+        if (ref_render_vertices(ref, cam.eye, NULL, n, &vd, rgb, se, &st, &err)) { prt_bar_done(&bar); cli_error(k_cmd, "%s", err.msg); goto done; }
+        prt_bar_done(&bar);
+        if (ref_write_vertex_csv(vert_out, rgb, se, n, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+        fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", vert_out,
+                n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+                st.dropped ? " (non-finite samples dropped)" : "");
+    }
+    if (!no_image) {
+        ise = malloc(sizeof(float) * 3 * (size_t)w * h);
+        if (!ise) { cli_error(k_cmd, "out of memory"); goto done; }
+        rd.stage = "reference image";
+        ref_stats st;
+        if (ref_render_image(ref, &cam, w, h, &rd, &img, ise, &st, &err)) { prt_bar_done(&bar); cli_error(k_cmd, "%s", err.msg); goto done; }
+        prt_bar_done(&bar);
+        image_desc idesc = { 0 };
+        if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+        fprintf(stderr, "wrote %s (%dx%d): %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", out, w, h, spp,
+                st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+                st.dropped ? " (non-finite samples dropped)" : "");
+    }
+    rc = 0;
+done:
+    ref_destroy(ref);
+    free(rgb);
+    free(se);
+    free(ise);
+    image_free(&img);
+    probe_free(&probe);
+    prt_data_free(&d);
+    return rc;
+}

@@ -1,0 +1,310 @@
+/* compare.c - how far a PRT result is from the path-traced reference (compare.h).
+ *
+ * The study of accuracy against time needs one number per run that does not
+ * depend on the exposure of the scene: the relative RMS error (L2 error over L2
+ * norm of the reference), and a worst case that is not dominated by black
+ * pixels (max relative error over items brighter than 1% of the mean). Both are
+ * defined precisely in compare.h. Images come through image_read (OIIO); per-vertex
+ * values through a small CSV reader, because vertex colours are the quantity PRT
+ * actually computes (Eq. 5) before rasterization blurs them. */
+#include "compare.h"
+#include "image.h"
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Metrics of a vs reference b (see header); rel_err optional per-item output. */
+int cmp_arrays(const float *a, const float *b, long n, int ch, cmp_result *out, float *rel_err, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->ref_noise = -1;
+    out->worst_item = -1;
+    out->items = n;
+    double sum_d2 = 0, sum_b2 = 0, sum_bn = 0;
+    for (long i = 0; i < n * ch; i++) {
+        if (!isfinite(a[i])) return prt_fail(err, "A has a non-finite value at item %ld", i / ch);
+        if (!isfinite(b[i])) return prt_fail(err, "B has a non-finite value at item %ld", i / ch);
+    }
+    for (long i = 0; i < n; i++) {
+        double d2 = 0, b2 = 0;
+        for (int c = 0; c < ch; c++) {
+            double d = (double)a[i * ch + c] - b[i * ch + c];
+            d2 += d * d;
+            b2 += (double)b[i * ch + c] * b[i * ch + c];
+        }
+        sum_d2 += d2;
+        sum_b2 += b2;
+        sum_bn += sqrt(b2);
+    }
+    if (sum_b2 == 0) {
+        if (sum_d2 != 0) return prt_fail(err, "the reference B is all zero but A is not: relative error undefined");
+        if (rel_err) memset(rel_err, 0, sizeof(float) * (size_t)n);
+        return 0;
+    }
+    out->rel_rmse = sqrt(sum_d2 / sum_b2);
+    double floor_ = 0.01 * sum_bn / (double)n;   /* 1% of the mean item norm, > 0 here */
+    for (long i = 0; i < n; i++) {
+        double d2 = 0, b2 = 0;
+        for (int c = 0; c < ch; c++) {
+            double d = (double)a[i * ch + c] - b[i * ch + c];
+            d2 += d * d;
+            b2 += (double)b[i * ch + c] * b[i * ch + c];
+        }
+        double bn = sqrt(b2), e = sqrt(d2) / (bn > floor_ ? bn : floor_);
+        if (rel_err) rel_err[i] = (float)e;
+        if (bn > floor_) {
+            out->items_in_max++;
+            if (e > out->max_rel_err || out->worst_item < 0) { out->max_rel_err = e; out->worst_item = (int)i; }
+        }
+    }
+    return 0;
+}
+
+/* Turbo colour map (Google, 2019) by its published polynomial fit (Ruofei Du): display rgb in [0,1]. */
+void cmp_colormap(float t, float rgb[3]) {
+    static const double kr[6] = { 0.13572138, 4.61539260, -42.66032258, 132.13108234, -152.94239396, 59.28637943 };
+    static const double kg[6] = { 0.09140261, 2.19418839, 4.84296658, -14.18503333, 4.27729857, 2.82956604 };
+    static const double kb[6] = { 0.10667330, 12.64194608, -60.58204836, 110.36276771, -89.90310912, 27.34824973 };
+    double x = t < 0 || t != t ? 0 : (t > 1 ? 1 : t), p[6] = { 1, x, x * x, x * x * x, x * x * x * x, x * x * x * x * x };
+    const double *k[3] = { kr, kg, kb };
+    for (int c = 0; c < 3; c++) {
+        double v = 0;
+        for (int i = 0; i < 6; i++) v += k[c][i] * p[i];
+        rgb[c] = (float)(v < 0 ? 0 : v > 1 ? 1 : v);
+    }
+}
+
+/* sRGB display value -> linear (image_write encodes linear back to sRGB for PNG). */
+static float srgb_to_linear(float v) { return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f); }
+
+typedef struct vrow { int id; float v[6]; } vrow;
+static int vrow_cmp(const void *x, const void *y) {
+    int a = ((const vrow *)x)->id, b = ((const vrow *)y)->id;
+    return (a > b) - (a < b);
+}
+
+/* Reads the whole file into a NUL-terminated buffer (caller frees). */
+static char *slurp(const char *path, size_t *len, prt_error *err) {
+    FILE *f = fopen(path, "rb");
+    if (!f) { prt_fail(err, "%s: cannot open: %s", path, strerror(errno)); return NULL; }
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    for (;;) {
+        if (!buf) { fclose(f); prt_fail(err, "%s: out of memory", path); return NULL; }
+        n += fread(buf + n, 1, cap - n - 1, f);
+        if (n < cap - 1) break;
+        cap *= 2;
+        char *nb = realloc(buf, cap);
+        if (!nb) free(buf);
+        buf = nb;
+    }
+    if (ferror(f)) { fclose(f); free(buf); prt_fail(err, "%s: read error", path); return NULL; }
+    fclose(f);
+    buf[n] = 0;
+    *len = n;
+    return buf;
+}
+
+/* Splits line (modified in place) at commas into at most max fields; returns the count. */
+static int split_csv(char *line, char **fields, int max) {
+    int n = 0;
+    char *p = line;
+    for (;;) {
+        while (*p == ' ' || *p == '\t') p++;
+        if (n < max) fields[n] = p;
+        n++;
+        char *c = strchr(p, ',');
+        char *end = c ? c : p + strlen(p);
+        while (end > p && (end[-1] == ' ' || end[-1] == '\t' || end[-1] == '\r')) end--;
+        if (c) { *end = 0; p = c + 1; }
+        else { *end = 0; break; }
+    }
+    return n;
+}
+
+/* Per-vertex CSV reader (see header). */
+int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float **se_out, int *n_out, prt_error *err) {
+    *ids_out = NULL;
+    *rgb_out = NULL;
+    if (se_out) *se_out = NULL;
+    *n_out = 0;
+    size_t len;
+    char *text = slurp(path, &len, err);
+    if (!text) return -1;
+    /* Column roles: vertex, r, g, b, stderr_r, stderr_g, stderr_b (-1 absent). */
+    int col[7] = { 0, 1, 2, 3, -1, -1, -1 };
+    static const char *names[7] = { "vertex", "r", "g", "b", "stderr_r", "stderr_g", "stderr_b" };
+    vrow *rows = NULL;
+    size_t nrows = 0, cap = 0;
+    int lineno = 0, header_seen = 0, rc = -1;
+    char *p = text;
+    while (*p) {
+        char *nl = strchr(p, '\n');
+        if (nl) *nl = 0;
+        lineno++;
+        char *line = p;
+        p = nl ? nl + 1 : p + strlen(p);
+        while (*line == ' ' || *line == '\t') line++;
+        if (!*line || *line == '\r' || *line == '#') continue;
+        char *f[32];
+        int nf = split_csv(line, f, 32);
+        if (nf > 32) nf = 32;
+        if (!header_seen && (isalpha((unsigned char)f[0][0]) || f[0][0] == '_')) {
+            /* Header: map the named columns; unknown columns are ignored. */
+            for (int k = 0; k < 7; k++) col[k] = -1;
+            for (int i = 0; i < nf; i++)
+                for (int k = 0; k < 7; k++)
+                    if (!strcmp(f[i], names[k])) col[k] = i;
+            if (col[1] < 0 || col[2] < 0 || col[3] < 0) {
+                prt_fail(err, "%s:%d: header has no r, g, b columns", path, lineno);
+                goto done;
+            }
+            if (col[4] < 0 || col[5] < 0 || col[6] < 0) col[4] = col[5] = col[6] = -1;
+            header_seen = 1;
+            continue;
+        }
+        header_seen = 1;
+        if (nrows == cap) {
+            cap = cap ? 2 * cap : 1024;
+            vrow *nr = realloc(rows, cap * sizeof *rows);
+            if (!nr) { prt_fail(err, "%s: out of memory", path); goto done; }
+            rows = nr;
+        }
+        vrow *r = &rows[nrows];
+        r->id = (int)nrows;
+        for (int k = 0; k < 7; k++) {
+            if (col[k] < 0) continue;
+            if (col[k] >= nf) { prt_fail(err, "%s:%d: missing column '%s'", path, lineno, names[k]); goto done; }
+            char *end;
+            errno = 0;
+            if (k == 0) {
+                long id = strtol(f[col[k]], &end, 10);
+                if (errno || end == f[col[k]] || *end || id < 0 || id > 2000000000L) {
+                    prt_fail(err, "%s:%d: bad vertex id '%s'", path, lineno, f[col[k]]);
+                    goto done;
+                }
+                r->id = (int)id;
+            } else {
+                double v = strtod(f[col[k]], &end);
+                if (end == f[col[k]] || *end || !isfinite(v)) {
+                    prt_fail(err, "%s:%d: bad number '%s' in column '%s'", path, lineno, f[col[k]], names[k]);
+                    goto done;
+                }
+                r->v[k - 1] = (float)v;
+            }
+        }
+        nrows++;
+    }
+    if (nrows == 0) { prt_fail(err, "%s: no vertex rows", path); goto done; }
+    qsort(rows, nrows, sizeof *rows, vrow_cmp);
+    for (size_t i = 1; i < nrows; i++)
+        if (rows[i].id == rows[i - 1].id) { prt_fail(err, "%s: vertex %d listed twice", path, rows[i].id); goto done; }
+    int *ids = malloc(sizeof(int) * nrows);
+    float *rgb = malloc(sizeof(float) * 3 * nrows);
+    float *se = (se_out && col[4] >= 0) ? malloc(sizeof(float) * 3 * nrows) : NULL;
+    if (!ids || !rgb || (se_out && col[4] >= 0 && !se)) {
+        free(ids); free(rgb); free(se);
+        prt_fail(err, "%s: out of memory", path);
+        goto done;
+    }
+    for (size_t i = 0; i < nrows; i++) {
+        ids[i] = rows[i].id;
+        for (int c = 0; c < 3; c++) {
+            rgb[3 * i + c] = rows[i].v[c];
+            if (se) se[3 * i + c] = rows[i].v[3 + c];
+        }
+    }
+    *ids_out = ids;
+    *rgb_out = rgb;
+    if (se_out) *se_out = se;
+    *n_out = (int)nrows;
+    rc = 0;
+done:
+    free(rows);
+    free(text);
+    return rc;
+}
+
+/* Writes the false-colour map of per-pixel relative errors e[w*h]. */
+static int write_error_image(const char *path, const float *e, int w, int h, prt_error *err) {
+    prt_image im = { 0 };
+    if (image_alloc(&im, w, h, 3, err)) return -1;
+    for (long i = 0; i < (long)w * h; i++) {
+        float t = e[i] > 0 ? (float)((log10(e[i]) + 3.0) / 3.0) : 0.f, rgb[3];
+        cmp_colormap(t, rgb);
+        for (int c = 0; c < 3; c++) im.data[3 * i + c] = srgb_to_linear(rgb[c]);
+    }
+    image_desc d = { 0 };
+    int rc = image_write(path, &im, &d, err);
+    image_free(&im);
+    return rc;
+}
+
+static bool is_csv(const char *path) {
+    char ext[16];
+    prt_path_ext(path, ext);
+    return !strcmp(ext, "csv");
+}
+
+/* Compares two files (see header). */
+int cmp_files(const char *a, const char *b, const char *error_image, cmp_result *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    bool ca = is_csv(a), cb = is_csv(b);
+    if (ca != cb)
+        return prt_fail(err, "cannot compare %s with %s: one is a per-vertex CSV and the other an image",
+                        ca ? a : b, ca ? b : a);
+    if (ca) {
+        if (error_image) return prt_fail(err, "%s: an error image needs two images, not per-vertex CSV files", error_image);
+        int *ia = NULL, *ib = NULL, na = 0, nb = 0, rc = -1;
+        float *va = NULL, *vb = NULL, *seb = NULL;
+        if (cmp_read_vertex_csv(a, &ia, &va, NULL, &na, err)) goto csv_done;
+        if (cmp_read_vertex_csv(b, &ib, &vb, &seb, &nb, err)) goto csv_done;
+        if (na != nb) { prt_fail(err, "%s has %d vertices but %s has %d", a, na, b, nb); goto csv_done; }
+        for (int i = 0; i < na; i++)
+            if (ia[i] != ib[i]) { prt_fail(err, "%s and %s list different vertices (vertex %d vs %d)", a, b, ia[i], ib[i]); goto csv_done; }
+        if (cmp_arrays(va, vb, na, 3, out, NULL, err)) {
+            char msg[sizeof err->msg];
+            snprintf(msg, sizeof msg, "%s", err->msg);
+            prt_fail(err, "%s vs %s: %s", a, b, msg);
+            goto csv_done;
+        }
+        if (out->worst_item >= 0) out->worst_item = ia[out->worst_item];
+        if (seb) {
+            double s2 = 0, b2 = 0;
+            for (long i = 0; i < 3L * nb; i++) { s2 += (double)seb[i] * seb[i]; b2 += (double)vb[i] * vb[i]; }
+            out->ref_noise = b2 > 0 ? sqrt(s2 / b2) : 0;
+        }
+        rc = 0;
+    csv_done:
+        free(ia); free(ib); free(va); free(vb); free(seb);
+        return rc;
+    }
+    prt_image ima = { 0 }, imb = { 0 };
+    float *e = NULL;
+    int rc = -1;
+    if (image_read(a, &ima, err)) goto img_done;
+    if (image_read(b, &imb, err)) goto img_done;
+    if (ima.w != imb.w || ima.h != imb.h) {
+        prt_fail(err, "size mismatch: %s is %dx%d but %s is %dx%d", a, ima.w, ima.h, b, imb.w, imb.h);
+        goto img_done;
+    }
+    if (ima.c != 3 || imb.c != 3) { prt_fail(err, "%s, %s: expected RGB images", a, b); goto img_done; }
+    long n = (long)ima.w * ima.h;
+    e = prt_calloc((size_t)n, sizeof(float), err);
+    if (!e) goto img_done;
+    if (cmp_arrays(ima.data, imb.data, n, 3, out, e, err)) {
+        char msg[sizeof err->msg];
+        snprintf(msg, sizeof msg, "%s", err->msg);
+        prt_fail(err, "%s vs %s: %s", a, b, msg);
+        goto img_done;
+    }
+    out->ref_noise = -1;
+    if (error_image && write_error_image(error_image, e, ima.w, ima.h, err)) goto img_done;
+    rc = 0;
+img_done:
+    free(e);
+    image_free(&ima);
+    image_free(&imb);
+    return rc;
+}
