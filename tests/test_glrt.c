@@ -11,6 +11,8 @@
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
  *    mode's difference from it is reported (it is a different, finer model). */
 #include "check.h"
+#include "brdf.h"
+#include "factor.h"
 #include "glrt.h"
 #include "light.h"
 #include "precompute.h"
@@ -281,6 +283,75 @@ static void test_synthetic(void) {
     }
 }
 
+/* View maps with real lookups: material 0 gets random smooth view maps in the grid or the polar
+ * parameterization (its seam crosses the image: the eye is above the plane's middle, so the local
+ * view azimuths go all the way round), normals are tilted at random. The per-vertex view model
+ * must reproduce sum_k brdf_factor_view(wl)_k g_k with brdf_frame's frames, clamped at zero. */
+static void test_viewmaps(void) {
+    for (int param = 0; param < 2; param++) {
+        synth s;
+        synth_make(&s, 28, 32, 16, 777 + param);
+        rng r = { 4242 + param };
+        brdf_factor *f = &s.d.factors[0];
+        f->param = param ? BRDF_PARAM_POLAR : BRDF_PARAM_GRID;
+        for (int x = 0; x < f->res * f->res * f->K * 3; x++) f->view[x] = rng_f(&r) * (x % 3 == 1 ? -0.5f : 1.0f);
+        prt_mesh *m = &s.d.scene.mesh;
+        for (int v = 0; v < m->nverts; v++) {
+            float *n = m->nrm + 3 * v;
+            n[0] = (rng_f(&r) - 0.5f) * 0.8f;
+            n[1] = (rng_f(&r) - 0.5f) * 0.8f;
+            n[2] = 1;
+            v3_normalize(n);
+        }
+        prt_camera cam = { .eye = { 0.1f, 0.15f, 1.2f }, .target = { 0, 0.1f, 0 }, .up = { 0, 1, 0 }, .fov_deg = 100 };
+        float *rgb = calloc(3 * (size_t)m->nverts, sizeof(float));
+        int below = 0;
+        for (int v = 0; v < m->nverts; v++) {
+            int mi = m->mat[v];
+            const brdf_factor *fv = &s.d.factors[mi];
+            float sv[3], tv[3], wo[3], wl[3], h[3 * 16];
+            brdf_frame(m->nrm + 3 * v, sv, tv);
+            v3_sub(wo, cam.eye, m->pos + 3 * v);
+            v3_normalize(wo);
+            brdf_to_local(sv, tv, m->nrm + 3 * v, wo, wl);
+            if (fv->lambertian) {
+                const float up[3] = { 0, 0, 1 };
+                brdf_factor_view(fv, up, h);
+            } else brdf_factor_view(fv, wl, h);
+            below += wl[2] <= 0;
+            uint32_t first = s.d.transport.vec_first[v];
+            for (int ch = 0; ch < 3; ch++) {
+                double acc = 0;
+                for (int k = 0; k < fv->K; k++) acc += h[3 * k + ch] * s.gtrue[3 * (first + k) + ch];
+                rgb[3 * v + ch] = acc > 0 ? (float)acc : 0;
+            }
+        }
+        prt_error err = { { 0 } };
+        render_desc rd = { .width = 128, .height = 96, .camera = cam };
+        prt_image ref = { 0 }, img = { 0 };
+        glrt_desc desc = { .view = GLRT_VIEW_VERTEX };
+        glrt *rt = glrt_create(&s.d, &desc, &err);
+        CHECK(rt != NULL, "%s", err.msg);
+        int rc = rt ? render_vertex_colors(m, rgb, &rd, &ref, &err) : -1;
+        CHECK(rc == 0, "%s", err.msg);
+        if (rc == 0) {
+            CHECK(glrt_set_light(rt, (const float (*)[4])s.L, &err) == 0, "%s", err.msg);
+            CHECK(glrt_render(rt, &cam, 128, 96, 0, &img, &err) == 0, "%s", err.msg);
+            double cmax = 0;
+            for (size_t i = 0; i < (size_t)128 * 96 * 3; i++) cmax = fmax(cmax, ref.data[i]);
+            double e = img.data ? image_max_rel(&img, &ref, cmax) : 1;
+            CHECK_LE(e, 2e-5, "%s view maps: per-vertex GL differs from brdf_factor_view", param ? "polar" : "grid");
+            CHECK(cmax > 0, "black reference");
+        }
+        CHECK(below < m->nverts / 4, "too many vertices facing away (%d)", below);
+        image_free(&ref);
+        image_free(&img);
+        glrt_destroy(rt);
+        free(rgb);
+        synth_free(&s);
+    }
+}
+
 /* sum_c |value_c L[index_c]| per vector and channel (the rounding scale of g). */
 typedef struct abs_ctx { const float (*L)[4]; double acc[3]; } abs_ctx;
 static void abs_fn(void *p, uint32_t index, float r, float g, float b) {
@@ -450,6 +521,7 @@ static void test_egl(void) {
 int main(void) {
     test_synthetic();
     test_egl();
+    test_viewmaps();
     test_scene();
     return check_summary();
 }
