@@ -68,6 +68,13 @@ int glctx_resolve_auto(glctx_kind *out, prt_error *err) {
     return 0;
 }
 
+int glctx_kind_from_env(glctx_kind dflt, glctx_kind *out, prt_error *err) {
+    const char *e = getenv("PRT_GL");
+    if (!e || !*e) { *out = dflt; return 0; }
+    if (glctx_parse_kind(e, out)) return prt_fail(err, "PRT_GL=%s: unknown GL backend (use osmesa or egl)", e);
+    return 0;
+}
+
 /* Loads every entry point of the table; returns -1 naming the first missing required one. */
 static int load_table(glctx *c, glctx_loader load, prt_error *err) {
     gl_api *gl = &c->gl;

@@ -126,6 +126,10 @@ int glctx_parse_kind(const char *s, glctx_kind *out);
  * when $PRT_GL is set to something unknown. */
 int glctx_resolve_auto(glctx_kind *out, prt_error *err);
 
+/* The kind $PRT_GL names ("osmesa", "egl"; "auto" resolves as GLCTX_AUTO), else dflt. Returns -1
+ * with err set when $PRT_GL is unknown. */
+int glctx_kind_from_env(glctx_kind dflt, glctx_kind *out, prt_error *err);
+
 /* Compiles and links a program from vertex + fragment source (each a complete shader, #version
  * included). Returns the program, or 0 with err holding the first line of the info log. */
 GLuint glctx_program(const gl_api *gl, const char *vs, const char *fs, const char *name, prt_error *err);

@@ -1,9 +1,8 @@
 /* render.c - cameras (look-at, perspective, per-pixel rays) and the headless
  * offscreen rasterizer of per-vertex colours (render.h).
  *
- * render_vertex_colors makes a headless GL context for the call (OSMesa by
- * default, EGL on a machine with an NVIDIA GPU; $PRT_GL overrides, glctx.h),
- * draws into a 32-bit float framebuffer through gldraw.c (background from the
+ * render_vertex_colors makes a headless GL context for the call (OSMesa, or
+ * EGL when $PRT_GL=egl; glctx.h), draws into a 32-bit float framebuffer through gldraw.c (background from the
  * probe per pixel, then the mesh with Gouraud colours and a depth test), and
  * reads the linear radiance back. The camera math here is the single source of
  * truth for every image prt makes: the background shader and the reference
@@ -130,7 +129,11 @@ int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc 
     if (w <= 0 || h <= 0 || w > 16384 || h > 16384)
         return prt_fail(err, "render: image size %dx%d out of range (1..16384)", w, h);
     if (m->ntris > 0 && (!rgb || m->nverts <= 0)) return prt_fail(err, "render: no vertex colours");
-    glctx *ctx = glctx_create(GLCTX_AUTO, NULL, err);
+    /* OSMesa unless $PRT_GL says otherwise: this is the CPU backend's raster, it must work on any
+     * machine (the GPU path, EGL, is the GLSL runtime's; glrt.h). */
+    glctx_kind kind;
+    if (glctx_kind_from_env(GLCTX_OSMESA, &kind, err)) return -1;
+    glctx *ctx = glctx_create(kind, NULL, err);
     if (!ctx) return -1;
     gldraw gd;
     int rc = -1;

@@ -7,7 +7,8 @@
  *     if (render_vertex_colors(&mesh, rgb, &d, &img, &err)) puts(err.msg);
  *
  * Rendering is headless through OSMesa (no window or display needed; the
- * "dummy backend" that lets GL-facing code run in CI). The framebuffer is
+ * "dummy backend" that lets GL-facing code run in CI); $PRT_GL=egl selects an
+ * EGL device context instead (gpu/glctx.h). The framebuffer is
  * 32-bit float, so the image holds linear radiance (HDR) for EXR output;
  * colours are interpolated (Gouraud) between vertices as in the paper. Where no
  * surface is drawn the background is the probe seen through the camera (if

@@ -73,6 +73,8 @@ static void view_help(void) {
            "  --threads T            CPU runtime threads (default: all cores)\n"
            "  --frames N             render N frames, then exit (no interaction)\n"
            "  --screenshot OUT.png   with --frames: save the last frame; otherwise the S key's file\n"
+           "  --window-shot OUT.png  with --frames: also save the window as displayed, text included\n"
+           "  --keys CHARS           with --frames: press these keys, one before each frame from the second\n"
            "\n"
            "keys:\n%s", k_keys);
 }
@@ -102,7 +104,8 @@ typedef struct viewer {
     int fbw, fbh;
     int drag;               /* 0 none, 1 orbit, 2 pan, 3 light */
     double mx, my;
-    const char *shot_path;
+    const char *shot_path, *window_shot, *keys;
+    bool window_shot_now;
     int shots;
 } viewer;
 
@@ -179,11 +182,12 @@ static void overlay(viewer *v) {
     glrt_get_timing(v->rt, &t);
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
-                     "%s   %s runtime%s%s   %s %s\n"
+                     "%s   %s runtime%s%s%s   [%.40s, %s]\n"
                      "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
-                     slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? ", kernel " : "",
-                     v->gl ? t.light_method_name : "", t.context, v->gl && v->vertex_model ? "(per-vertex view)" : "",
+                     slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
+                     v->gl ? t.light_method_name : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
+                     t.renderer, t.context,
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure, v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
@@ -206,6 +210,31 @@ static int screenshot(viewer *v, const char *path, prt_error *err) {
     return rc;
 }
 
+/* Saves the window's back buffer as displayed (tone-mapped, text included): 8-bit sRGB codes,
+ * decoded to linear so that image_write's sRGB encoding gives the same codes back. */
+static int window_screenshot(viewer *v, const char *path, prt_error *err) {
+    const gl_api *gl = &v->ctx->gl;
+    int w = v->fbw, h = v->fbh;
+    uint8_t *px = malloc((size_t)w * h * 4);
+    prt_image img;
+    if (!px || image_alloc(&img, w, h, 3, err)) { free(px); return prt_fail(err, "out of memory"); }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl->ReadBuffer(GL_BACK);
+    gl->PixelStorei(GL_PACK_ALIGNMENT, 1);
+    gl->ReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, px);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++) {
+                float s = px[4 * ((size_t)(h - 1 - y) * w + x) + c] / 255.0f;
+                img.data[3 * ((size_t)y * w + x) + c] = s <= 0.04045f ? s / 12.92f : powf((s + 0.055f) / 1.055f, 2.4f);
+            }
+    free(px);
+    image_desc d = { 0 };
+    int rc = image_write(path, &img, &d, err);
+    image_free(&img);
+    return rc;
+}
+
 /* One frame: light change if needed, view change if needed, present, text, swap. */
 static int frame(viewer *v, bool force_view, prt_error *err) {
     double t0 = prt_now();
@@ -222,6 +251,7 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     v->view_dirty = false;
     glrt_present(v->rt, v->fbw, v->fbh, v->exposure);
     overlay(v);
+    if (v->window_shot_now && window_screenshot(v, v->window_shot, err)) return -1;
     glfwSwapBuffers((GLFWwindow *)v->ctx->window);
     v->present_dirty = false;
     if (prt_now() - v->title_at > 0.5) {
@@ -458,6 +488,8 @@ int cli_view(int argc, char **argv) {
         OPT("--camera", cam_s)
         OPT("--light-rotation", rot_s)
         OPT("--screenshot", v->shot_path)
+        OPT("--window-shot", v->window_shot)
+        OPT("--keys", v->keys)
         if ((r = cli_opt(k_view, argc, argv, &i, "--probe", &val))) {
             if (r < 0) goto usage;
             if (npaths == VIEW_MAX_PROBES) { cli_error(k_view, "at most %d probes", VIEW_MAX_PROBES); goto usage; }
@@ -509,6 +541,7 @@ int cli_view(int argc, char **argv) {
         v->file = argv[i];
     }
     if (!v->file) { cli_error(k_view, "no input .prt file (see --help)"); goto usage; }
+    if ((v->window_shot || v->keys) && !frames) { cli_error(k_view, "--window-shot and --keys need --frames"); goto usage; }
     if (!npaths && !ndirs) { cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"); goto usage; }
     if (v->shot_path) {
         char ext[16];
@@ -581,8 +614,11 @@ int cli_view(int argc, char **argv) {
     if (frames) {
         /* Scripted: the first frame is a light change, the others view changes of the same view. */
         double sum_view = 0;
-        for (int f = 0; f < frames && !glfwWindowShouldClose(win); f++) {
+        size_t nkeys = v->keys ? strlen(v->keys) : 0;
+        for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
             glfwPollEvents();
+            if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
+            v->window_shot_now = v->window_shot && f == frames - 1;
             if (frame(v, true, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
             if (f > 0 || frames == 1) sum_view += v->view_ms;
         }
@@ -773,6 +809,8 @@ int cli_glbench(int argc, char **argv) {
            gpu[1] > 0 ? 1e3 / gpu[1] : 0, gpu[1]);
     printf("%-26s %13.2f fps (%6.1f ms) %13.2f fps (%6.1f ms)\n", "CPU runtime", 1e3 / res[1][0], res[1][0],
            1e3 / res[1][1], res[1][1]);
+    printf("glbench: K=%d gl_light_ms=%.3f gl_view_ms=%.3f cpu_light_ms=%.3f cpu_view_ms=%.3f kernel=%s\n", kuse,
+           res[0][0], res[0][1], res[1][0], res[1][1], tm.light_method_name);
     printf("\npaper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
            "  GPU 1-term: light change 31 fps, view change 226 fps\n"
            "  CPU 1-term: light change 12 fps, view change 79 fps\n"

@@ -262,6 +262,45 @@ static void test_background(void) {
     image_free(&probe.img);
 }
 
+/* A probe in another layout (angular, 1:1) is resampled to latlong through probe_eval: texels hold
+ * f at the directions probe_pixel_dir gives, the background must show f of each pixel's ray. */
+static void test_background_angular(void) {
+    prt_probe p;
+    memset(&p, 0, sizeof p);
+    p.layout = PROBE_ANGULAR;
+    p.img.w = p.img.h = 384;
+    p.img.c = 3;
+    p.img.data = calloc((size_t)384 * 384 * 3, sizeof(float));
+    for (int y = 0; y < 384; y++)
+        for (int x = 0; x < 384; x++) {
+            float d[3], sa;
+            if (!probe_pixel_dir(&p, x, y, d, &sa)) continue;
+            for (int c = 0; c < 3; c++) p.img.data[3 * ((size_t)y * 384 + x) + c] = 1 + d[c];
+        }
+    prt_mesh empty = { 0 };
+    const int w = 80, h = 60;
+    /* Looking toward -z, the middle of the angular map (away from its singular rim at +z). */
+    prt_camera cam = { .eye = { 0, 0, 0 }, .target = { 0.2f, -0.3f, -1 }, .up = { 0, 1, 0 }, .fov_deg = 70 };
+    render_desc d = { .width = w, .height = h, .camera = cam, .background = &p };
+    prt_image img;
+    prt_error err = { { 0 } };
+    int rc = render_vertex_colors(&empty, NULL, &d, &img, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc == 0) {
+        double maxerr = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                float dir[3];
+                camera_ray(&cam, w, h, x + 0.5f, y + 0.5f, dir);
+                for (int c = 0; c < 3; c++) maxerr = fmax(maxerr, fabs(img.data[3 * ((size_t)y * w + x) + c] - (1 + dir[c])));
+            }
+        /* Two bilinear resamplings (angular -> latlong -> pixel) of a linear function. */
+        CHECK_LE(maxerr, 5e-3, "angular probe background");
+        image_free(&img);
+    }
+    free(p.img.data);
+}
+
 static void test_errors_and_backends(void) {
     prt_mesh m = { 0 };
     float *rgb;
@@ -313,6 +352,7 @@ int main(void) {
     test_camera();
     test_raster();
     test_background();
+    test_background_angular();
     test_errors_and_backends();
     return check_summary();
 }
