@@ -564,7 +564,9 @@ int cli_view(int argc, char **argv) {
     prt_error err = { { 0 } };
     int rc = 1;
     if (prtfile_read(v->file, &v->d, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-    camera_default(v->d.scene.bmin, v->d.scene.bmax, (float)w / h, &v->cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&v->d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &v->cam);
     if (cam_s && camera_parse(cam_s, &v->cam) != 0) {
         cli_error(k_view, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
         rc = 2;
@@ -729,7 +731,9 @@ int cli_glbench(int argc, char **argv) {
     rgb = malloc(sizeof(float) * 3 * (size_t)(d.scene.mesh.nverts > 0 ? d.scene.mesh.nverts : 1));
     if (!L || !rgb || !t) { cli_error(k_cmd, "out of memory"); goto done; }
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     int kfile = 0;
     for (int m = 0; m < d.scene.nmaterials; m++)
         if (d.factors[m].K > kfile) kfile = d.factors[m].K;
