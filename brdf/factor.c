@@ -120,6 +120,7 @@ static void tab_rows(void *vctx, int b, int e, int thread) {
 typedef struct chan_fac {
     double *sig;   /* [n] */
     double *L, *V; /* [k][n] */
+    double rest2;  /* squared Frobenius norm beyond sig[0] not listed in sig (rank-1 path's residual) */
 } chan_fac;
 
 static void chan_free(chan_fac *c) {
@@ -251,10 +252,47 @@ SYM_SOLVER(solve_sym_s, float, LAPACKE_ssytrd, LAPACKE_ssterf, LAPACKE_sstemr, L
 SVD_SOLVER(solve_svd_d, double, LAPACKE_dgesdd)
 SVD_SOLVER(solve_svd_s, float, LAPACKE_sgesdd)
 
-/* Factors one channel with the chosen solver; flips each term so its light vector sums >= 0. */
+/* Rank-1 shortcut (Lambertian channels, section 3.3.1): if M = m m'/M_pp up to 1e-6 of ||M||
+ * for the largest diagonal entry p and its column m (or M = 0), writes the exact one-term
+ * factorization and returns 1; otherwise 0. O(n^2) instead of a tridiagonal reduction. */
+static int try_rank1(const float *M, int n, int k, chan_fac *out, prt_error *err) {
+    int p = 0;
+    double norm2 = 0;
+    for (int i = 0; i < n; i++)
+        if (M[(size_t)i * n + i] > M[(size_t)p * n + p]) p = i;
+    double mpp = M[(size_t)p * n + p], resid2 = 0;
+    const float *m = M + (size_t)p * n; /* row p = column p */
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) {
+            double a = M[(size_t)i * n + j], r = mpp > 0 ? a - (double)m[i] * m[j] / mpp : a;
+            norm2 += a * a, resid2 += r * r;
+        }
+    if (norm2 > 0 && (!(mpp > 0) || resid2 > 1e-12 * norm2)) return 0;
+    out->sig = calloc((size_t)n, sizeof *out->sig);
+    out->L = calloc((size_t)n * (k > 0 ? k : 1), sizeof *out->L);
+    out->V = calloc((size_t)n * (k > 0 ? k : 1), sizeof *out->V);
+    if (!out->sig || !out->L || !out->V) {
+        chan_free(out);
+        return prt_fail(err, "brdf_factorize: out of memory");
+    }
+    if (norm2 > 0) {
+        /* M ~ sigma q q' with q = m / |m|, sigma = |m|^2 / M_pp */
+        double mm = 0;
+        for (int i = 0; i < n; i++) mm += (double)m[i] * m[i];
+        out->sig[0] = mm / mpp;
+        out->rest2 = resid2;
+        for (int i = 0; i < n && k > 0; i++) out->L[i] = out->V[i] = m[i] / sqrt(mm);
+    }
+    return 1;
+}
+
+/* Factors one channel with the chosen solver (or the rank-1 shortcut); flips each term so
+ * its light vector sums >= 0. */
 static int solve_channel(brdf_solver s, const float *M, int n, int k, chan_fac *out, prt_error *err) {
     memset(out, 0, sizeof *out);
-    int rc;
+    int rc = try_rank1(M, n, k, out, err);
+    if (rc < 0) return -1;
+    if (rc > 0) return 0;
     switch (s) {
     case BRDF_SOLVER_SYM_S: rc = solve_sym_s(M, n, k, out, err); break;
     case BRDF_SOLVER_GESDD_D: rc = solve_svd_d(M, n, k, out, err); break;
@@ -289,6 +327,25 @@ static void fill_outside(const fac_grid *g, float *map, int K) {
     }
 }
 
+/* True if a = s b (s >= 0) to within 1e-6 of max|a| (tabulation rounding is ~1e-7):
+ * grey BRDFs (s = 1, bitwise) and e.g. coloured Lambert or coloured-metal Phong. */
+static bool channels_proportional(const float *a, const float *b, size_t nn, double *s) {
+    if (!memcmp(a, b, nn * sizeof *a)) return *s = 1, true;
+    size_t p = 0;
+    double amax = 0;
+    for (size_t i = 0; i < nn; i++) {
+        if (fabsf(b[i]) > fabsf(b[p])) p = i;
+        amax = fmax(amax, fabs(a[i]));
+    }
+    if (b[p] == 0) return amax == 0 ? (*s = 0, true) : false;
+    double r = (double)a[p] / b[p];
+    if (!(r >= 0)) return false;
+    for (size_t i = 0; i < nn; i++)
+        if (fabs(a[i] - r * b[i]) > 1e-6 * amax) return false;
+    *s = r;
+    return true;
+}
+
 /* Tabulates and factors p (see factor.h). Returns 0, or -1 with err set. */
 int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_factor *out, prt_error *err) {
     double t0 = prt_now();
@@ -321,11 +378,12 @@ int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_fact
     tab_ctx tc = { p, &g, { M, M + nn, M + 2 * nn } };
     prt_parallel_for(n, 16, 0, tab_rows, &tc);
 
-    /* channels with bitwise identical tabulations share one factorization */
+    /* channels with identical or proportional tabulations share one factorization */
     int src[3] = { 0, 1, 2 };
+    double scale[3] = { 1, 1, 1 };
     for (int c = 1; c < 3; c++)
         for (int o = 0; o < c; o++)
-            if (src[o] == o && !memcmp(tc.M[c], tc.M[o], nn * sizeof *M)) { src[c] = o; break; }
+            if (src[o] == o && channels_proportional(tc.M[c], tc.M[o], nn, &scale[c])) { src[c] = o; break; }
     for (int c = 0; c < 3; c++)
         if (src[c] == c && solve_channel(d.solver, tc.M[c], n, kmax, &cf[c], err)) goto done;
     free(M);
@@ -335,24 +393,27 @@ int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_fact
     out->nsigma = n < BRDF_MAX_SIGMA ? n : BRDF_MAX_SIGMA;
     double total = 0, tail[BRDF_MAX_SIGMA + 1] = { 0 };
     for (int c = 0; c < 3; c++) {
-        const double *sg = cf[src[c]].sig;
+        const double *sg = cf[src[c]].sig, sc = scale[c], s2 = sc * sc;
         double acc = 0;
         for (int j = n - 1; j >= 0; j--) {
-            acc += sg[j] * sg[j];
+            acc += sg[j] * sg[j] * s2;
+            if (j == 0) acc += cf[src[c]].rest2 * s2;
             if (j <= out->nsigma) tail[j] += acc;
         }
+        /* the rank-1 residual belongs to every tail from k = 1 on */
+        for (int j = 1; j <= out->nsigma; j++) tail[j] += cf[src[c]].rest2 * s2;
         total += acc;
-        for (int j = 0; j < out->nsigma; j++) out->sigma[c][j] = (float)sg[j];
+        for (int j = 0; j < out->nsigma; j++) out->sigma[c][j] = (float)(sg[j] * sc);
     }
     for (int k = 0; k <= out->nsigma; k++) out->rel_rms[k] = total > 0 ? (float)sqrt(tail[k] / total) : 0.0f;
 
     /* K: the error target's smallest K, or max_terms limited to the numerical rank */
     double smax = 0;
-    for (int c = 0; c < 3; c++) smax = fmax(smax, cf[src[c]].sig[0]);
+    for (int c = 0; c < 3; c++) smax = fmax(smax, cf[src[c]].sig[0] * scale[c]);
     int rank = 0;
     for (int c = 0; c < 3; c++) {
         int r = 0;
-        while (r < kmax && cf[src[c]].sig[r] > RANK_TOL * smax) r++;
+        while (r < kmax && cf[src[c]].sig[r] * scale[c] > RANK_TOL * smax) r++;
         if (r > rank) rank = r;
     }
     int K = kmax;
@@ -370,7 +431,7 @@ int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_fact
     for (int c = 0; c < 3; c++) {
         const chan_fac *f = &cf[src[c]];
         for (int j = 0; j < K; j++) {
-            double s = sqrt(f->sig[j]);
+            double s = sqrt(f->sig[j] * scale[c]);
             const double *L = f->L + (size_t)j * n, *V = f->V + (size_t)j * n;
             for (int i = 0; i < n; i++) {
                 size_t at = ((size_t)g.texel[i] * K + j) * 3 + c;
@@ -456,7 +517,7 @@ bool brdf_factor_uv(const brdf_factor *f, const float w[3], float *x, float *y) 
 }
 
 /* Bilinear fetch of all K*3 values of map at (x, y); x wraps for the polar parameterization. */
-static void fetch(const brdf_factor *f, const float *map, float x, float y, float *out) {
+static void fetch(const brdf_factor *f, const float *restrict map, float x, float y, float *restrict out) {
     int res = f->res, m = f->K * 3;
     float fx = x * res - 0.5f, fy = y * res - 0.5f;
     float flx = floorf(fx), fly = floorf(fy), tx = fx - flx, ty = fy - fly;
@@ -470,8 +531,8 @@ static void fetch(const brdf_factor *f, const float *map, float x, float y, floa
     }
     y0 = y0 < 0 ? 0 : y0 > res - 1 ? res - 1 : y0;
     y1 = y1 < 0 ? 0 : y1 > res - 1 ? res - 1 : y1;
-    const float *a = map + ((size_t)y0 * res + x0) * m, *b = map + ((size_t)y0 * res + x1) * m;
-    const float *c = map + ((size_t)y1 * res + x0) * m, *d = map + ((size_t)y1 * res + x1) * m;
+    const float *restrict a = map + ((size_t)y0 * res + x0) * m, *restrict b = map + ((size_t)y0 * res + x1) * m;
+    const float *restrict c = map + ((size_t)y1 * res + x0) * m, *restrict d = map + ((size_t)y1 * res + x1) * m;
     float w00 = (1 - tx) * (1 - ty), w01 = tx * (1 - ty), w10 = (1 - tx) * ty, w11 = tx * ty;
     for (int i = 0; i < m; i++) out[i] = w00 * a[i] + w01 * b[i] + w10 * c[i] + w11 * d[i];
 }

@@ -16,7 +16,9 @@
  * cosine-weighted L2 norm of the BRDF, so truncated SVD is optimal in that norm.
  * With BRDF_PARAM_POLAR (Eq. 11), x = atan2(w.t, w.s)/(2 pi) in [0,1), y = sqrt(1 - w.n).
  *
- * Each colour channel is factored separately with LAPACK (sgesdd/dgesdd):
+ * Each colour channel is factored separately with LAPACK (by default the
+ * symmetric eigensolver, see brdf_solver; channels that are identical or
+ * proportional, and rank-1 channels, are shortcut):
  * light map k = sqrt(sigma_k) u_k, view map k = sqrt(sigma_k) v_k. K is
  * desc.max_terms, or with error_target > 0 the smallest K <= max_terms whose
  * relative cosine-weighted RMS error is at most the target. A Lambertian BRDF
@@ -25,9 +27,11 @@
  * Polar maps are weighted by each texel's projected solid angle before the SVD
  * (and unweighted after), so rel_rms means the same cosine-weighted norm there.
  *
- * Lookups are bilinear (x wraps around for the polar parameterization). Texels outside the disk are filled from their nearest
- * inside texel after factorization, so lookups near the horizon do not fade to
- * zero. A direction below the horizon returns zeros.
+ * Lookups are bilinear (x wraps around for the polar parameterization). Texels
+ * outside the disk are filled from their nearest inside texel after
+ * factorization, so lookups near the horizon do not fade to zero. A direction
+ * below the horizon returns zeros. Lookups allocate nothing and are safe to call
+ * from many threads at once.
  *
  * Ownership: light/view arrays belong to the factor; brdf_factor_free frees them. */
 #ifndef PRT_FACTOR_H

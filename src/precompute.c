@@ -62,6 +62,7 @@ typedef struct pc_scratch {
     float *w;           /* [vres^2] V max(n.w,0) dw of one face */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
     float *T;           /* [Kmax * 3 * CUBE_TEXELS] planar transport cubes */
+    float *G;           /* [CUBE_TEXELS][Kmax * 3] light-map values at lit texels */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
     float *tmp;         /* [2 * CUBE_RES^2] Haar scratch */
     float *sh;          /* [SH_MAX_ORDER^2] */
@@ -80,7 +81,7 @@ typedef struct pc_ctx {
     float lambert_g[PRT_MAX_MATERIALS][3];   /* constant light map of a Lambertian factor */
     prt_transport *t;
     int vres, ss, sh_order;
-    const float *vdir;      /* [6 vres^2][3] unit directions of the visibility texels */
+    const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
     const int *order;       /* vertices to process, indexed by the parallel-for range */
@@ -96,7 +97,7 @@ typedef struct pc_ctx {
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
-    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
+    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->G); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
     memset(s, 0, sizeof *s);
 }
 
@@ -108,7 +109,8 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     s->w = s->vis ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
     s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
     s->T = s->acc ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
-    s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
+    s->G = s->T ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
+    s->wav = s->G ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
     s->tmp = s->wav ? prt_calloc(2 * CUBE_RES * CUBE_RES, sizeof(float), err) : NULL;
     s->sh = s->tmp ? prt_calloc(SH_MAX_ORDER * SH_MAX_ORDER, sizeof(float), err) : NULL;
     s->tscratch = s->sh ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
@@ -134,13 +136,16 @@ static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
             memset(acc, 0, sizeof(float) * CUBE_RES * CUBE_RES);
             continue;
         }
-        const uint8_t *v = s->vis + (size_t)f * R * R;
-        const float *dir = c->vdir + (size_t)3 * f * R * R;
+        const uint8_t *restrict v = s->vis + (size_t)f * R * R;
+        const size_t plane = (size_t)6 * R * R;
+        const float *restrict dx = c->vdir + (size_t)f * R * R;
+        const float *restrict dy = dx + plane, *restrict dz = dy + plane, *restrict dw = c->vdw;
         const float nx = n[0], ny = n[1], nz = n[2];
-        float *w = s->w;
+        float *restrict w = s->w;
+        /* branch-free so it vectorizes: V is 0 below the horizon anyway */
         for (int i = 0; i < R * R; i++) {
-            float nd = nx * dir[3 * i] + ny * dir[3 * i + 1] + nz * dir[3 * i + 2];
-            w[i] = v[i] ? (nd > 0 ? nd : 0) * c->vdw[i] : 0.f;
+            float nd = nx * dx[i] + ny * dy[i] + nz * dz[i];
+            w[i] = (float)v[i] * (nd > 0.f ? nd : 0.f) * dw[i];
         }
         if (ss == 1) {
             memcpy(acc, w, sizeof(float) * CUBE_RES * CUBE_RES);
@@ -183,15 +188,14 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
             for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
     } else {
+        /* g_k at each lit texel's centre into G[j][3K] (only where a_j > 0), then the K x 3
+         * planar cubes are written sequentially, one at a time. */
         float sv[3], tv[3];
         brdf_frame(n, sv, tv);
-        float g[BRDF_MAX_SIGMA * 3];
+        float *G = s->G;
+        const int K3 = 3 * K;
         for (size_t j = 0; j < ct; j++) {
-            float a = s->acc[j];
-            if (a == 0) {
-                for (int kc = 0; kc < 3 * K; kc++) s->T[(size_t)kc * ct + j] = 0;
-                continue;
-            }
+            if (s->acc[j] == 0) continue;
             float wl[3];
             brdf_to_local(sv, tv, n, c->ldir + 3 * j, wl);
             /* A straddling texel's centre may be just below the horizon while some of its
@@ -202,8 +206,15 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
                 float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
                 wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
             }
-            brdf_factor_light(fac, wl, g);
-            for (int kc = 0; kc < 3 * K; kc++) s->T[(size_t)kc * ct + j] = g[kc] * a;
+            brdf_factor_light(fac, wl, G + j * K3);
+        }
+        for (int kc = 0; kc < K3; kc++) {
+            float *restrict T = s->T + (size_t)kc * ct;
+            const float *restrict g = G + kc;
+            for (size_t j = 0; j < ct; j++) {
+                float a = s->acc[j];
+                T[j] = a != 0 ? g[j * K3] * a : 0.f;
+            }
         }
     }
 
@@ -222,8 +233,13 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
                 haar_cube_forward(T, CUBE_RES, out, s->tmp);
             }
         }
+        /* |vector|^2 for the error statistics, in 8 float lanes (vectorizes), summed in double */
         double norm2 = 0;
-        for (size_t i = 0; i < 3 * ct; i++) norm2 += (double)s->wav[i] * s->wav[i];
+        for (size_t i0 = 0; i0 < 3 * ct; i0 += 1024) {
+            float part = 0;   /* float blocks of 1024, summed in double */
+            for (size_t i = i0; i < i0 + 1024; i++) part += s->wav[i] * s->wav[i];
+            norm2 += part;
+        }
         double e2 = transport_store(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         if (norm2 > 0) {
             s->err_sum += e2 / norm2;
@@ -481,7 +497,11 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     nvec = ldir ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
     order = nvec ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
     if (!order) goto fail;
-    for (int i = 0; i < 6 * R * R; i++) cube_texel_dir(R, i, vdir + 3 * i);
+    for (int i = 0; i < 6 * R * R; i++) {
+        float dd[3];
+        cube_texel_dir(R, i, dd);
+        for (int k = 0; k < 3; k++) vdir[(size_t)k * 6 * R * R + i] = dd[k];
+    }
     cube_face_solid_angles(R, vdw);
     for (int i = 0; i < CUBE_TEXELS; i++) cube_texel_dir(CUBE_RES, i, ldir + 3 * i);
     for (int v = 0; v < m->nverts; v++) nvec[v] = out->factors[m->mat ? m->mat[v] : 0].K;

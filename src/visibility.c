@@ -133,31 +133,32 @@ vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
 /* The ray offset chosen at creation. */
 float vis_eps(const vis_scene *vs) { return vs->eps; }
 
-/* Unnormalized direction of face coordinates (sc, tc) per cubemap.h's table. */
-static inline void vis_face_dir(int face, float sc, float tc, float d[3]) {
-    switch (face) {
-    case 0: d[0] = 1; d[1] = -tc; d[2] = -sc; break;
-    case 1: d[0] = -1; d[1] = -tc; d[2] = sc; break;
-    case 2: d[0] = sc; d[1] = 1; d[2] = tc; break;
-    case 3: d[0] = sc; d[1] = -1; d[2] = -tc; break;
-    case 4: d[0] = sc; d[1] = -tc; d[2] = 1; break;
-    default: d[0] = -sc; d[1] = -tc; d[2] = -1; break;
-    }
-}
+/* Face f's texel directions are d = o + sc * a + tc * b (cubemap.h's table, unnormalized). */
+static const float vis_face_o[6][3] = { { 1, 0, 0 }, { -1, 0, 0 }, { 0, 1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 } };
+static const float vis_face_a[6][3] = { { 0, 0, -1 }, { 0, 0, 1 }, { 1, 0, 0 }, { 1, 0, 0 }, { 1, 0, 0 }, { -1, 0, 0 } };
+static const float vis_face_b[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 }, { 0, -1, 0 }, { 0, -1, 0 } };
 
-/* Fills vis[6*res*res] (1 = escapes); see visibility.h. */
+/* Fills vis[6*res*res] (1 = escapes); see visibility.h.
+ * n.d is linear in (sc, tc) on a face, so its extremes over a 4x4 packet's texel centres are at
+ * the packet's corner centres: a packet with all four corners below the horizon is skipped
+ * without touching its lanes, and one with all four above needs no per-lane test. Texel
+ * coordinates (i + 0.5) 2/res - 1 are exact in float for res a power of two, so the per-lane
+ * test gives exactly opposite answers for antipodal texels: exactly half the cube is traced. */
 void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, uint8_t *vis, long *traced, long *hits) {
     const float eps = vs->eps;
-    const float ox = p[0] + eps * n[0], oy = p[1] + eps * n[1], oz = p[2] + eps * n[2];
     const float inv = 2.0f / (float)res;
     long nt = 0, nh = 0;
+    memset(vis, 0, (size_t)6 * res * res);
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int valid[16];
-    int lane_idx[16];
     for (int l = 0; l < 16; l++) {
+        r.org_x[l] = p[0] + eps * n[0];
+        r.org_y[l] = p[1] + eps * n[1];
+        r.org_z[l] = p[2] + eps * n[2];
+        r.tnear[l] = eps;
         r.time[l] = 0;
         r.mask[l] = 0xffffffffu;
         r.id[l] = (unsigned)l;
@@ -165,35 +166,45 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
     }
     for (int face = 0; face < 6; face++) {
         uint8_t *fv = vis + (size_t)face * res * res;
+        const float *o = vis_face_o[face], *a = vis_face_a[face], *b = vis_face_b[face];
+        /* n.d = no + sc na + tc nb */
+        const float no = n[0] * o[0] + n[1] * o[1] + n[2] * o[2];
+        const float na = n[0] * a[0] + n[1] * a[1] + n[2] * a[2];
+        const float nb = n[0] * b[0] + n[1] * b[1] + n[2] * b[2];
+        /* whole face below the horizon (its four corners are): nothing to trace */
+        if (no + fabsf(na) + fabsf(nb) <= 0) continue;
         for (int bj = 0; bj < res; bj += 4) {
+            const float tc0 = (bj + 0.5f) * inv - 1.0f;
             for (int bi = 0; bi < res; bi += 4) {
+                const float sc0 = (bi + 0.5f) * inv - 1.0f;
+                const float s3 = 3 * inv;
+                float c00 = no + sc0 * na + tc0 * nb, c10 = c00 + s3 * na, c01 = c00 + s3 * nb, c11 = c10 + s3 * nb;
+                float cmax = fmaxf(fmaxf(c00, c10), fmaxf(c01, c11)), cmin = fminf(fminf(c00, c10), fminf(c01, c11));
+                /* the margin covers rounding, so the shortcuts agree with the per-lane test exactly
+                 * (which keeps antipodal texels' decisions complementary) */
+                if (!(cmax > -1e-5f)) continue;
+                const bool all_up = cmin > 1e-5f && bi + 4 <= res && bj + 4 <= res;
                 int nvalid = 0;
                 for (int l = 0; l < 16; l++) {
-                    int i = bi + (l & 3), j = bj + (l >> 2);
-                    valid[l] = 0;
-                    lane_idx[l] = -1;
-                    if (i >= res || j >= res) continue;
-                    lane_idx[l] = j * res + i;
-                    fv[j * res + i] = 0;
-                    float d[3];
-                    vis_face_dir(face, (i + 0.5f) * inv - 1.0f, (j + 0.5f) * inv - 1.0f, d);
-                    float nd = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-                    if (!(nd > 0)) continue;
-                    float s = 1.0f / sqrtf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                    r.org_x[l] = ox; r.org_y[l] = oy; r.org_z[l] = oz;
-                    r.dir_x[l] = d[0] * s; r.dir_y[l] = d[1] * s; r.dir_z[l] = d[2] * s;
-                    r.tnear[l] = eps;
+                    const int i = bi + (l & 3), j = bj + (l >> 2);
+                    const float sc = sc0 + (float)(l & 3) * inv, tc = tc0 + (float)(l >> 2) * inv;
+                    float dx = o[0] + sc * a[0] + tc * b[0], dy = o[1] + sc * a[1] + tc * b[1], dz = o[2] + sc * a[2] + tc * b[2];
+                    float s = 1.0f / sqrtf(dx * dx + dy * dy + dz * dz);
+                    r.dir_x[l] = dx * s;
+                    r.dir_y[l] = dy * s;
+                    r.dir_z[l] = dz * s;
                     r.tfar[l] = INFINITY;
-                    valid[l] = -1;
-                    nvalid++;
+                    int ok = all_up || (i < res && j < res && no + sc * na + tc * nb > 0);
+                    valid[l] = ok ? -1 : 0;
+                    nvalid += ok;
                 }
                 if (!nvalid) continue;
                 rtcOccluded16(valid, vs->scene, &ctx, &r);
                 nt += nvalid;
                 for (int l = 0; l < 16; l++) {
                     if (!valid[l]) continue;
-                    bool open = r.tfar[l] >= 0;   /* Embree sets tfar = -inf on a hit */
-                    fv[lane_idx[l]] = open ? 1 : 0;
+                    const bool open = r.tfar[l] >= 0;   /* Embree sets tfar = -inf on a hit */
+                    fv[(bj + (l >> 2)) * res + bi + (l & 3)] = (uint8_t)open;
                     nh += !open;
                 }
             }

@@ -104,7 +104,7 @@ static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, floa
         double bound = fabs(hv[ch]) * (sL * dT / 2 + sT * dL / 2) + a * rgb[ch] * (fabs(quad) + 1e-4);
         CHECK_NEAR(got[ch], expect, bound, "%s channel %d", label, ch);
         if (ch == 0)
-            printf("%s: radiance %.6f, expected a L %.6f = %.6f, |error| %.2e <= bound %.2e\n", label, got[ch],
+            printf("%s: radiance %.6f, expected a L x %.1f = %.6f, |error| %.2e <= bound %.2e\n", label, got[ch],
                    frac, expect, fabs(got[ch] - expect), bound);
     }
     CHECK(out.stats.rays_traced > 0 && out.stats.t_total > 0 && out.stats.peak_rss_bytes > 0, "%s: stats filled", label);
@@ -199,11 +199,12 @@ static int make_sphere_plane(prt_scene *sc, prt_error *err) {
     prt_mesh plane = { 0 }, sph = { 0 };
     float c[3] = { 0, 0.8f, 0 };
     if (mesh_make_plane(&plane, -2, 2, -2, 2, 0, 21, 21, err) || mesh_make_sphere(&sph, c, 0.6f, 20, 40, err)) return -1;
-    for (int v = 0; v < sph.nverts; v++) sph.mat[v] = 1;
+    int first = plane.nverts;
     if (mesh_append(&plane, &sph, err)) return -1;
     mesh_free(&sph);
     if (scene_from_mesh(&plane, "lambert:kd=0.6,0.55,0.5", sc, err)) return -1;
     if (scene_material(sc, "phong:kd=0.3,0.1,0.1;ks=0.4;n=20", err) != 1) return -1;
+    for (int v = first; v < sc->mesh.nverts; v++) sc->mesh.mat[v] = 1;
     return 0;
 }
 
@@ -278,10 +279,13 @@ static void test_end_to_end(void) {
         double rel_all = sqrt((se[0] + se[1]) / (st[0] + st[1]));
         printf("end to end (%s): rel RMS error vs brute force: %.2f%% (plane %.2f%% over %d vertices, glossy sphere %.2f%% over %d)\n",
                pass == 0 ? "N=24576 float" : "N=128 8-bit", 100 * rel_all, 100 * rel_plane, cnt[0], 100 * rel_sphere, cnt[1]);
-        /* Tolerances: uncompressed, the difference is the discretization (64-res lighting texels and
-         * texel-centre g_k against 192-res point samples, 2x2-filtered visibility at the sun's
-         * shadow edges): 3%. The 8-bit N = 128 default adds truncation of the sun's shadow: 10%. */
-        CHECK_LE(rel_all, pass == 0 ? 0.03 : 0.10, "relative RMS error");
+        /* Tolerances. Uncompressed, the difference is the discretization alone (64-res lighting
+         * texels and texel-centre g_k against 192-res point samples, 2x2-filtered visibility at
+         * the sun's shadow edges): measured 0.3%, asserted 1.5%. The N = 128 8-bit default adds
+         * the non-linear truncation, which under a sun-dominated probe is a pointwise error of
+         * the 128-term transport at the sun's texel (measured: N = 128 float 13.5%, all
+         * coefficients 8-bit 4.3%, N = 128 8-bit 14%): asserted 20%. */
+        CHECK_LE(rel_all, pass == 0 ? 0.015 : 0.20, "relative RMS error");
         CHECK(cnt[0] > 20 && cnt[1] > 20, "enough vertices: %d %d", cnt[0], cnt[1]);
         free(verts);
         free(truth);

@@ -290,6 +290,9 @@ static void test_constant(void) {
     prt_probe p;
     prt_error err;
     CHECK(probe_make_constant(rgb, &p, &err) == 0, "%s", err.msg);
+    float nan_d[3] = { NAN, 0, 1 }, got[3] = { 1, 1, 1 };
+    probe_eval(&p, nan_d, got);
+    CHECK(got[0] == 0 && got[1] == 0 && got[2] == 0, "a non-finite direction gives 0, not a wild read");
     int res = 32;
     float *cube = malloc(sizeof(float) * 6 * res * res * 3);
     float R[9];

@@ -81,19 +81,20 @@ static void test_texel_convention(void) {
         vis_cube(vs, p, d, res, vis, &traced, &hits);   /* normal = d: the texel is in the upper hemisphere */
         CHECK(hits == 1, "texel %d: %ld hits", idx, hits);
         CHECK(vis[idx] == 0, "texel %d not blocked", idx);
-        long zeros_up = 0, ones_down = 0;
+        long zeros_up = 0, ones_down = 0, horizon = 0;
         for (int i = 0; i < 6 * res * res; i++) {
             float e[3];
             cube_texel_dir(res, i, e);
             float ed = e[0] * d[0] + e[1] * d[1] + e[2] * d[2];
-            if (fabsf(ed) < 1e-6f) continue;   /* on the horizon: rounding decides */
+            if (fabsf(ed) < 1e-6f) { horizon++; continue; }   /* on the horizon: rounding decides */
             if (ed > 0) zeros_up += vis[i] == 0;
             else ones_down += vis[i] != 0;
         }
         CHECK(zeros_up == 1, "%ld blocked texels", zeros_up);
         CHECK(ones_down == 0, "%ld below-horizon texels are not 0", ones_down);
-        /* traced = texels with n.w > 0: by symmetry of the texel centres, exactly half the cube */
-        CHECK(traced == 3 * res * res, "traced %ld", traced);
+        /* traced = texels with n.w > 0: texel centres come in antipodal pairs, so half the cube
+         * except pairs lying exactly on the horizon */
+        CHECK(traced <= 3 * res * res && traced >= 3 * res * res - horizon / 2, "traced %ld (%ld on the horizon)", traced, horizon);
         free(vis);
         vis_destroy(vs);
     }
