@@ -19,7 +19,19 @@
  *   ggx:kd=..;ks=F0;alpha=A                 Cook-Torrance, GGX D, height-correlated Smith G, Schlick F
  *   beckmann:kd=..;ks=F0;alpha=A            the same with the Beckmann distribution
  * Named presets: "paper-phong" (red diffuse, exponent 50), "paper-as" (kd 0.5, ks 0.75, nu 10, nv 100).
- * Missing keys take defaults (kd 0.5, ks 0.5, n 50, nu=nv 100, alpha 0.2).
+ * Missing keys take defaults (kd 0.5, ks 0.5, n 50, nu=nv 100, alpha 0.2; Lafortune without a
+ * lobe gets -1.0288,-1.0288,1.0288,50, the Phong lobe of ks 0.5, n 50 at its peak).
+ * Ranges: kd, ks >= 0 (ks <= 1 where it is a Fresnel F0: as, ggx, beckmann), exponents in
+ * [0, 1e6], alpha in [0.001, 2]. AS uses its own coupled diffuse term (AS 2000 Eq. 5,
+ * kd = Rd, ks = Rs); the microfacet models add a plain kd/pi, so with kd > 0 their
+ * albedo can exceed 1 at grazing angles. Blinn's (n+8)/(8pi) overshoots the exact
+ * normalization by up to 4%.
+ *
+ * Sampling: a one-sample mixture of cosine-weighted diffuse and the model's lobe (Phong:
+ * cos^n around the mirror direction; Blinn, AS (AS 2000 Eq. 9), GGX, Beckmann: half
+ * vectors; Lafortune: cos^n around each lobe's peak C*wo, or diffuse when the peak is
+ * below the horizon), weighted by the luminance of kd and ks (Lafortune: each lobe's
+ * approximate albedo). brdf_pdf is exactly that mixture's density.
  *
  * Errors: brdf_parse fails with one line naming the spec and the problem
  * (unknown model, unknown key, bad number, value out of range). */

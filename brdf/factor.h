@@ -16,15 +16,22 @@
  * cosine-weighted L2 norm of the BRDF, so truncated SVD is optimal in that norm.
  * With BRDF_PARAM_POLAR (Eq. 11), x = atan2(w.t, w.s)/(2 pi) in [0,1), y = sqrt(1 - w.n).
  *
- * Each colour channel is factored separately with LAPACK (sgesdd/dgesdd):
+ * Each colour channel is factored separately with LAPACK (by default the
+ * symmetric eigensolver, see brdf_solver; channels that are identical or
+ * proportional, and rank-1 channels, are shortcut):
  * light map k = sqrt(sigma_k) u_k, view map k = sqrt(sigma_k) v_k. K is
  * desc.max_terms, or with error_target > 0 the smallest K <= max_terms whose
  * relative cosine-weighted RMS error is at most the target. A Lambertian BRDF
  * (rank 1) gets K = 1.
  *
- * Lookups are bilinear. Texels outside the disk are filled from their nearest
- * inside texel after factorization, so lookups near the horizon do not fade to
- * zero. A direction below the horizon returns zeros.
+ * Polar maps are weighted by each texel's projected solid angle before the SVD
+ * (and unweighted after), so rel_rms means the same cosine-weighted norm there.
+ *
+ * Lookups are bilinear (x wraps around for the polar parameterization). Texels
+ * outside the disk are filled from their nearest inside texel after
+ * factorization, so lookups near the horizon do not fade to zero. A direction
+ * below the horizon returns zeros. Lookups allocate nothing and are safe to call
+ * from many threads at once.
  *
  * Ownership: light/view arrays belong to the factor; brdf_factor_free frees them. */
 #ifndef PRT_FACTOR_H
@@ -36,18 +43,30 @@
 
 typedef enum brdf_param { BRDF_PARAM_GRID = 0, BRDF_PARAM_POLAR = 1 } brdf_param;
 
+/* Which LAPACK path factors a channel. AUTO is the fastest correct one measured on
+ * the 1810 x 1810 matrix of res 48 (see factor.c): the symmetric eigensolver in double.
+ * The others are kept for cross-checks and timing (tests/test_factor.c). */
+typedef enum brdf_solver {
+    BRDF_SOLVER_AUTO = 0,
+    BRDF_SOLVER_SYM_D,    /* dsytrd + dsterf + dstemr + dormtr: top-K |eigenvalues| of symmetric M */
+    BRDF_SOLVER_SYM_S,    /* the same in single precision */
+    BRDF_SOLVER_GESDD_D,  /* full SVD, dgesdd */
+    BRDF_SOLVER_GESDD_S   /* full SVD, sgesdd */
+} brdf_solver;
+
 typedef struct brdf_factor_desc {
     int max_terms;        /* 0: 4 */
     float error_target;   /* 0: exactly max_terms (or rank, if smaller); > 0: smallest K meeting it */
     int res;              /* 0: 48 */
     brdf_param param;     /* grid (default) or polar */
+    brdf_solver solver;   /* 0: AUTO */
 } brdf_factor_desc;
 
 typedef struct brdf_factor {
     int K;                /* terms kept */
     int res;
     brdf_param param;
-    float *light;         /* [res*res][K][3]: texel-major, term, channel */
+    float *light;         /* [res*res][K][3]: texel-major (texel y*res + x), term, channel */
     float *view;          /* [res*res][K][3] */
     int nsigma;           /* valid entries in sigma[c][] */
     float sigma[3][BRDF_MAX_SIGMA];   /* singular values per channel, descending */

@@ -7,7 +7,8 @@
  *     if (render_vertex_colors(&mesh, rgb, &d, &img, &err)) puts(err.msg);
  *
  * Rendering is headless through OSMesa (no window or display needed; the
- * "dummy backend" that lets GL-facing code run in CI). The framebuffer is
+ * "dummy backend" that lets GL-facing code run in CI); $PRT_GL=egl selects an
+ * EGL device context instead (gpu/glctx.h). The framebuffer is
  * 32-bit float, so the image holds linear radiance (HDR) for EXR output;
  * colours are interpolated (Gouraud) between vertices as in the paper. Where no
  * surface is drawn the background is the probe seen through the camera (if
@@ -35,8 +36,13 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
 int camera_parse(const char *s, prt_camera *cam);
 /* Column-major 4x4 view and projection matrices (OpenGL conventions). */
 void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfar, float view[16], float proj[16]);
-/* World-space direction of the ray through pixel centre (px, py) (py = 0 at the top). */
+/* World-space unit direction of the ray through image point (px, py) of a w x h image, in
+ * continuous pixel coordinates: (0, 0) is the top-left corner, so pixel (x, y)'s centre is
+ * (x + 0.5, y + 0.5) (py grows downward). This is the ray GL rasterizes at that pixel centre. */
 void camera_ray(const prt_camera *cam, int w, int h, float px, float py, float dir[3]);
+/* Orthonormal camera frame: forward (eye -> target), right, up (up re-orthogonalized; when up
+ * is zero or parallel to forward, world y, else z, is used instead). */
+void camera_basis(const prt_camera *cam, float fwd[3], float right[3], float up[3]);
 
 typedef struct render_desc {
     int width, height;           /* 0: 800 x 600 */

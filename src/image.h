@@ -15,7 +15,8 @@
  * channels (grey is replicated, alpha dropped). Rows top to bottom.
  *
  * image_write picks the format from the extension: .exr writes linear 32-bit
- * float (half for .exr with d.half) RGB; .png/.jpg/.tif/.ppm write 8-bit sRGB after
+ * float (half for .exr with d.half) RGB, .hdr linear Radiance RGBE;
+ * .png/.jpg/.tif/.ppm write 8-bit sRGB after
  * exposure (2^exposure) and the tone map (d.tonemap: 0 clamp, 1 Reinhard,
  * 2 ACES fit; default clamp). Non-finite pixels are written as 0. The file is written to a
  * temporary name and renamed, so no partial file is left behind.

@@ -17,6 +17,9 @@
  * of the probe over the texel, estimated with ss x ss stratified sub-samples
  * each bilinearly filtered (not point sampling), and with the probe rotated by R
  * (row-major 3x3, applied to the lighting: a light at direction d moves to R d).
+ * Texels that a pixel far brighter than the mean reaches (a sun) are sampled
+ * more finely (sub-samples a quarter pixel apart, up to 64 x 64), so that a sun
+ * one pixel wide keeps its power at any probe resolution (see probe.c).
  *
  * Ownership: the probe owns its image; probe_free frees it. */
 #ifndef PRT_PROBE_H
@@ -24,7 +27,8 @@
 #include "common.h"
 #include "image.h"
 
-typedef enum probe_layout { PROBE_AUTO = 0, PROBE_LATLONG, PROBE_ANGULAR, PROBE_VCROSS, PROBE_HCROSS } probe_layout;
+/* PROBE_CROSS (input only): a vertical or horizontal cross, whichever the aspect says. */
+typedef enum probe_layout { PROBE_AUTO = 0, PROBE_LATLONG, PROBE_ANGULAR, PROBE_VCROSS, PROBE_HCROSS, PROBE_CROSS } probe_layout;
 
 typedef struct prt_probe {
     prt_image img;          /* RGB, clamped to finite, >= 0 */
@@ -36,9 +40,12 @@ typedef struct prt_probe {
 
 /* Parses "latlong", "angular", "vcross", "hcross", "cross" (auto cross), "auto". Returns -1 if unknown. */
 int probe_parse_layout(const char *s, probe_layout *out);
+/* Name of a layout ("latlong", ...), static storage. */
+const char *probe_layout_name(probe_layout l);
 /* Loads a probe image file with OIIO and detects its layout (unless given). */
 int probe_load(const char *path, probe_layout layout, prt_probe *out, prt_error *err);
-/* Takes ownership of an image as a probe (layout AUTO detects), clamping as on load. */
+/* Takes ownership of an image as a probe (layout AUTO detects), clamping as on load.
+ * *img is zeroed on return; on failure its pixels are freed. RGBA loses its alpha. */
 int probe_from_image(prt_image *img, probe_layout layout, const char *name, prt_probe *out, prt_error *err);
 
 /* Procedural sky: a zenith-to-horizon gradient, a darker ground, and a small sun of the given
@@ -62,7 +69,7 @@ void probe_eval(const prt_probe *p, const float d[3], float rgb[3]);
 bool probe_pixel_dir(const prt_probe *p, int x, int y, float d[3], float *solid_angle);
 
 /* Cube map of the probe: out[CUBE texel][3] (interleaved RGB, cubemap.h indexing), rotated by R
- * (NULL = identity), ss x ss sub-samples per texel (0 = 4). Uses both cores. */
+ * (NULL = identity), ss x ss sub-samples per texel (0 = 4, at most 64). Uses both cores. */
 void probe_to_cube(const prt_probe *p, int res, const float R[9], int ss, float *out_rgb);
 
 /* Rotation matrix for --light-rotation "Y" or "Y,P" (degrees about +y, then pitch about +x). Returns -1 if unparsable. */

@@ -4,7 +4,7 @@
  * A transport vector is three channels (R, G, B) of CUBE_TEXELS wavelet
  * coefficients. sparse_select keeps the n coefficients of largest energy
  * r^2 + g^2 + b^2 (R, G and B share one index set), with a linear-time
- * selection (quickselect / nth_element, expected O(len)), ties broken by lower
+ * selection (radix select on the energies' float bits, O(len)), ties broken by lower
  * index, and returns their indices ascending. Keeping the largest coefficients of
  * an orthonormal basis is the L2-optimal n-term approximation (tested).
  *

@@ -1,7 +1,7 @@
 /* visibility.h - ray casting with Embree 3 (section 4.1's visibility cube maps).
  *
  * Usage:
- *     vis_scene *vs = vis_create(&mesh, &err);   // mesh buffers are SHARED: keep mesh alive
+ *     vis_scene *vs = vis_create(&mesh, &err);   // the triangle buffer is SHARED: keep mesh alive
  *     uint8_t vis[6*128*128]; long traced, hits;
  *     vis_cube(vs, p, n, 128, vis, &traced, &hits);
  *     vis_destroy(vs);
@@ -15,6 +15,20 @@
  * 1e-4 of the scene's bounding-box diagonal plus 1e-6 * the largest coordinate
  * magnitude (so a model far from the origin keeps float precision), and the
  * origin is nudged along the ray as well, so models at any scale and position work.
+ *
+ * Buffers: the triangle indices are shared with the mesh (rtcSetSharedGeometryBuffer).
+ * Embree reads vertices with 16-byte loads, so it needs 4 bytes of padding after the
+ * last float3 vertex, which mesh.pos does not have: vis_create copies the positions
+ * into a padded buffer it owns (12 bytes a vertex). So a later change to mesh.pos is
+ * not seen; build a new vis_scene instead.
+ *
+ * Hits: tri is the mesh's triangle index, ng = (P1 - P0) x (P2 - P0) (Embree's
+ * geometric normal: it points to the side from which the triangle is counter-
+ * clockwise). A miss has tri = -1, u = v = 0, t = INFINITY, ng = 0.
+ *
+ * Measured (bunny + 31K-vertex floor, one core of a shared Xeon, 128^2 cube, 4x4
+ * packets of rtcOccluded16): about 26 million rays a second; streams
+ * (rtcOccluded1M, per face or per cube) were 5-10% slower.
  *
  * Thread-safe: any number of threads may call vis_cube / vis_closest on one
  * vis_scene at once. */

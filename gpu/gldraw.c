@@ -1,0 +1,476 @@
+/* gldraw.c - the GL passes every prt image goes through: a 32-bit float
+ * render target (so images stay linear HDR radiance), the probe background
+ * computed per pixel from the camera ray, Gouraud vertex colours with a depth
+ * test, float read-back, and the tone-mapped blit for the viewer's window.
+ * See gldraw.h. */
+#include "gldraw.h"
+#include "font6x13.h"
+#include "probe.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char *k_fullscreen_vs =
+    "#version 330 core\n"
+    "void main() {\n"
+    "    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n"  /* one triangle covering the screen */
+    "    gl_Position = vec4(p * 2.0 - 1.0, 1.0, 1.0);\n"
+    "}\n";
+
+/* The ray of pixel centre gl_FragCoord, as camera_ray: d = f + sx*R + sy*U with R, U pre-scaled by
+ * tan(fov/2) (and the aspect). Latlong lookup per probe.h: u = 0.5 + atan2(x, -z)/2pi, v = acos(y)/pi. */
+static const char *k_bg_fs =
+    "#version 330 core\n"
+    "uniform vec2 u_size;\n"
+    "uniform vec3 u_fwd, u_right, u_up;\n"
+    "uniform mat3 u_rot_t;\n"
+    "uniform sampler2D u_probe;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    "    vec2 s = 2.0 * gl_FragCoord.xy / u_size - 1.0;\n"
+    "    vec3 d = u_rot_t * normalize(u_fwd + s.x * u_right + s.y * u_up);\n"
+    "    d = normalize(d);\n"
+    "    float u = 0.5 + atan(d.x, -d.z) * 0.15915494309189535;\n"
+    "    float v = acos(clamp(d.y, -1.0, 1.0)) * 0.3183098861837907;\n"
+    "    o_color = vec4(max(texture(u_probe, vec2(u, v)).rgb, vec3(0.0)), 1.0);\n"
+    "}\n";
+
+static const char *k_vc_vs =
+    "#version 330 core\n"
+    "layout(location = 0) in vec3 a_pos;\n"
+    "layout(location = 1) in vec3 a_col;\n"
+    "uniform mat4 u_mvp;\n"
+    "out vec3 v_col;\n"
+    "void main() { v_col = a_col; gl_Position = u_mvp * vec4(a_pos, 1.0); }\n";
+
+static const char *k_vc_fs =
+    "#version 330 core\n"
+    "in vec3 v_col;\n"
+    "out vec4 o_color;\n"
+    "void main() { o_color = vec4(v_col, 1.0); }\n";
+
+/* Exposure, clamp, sRGB (IEC 61966-2-1) like image_write's 8-bit output. */
+static const char *k_present_fs =
+    "#version 330 core\n"
+    "uniform sampler2D u_img;\n"
+    "uniform float u_scale;\n"
+    "uniform vec2 u_win;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    "    vec2 uv = gl_FragCoord.xy / u_win;\n"
+    "    vec3 c = clamp(texture(u_img, uv).rgb * u_scale, 0.0, 1.0);\n"
+    "    vec3 lo = c * 12.92, hi = 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055;\n"
+    "    o_color = vec4(mix(hi, lo, vec3(lessThanEqual(c, vec3(0.0031308)))), 1.0);\n"
+    "}\n";
+
+int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err) {
+    memset(d, 0, sizeof *d);
+    d->gl = gl;
+    if (!(d->prog_bg = glctx_program(gl, k_fullscreen_vs, k_bg_fs, "background", err))) return -1;
+    if (!(d->prog_vc = glctx_program(gl, k_vc_vs, k_vc_fs, "vertex colours", err))) return -1;
+    if (!(d->prog_present = glctx_program(gl, k_fullscreen_vs, k_present_fs, "present", err))) return -1;
+    gl->GenVertexArrays(1, &d->vao_empty);
+    return glctx_check(gl, "init", err);
+}
+
+/* Latlong RGB float texture of the probe: the image itself when it is latlong, else resampled. */
+int gldraw_set_probe(gldraw *d, const prt_probe *p, prt_error *err) {
+    const gl_api *gl = d->gl;
+    d->has_probe = false;
+    if (!p) return 0;
+    GLint maxtex = 4096;
+    gl->GetIntegerv(GL_MAX_TEXTURE_SIZE, &maxtex);
+    const float *px = p->img.data;
+    int w = p->img.w, h = p->img.h, c = p->img.c;
+    float *tmp = NULL;
+    bool latlong = p->layout == PROBE_LATLONG && w == 2 * h && w <= maxtex;
+    if (!latlong) {
+        h = p->img.h < 256 ? 256 : p->img.h;
+        if (2 * h > maxtex) h = maxtex / 2;
+        w = 2 * h;
+        c = 3;
+        tmp = prt_calloc((size_t)w * h * 3, sizeof(float), err);
+        if (!tmp) return -1;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                /* Inverse of the latlong map of probe.h at texel centres. */
+                float phi = ((x + 0.5f) / w - 0.5f) * 2.0f * (float)M_PI, th = (y + 0.5f) / h * (float)M_PI;
+                float dir[3] = { sinf(th) * sinf(phi), cosf(th), -sinf(th) * cosf(phi) };
+                probe_eval(p, dir, tmp + 3 * ((size_t)y * w + x));
+            }
+        px = tmp;
+    }
+    if (!d->probe_tex) gl->GenTextures(1, &d->probe_tex);
+    gl->BindTexture(GL_TEXTURE_2D, d->probe_tex);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, c == 4 ? GL_RGBA32F : GL_RGB32F, w, h, 0, c == 4 ? GL_RGBA : GL_RGB, GL_FLOAT, px);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    free(tmp);
+    if (glctx_check(gl, "probe texture upload", err)) return -1;
+    d->has_probe = true;
+    return 0;
+}
+
+int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
+    const gl_api *gl = d->gl;
+    free(d->scratch);
+    d->scratch = prt_calloc((size_t)(m->nverts > 0 ? m->nverts : 1) * 3, sizeof(float), err);
+    if (!d->scratch) return -1;
+    d->nverts = m->nverts;
+    d->ntris = m->ntris;
+    if (m->nverts > 0) mesh_bounds(m, d->bmin, d->bmax);
+    if (!d->mesh_vao) {
+        gl->GenVertexArrays(1, &d->mesh_vao);
+        gl->GenBuffers(1, &d->mesh_pos);
+        gl->GenBuffers(1, &d->mesh_col);
+        gl->GenBuffers(1, &d->mesh_ebo);
+    }
+    gl->BindVertexArray(d->mesh_vao);
+    gl->BindBuffer(GL_ARRAY_BUFFER, d->mesh_pos);
+    gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)m->nverts * 3 * sizeof(float), m->pos, GL_STATIC_DRAW);
+    gl->EnableVertexAttribArray(0);
+    gl->VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, d->mesh_col);
+    gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)m->nverts * 3 * sizeof(float), NULL, GL_STREAM_DRAW);
+    gl->EnableVertexAttribArray(1);
+    gl->VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, d->mesh_ebo);
+    gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), m->tris, GL_STATIC_DRAW);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    return glctx_check(gl, "mesh upload", err);
+}
+
+int gldraw_target(gldraw *d, int w, int h, prt_error *err) {
+    const gl_api *gl = d->gl;
+    if (w != d->fbo_w || h != d->fbo_h || !d->fbo) {
+        GLint maxrb = 0;
+        gl->GetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &maxrb);
+        if (w < 1 || h < 1 || w > maxrb || h > maxrb)
+            return prt_fail(err, "image size %dx%d not supported by the GL implementation (max %d)", w, h, maxrb);
+        if (!d->fbo) {
+            gl->GenFramebuffers(1, &d->fbo);
+            gl->GenTextures(1, &d->fbo_color);
+            gl->GenRenderbuffers(1, &d->fbo_depth);
+        }
+        gl->BindTexture(GL_TEXTURE_2D, d->fbo_color);
+        gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, NULL);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        gl->BindTexture(GL_TEXTURE_2D, 0);
+        gl->BindRenderbuffer(GL_RENDERBUFFER, d->fbo_depth);
+        gl->RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, w, h);
+        gl->BindRenderbuffer(GL_RENDERBUFFER, 0);
+        gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
+        gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, d->fbo_color, 0);
+        gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d->fbo_depth);
+        GLenum st = gl->CheckFramebufferStatus(GL_FRAMEBUFFER);
+        if (glctx_check(gl, "framebuffer allocation", err)) return -1;
+        if (st != GL_FRAMEBUFFER_COMPLETE)
+            return prt_fail(err, "GL float framebuffer %dx%d incomplete (status 0x%x)", w, h, st);
+        d->fbo_w = w;
+        d->fbo_h = h;
+    }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
+    gl->Viewport(0, 0, w, h);
+    gl->ClearColor(0, 0, 0, 1);
+    gl->ClearDepth(1.0);
+    gl->DepthMask(GL_TRUE);
+    gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    return 0;
+}
+
+void gldraw_mat3_transpose_gl(const float R[9], float out[9]) {
+    /* Row-major R read as column-major is R^T. */
+    static const float I[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    memcpy(out, R ? R : I, 9 * sizeof(float));
+}
+
+void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]) {
+    if (!d->has_probe) return;
+    const gl_api *gl = d->gl;
+    float f[3], r[3], u[3];
+    camera_basis(cam, f, r, u);
+    float fov = cam->fov_deg > 0 ? cam->fov_deg : 40.0f;
+    float ty = tanf(fov * (float)M_PI / 360.0f), tx = ty * (float)w / (float)h;
+    for (int i = 0; i < 3; i++) { r[i] *= tx; u[i] *= ty; }
+    float rt[9];
+    gldraw_mat3_transpose_gl(R, rt);
+    gl->UseProgram(d->prog_bg);
+    gl->Uniform2f(gl->GetUniformLocation(d->prog_bg, "u_size"), (float)w, (float)h);
+    gl->Uniform3fv(gl->GetUniformLocation(d->prog_bg, "u_fwd"), 1, f);
+    gl->Uniform3fv(gl->GetUniformLocation(d->prog_bg, "u_right"), 1, r);
+    gl->Uniform3fv(gl->GetUniformLocation(d->prog_bg, "u_up"), 1, u);
+    gl->UniformMatrix3fv(gl->GetUniformLocation(d->prog_bg, "u_rot_t"), 1, GL_FALSE, rt);
+    gl->Uniform1i(gl->GetUniformLocation(d->prog_bg, "u_probe"), 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_2D, d->probe_tex);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->DepthMask(GL_FALSE);
+    gl->BindVertexArray(d->vao_empty);
+    gl->DrawArrays(GL_TRIANGLES, 0, 3);
+    gl->BindVertexArray(0);
+    gl->DepthMask(GL_TRUE);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+}
+
+void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar) {
+    float f[3], r[3], u[3];
+    camera_basis(cam, f, r, u);
+    float dmin = INFINITY, dmax = -INFINITY;
+    for (int c = 0; c < 8; c++) {
+        float p[3] = { c & 1 ? d->bmax[0] : d->bmin[0], c & 2 ? d->bmax[1] : d->bmin[1], c & 4 ? d->bmax[2] : d->bmin[2] };
+        float z = (p[0] - cam->eye[0]) * f[0] + (p[1] - cam->eye[1]) * f[1] + (p[2] - cam->eye[2]) * f[2];
+        if (z < dmin) dmin = z;
+        if (z > dmax) dmax = z;
+    }
+    if (!(dmax > 0) || !isfinite(dmax)) { *znear = 0.01f; *zfar = 100.0f; return; }
+    float fa = dmax * 1.05f + 1e-6f;
+    float ne = dmin * 0.95f;
+    if (ne < fa * 1e-5f) ne = fa * 1e-5f;
+    *znear = ne;
+    *zfar = fa;
+}
+
+/* proj * view (column-major). */
+void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]) {
+    float zn, zf, view[16], proj[16];
+    gldraw_clip(d, cam, &zn, &zf);
+    camera_matrices(cam, (float)w / (float)h, zn, zf, view, proj);
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 4; r++) {
+            float s = 0;
+            for (int k = 0; k < 4; k++) s += proj[k * 4 + r] * view[c * 4 + k];
+            mvp[c * 4 + r] = s;
+        }
+}
+
+int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
+    const gl_api *gl = d->gl;
+    if (d->ntris == 0) return 0;
+    for (size_t i = 0; i < (size_t)d->nverts * 3; i++) d->scratch[i] = isfinite(rgb[i]) ? rgb[i] : 0.0f;
+    gl->BindBuffer(GL_ARRAY_BUFFER, d->mesh_col);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)d->nverts * 3 * sizeof(float), d->scratch);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    float mvp[16];
+    gldraw_mvp(d, cam, w, h, mvp);
+    gl->UseProgram(d->prog_vc);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(d->prog_vc, "u_mvp"), 1, GL_FALSE, mvp);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthFunc(GL_LESS);
+    gl->BindVertexArray(d->mesh_vao);
+    gl->DrawElements(GL_TRIANGLES, d->ntris * 3, GL_UNSIGNED_INT, 0);
+    gl->BindVertexArray(0);
+    gl->Disable(GL_DEPTH_TEST);
+    return glctx_check(gl, "drawing the mesh", err);
+}
+
+int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
+    const gl_api *gl = d->gl;
+    int w = d->fbo_w, h = d->fbo_h;
+    float *rgba = prt_calloc((size_t)w * h * 4, sizeof(float), err);
+    if (!rgba) return -1;
+    if (image_alloc(out, w, h, 3, err)) { free(rgba); return -1; }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
+    gl->ReadBuffer(GL_COLOR_ATTACHMENT0);
+    gl->PixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl->ReadPixels(0, 0, w, h, GL_RGBA, GL_FLOAT, rgba);
+    if (glctx_check(gl, "reading the image back", err)) { free(rgba); image_free(out); return -1; }
+    /* GL rows are bottom-first; prt images are top-first. */
+    for (int y = 0; y < h; y++) {
+        const float *src = rgba + (size_t)(h - 1 - y) * w * 4;
+        float *dst = out->data + (size_t)y * w * 3;
+        for (int x = 0; x < w; x++)
+            for (int c = 0; c < 3; c++) {
+                float v = src[4 * x + c];
+                dst[3 * x + c] = isfinite(v) ? v : 0.0f;
+            }
+    }
+    free(rgba);
+    return 0;
+}
+
+void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops) {
+    const gl_api *gl = d->gl;
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl->Viewport(0, 0, win_w, win_h);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->UseProgram(d->prog_present);
+    gl->Uniform1i(gl->GetUniformLocation(d->prog_present, "u_img"), 0);
+    gl->Uniform1f(gl->GetUniformLocation(d->prog_present, "u_scale"), exp2f(exposure_stops));
+    gl->Uniform2f(gl->GetUniformLocation(d->prog_present, "u_win"), (float)win_w, (float)win_h);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_2D, d->fbo_color);
+    gl->BindVertexArray(d->vao_empty);
+    gl->DrawArrays(GL_TRIANGLES, 0, 3);
+    gl->BindVertexArray(0);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+}
+
+void gldraw_free(gldraw *d) {
+    const gl_api *gl = d->gl;
+    if (!gl) return;
+    if (d->prog_bg) gl->DeleteProgram(d->prog_bg);
+    if (d->prog_vc) gl->DeleteProgram(d->prog_vc);
+    if (d->prog_present) gl->DeleteProgram(d->prog_present);
+    if (d->vao_empty) gl->DeleteVertexArrays(1, &d->vao_empty);
+    if (d->probe_tex) gl->DeleteTextures(1, &d->probe_tex);
+    if (d->fbo) {
+        gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+        gl->DeleteFramebuffers(1, &d->fbo);
+        gl->DeleteTextures(1, &d->fbo_color);
+        gl->DeleteRenderbuffers(1, &d->fbo_depth);
+    }
+    if (d->mesh_vao) {
+        gl->DeleteVertexArrays(1, &d->mesh_vao);
+        gl->DeleteBuffers(1, &d->mesh_pos);
+        gl->DeleteBuffers(1, &d->mesh_col);
+        gl->DeleteBuffers(1, &d->mesh_ebo);
+    }
+    free(d->scratch);
+    memset(d, 0, sizeof *d);
+}
+
+/* ---------------------------------------------------------------- text */
+
+
+static const char *k_text_vs =
+    "#version 330 core\n"
+    "layout(location = 0) in vec4 a;\n" /* x, y in pixels from the top-left; u, v in atlas texels */
+    "uniform vec2 u_win;\n"
+    "out vec2 v_uv;\n"
+    "void main() { v_uv = a.zw; gl_Position = vec4(2.0 * a.x / u_win.x - 1.0, 1.0 - 2.0 * a.y / u_win.y, 0.0, 1.0); }\n";
+
+static const char *k_text_fs =
+    "#version 330 core\n"
+    "uniform sampler2D u_font;\n"
+    "uniform vec4 u_color;\n"
+    "uniform int u_box;\n"
+    "in vec2 v_uv;\n"
+    "out vec4 o_color;\n"
+    "void main() {\n"
+    "    float a = u_box != 0 ? 1.0 : texelFetch(u_font, ivec2(v_uv), 0).r;\n"
+    "    if (a < 0.5) discard;\n"
+    "    o_color = u_color;\n"
+    "}\n";
+
+int gltext_init(gltext *t, const gl_api *gl, prt_error *err) {
+    memset(t, 0, sizeof *t);
+    t->gl = gl;
+    if (!(t->prog = glctx_program(gl, k_text_vs, k_text_fs, "text", err))) return -1;
+    /* Atlas: the 95 glyphs side by side, one byte per pixel. */
+    uint8_t atlas[FONT_H][95 * FONT_W];
+    for (int g = 0; g < 95; g++)
+        for (int r = 0; r < FONT_H; r++)
+            for (int c = 0; c < FONT_W; c++) atlas[r][g * FONT_W + c] = (k_font[g][r] & (0x80 >> c)) ? 255 : 0;
+    gl->GenTextures(1, &t->tex);
+    gl->BindTexture(GL_TEXTURE_2D, t->tex);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_R8, 95 * FONT_W, FONT_H, 0, GL_RED, GL_UNSIGNED_BYTE, atlas);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->GenVertexArrays(1, &t->vao);
+    gl->GenBuffers(1, &t->vbo);
+    gl->BindVertexArray(t->vao);
+    gl->BindBuffer(GL_ARRAY_BUFFER, t->vbo);
+    gl->EnableVertexAttribArray(0);
+    gl->VertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    return glctx_check(gl, "text init", err);
+}
+
+/* Appends one quad (two triangles) of pixel rectangle (x0,y0)-(x1,y1) with atlas rectangle (u0,v0)-(u1,v1). */
+static float *quad(float *p, float x0, float y0, float x1, float y1, float u0, float v0, float u1, float v1) {
+    const float q[6][4] = { { x0, y0, u0, v0 }, { x1, y0, u1, v0 }, { x1, y1, u1, v1 },
+                            { x0, y0, u0, v0 }, { x1, y1, u1, v1 }, { x0, y1, u0, v1 } };
+    memcpy(p, q, sizeof q);
+    return p + 24;
+}
+
+int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const char *text) {
+    const gl_api *gl = t->gl;
+    if (scale < 1) scale = 1;
+    int n = (int)strlen(text), lines = 1, cols = 0, maxcols = 0;
+    for (int i = 0; i < n; i++) {
+        if (text[i] == '\n') { lines++; cols = 0; }
+        else if (++cols > maxcols) maxcols = cols;
+    }
+    if (n + 1 > t->cap) {
+        float *nv = realloc(t->verts, sizeof(float) * 24 * (size_t)(n + 1));
+        if (!nv) return 0;
+        t->verts = nv;
+        t->cap = n + 1;
+    }
+    const int lh = (FONT_H + 1) * scale, pad = 4;
+    float *p = t->verts;
+    int cx = x, cy = y, glyphs = 0;
+    for (int i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)text[i];
+        if (c == '\n') { cx = x; cy += lh; continue; }
+        if (c < 32 || c > 126) c = '?';
+        float u0 = (float)((c - 32) * FONT_W);
+        p = quad(p, (float)cx, (float)cy, (float)(cx + FONT_W * scale), (float)(cy + FONT_H * scale), u0, 0,
+                 u0 + FONT_W, FONT_H);
+        glyphs++;
+        cx += FONT_W * scale;
+    }
+    float box[24];
+    quad(box, (float)(x - pad), (float)(y - pad), (float)(x + maxcols * FONT_W * scale + pad),
+         (float)(y + lines * lh + pad), 0, 0, 0, 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl->Viewport(0, 0, win_w, win_h);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->Enable(GL_BLEND);
+    gl->BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    gl->UseProgram(t->prog);
+    gl->Uniform2f(gl->GetUniformLocation(t->prog, "u_win"), (float)win_w, (float)win_h);
+    gl->Uniform1i(gl->GetUniformLocation(t->prog, "u_font"), 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_2D, t->tex);
+    gl->BindVertexArray(t->vao);
+    gl->BindBuffer(GL_ARRAY_BUFFER, t->vbo);
+    GLint lbox = gl->GetUniformLocation(t->prog, "u_box"), lcol = gl->GetUniformLocation(t->prog, "u_color");
+    /* Box. */
+    gl->BufferData(GL_ARRAY_BUFFER, sizeof box, box, GL_STREAM_DRAW);
+    gl->Uniform1i(lbox, 1);
+    gl->Uniform4fv(lcol, 1, (const float[4]){ 0, 0, 0, 0.55f });
+    gl->DrawArrays(GL_TRIANGLES, 0, 6);
+    /* Shadow, then the glyphs. */
+    gl->Uniform1i(lbox, 0);
+    for (int pass = 0; pass < 2 && glyphs; pass++) {
+        if (pass == 0)
+            for (int i = 0; i < glyphs * 6; i++) { t->verts[4 * i] += 1; t->verts[4 * i + 1] += 1; }
+        else
+            for (int i = 0; i < glyphs * 6; i++) { t->verts[4 * i] -= 1; t->verts[4 * i + 1] -= 1; }
+        gl->BufferData(GL_ARRAY_BUFFER, sizeof(float) * 24 * (size_t)glyphs, t->verts, GL_STREAM_DRAW);
+        gl->Uniform4fv(lcol, 1, pass == 0 ? (const float[4]){ 0, 0, 0, 1 } : (const float[4]){ 1, 1, 0.92f, 1 });
+        gl->DrawArrays(GL_TRIANGLES, 0, glyphs * 6);
+    }
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->Disable(GL_BLEND);
+    gl->UseProgram(0);
+    return lines * lh + 2 * pad;
+}
+
+void gltext_free(gltext *t) {
+    const gl_api *gl = t->gl;
+    if (gl) {
+        if (t->prog) gl->DeleteProgram(t->prog);
+        if (t->tex) gl->DeleteTextures(1, &t->tex);
+        if (t->vao) gl->DeleteVertexArrays(1, &t->vao);
+        if (t->vbo) gl->DeleteBuffers(1, &t->vbo);
+    }
+    free(t->verts);
+    memset(t, 0, sizeof *t);
+}

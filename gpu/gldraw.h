@@ -1,0 +1,81 @@
+/* gldraw.h - GL drawing passes shared by the offscreen renderer (render.c), the
+ * GLSL runtime (glrt.c) and the viewer (cli_view.c): the float render target,
+ * the probe background, Gouraud vertex colours, read-back and the tone-mapped
+ * blit to a window.
+ *
+ * Usage (with a current context, see glctx.h):
+ *     gldraw gd;
+ *     if (gldraw_init(&gd, &ctx->gl, &err)) ...
+ *     gldraw_set_mesh(&gd, &mesh, &err);  gldraw_set_probe(&gd, probe, &err);
+ *     gldraw_target(&gd, w, h, &err);                // float FBO, bound and cleared
+ *     gldraw_background(&gd, &cam, w, h, R);          // probe seen through the camera
+ *     gldraw_vertex_colors(&gd, &cam, w, h, rgb, &err);
+ *     gldraw_read(&gd, &img, &err);                    // linear RGB floats, top row first
+ *     gldraw_free(&gd);
+ *
+ * The background is drawn as one full-screen triangle whose fragment shader
+ * builds each pixel's view ray exactly as camera_ray does (render.h) and looks
+ * the probe up in a latitude-longitude texture (the probe itself when it is
+ * latlong, else resampled once with probe_eval), rotated by R^T so that a
+ * light at d appears at R d (as probe_to_cube rotates it). Then the mesh is drawn
+ * with the depth test. No culling: a floor seen from below is still drawn.
+ *
+ * Ownership: all GL objects belong to the gldraw; gldraw_free deletes them
+ * (the context must be current). Errors: -1 with one line in err. */
+#ifndef PRT_GLDRAW_H
+#define PRT_GLDRAW_H
+#include "glctx.h"
+#include "render.h"
+
+typedef struct gldraw {
+    const gl_api *gl;
+    GLuint prog_bg, prog_vc, prog_present, vao_empty;
+    GLuint probe_tex;
+    bool has_probe;
+    GLuint fbo, fbo_color, fbo_depth;
+    int fbo_w, fbo_h;
+    GLuint mesh_vao, mesh_pos, mesh_col, mesh_ebo;
+    int nverts, ntris;
+    float bmin[3], bmax[3];      /* mesh bounds, for the clip planes */
+    float *scratch;              /* [3*nverts] sanitized colours */
+} gldraw;
+
+int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err);
+/* Uploads the probe as a latlong texture (NULL: black background). */
+int gldraw_set_probe(gldraw *d, const prt_probe *p, prt_error *err);
+/* Uploads positions and triangles (colours come per draw). */
+int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err);
+/* Makes sure the float FBO is w x h, binds it, sets the viewport and clears colour and depth. */
+int gldraw_target(gldraw *d, int w, int h, prt_error *err);
+/* Draws the probe (or nothing when none is set) behind everything; R row-major 3x3 or NULL. */
+void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]);
+/* Near and far clip distances that hold the mesh bounds for cam. */
+void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar);
+/* proj * view (column-major) for cam on a w x h target, clip planes from gldraw_clip. */
+void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]);
+/* Uploads rgb[3*nverts] (non-finite -> 0) and draws the mesh with Gouraud colours. */
+int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
+/* Reads the bound FBO's colour into out (allocated here, 3 channels, top row first, finite). */
+int gldraw_read(gldraw *d, prt_image *out, prt_error *err);
+/* Draws the FBO's colour into the default framebuffer (win_w x win_h) with exposure 2^stops,
+ * clamp and sRGB encoding (the same tone curve as image_write's PNG output). */
+void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops);
+void gldraw_free(gldraw *d);
+
+/* On-screen text in the 6x13 X11 "Fixed" bitmap font (font6x13.h), drawn with GL over the
+ * current framebuffer: a translucent dark box, then white glyphs with a 1-pixel shadow. */
+typedef struct gltext {
+    const gl_api *gl;
+    GLuint prog, tex, vao, vbo;
+    float *verts;       /* scratch: 6 vertices x 4 floats per glyph */
+    int cap;            /* glyphs the scratch holds */
+} gltext;
+int gltext_init(gltext *t, const gl_api *gl, prt_error *err);
+/* Draws text ('\n' separates lines) with its top-left corner at (x, y) pixels from the top-left of a
+ * win_w x win_h framebuffer, glyphs scaled by an integer factor. Returns the height drawn in pixels. */
+int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const char *text);
+void gltext_free(gltext *t);
+
+/* Row-major 3x3 R -> column-major GL mat3 of R^T (what the background shader wants). */
+void gldraw_mat3_transpose_gl(const float R[9], float out[9]);
+#endif

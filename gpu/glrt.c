@@ -1,0 +1,817 @@
+/* glrt.c - the GLSL runtime (glrt.h): the quantized transport lives on the GPU,
+ * a light change is one GPU pass of sparse inner products (Eq. 5's T x L), and a
+ * view change is one draw that multiplies the light-dependent K-vectors with the
+ * BRDF view maps per pixel (section 4.3.1, 5.3).
+ *
+ * Data on the GPU (all plain buffers, viewed as SSBOs by the compute kernels
+ * and as buffer textures by the fragment kernel and the view shaders):
+ *   first   [nvecs+1] uint        coefficient range of each vector
+ *   words   qbits 8:  [ncoefs] uint  offset | r<<8 | g<<16 | b<<24 (the file's words)
+ *           qbits 16: [2*ncoefs]     index | r<<16, g | b<<16
+ *           qbits 32: [4*ncoefs]     index, r, g, b (float bits)
+ *   blocks  qbits 8:  [ncoefs] uint8 block of each coefficient (the runs expanded)
+ *   scale   [3*nvecs] float        dequantization step per vector and channel
+ *   L       [CUBE_TEXELS] vec4     light vector
+ *   g       [nvecs] vec4           light-dependent K-vectors (output of a light change)
+ *   view    per material [res*res][K] vec4: the view maps h_k
+ * The 8-bit layout is the paper's (4.1.2): a 4-byte word per coefficient plus
+ * its block byte, 5 bytes in all. */
+#include "glrt.h"
+#include "gldraw.h"
+#include "vec3.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct glrt {
+    glctx *ctx;
+    bool own_ctx;
+    const gl_api *gl;
+    const prt_data *d;
+    gldraw draw;
+    int nverts, nvecs, kmax_all, nmat, qbits;
+    size_t ncoefs;
+    GLuint buf_first, buf_words, buf_blocks, buf_scale, buf_L, buf_g, buf_view;
+    GLuint tex_first, tex_words, tex_blocks, tex_scale, tex_L, tex_g, tex_view;
+    GLuint prog_light[GLRT_LIGHT_COUNT];
+    GLuint frag_fbo, frag_tex;
+    int frag_w, frag_h;
+    GLuint prog_view[2];
+    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, ebo;
+    GLuint query;
+    GLint mat_info[PRT_MAX_MATERIALS][4];
+    float bg_R[9];
+    bool bg_rotated, light_set;
+    glrt_view_mode view_mode;
+    glrt_light_method method;
+    glrt_timing timing;
+};
+
+const char *glrt_light_method_name(glrt_light_method m) {
+    switch (m) {
+    case GLRT_LIGHT_FRAGMENT: return "fragment";
+    case GLRT_LIGHT_THREAD: return "compute-thread";
+    case GLRT_LIGHT_WARP: return "compute-warp";
+    default: return "auto";
+    }
+}
+
+/* ---------------------------------------------------------------- shaders */
+
+/* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel. */
+static const char *k_decode =
+    "#if QBITS == 8\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    uint w = WORD(c);\n"
+    "    idx = BLOCK(c) * 256u + (w & 255u);\n"
+    "    return vec3(float(int(w << 16) >> 24), float(int(w << 8) >> 24), float(int(w) >> 24));\n"
+    "}\n"
+    "#elif QBITS == 16\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    uint w0 = WORD(2u * c), w1 = WORD(2u * c + 1u);\n"
+    "    idx = w0 & 65535u;\n"
+    "    return vec3(float(int(w0) >> 16), float(int(w1 << 16) >> 16), float(int(w1) >> 16));\n"
+    "}\n"
+    "#else\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    idx = WORD(4u * c);\n"
+    "    return vec3(uintBitsToFloat(WORD(4u * c + 1u)), uintBitsToFloat(WORD(4u * c + 2u)),\n"
+    "                uintBitsToFloat(WORD(4u * c + 3u)));\n"
+    "}\n"
+    "#endif\n";
+
+/* Fragment kernel: one fragment per vector (GL 3.3, buffer textures). */
+static const char *k_light_frag =
+    "uniform usamplerBuffer t_first, t_words, t_blocks;\n"
+    "uniform samplerBuffer t_scale, t_L;\n"
+    "uniform int u_width, u_nvecs;\n"
+    "out vec4 o_g;\n"
+    "#define WORD(c) texelFetch(t_words, int(c)).r\n"
+    "#define BLOCK(c) texelFetch(t_blocks, int(c)).r\n"
+    "DECODE\n"
+    "void main() {\n"
+    "    int i = int(gl_FragCoord.y) * u_width + int(gl_FragCoord.x);\n"
+    "    if (i >= u_nvecs) { o_g = vec4(0.0); return; }\n"
+    "    uint c0 = texelFetch(t_first, i).r, c1 = texelFetch(t_first, i + 1).r;\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * texelFetch(t_L, int(idx)).rgb; }\n"
+    "    vec3 s = vec3(texelFetch(t_scale, 3 * i).r, texelFetch(t_scale, 3 * i + 1).r, texelFetch(t_scale, 3 * i + 2).r);\n"
+    "    o_g = vec4(acc * s, 0.0);\n"
+    "}\n";
+
+static const char *k_light_buffers =
+    "layout(std430, binding = 0) readonly buffer B0 { uint first[]; };\n"
+    "layout(std430, binding = 1) readonly buffer B1 { uint words[]; };\n"
+    "layout(std430, binding = 2) readonly buffer B2 { uint blocks[]; };\n"
+    "layout(std430, binding = 3) readonly buffer B3 { float scale[]; };\n"
+    "layout(std430, binding = 4) readonly buffer B4 { vec4 L[]; };\n"
+    "layout(std430, binding = 5) writeonly buffer B5 { vec4 g[]; };\n"
+    "uniform uint u_nvecs;\n"
+    "#define WORD(c) words[c]\n"
+    "#define BLOCK(c) ((blocks[(c) >> 2] >> (((c) & 3u) * 8u)) & 255u)\n";
+
+/* Compute kernel, one invocation per vector. */
+static const char *k_light_thread =
+    "layout(local_size_x = 64) in;\n"
+    "BUFFERS\n"
+    "DECODE\n"
+    "void main() {\n"
+    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationID.x;\n"
+    "    if (i >= u_nvecs) return;\n"
+    "    uint c0 = first[i], c1 = first[i + 1u];\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
+    "    g[i] = vec4(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "}\n";
+
+/* Compute kernel, 32 invocations per vector (8 vectors per group of 256) and a tree sum in shared memory. */
+static const char *k_light_warp =
+    "layout(local_size_x = 256) in;\n"
+    "BUFFERS\n"
+    "DECODE\n"
+    "shared vec3 part[256];\n"
+    "void main() {\n"
+    "    uint lid = gl_LocalInvocationID.x, lane = lid & 31u;\n"
+    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 8u + (lid >> 5);\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    if (i < u_nvecs) {\n"
+    "        uint c1 = first[i + 1u];\n"
+    "        for (uint c = first[i] + lane; c < c1; c += 32u) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
+    "    }\n"
+    "    part[lid] = acc;\n"
+    "    memoryBarrierShared(); barrier();\n"
+    "    for (uint s = 16u; s > 0u; s >>= 1) {\n"
+    "        if (lane < s) part[lid] += part[lid + s];\n"
+    "        memoryBarrierShared(); barrier();\n"
+    "    }\n"
+    "    if (lane == 0u && i < u_nvecs)\n"
+    "        g[i] = vec4(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "}\n";
+
+/* View-map lookups, mirroring brdf_factor_uv / brdf_factor_view (bilinear on texel centres; the
+ * grid clamps at its edge, the polar angle wraps) and Eq. 10's frame (brdf_frame). */
+static const char *k_view_common =
+    "uniform samplerBuffer t_view;\n"
+    "uniform ivec4 u_mat[NMAT];\n" /* x: first view texel, y: res, z: K, w: param | 2 * lambertian */
+    /* brdf_frame: Eq. 10's s without cancellation near n.y = -1, the fixed limit within 1e-6 of
+     * (0,-1,0), s made orthogonal to n; t = n x s. */
+    "void frame(vec3 n, out vec3 s, out vec3 t) {\n"
+    "    float r2 = n.x * n.x + n.z * n.z;\n"
+    "    vec3 v;\n"
+    "    if (n.y < 0.0 && r2 < 1e-12) v = vec3(1.0, 0.0, 0.0);\n"
+    "    else {\n"
+    "        float a = n.y >= 0.0 ? n.y + 1.0 : r2 / (1.0 - n.y);\n"
+    "        v = vec3(a * a + n.z * n.z - n.x * n.x, -2.0 * a * n.x, -2.0 * n.x * n.z);\n"
+    "    }\n"
+    "    v -= dot(v, n) * n;\n"
+    "    float l = length(v);\n"
+    "    s = l > 1e-30 ? v / l : (abs(n.x) < 0.9 ? normalize(cross(n, vec3(1.0, 0.0, 0.0))) : normalize(cross(n, vec3(0.0, 1.0, 0.0))));\n"
+    "    t = cross(n, s);\n"
+    "}\n"
+    /* Sum_k<kuse h_k(w) g[k]: w local view direction. */
+    "vec3 shade(ivec4 mi, vec3 w, vec3 g[KMAX], int kuse) {\n"
+    "    int res = mi.y, K = mi.z;\n"
+    "    bool polar = (mi.w & 1) != 0, lambert = (mi.w & 2) != 0;\n"
+    "    if (!lambert && w.z <= 0.0) return vec3(0.0);\n"
+    "    float x, y;\n"
+    "    if (lambert) { x = 0.5; y = 0.5; }\n"
+    "    else if (polar) { x = atan(w.y, w.x) * 0.15915494309189535; if (x < 0.0) x += 1.0;\n"
+    "                      y = sqrt(max(1.0 - w.z, 0.0)); }\n"
+    "    else { x = 0.5 * (w.x + 1.0); y = 0.5 * (w.y + 1.0); }\n"
+    "    float fx = x * float(res) - 0.5, fy = y * float(res) - 0.5;\n"
+    "    float ix = floor(fx), iy = floor(fy);\n"
+    "    float ax = fx - ix, ay = fy - iy;\n"
+    "    int x0 = int(ix), x1 = x0 + 1, y0 = int(iy), y1 = y0 + 1;\n"
+    "    if (polar) { x0 = (x0 + res) % res; x1 = x1 % res; }\n"
+    "    else { x0 = clamp(x0, 0, res - 1); x1 = clamp(x1, 0, res - 1); }\n"
+    "    y0 = clamp(y0, 0, res - 1); y1 = clamp(y1, 0, res - 1);\n"
+    "    int t00 = mi.x + (y0 * res + x0) * K, t10 = mi.x + (y0 * res + x1) * K;\n"
+    "    int t01 = mi.x + (y1 * res + x0) * K, t11 = mi.x + (y1 * res + x1) * K;\n"
+    "    float w00 = (1.0 - ax) * (1.0 - ay), w10 = ax * (1.0 - ay), w01 = (1.0 - ax) * ay, w11 = ax * ay;\n"
+    "    vec3 c = vec3(0.0);\n"
+    "    for (int k = 0; k < KMAX; k++) {\n"
+    "        if (k >= kuse) break;\n"
+    "        vec3 h = w00 * texelFetch(t_view, t00 + k).rgb + w10 * texelFetch(t_view, t10 + k).rgb\n"
+    "               + w01 * texelFetch(t_view, t01 + k).rgb + w11 * texelFetch(t_view, t11 + k).rgb;\n"
+    "        c += h * g[k];\n"
+    "    }\n"
+    "    return c;\n"
+    "}\n"
+    "vec3 shade_world(int m, vec3 n, vec3 pos, vec3 eye, vec3 g[KMAX], int kmax) {\n"
+    "    ivec4 mi = u_mat[m];\n"
+    "    vec3 s, t;\n"
+    "    frame(n, s, t);\n"
+    "    vec3 wo = normalize(eye - pos);\n"
+    "    int kuse = kmax > 0 ? min(kmax, mi.z) : mi.z;\n"
+    /* Radiance is clamped at zero as the CPU runtime does (a truncated SVD can dip below). */
+    "    return max(shade(mi, vec3(dot(wo, s), dot(wo, t), dot(wo, n)), g, kuse), vec3(0.0));\n"
+    "}\n";
+
+static const char *k_view_vs =
+    "layout(location = 0) in vec3 a_pos;\n"
+    "layout(location = 1) in vec3 a_nrm;\n"
+    "layout(location = 2) in uvec2 a_vec;\n"
+    "layout(location = 3) in uint a_mat;\n"
+    "uniform mat4 u_mvp;\n"
+    "uniform samplerBuffer t_g;\n"
+    "uniform vec3 u_eye;\n"
+    "uniform int u_kmax;\n"
+    "#if PER_VERTEX\n"
+    "out vec3 v_col;\n"
+    "#else\n"
+    "out vec3 v_pos, v_nrm;\n"
+    "out vec3 v_g[KMAX];\n"
+    "flat out int v_mat;\n"
+    "#endif\n"
+    "void main() {\n"
+    "    vec3 g[KMAX];\n"
+    "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
+    "#if PER_VERTEX\n"
+    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax);\n"
+    "#else\n"
+    "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
+    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat);\n"
+    "#endif\n"
+    "    gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
+    "}\n";
+
+static const char *k_view_fs =
+    "uniform vec3 u_eye;\n"
+    "uniform int u_kmax;\n"
+    "out vec4 o_color;\n"
+    "#if PER_VERTEX\n"
+    "in vec3 v_col;\n"
+    "void main() { o_color = vec4(v_col, 1.0); }\n"
+    "#else\n"
+    "in vec3 v_pos, v_nrm;\n"
+    "in vec3 v_g[KMAX];\n"
+    "flat in int v_mat;\n"
+    "void main() {\n"
+    "    vec3 g[KMAX];\n"
+    "    for (int k = 0; k < KMAX; k++) g[k] = v_g[k];\n"
+    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax), 1.0);\n"
+    "}\n"
+    "#endif\n";
+
+static const char *k_fullscreen_vs =
+    "#version 330 core\n"
+    "void main() {\n"
+    "    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);\n"
+    "    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
+    "}\n";
+
+/* Joins parts into one malloc'd string, replacing the markers DECODE and BUFFERS by their text. */
+static char *build_src(const char *head, const char *body, const char *decode, const char *buffers) {
+    size_t cap = strlen(head) + strlen(body) + strlen(decode) + strlen(buffers) + 1;
+    char *s = malloc(cap);
+    if (!s) return NULL;
+    strcpy(s, head);
+    const char *p = body;
+    while (*p) {
+        if (!strncmp(p, "DECODE\n", 7)) { strcat(s, decode); p += 7; continue; }
+        if (!strncmp(p, "BUFFERS\n", 8)) { strcat(s, buffers); p += 8; continue; }
+        const char *nl = strchr(p, '\n');
+        size_t n = nl ? (size_t)(nl - p + 1) : strlen(p);
+        strncat(s, p, n);
+        p += n;
+    }
+    return s;
+}
+
+/* ---------------------------------------------------------------- creation */
+
+static GLuint make_buffer(const gl_api *gl, const void *data, size_t bytes, GLenum usage) {
+    GLuint b;
+    gl->GenBuffers(1, &b);
+    gl->BindBuffer(GL_ARRAY_BUFFER, b);
+    gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(bytes ? bytes : 16), data, usage);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    return b;
+}
+
+static GLuint make_texbuf(const gl_api *gl, GLuint buf, GLenum fmt) {
+    GLuint t;
+    gl->GenTextures(1, &t);
+    gl->BindTexture(GL_TEXTURE_BUFFER, t);
+    gl->TexBuffer(GL_TEXTURE_BUFFER, fmt, buf);
+    gl->BindTexture(GL_TEXTURE_BUFFER, 0);
+    return t;
+}
+
+/* Encodes the transport into the GPU layout (see the file comment). */
+static int upload_transport(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    const prt_transport *t = &rt->d->transport;
+    size_t nc = rt->ncoefs;
+    int wpc = t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4;
+    uint32_t *words = prt_calloc(nc * wpc + 1, sizeof(uint32_t), err);
+    uint8_t *blocks = prt_calloc((nc + 4) & ~(size_t)3, 1, err);
+    float *scale = prt_calloc((size_t)3 * rt->nvecs + 1, sizeof(float), err);
+    if (!words || !blocks || !scale) { free(words); free(blocks); free(scale); return -1; }
+    for (int i = 0; i < rt->nvecs; i++) {
+        uint32_t c = t->coef_first[i];
+        for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
+            int blk = t->runs[2 * r], cnt = t->runs[2 * r + 1] + 1;
+            for (int k = 0; k < cnt && c < t->coef_first[i + 1]; k++, c++) {
+                uint32_t off = t->qbits == 8 ? (t->packed[c] & 255u) : t->offs[c];
+                uint32_t idx = (uint32_t)blk * 256u + off;
+                blocks[c] = (uint8_t)blk;
+                if (t->qbits == 8) words[c] = t->packed[c];
+                else if (t->qbits == 16) {
+                    words[2 * c] = idx | (uint32_t)(uint16_t)t->q16[3 * c] << 16;
+                    words[2 * c + 1] = (uint32_t)(uint16_t)t->q16[3 * c + 1] | (uint32_t)(uint16_t)t->q16[3 * c + 2] << 16;
+                } else {
+                    words[4 * c] = idx;
+                    memcpy(&words[4 * c + 1], &t->f32[3 * c], 3 * sizeof(float));
+                }
+            }
+        }
+        for (int ch = 0; ch < 3; ch++) {
+            float s = t->qbits == 32 || !t->scale ? 1.0f : t->scale[3 * i + ch];
+            scale[3 * i + ch] = isfinite(s) ? s : 0.0f;
+        }
+    }
+    rt->buf_first = make_buffer(gl, t->coef_first, sizeof(uint32_t) * ((size_t)rt->nvecs + 1), GL_STATIC_DRAW);
+    rt->buf_words = make_buffer(gl, words, sizeof(uint32_t) * (nc * wpc + 1), GL_STATIC_DRAW);
+    rt->buf_blocks = make_buffer(gl, blocks, (nc + 4) & ~(size_t)3, GL_STATIC_DRAW);
+    rt->buf_scale = make_buffer(gl, scale, sizeof(float) * ((size_t)3 * rt->nvecs + 1), GL_STATIC_DRAW);
+    rt->timing.gpu_bytes += sizeof(uint32_t) * ((size_t)rt->nvecs + 1 + nc * wpc) + ((nc + 4) & ~(size_t)3) +
+                            sizeof(float) * 3 * (size_t)rt->nvecs;
+    free(words);
+    free(blocks);
+    free(scale);
+    rt->tex_first = make_texbuf(gl, rt->buf_first, GL_R32UI);
+    rt->tex_words = make_texbuf(gl, rt->buf_words, GL_R32UI);
+    rt->tex_blocks = make_texbuf(gl, rt->buf_blocks, GL_R8UI);
+    rt->tex_scale = make_texbuf(gl, rt->buf_scale, GL_R32F);
+    rt->buf_L = make_buffer(gl, NULL, sizeof(float) * 4 * CUBE_TEXELS, GL_DYNAMIC_DRAW);
+    rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
+    /* g: padded to the fragment kernel's rectangle so a pixel-pack read fills it. */
+    rt->frag_w = rt->nvecs < 2048 ? (rt->nvecs > 0 ? rt->nvecs : 1) : 2048;
+    rt->frag_h = (rt->nvecs + rt->frag_w - 1) / rt->frag_w;
+    if (rt->frag_h < 1) rt->frag_h = 1;
+    rt->buf_g = make_buffer(gl, NULL, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, GL_DYNAMIC_COPY);
+    rt->tex_g = make_texbuf(gl, rt->buf_g, GL_RGBA32F);
+    return glctx_check(gl, "uploading the transport", err);
+}
+
+static int upload_view_maps(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    const prt_data *d = rt->d;
+    size_t texels = 0;
+    for (int m = 0; m < rt->nmat; m++) texels += (size_t)d->factors[m].res * d->factors[m].res * d->factors[m].K;
+    float *v = prt_calloc(4 * (texels + 1), sizeof(float), err);
+    if (!v) return -1;
+    size_t off = 0;
+    for (int m = 0; m < rt->nmat; m++) {
+        const brdf_factor *f = &d->factors[m];
+        size_t n = (size_t)f->res * f->res * f->K;
+        for (size_t j = 0; j < n; j++)
+            for (int ch = 0; ch < 3; ch++) {
+                float x = f->view[3 * j + ch];
+                v[4 * (off + j) + ch] = isfinite(x) ? x : 0.0f;
+            }
+        rt->mat_info[m][0] = (GLint)off;
+        rt->mat_info[m][1] = f->res;
+        rt->mat_info[m][2] = f->K;
+        rt->mat_info[m][3] = (f->param == BRDF_PARAM_POLAR ? 1 : 0) | (f->lambertian ? 2 : 0);
+        off += n;
+    }
+    rt->buf_view = make_buffer(gl, v, sizeof(float) * 4 * (texels + 1), GL_STATIC_DRAW);
+    rt->tex_view = make_texbuf(gl, rt->buf_view, GL_RGBA32F);
+    rt->timing.gpu_bytes += sizeof(float) * 4 * texels;
+    free(v);
+    return glctx_check(gl, "uploading the view maps", err);
+}
+
+static int upload_mesh(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    const prt_mesh *m = &rt->d->scene.mesh;
+    const prt_transport *t = &rt->d->transport;
+    uint32_t *vec = prt_calloc(2 * (size_t)m->nverts + 2, sizeof(uint32_t), err);
+    uint32_t *mat = prt_calloc((size_t)m->nverts + 1, sizeof(uint32_t), err);
+    if (!vec || !mat) { free(vec); free(mat); return -1; }
+    for (int v = 0; v < m->nverts; v++) {
+        vec[2 * v] = t->vec_first[v];
+        vec[2 * v + 1] = t->vec_first[v + 1] - t->vec_first[v];
+        if (vec[2 * v + 1] > GLRT_MAX_TERMS) vec[2 * v + 1] = GLRT_MAX_TERMS;
+        mat[v] = m->mat ? m->mat[v] : 0;
+        if ((int)mat[v] >= rt->nmat) mat[v] = 0;
+    }
+    gl->GenVertexArrays(1, &rt->vao);
+    gl->BindVertexArray(rt->vao);
+    rt->vbo_pos = make_buffer(gl, m->pos, sizeof(float) * 3 * (size_t)m->nverts, GL_STATIC_DRAW);
+    rt->vbo_nrm = make_buffer(gl, m->nrm, sizeof(float) * 3 * (size_t)m->nverts, GL_STATIC_DRAW);
+    rt->vbo_vec = make_buffer(gl, vec, sizeof(uint32_t) * 2 * (size_t)m->nverts, GL_STATIC_DRAW);
+    rt->vbo_mat = make_buffer(gl, mat, sizeof(uint32_t) * (size_t)m->nverts, GL_STATIC_DRAW);
+    free(vec);
+    free(mat);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_pos);
+    gl->EnableVertexAttribArray(0);
+    gl->VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_nrm);
+    gl->EnableVertexAttribArray(1);
+    gl->VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_vec);
+    gl->EnableVertexAttribArray(2);
+    gl->VertexAttribIPointer(2, 2, GL_UNSIGNED_INT, 0, 0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_mat);
+    gl->EnableVertexAttribArray(3);
+    gl->VertexAttribIPointer(3, 1, GL_UNSIGNED_INT, 0, 0);
+    gl->GenBuffers(1, &rt->ebo);
+    gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, rt->ebo);
+    gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), m->tris, GL_STATIC_DRAW);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    rt->timing.gpu_bytes += sizeof(float) * 8 * (size_t)m->nverts + sizeof(uint32_t) * 3 * (size_t)m->ntris;
+    return glctx_check(gl, "uploading the mesh", err);
+}
+
+static int build_programs(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    char head[512];
+    char decode[2048];
+    snprintf(decode, sizeof decode, "#define QBITS %d\n%s", rt->qbits, k_decode);
+    /* Light kernels. */
+    snprintf(head, sizeof head, "#version 330 core\n");
+    char *fs = build_src(head, k_light_frag, decode, "");
+    if (!fs) return prt_fail(err, "out of memory");
+    rt->prog_light[GLRT_LIGHT_FRAGMENT] = glctx_program(gl, k_fullscreen_vs, fs, "light (fragment)", err);
+    free(fs);
+    if (!rt->prog_light[GLRT_LIGHT_FRAGMENT]) return -1;
+    if (rt->ctx->has_compute) {
+        snprintf(head, sizeof head, "#version 430 core\n");
+        const char *bodies[2] = { k_light_thread, k_light_warp };
+        for (int b = 0; b < 2; b++) {
+            char *cs = build_src(head, bodies[b], decode, k_light_buffers);
+            if (!cs) return prt_fail(err, "out of memory");
+            GLuint p = glctx_compute_program(gl, cs, b ? "light (warp)" : "light (thread)", err);
+            free(cs);
+            if (!p) return -1;
+            rt->prog_light[b ? GLRT_LIGHT_WARP : GLRT_LIGHT_THREAD] = p;
+        }
+    }
+    /* View programs. */
+    for (int pv = 0; pv < 2; pv++) {
+        snprintf(head, sizeof head, "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n",
+                 rt->kmax_all, rt->nmat, pv);
+        char *vs = build_src(head, k_view_vs, "", "");
+        char *vfs = build_src(head, k_view_fs, "", "");
+        size_t cv = strlen(k_view_common);
+        char *vs2 = vs ? malloc(strlen(vs) + cv + 1) : NULL, *fs2 = vfs ? malloc(strlen(vfs) + cv + 1) : NULL;
+        if (!vs2 || !fs2) {
+            free(vs); free(vfs); free(vs2); free(fs2);
+            return prt_fail(err, "out of memory");
+        }
+        /* head, then the common view functions, then the stage body. */
+        size_t hl = strlen(head);
+        sprintf(vs2, "%s%s%s", head, k_view_common, vs + hl);
+        sprintf(fs2, "%s%s%s", head, k_view_common, vfs + hl);
+        rt->prog_view[pv] = glctx_program(gl, vs2, fs2, pv ? "view (per vertex)" : "view (per pixel)", err);
+        free(vs); free(vfs); free(vs2); free(fs2);
+        if (!rt->prog_view[pv]) return -1;
+        GLuint p = rt->prog_view[pv];
+        gl->UseProgram(p);
+        gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
+        gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
+        gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
+    }
+    gl->UseProgram(0);
+    return glctx_check(gl, "building the shaders", err);
+}
+
+/* Runs the light kernel of method m on the current L into g. */
+static void run_light(glrt *rt, glrt_light_method m) {
+    const gl_api *gl = rt->gl;
+    GLuint p = rt->prog_light[m];
+    gl->UseProgram(p);
+    if (m == GLRT_LIGHT_FRAGMENT) {
+        if (!rt->frag_fbo) {
+            gl->GenTextures(1, &rt->frag_tex);
+            gl->BindTexture(GL_TEXTURE_2D, rt->frag_tex);
+            gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, rt->frag_w, rt->frag_h, 0, GL_RGBA, GL_FLOAT, NULL);
+            gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+            gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+            gl->BindTexture(GL_TEXTURE_2D, 0);
+            gl->GenFramebuffers(1, &rt->frag_fbo);
+            gl->BindFramebuffer(GL_FRAMEBUFFER, rt->frag_fbo);
+            gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, rt->frag_tex, 0);
+        }
+        gl->BindFramebuffer(GL_FRAMEBUFFER, rt->frag_fbo);
+        gl->Viewport(0, 0, rt->frag_w, rt->frag_h);
+        gl->Disable(GL_DEPTH_TEST);
+        const GLuint tex[5] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L };
+        const char *names[5] = { "t_first", "t_words", "t_blocks", "t_scale", "t_L" };
+        for (int i = 0; i < 5; i++) {
+            gl->ActiveTexture(GL_TEXTURE0 + i);
+            gl->BindTexture(GL_TEXTURE_BUFFER, tex[i]);
+            gl->Uniform1i(gl->GetUniformLocation(p, names[i]), i);
+        }
+        gl->Uniform1i(gl->GetUniformLocation(p, "u_width"), rt->frag_w);
+        gl->Uniform1i(gl->GetUniformLocation(p, "u_nvecs"), rt->nvecs);
+        gl->BindVertexArray(rt->draw.vao_empty);
+        gl->DrawArrays(GL_TRIANGLES, 0, 3);
+        gl->BindVertexArray(0);
+        for (int i = 4; i >= 0; i--) {
+            gl->ActiveTexture(GL_TEXTURE0 + i);
+            gl->BindTexture(GL_TEXTURE_BUFFER, 0);
+        }
+        /* The paper's render-to-vertex-array step: copy the result into the g buffer on the GPU. */
+        gl->ReadBuffer(GL_COLOR_ATTACHMENT0);
+        gl->BindBuffer(GL_PIXEL_PACK_BUFFER, rt->buf_g);
+        gl->ReadPixels(0, 0, rt->frag_w, rt->frag_h, GL_RGBA, GL_FLOAT, 0);
+        gl->BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+        gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+    } else {
+        const GLuint bufs[6] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g };
+        for (int i = 0; i < 6; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
+        gl->Uniform1ui(gl->GetUniformLocation(p, "u_nvecs"), (GLuint)rt->nvecs);
+        int per = m == GLRT_LIGHT_WARP ? 8 : 64;
+        int groups = (rt->nvecs + per - 1) / per;
+        int gx = groups < 65535 ? groups : 65535, gy = (groups + gx - 1) / gx;
+        if (gx > 0) gl->DispatchCompute((GLuint)gx, (GLuint)gy, 1);
+        gl->MemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+        for (int i = 0; i < 6; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
+    }
+    gl->UseProgram(0);
+}
+
+/* Every entry point makes the runtime's context current first: another context (for example
+ * render_vertex_colors' own) may have been made current on this thread in between. */
+static int current(glrt *rt, prt_error *err) { return glctx_make_current(rt->ctx, err); }
+
+/* Runs method m once as a warm-up (software GL compiles the shader on first use), then once timed;
+ * returns wall-clock milliseconds, finished. */
+static double time_method(glrt *rt, glrt_light_method m) {
+    const gl_api *gl = rt->gl;
+    run_light(rt, m);
+    gl->Finish();
+    double t0 = prt_now();
+    run_light(rt, m);
+    gl->Finish();
+    return 1e3 * (prt_now() - t0);
+}
+
+static bool method_available(const glrt *rt, glrt_light_method m) {
+    return m > GLRT_LIGHT_AUTO && m < GLRT_LIGHT_COUNT && rt->prog_light[m] != 0;
+}
+
+int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
+    if (current(rt, err)) return -1;
+    if (m == GLRT_LIGHT_AUTO) {
+        /* Time every kernel on the light currently uploaded (values do not change the cost). */
+        glrt_light_method best = GLRT_LIGHT_AUTO;
+        for (int k = GLRT_LIGHT_FRAGMENT; k < GLRT_LIGHT_COUNT; k++) {
+            rt->timing.method_ms[k] = 0;
+            if (!method_available(rt, (glrt_light_method)k)) continue;
+            rt->timing.method_ms[k] = time_method(rt, (glrt_light_method)k);
+            if (best == GLRT_LIGHT_AUTO || rt->timing.method_ms[k] < rt->timing.method_ms[best]) best = (glrt_light_method)k;
+        }
+        m = best;
+        if (glctx_check(rt->gl, "timing the light kernels", err)) return -1;
+    }
+    if (!method_available(rt, m))
+        return prt_fail(err, "GL light kernel '%s' is not available (needs OpenGL 4.3; this context is %d.%d)",
+                        glrt_light_method_name(m), rt->ctx->major, rt->ctx->minor);
+    rt->method = m;
+    rt->timing.light_method = m;
+    rt->timing.light_method_name = glrt_light_method_name(m);
+    if (rt->light_set) run_light(rt, m); /* keep g consistent with the chosen kernel */
+    return 0;
+}
+
+glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
+    glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
+    const prt_transport *t = &d->transport;
+    const prt_mesh *m = &d->scene.mesh;
+    if (t->nverts != m->nverts || !t->vec_first || !t->coef_first)
+        return prt_fail(err, "GL runtime: transport (%d vertices) does not match the mesh (%d)", t->nverts, m->nverts), NULL;
+    if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32)
+        return prt_fail(err, "GL runtime: unsupported quantization %d bits", t->qbits), NULL;
+    int nmat = d->scene.nmaterials > 0 ? d->scene.nmaterials : 1, kmax = 1;
+    if (nmat > PRT_MAX_MATERIALS) nmat = PRT_MAX_MATERIALS;
+    for (int i = 0; i < nmat; i++) {
+        if (!d->factors[i].view || d->factors[i].res < 1)
+            return prt_fail(err, "GL runtime: material %d has no view maps", i), NULL;
+        if (d->factors[i].K > kmax) kmax = d->factors[i].K;
+    }
+    if (kmax > GLRT_MAX_TERMS)
+        return prt_fail(err, "GL runtime: %d BRDF terms, more than the %d the shaders carry (use the CPU backend)", kmax,
+                        GLRT_MAX_TERMS), NULL;
+    double t0 = prt_now();
+    glrt *rt = prt_calloc(1, sizeof *rt, err);
+    if (!rt) return NULL;
+    rt->d = d;
+    rt->nverts = m->nverts;
+    rt->nvecs = t->nvecs;
+    rt->ncoefs = t->coef_first[t->nvecs];
+    rt->qbits = t->qbits;
+    rt->nmat = nmat;
+    rt->kmax_all = kmax;
+    rt->view_mode = dd.view;
+    if (dd.ctx) rt->ctx = dd.ctx;
+    else {
+        rt->ctx = glctx_create(GLCTX_AUTO, NULL, err);
+        if (!rt->ctx) { free(rt); return NULL; }
+        rt->own_ctx = true;
+    }
+    rt->gl = &rt->ctx->gl;
+    const gl_api *gl = rt->gl;
+    rt->timing.context = glctx_kind_name(rt->ctx->kind);
+    rt->timing.renderer = rt->ctx->renderer;
+    rt->timing.version = rt->ctx->version;
+    GLint maxtb = 0;
+    gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
+    size_t words = rt->ncoefs * (t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4);
+    if ((size_t)maxtb < words + 1 || (size_t)maxtb < (size_t)rt->nvecs + 1) {
+        prt_fail(err, "GL runtime: %zu transport words exceed the GL buffer-texture limit (%d texels)", words, maxtb);
+        glrt_destroy(rt);
+        return NULL;
+    }
+    if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || upload_transport(rt, err) ||
+        upload_view_maps(rt, err) || upload_mesh(rt, err) || build_programs(rt, err)) {
+        glrt_destroy(rt);
+        return NULL;
+    }
+    gl->GenQueries(1, &rt->query);
+    /* g starts at zero: a draw before any light change shows black, not garbage. */
+    float *zero = calloc((size_t)4 * rt->frag_w * rt->frag_h, sizeof(float));
+    if (zero) {
+        gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
+        gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, zero);
+        gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+        free(zero);
+    }
+    if (glrt_set_light_method(rt, dd.light, err)) {
+        glrt_destroy(rt);
+        return NULL;
+    }
+    /* Timing AUTO ran kernels on the zero light; g must be zero again. */
+    float *z2 = calloc((size_t)4 * rt->frag_w * rt->frag_h, sizeof(float));
+    if (z2) {
+        gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
+        gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, z2);
+        gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+        free(z2);
+    }
+    gl->Finish();
+    if (glctx_check(gl, "creating the runtime", err)) {
+        glrt_destroy(rt);
+        return NULL;
+    }
+    rt->timing.upload_ms = 1e3 * (prt_now() - t0);
+    return rt;
+}
+
+void glrt_destroy(glrt *rt) {
+    if (!rt) return;
+    if (rt->gl && current(rt, NULL) == 0) {
+        const gl_api *gl = rt->gl;
+        GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
+                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->ebo };
+        GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
+                          rt->frag_tex };
+        for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
+            if (bufs[i]) gl->DeleteBuffers(1, &bufs[i]);
+        for (size_t i = 0; i < sizeof texs / sizeof texs[0]; i++)
+            if (texs[i]) gl->DeleteTextures(1, &texs[i]);
+        for (int i = 0; i < GLRT_LIGHT_COUNT; i++)
+            if (rt->prog_light[i]) gl->DeleteProgram(rt->prog_light[i]);
+        for (int i = 0; i < 2; i++)
+            if (rt->prog_view[i]) gl->DeleteProgram(rt->prog_view[i]);
+        if (rt->frag_fbo) gl->DeleteFramebuffers(1, &rt->frag_fbo);
+        if (rt->vao) gl->DeleteVertexArrays(1, &rt->vao);
+        if (rt->query) gl->DeleteQueries(1, &rt->query);
+        gldraw_free(&rt->draw);
+    }
+    if (rt->own_ctx) glctx_destroy(rt->ctx);
+    free(rt);
+}
+
+int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
+    double t0 = prt_now();
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_L);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, L);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    gl->BeginQuery(GL_TIME_ELAPSED, rt->query);
+    run_light(rt, rt->method);
+    gl->EndQuery(GL_TIME_ELAPSED);
+    gl->Finish();
+    rt->timing.light_ms = 1e3 * (prt_now() - t0);
+    GLuint64 ns = 0;
+    gl->GetQueryObjectui64v(rt->query, GL_QUERY_RESULT, &ns);
+    rt->timing.light_gpu_ms = 1e-6 * (double)ns;
+    rt->light_set = true;
+    return glctx_check(gl, "light change", err);
+}
+
+int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err) {
+    if (current(rt, err)) return -1;
+    rt->bg_rotated = R != NULL;
+    if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
+    return gldraw_set_probe(&rt->draw, p, err);
+}
+
+void glrt_set_background_rotation(glrt *rt, const float R[9]) {
+    rt->bg_rotated = R != NULL;
+    if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
+}
+
+int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
+    double t0 = prt_now();
+    if (gldraw_target(&rt->draw, w, h, err)) return -1;
+    gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
+    GLuint p = rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX ? 1 : 0];
+    float mvp[16];
+    gldraw_mvp(&rt->draw, cam, w, h, mvp);
+    gl->BeginQuery(GL_TIME_ELAPSED, rt->query);
+    gl->UseProgram(p);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(p, "u_mvp"), 1, GL_FALSE, mvp);
+    gl->Uniform3fv(gl->GetUniformLocation(p, "u_eye"), 1, cam->eye);
+    gl->Uniform1i(gl->GetUniformLocation(p, "u_kmax"), kmax > 0 ? kmax : 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_view);
+    gl->ActiveTexture(GL_TEXTURE1);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthFunc(GL_LESS);
+    gl->BindVertexArray(rt->vao);
+    if (rt->d->scene.mesh.ntris > 0) gl->DrawElements(GL_TRIANGLES, rt->d->scene.mesh.ntris * 3, GL_UNSIGNED_INT, 0);
+    gl->BindVertexArray(0);
+    gl->Disable(GL_DEPTH_TEST);
+    gl->BindTexture(GL_TEXTURE_BUFFER, 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_BUFFER, 0);
+    gl->UseProgram(0);
+    gl->EndQuery(GL_TIME_ELAPSED);
+    gl->Finish();
+    rt->timing.view_ms = 1e3 * (prt_now() - t0);
+    GLuint64 ns = 0;
+    gl->GetQueryObjectui64v(rt->query, GL_QUERY_RESULT, &ns);
+    rt->timing.view_gpu_ms = 1e-6 * (double)ns;
+    return glctx_check(gl, "view change", err);
+}
+
+int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
+    if (current(rt, err)) return -1;
+    if (gldraw_target(&rt->draw, w, h, err)) return -1;
+    gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
+    return gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
+}
+
+int glrt_read(glrt *rt, prt_image *out, prt_error *err) {
+    if (current(rt, err)) return -1;
+    return gldraw_read(&rt->draw, out, err);
+}
+
+int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_image *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    if (glrt_draw(rt, cam, w, h, kmax, err)) return -1;
+    return glrt_read(rt, out, err);
+}
+
+void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops) {
+    if (current(rt, NULL)) return;
+    gldraw_present(&rt->draw, win_w, win_h, exposure_stops);
+}
+
+int glrt_read_gvec(glrt *rt, float *g, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
+    float *tmp = prt_calloc((size_t)4 * rt->nvecs + 4, sizeof(float), err);
+    if (!tmp) return -1;
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
+    gl->GetBufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * (size_t)rt->nvecs, tmp);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    for (int i = 0; i < rt->nvecs; i++)
+        for (int c = 0; c < 3; c++) g[3 * i + c] = tmp[4 * i + c];
+    free(tmp);
+    return glctx_check(gl, "reading the K-vectors back", err);
+}
+
+void glrt_set_view_mode(glrt *rt, glrt_view_mode mode) { rt->view_mode = mode; }
+
+void glrt_get_timing(const glrt *rt, glrt_timing *out) { *out = rt->timing; }
+
+int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc *rd, int kmax, prt_image *out,
+                      prt_error *err) {
+    memset(out, 0, sizeof *out);
+    int w = rd->width, h = rd->height;
+    if (w == 0 && h == 0) { w = 800; h = 600; }
+    if (w <= 0 || h <= 0 || w > 16384 || h > 16384)
+        return prt_fail(err, "render: image size %dx%d out of range (1..16384)", w, h);
+    /* One light change only: the fragment kernel runs on every GL 3.3+ context, and timing all
+     * kernels first (AUTO) would cost more than it saves. */
+    glrt_desc desc = { .light = GLRT_LIGHT_FRAGMENT };
+    glrt *rt = glrt_create(d, &desc, err);
+    if (!rt) return -1;
+    int rc = -1;
+    if (glrt_set_light(rt, L, err) == 0 && glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0)
+        rc = glrt_render(rt, &rd->camera, w, h, kmax, out, err);
+    glrt_destroy(rt);
+    return rc;
+}

@@ -1,0 +1,122 @@
+/* glrt.h - the GLSL runtime: all-frequency relighting on the GPU (section 4.3.1).
+ *
+ * Usage (headless):
+ *     glrt *rt = glrt_create(&data, NULL, &err);      // data is SHARED: keep it alive
+ *     glrt_set_light(rt, L, &err);                    // light change: sparse T x L on the GPU
+ *     glrt_set_background(rt, &probe, NULL, &err);    // optional
+ *     glrt_render(rt, &cam, 800, 600, 0, &img, &err); // view change: per-pixel h(view) . g
+ *     glrt_destroy(rt);
+ * or in one call: glrt_render_image(&data, L, &render_desc, kmax, &img, &err).
+ *
+ * Upload (once, at create): the quantized transport exactly as the file keeps
+ * it (8-bit packed offset|r|g|b words, with the block byte of every
+ * coefficient expanded from the runs; or 16-bit / float values with their
+ * indices), the per-vector dequantization steps, the view maps of every
+ * material, and the mesh (positions, normals, first vector and term count,
+ * material per vertex).
+ *
+ * Light change (glrt_set_light): the light vector (CUBE_TEXELS x RGBA float,
+ * the 16-bit dequantized values light.h makes, so CPU and GPU use identical
+ * numbers) is uploaded, then one GPU pass computes every light-dependent
+ * K-vector g_i = scale_i * sum_c q_c L[index_c] (Eq. 5's T x L) into a buffer.
+ * Three kernels exist; GLRT_LIGHT_AUTO times each once at create and keeps the
+ * fastest (the paper chose its layout by measurement too):
+ *   fragment  one fragment per vector looping over its coefficients, written to
+ *             a float texture and copied into the g buffer through a pixel-pack
+ *             buffer (GL 3.3: the paper's fragment-shader reduction; a modern
+ *             loop replaces its P buffer + 4x4/4x2 downsampling passes);
+ *   thread    compute shader, one invocation per vector (GL 4.3);
+ *   warp      compute shader, 32 invocations per vector striding over its
+ *             coefficients (coalesced reads) and a shared-memory tree sum.
+ *
+ * View change (glrt_draw / glrt_render): the vertex shader fetches each vertex's
+ * g (from the g buffer as a buffer texture, i.e. vertex texture fetch, 5.3);
+ * GLRT_VIEW_PIXEL (default) interpolates g, the normal and the position, and
+ * the fragment shader computes the pixel's own view direction, Eq. 10's frame
+ * from the normal, and looks up the K view maps (bilinear, as brdf_factor_view)
+ * for colour = sum_k h_k . g_k. Because the lookup is per pixel, the polar
+ * parameterization (Eq. 11) works too (the paper's seam problem, section 6, is
+ * a per-vertex texture-coordinate interpolation problem). GLRT_VIEW_VERTEX
+ * evaluates h . g per vertex in the vertex shader and interpolates colours:
+ * the CPU runtime's exact per-vertex model (relight_view + Gouraud), used to
+ * check GPU against CPU.
+ *
+ * Contexts: with desc->ctx NULL, glrt makes its own headless context (OSMesa, or
+ * EGL on an NVIDIA machine; $PRT_GL=osmesa|egl overrides) and owns it; with a
+ * caller's context (the viewer's window) that context must be current in every
+ * call. kmax limits the BRDF terms (0 = all). At most GLRT_MAX_TERMS terms.
+ *
+ * Errors: -1 / NULL with one line in err (no context, GL too old, out of GPU
+ * memory, more than GLRT_MAX_TERMS terms). Ownership: the glrt owns its GL
+ * objects (and its context when it made it); glrt_destroy frees them. */
+#ifndef PRT_GLRT_H
+#define PRT_GLRT_H
+#include "glctx.h"
+#include "prtfile.h"
+#include "render.h"
+
+#define GLRT_MAX_TERMS 16
+
+typedef enum glrt_light_method {
+    GLRT_LIGHT_AUTO = 0, GLRT_LIGHT_FRAGMENT, GLRT_LIGHT_THREAD, GLRT_LIGHT_WARP, GLRT_LIGHT_COUNT
+} glrt_light_method;
+
+typedef enum glrt_view_mode { GLRT_VIEW_PIXEL = 0, GLRT_VIEW_VERTEX = 1 } glrt_view_mode;
+
+typedef struct glrt_desc {
+    glctx *ctx;                 /* NULL: a headless context owned by the glrt */
+    glrt_light_method light;    /* AUTO: the fastest, measured at create */
+    glrt_view_mode view;
+} glrt_desc;
+
+typedef struct glrt_timing {
+    double upload_ms;           /* create: uploading transport, view maps, mesh */
+    double light_ms;            /* last light change, wall clock: upload L + kernel, finished */
+    double light_gpu_ms;        /* GPU time of the last light kernel (timer query) */
+    double view_ms;             /* last glrt_draw, wall clock (finished) */
+    double view_gpu_ms;         /* GPU time of the last draw */
+    double method_ms[GLRT_LIGHT_COUNT]; /* AUTO: measured kernel time per method (0: not run / unavailable) */
+    size_t gpu_bytes;           /* bytes uploaded for transport, view maps and mesh */
+    glrt_light_method light_method;
+    const char *light_method_name;
+    const char *context;        /* "osmesa", "egl", "glfw" */
+    const char *renderer, *version; /* GL_RENDERER / GL_VERSION (owned by the glrt) */
+} glrt_timing;
+
+typedef struct glrt glrt;
+
+glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err);
+void glrt_destroy(glrt *rt);
+/* Light change. L: [CUBE_TEXELS][4] (light.h, or sh_light_from_cube for SH files). */
+int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
+/* Probe shown behind the scene (NULL: black); R as render_desc.background_rotation (may be NULL). */
+int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err);
+/* Changes only the background's rotation (R NULL: none); the probe stays uploaded. */
+void glrt_set_background_rotation(glrt *rt, const float R[9]);
+/* Renders into the glrt's float target (w x h): background, then the scene relit with the
+ * current light. kmax 0 = all terms. */
+int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err);
+/* The same target, with per-vertex colours rgb[3*nverts] computed elsewhere (the CPU runtime). */
+int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
+/* Reads the target back (linear RGB, top row first; allocated here). */
+int glrt_read(glrt *rt, prt_image *out, prt_error *err);
+/* glrt_draw + glrt_read. */
+int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_image *out, prt_error *err);
+/* Blits the target to the current window's framebuffer with exposure (clamp + sRGB). */
+void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops);
+/* Copies the light-dependent K-vectors back: g[3*i + ch] for every vector (as relight_gvec). */
+int glrt_read_gvec(glrt *rt, float *g, prt_error *err);
+/* Switches the view mode / light kernel (a method the context cannot run fails). */
+void glrt_set_view_mode(glrt *rt, glrt_view_mode mode);
+int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err);
+void glrt_get_timing(const glrt *rt, glrt_timing *out);
+const char *glrt_light_method_name(glrt_light_method m);
+
+/* One-shot headless render (what `prt render --backend gl` calls): creates a runtime, sets the
+ * light L, renders rd (size, camera, background), returns the image. */
+int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc *rd, int kmax, prt_image *out,
+                      prt_error *err);
+
+/* `prt glbench FILE.prt --probe P`: GL vs CPU light-change and view-change rates (src/cli_view.c). */
+int cli_glbench(int argc, char **argv);
+#endif

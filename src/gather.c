@@ -1,0 +1,529 @@
+/* gather.c - interreflection passes by gathering compressed transport vectors
+ * (sections 3.2 and 4.2 of Wang, Tran & Luebke 2006; Eq. 6-8).
+ *
+ * Why it is organised this way. One pass computes, for every vertex x and
+ * each of its K BRDF terms k,
+ *   T'_k(x) = sum_w [ sum_l h_l(x~, -w) T_l(x~) ] g_k(x, w) (n.w) dw        (Eq. 8)
+ * over the texels w of a global-frame gather cube (res 32) in x's upper
+ * hemisphere whose ray hits the scene (the complement transport, Eq. 6).
+ * T at the hit point x~ is the barycentric blend of the hit triangle's three
+ * vertices. Because the whole expression is linear in the neighbour vectors,
+ * every ray only adds scalar weights
+ *   W[y][l][k][ch] += beta_y h_l(y, -w)[ch] g_k(x, w)[ch] (n.w) dw
+ * into a per-thread table keyed by neighbour vertex y (a direct-indexed
+ * vertex -> slot map, reset through the list of used slots). Only afterwards
+ * is each distinct neighbour's compressed vector decoded, once, and added with
+ * its K weights into x's dense accumulator. A vertex typically sees a few
+ * thousand hit texels but only a few hundred distinct vertices, so this
+ * combining step divides the decode work by roughly ten.
+ *
+ * The accumulator is interleaved, acc[index][k*3 + ch], so one decoded
+ * coefficient updates K*3 contiguous floats (one or two cache lines) instead of
+ * K*3 scattered planes; the dequantization step of each neighbour vector is
+ * folded into its weights, so the inner loop is int8 -> float and a
+ * multiply-add per lane. Only the 256-blocks some coefficient touched are
+ * de-interleaved and cleared afterwards.
+ *
+ * The previous pass stays compressed and quantized in memory (decoded on the
+ * fly, section 4.2); the coefficients already live in the wavelet (or SH)
+ * domain and gathering is linear, so no transform is needed: the accumulated
+ * vector goes straight to transport_store (truncation to N + quantization).
+ *
+ * Frames and lookups: g_k(x, w) uses w in x's Eq. 10 frame (brdf_frame of the
+ * smooth vertex normal), h_l(y, -w) uses -w in y's frame; a direction below a
+ * vertex's horizon gives zero (the factor's contract), so back faces reflect
+ * nothing. Lambertian neighbours skip the view lookup (the view map is
+ * constant). */
+#include "gather.h"
+#include "cubemap.h"
+#include "vec3.h"
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define GATHER_DEFAULT_RES 32
+#define GATHER_MAX_RES 256
+#define GATHER_GRAIN 8
+
+/* ---- direct decoding of one stored vector ------------------------------ */
+
+/* Adds w[j] * value(c, j % 3) into acc[index(c)*S + j] for every coefficient c of
+ * vector i of t (j < S, S = 3*nk; w already includes the dequantization step) and
+ * marks the touched 256-blocks. The pattern w has S entries. */
+static inline void accum_vec(const prt_transport *t, int i, const float *w, int S, float *acc, uint8_t *touched) {
+    uint32_t c = t->coef_first[i];
+    for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
+        uint32_t block = t->runs[2 * r], count = (uint32_t)t->runs[2 * r + 1] + 1u;
+        touched[block] = 1;
+        float *base = acc + (size_t)block * SPARSE_BLOCK * (size_t)S;
+        for (uint32_t e = c + count; c < e; c++) {
+            float v[3];
+            uint32_t off;
+            if (t->qbits == 8) {
+                uint32_t p = t->packed[c];
+                off = p & 255u;
+                v[0] = (float)(int8_t)(uint8_t)(p >> 8);
+                v[1] = (float)(int8_t)(uint8_t)(p >> 16);
+                v[2] = (float)(int8_t)(uint8_t)(p >> 24);
+            } else if (t->qbits == 16) {
+                off = t->offs[c];
+                v[0] = t->q16[3 * c]; v[1] = t->q16[3 * c + 1]; v[2] = t->q16[3 * c + 2];
+            } else {
+                off = t->offs[c];
+                v[0] = t->f32[3 * c]; v[1] = t->f32[3 * c + 1]; v[2] = t->f32[3 * c + 2];
+            }
+            float *a = base + (size_t)off * (size_t)S;
+            /* S is a compile-time constant in the specialised callers below, so this unrolls. */
+            for (int j = 0; j < S; j += 3) {
+                a[j] += w[j] * v[0];
+                a[j + 1] += w[j + 1] * v[1];
+                a[j + 2] += w[j + 2] * v[2];
+            }
+        }
+    }
+}
+
+/* Specialisations for the common stride values (K = 1..4), so the compiler
+ * unrolls and vectorizes the inner lanes; any other K takes the generic path. */
+static void accum_s3(const prt_transport *t, int i, const float *w, float *acc, uint8_t *touched) { accum_vec(t, i, w, 3, acc, touched); }
+static void accum_s6(const prt_transport *t, int i, const float *w, float *acc, uint8_t *touched) { accum_vec(t, i, w, 6, acc, touched); }
+static void accum_s9(const prt_transport *t, int i, const float *w, float *acc, uint8_t *touched) { accum_vec(t, i, w, 9, acc, touched); }
+static void accum_s12(const prt_transport *t, int i, const float *w, float *acc, uint8_t *touched) { accum_vec(t, i, w, 12, acc, touched); }
+
+static void accum_any(const prt_transport *t, int i, const float *w, int S, float *acc, uint8_t *touched) {
+    switch (S) {
+    case 3: accum_s3(t, i, w, acc, touched); break;
+    case 6: accum_s6(t, i, w, acc, touched); break;
+    case 9: accum_s9(t, i, w, acc, touched); break;
+    case 12: accum_s12(t, i, w, acc, touched); break;
+    default: accum_vec(t, i, w, S, acc, touched); break;
+    }
+}
+
+/* Dequantization step of vector i, channel ch (1 for float storage). */
+static inline float vec_scale(const prt_transport *t, int i, int ch) {
+    return t->qbits == 32 ? 1.f : t->scale[3 * i + ch];
+}
+
+/* ---- shared pass state -------------------------------------------------- */
+
+typedef struct gather_thread {
+    float *acc;        /* [CUBE_TEXELS][kx_max*3] interleaved accumulator, zero between vertices */
+    float *plane;      /* [3][CUBE_TEXELS] planar staging for transport_store, zero between uses */
+    void *scratch;     /* transport_store scratch */
+    uint8_t touched[SPARSE_NBLOCKS];
+    int *slot_of;      /* [nverts] neighbour vertex -> slot, -1 when unused */
+    int *slot_vert;    /* [max_slots] vertex of each used slot */
+    float *slot_w;     /* [max_slots][kl_max][kx_max*3] combined weights */
+    float *dirs;       /* [ntex*3] upper-hemisphere directions of the current vertex */
+    float *cosdw;      /* [ntex] (n.w) dw of each */
+    vis_hit *hits;     /* [ntex] */
+} gather_thread;
+
+typedef struct gather_ctx {
+    const prt_data *d;
+    const vis_scene *vs;
+    const prt_transport *prev;
+    prt_transport *next;
+    int res, ntex;
+    const float *tex_dir;     /* [ntex*3] gather cube texel directions */
+    const float *tex_dw;      /* [ntex] their solid angles */
+    const float *frame;       /* [nverts*6]: s, t of each vertex's Eq. 10 frame */
+    int kmax;                 /* largest vector count of any vertex */
+    int max_slots;
+    float hconst[PRT_MAX_MATERIALS][3];  /* constant view map of Lambertian materials */
+    bool hconst_ok[PRT_MAX_MATERIALS];
+    float eps;
+    gather_thread *th;
+    /* progress and cancellation */
+    const gather_desc *desc;
+    pthread_mutex_t lock;
+    atomic_int done;
+    atomic_bool cancel;
+} gather_ctx;
+
+static int nvec_of(const prt_transport *t, int v) { return (int)(t->vec_first[v + 1] - t->vec_first[v]); }
+
+/* Reports progress after a finished chunk; sets ctx->cancel when the callback says stop. */
+static void report(gather_ctx *c, int nfinished, int total) {
+    int done = atomic_fetch_add(&c->done, nfinished) + nfinished;
+    if (!c->desc || !c->desc->progress) return;
+    pthread_mutex_lock(&c->lock);
+    if (!atomic_load(&c->cancel) &&
+        !c->desc->progress(c->desc->progress_user, c->desc->stage ? c->desc->stage : "gather", (double)done / total))
+        atomic_store(&c->cancel, true);
+    pthread_mutex_unlock(&c->lock);
+}
+
+/* Gathers one vertex x into next (Eq. 8). */
+static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
+    const prt_mesh *m = &c->d->scene.mesh;
+    const prt_transport *prev = c->prev;
+    const int nk = nvec_of(prev, x);
+    if (nk <= 0) return;
+    const int S = 3 * nk;                  /* weight lanes per (neighbour, term) */
+    const int SL = 3 * c->kmax;            /* slot stride per neighbour term */
+    const brdf_factor *fx = &c->d->factors[m->mat[x]];
+    const float *n = m->nrm + 3 * (size_t)x, *s = c->frame + 6 * (size_t)x, *tt = s + 3;
+    const float *p = m->pos + 3 * (size_t)x;
+
+    /* Rays: gather-cube texel centres in the upper hemisphere of n. */
+    int nr = 0;
+    for (int i = 0; i < c->ntex; i++) {
+        const float *w = c->tex_dir + 3 * i;
+        float cw = v3_dot(n, w);
+        if (cw <= 0.f) continue;
+        v3_copy(th->dirs + 3 * nr, w);
+        th->cosdw[nr] = cw * c->tex_dw[i];
+        nr++;
+    }
+    float org[3];
+    v3_madd(org, p, n, c->eps);
+    if (nr > 0) vis_closest_many(c->vs, org, th->dirs, nr, c->eps, th->hits);
+
+    /* Combine weights per (neighbour vertex, term). */
+    int nslots = 0;
+    float gx[3 * BRDF_MAX_SIGMA], hy[3 * BRDF_MAX_SIGMA];
+    for (int r = 0; r < nr; r++) {
+        const vis_hit *h = &th->hits[r];
+        if (h->tri < 0 || h->tri >= m->ntris) continue;
+        const float *w = th->dirs + 3 * r;
+        float wl[3];
+        brdf_to_local(s, tt, n, w, wl);
+        if (wl[2] <= 0.f) continue;
+        brdf_factor_light(fx, wl, gx);
+        float u = h->u, v = h->v;
+        if (!(u >= 0.f)) u = 0.f;           /* also catches NaN */
+        if (!(v >= 0.f)) v = 0.f;
+        if (u > 1.f) u = 1.f;
+        if (v > 1.f - u) v = 1.f - u;
+        const float beta[3] = { 1.f - u - v, u, v };
+        const float mw[3] = { -w[0], -w[1], -w[2] };
+        for (int corner = 0; corner < 3; corner++) {
+            float b = beta[corner] * th->cosdw[r];
+            if (!(b > 0.f)) continue;
+            int y = (int)m->tris[3 * (size_t)h->tri + corner];
+            int nl = nvec_of(prev, y);
+            if (nl <= 0) continue;
+            const float *ny = m->nrm + 3 * (size_t)y, *sy = c->frame + 6 * (size_t)y;
+            float ml[3];
+            brdf_to_local(sy, sy + 3, ny, mw, ml);
+            if (ml[2] <= 0.f) continue;     /* x sees y's back: y reflects nothing toward x */
+            int my = m->mat[y];
+            if (c->hconst_ok[my]) v3_copy(hy, c->hconst[my]);
+            else brdf_factor_view(&c->d->factors[my], ml, hy);
+            int sl = th->slot_of[y];
+            if (sl < 0) {
+                sl = nslots++;
+                th->slot_of[y] = sl;
+                th->slot_vert[sl] = y;
+                memset(th->slot_w + (size_t)sl * c->kmax * SL, 0, sizeof(float) * (size_t)c->kmax * SL);
+            }
+            float *W = th->slot_w + (size_t)sl * c->kmax * SL;
+            for (int l = 0; l < nl; l++) {
+                float *Wl = W + (size_t)l * SL;
+                for (int k = 0; k < nk; k++)
+                    for (int ch = 0; ch < 3; ch++) Wl[3 * k + ch] += b * hy[3 * l + ch] * gx[3 * k + ch];
+            }
+        }
+    }
+
+    /* Decode each distinct neighbour vector once and accumulate. */
+    memset(th->touched, 0, sizeof th->touched);
+    for (int sl = 0; sl < nslots; sl++) {
+        int y = th->slot_vert[sl];
+        th->slot_of[y] = -1;
+        int nl = nvec_of(prev, y);
+        const float *W = th->slot_w + (size_t)sl * c->kmax * SL;
+        for (int l = 0; l < nl; l++) {
+            int vec = (int)prev->vec_first[y] + l;
+            if (prev->coef_first[vec + 1] == prev->coef_first[vec]) continue;
+            float ws[3 * BRDF_MAX_SIGMA];
+            bool any = false;
+            for (int j = 0; j < S; j++) {
+                ws[j] = W[(size_t)l * SL + j] * vec_scale(prev, vec, j % 3);
+                any |= ws[j] != 0.f;
+            }
+            if (any) accum_any(prev, vec, ws, S, th->acc, th->touched);
+        }
+    }
+
+    /* Store each of x's K vectors (truncation to N + quantization), clearing as we go. */
+    float *R = th->plane, *G = R + CUBE_TEXELS, *B = G + CUBE_TEXELS;
+    for (int k = 0; k < nk; k++) {
+        for (int blk = 0; blk < SPARSE_NBLOCKS; blk++) {
+            if (!th->touched[blk]) continue;
+            for (int i = blk * SPARSE_BLOCK; i < (blk + 1) * SPARSE_BLOCK; i++) {
+                const float *a = th->acc + (size_t)i * S + 3 * k;
+                R[i] = a[0]; G[i] = a[1]; B[i] = a[2];
+            }
+        }
+        transport_store(c->next, (int)c->next->vec_first[x] + k, R, G, B, th->scratch);
+        for (int blk = 0; blk < SPARSE_NBLOCKS; blk++) {
+            if (!th->touched[blk]) continue;
+            size_t o = (size_t)blk * SPARSE_BLOCK;
+            memset(R + o, 0, sizeof(float) * SPARSE_BLOCK);
+            memset(G + o, 0, sizeof(float) * SPARSE_BLOCK);
+            memset(B + o, 0, sizeof(float) * SPARSE_BLOCK);
+        }
+    }
+    for (int blk = 0; blk < SPARSE_NBLOCKS; blk++)
+        if (th->touched[blk])
+            memset(th->acc + (size_t)blk * SPARSE_BLOCK * S, 0, sizeof(float) * SPARSE_BLOCK * (size_t)S);
+}
+
+static void gather_range(void *ctx, int begin, int end, int thread) {
+    gather_ctx *c = ctx;
+    int n = 0;
+    for (int x = begin; x < end; x++) {
+        if (atomic_load_explicit(&c->cancel, memory_order_relaxed)) break;
+        gather_vertex(c, &c->th[thread], x);
+        n++;
+    }
+    report(c, n, c->prev->nverts);
+}
+
+static void free_threads(gather_thread *th, int nth) {
+    if (!th) return;
+    for (int i = 0; i < nth; i++) {
+        free(th[i].acc); free(th[i].plane); free(th[i].scratch); free(th[i].slot_of);
+        free(th[i].slot_vert); free(th[i].slot_w); free(th[i].dirs); free(th[i].cosdw); free(th[i].hits);
+    }
+    free(th);
+}
+
+/* Checks that t is a finished set whose layout fits; returns 0 or -1. */
+static int check_set(const prt_transport *t, const char *what, prt_error *err) {
+    if (t && t->stage_count) return prt_fail(err, "gather: %s transport set is not finished", what);
+    if (!t || !t->vec_first || !t->coef_first || !t->run_first || t->nverts < 0 || t->nvecs < 0)
+        return prt_fail(err, "gather: %s transport set is empty", what);
+    if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32)
+        return prt_fail(err, "gather: %s transport set has unsupported qbits %d", what, t->qbits);
+    return 0;
+}
+
+static int *vec_counts(const prt_transport *t, prt_error *err) {
+    int *cnt = prt_calloc((size_t)(t->nverts > 0 ? t->nverts : 1), sizeof(int), err);
+    if (!cnt) return NULL;
+    for (int v = 0; v < t->nverts; v++) cnt[v] = nvec_of(t, v);
+    return cnt;
+}
+
+/* One interreflection pass (see gather.h). Returns 0, or -1 with err set; next is
+ * left zeroed on failure. */
+int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *prev, const gather_desc *desc,
+                prt_transport *next, prt_error *err) {
+    memset(next, 0, sizeof *next);
+    if (check_set(prev, "previous", err)) return -1;
+    const prt_mesh *m = &d->scene.mesh;
+    if (prev->nverts != m->nverts)
+        return prt_fail(err, "gather: transport has %d vertices but the mesh has %d", prev->nverts, m->nverts);
+    int res = desc && desc->res > 0 ? desc->res : GATHER_DEFAULT_RES;
+    if (res > GATHER_MAX_RES) return prt_fail(err, "gather: cube resolution %d out of range (1..%d)", res, GATHER_MAX_RES);
+    int kmax = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        int nv = nvec_of(prev, v), mat = m->mat[v];
+        if (mat >= d->scene.nmaterials || mat >= PRT_MAX_MATERIALS)
+            return prt_fail(err, "gather: vertex %d has material %d of %d", v, mat, d->scene.nmaterials);
+        if (nv > d->factors[mat].K || nv > BRDF_MAX_SIGMA)
+            return prt_fail(err, "gather: vertex %d has %d transport vectors but its material has %d terms", v, nv,
+                            d->factors[mat].K);
+        if (nv > kmax) kmax = nv;
+    }
+    int *cnt = vec_counts(prev, err);
+    if (!cnt) return -1;
+    int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
+    free(cnt);
+    if (rc) { memset(next, 0, sizeof *next); return -1; }
+    if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
+
+    gather_ctx c;
+    memset(&c, 0, sizeof c);
+    c.d = d; c.vs = vs; c.prev = prev; c.next = next; c.res = res; c.kmax = kmax; c.desc = desc;
+    c.ntex = 6 * res * res;
+    c.eps = vis_eps(vs);
+    int nth = prt_thread_count(desc ? desc->nthreads : 0);
+    float *tex_dir = NULL, *tex_dw = NULL, *frame = NULL;
+    tex_dir = prt_calloc((size_t)c.ntex * 3, sizeof(float), err);
+    tex_dw = tex_dir ? prt_calloc((size_t)c.ntex, sizeof(float), err) : NULL;
+    frame = tex_dw ? prt_calloc((size_t)m->nverts * 6, sizeof(float), err) : NULL;
+    c.th = frame ? prt_calloc((size_t)nth, sizeof(gather_thread), err) : NULL;
+    if (!c.th) goto fail;
+    for (int i = 0; i < c.ntex; i++) {
+        cube_texel_dir(res, i, tex_dir + 3 * i);
+        int ij = i % (res * res);
+        tex_dw[i] = (float)cube_texel_solid_angle(res, ij % res, ij / res);
+    }
+    for (int v = 0; v < m->nverts; v++) brdf_frame(m->nrm + 3 * (size_t)v, frame + 6 * (size_t)v, frame + 6 * (size_t)v + 3);
+    c.tex_dir = tex_dir; c.tex_dw = tex_dw; c.frame = frame;
+    for (int i = 0; i < d->scene.nmaterials && i < PRT_MAX_MATERIALS; i++) {
+        const brdf_factor *f = &d->factors[i];
+        if (f->lambertian && f->K == 1) {
+            const float up[3] = { 0.f, 0.f, 1.f };
+            brdf_factor_view(f, up, c.hconst[i]);
+            c.hconst_ok[i] = true;
+        }
+    }
+    /* A vertex has at most ntex/2 + a few upper-hemisphere rays, each naming 3 neighbours. */
+    c.max_slots = 3 * c.ntex < m->nverts ? 3 * c.ntex : m->nverts;
+    for (int i = 0; i < nth; i++) {
+        gather_thread *t = &c.th[i];
+        if (!(t->acc = prt_calloc((size_t)CUBE_TEXELS * 3 * kmax, sizeof(float), err)) ||
+            !(t->plane = prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err)) ||
+            !(t->scratch = prt_calloc(1, transport_scratch_size(), err)) ||
+            !(t->slot_of = prt_calloc((size_t)m->nverts, sizeof(int), err)) ||
+            !(t->slot_vert = prt_calloc((size_t)c.max_slots, sizeof(int), err)) ||
+            !(t->slot_w = prt_calloc((size_t)c.max_slots * kmax * 3 * kmax, sizeof(float), err)) ||
+            !(t->dirs = prt_calloc((size_t)c.ntex * 3, sizeof(float), err)) ||
+            !(t->cosdw = prt_calloc((size_t)c.ntex, sizeof(float), err)) ||
+            !(t->hits = prt_calloc((size_t)c.ntex, sizeof(vis_hit), err)))
+            goto fail;
+        for (int v = 0; v < m->nverts; v++) t->slot_of[v] = -1;
+    }
+    pthread_mutex_init(&c.lock, NULL);
+    atomic_init(&c.done, 0);
+    atomic_init(&c.cancel, false);
+    prt_parallel_for(m->nverts, GATHER_GRAIN, nth, gather_range, &c);
+    pthread_mutex_destroy(&c.lock);
+    bool cancelled = atomic_load(&c.cancel);
+    free_threads(c.th, nth);
+    free(tex_dir); free(tex_dw); free(frame);
+    if (cancelled) {
+        transport_free(next);
+        memset(next, 0, sizeof *next);
+        return prt_fail(err, "cancelled");
+    }
+    if (transport_finish(next, err)) {
+        transport_free(next);
+        memset(next, 0, sizeof *next);
+        return -1;
+    }
+    return 0;
+fail:
+    free_threads(c.th, nth);
+    free(tex_dir); free(tex_dw); free(frame);
+    transport_free(next);
+    memset(next, 0, sizeof *next);
+    return -1;
+}
+
+/* ---- sum of two sets ----------------------------------------------------- */
+
+typedef struct sum_ctx {
+    const prt_transport *a, *b;
+    prt_transport *out;
+    float **plane;     /* per thread [3][CUBE_TEXELS], zero between vectors */
+    void **scratch;
+} sum_ctx;
+
+/* Adds vector i of t (dequantized) into planar R, G, B; marks touched blocks. */
+static void add_planar(const prt_transport *t, int i, float *R, float *G, float *B, uint8_t *touched) {
+    const float s0 = vec_scale(t, i, 0), s1 = vec_scale(t, i, 1), s2 = vec_scale(t, i, 2);
+    uint32_t c = t->coef_first[i];
+    for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
+        uint32_t block = t->runs[2 * r], count = (uint32_t)t->runs[2 * r + 1] + 1u;
+        touched[block] = 1;
+        for (uint32_t e = c + count; c < e; c++) {
+            uint32_t off;
+            float v0, v1, v2;
+            if (t->qbits == 8) {
+                uint32_t p = t->packed[c];
+                off = p & 255u;
+                v0 = (float)(int8_t)(uint8_t)(p >> 8);
+                v1 = (float)(int8_t)(uint8_t)(p >> 16);
+                v2 = (float)(int8_t)(uint8_t)(p >> 24);
+            } else if (t->qbits == 16) {
+                off = t->offs[c];
+                v0 = t->q16[3 * c]; v1 = t->q16[3 * c + 1]; v2 = t->q16[3 * c + 2];
+            } else {
+                off = t->offs[c];
+                v0 = t->f32[3 * c]; v1 = t->f32[3 * c + 1]; v2 = t->f32[3 * c + 2];
+            }
+            size_t idx = (size_t)block * SPARSE_BLOCK + off;
+            R[idx] += v0 * s0; G[idx] += v1 * s1; B[idx] += v2 * s2;
+        }
+    }
+}
+
+static void sum_range(void *ctx, int begin, int end, int thread) {
+    sum_ctx *c = ctx;
+    float *R = c->plane[thread], *G = R + CUBE_TEXELS, *B = G + CUBE_TEXELS;
+    for (int i = begin; i < end; i++) {
+        uint8_t touched[SPARSE_NBLOCKS] = { 0 };
+        add_planar(c->a, i, R, G, B, touched);
+        add_planar(c->b, i, R, G, B, touched);
+        transport_store(c->out, i, R, G, B, c->scratch[thread]);
+        for (int blk = 0; blk < SPARSE_NBLOCKS; blk++) {
+            if (!touched[blk]) continue;
+            size_t o = (size_t)blk * SPARSE_BLOCK;
+            memset(R + o, 0, sizeof(float) * SPARSE_BLOCK);
+            memset(G + o, 0, sizeof(float) * SPARSE_BLOCK);
+            memset(B + o, 0, sizeof(float) * SPARSE_BLOCK);
+        }
+    }
+}
+
+/* out = a + b (see gather.h). Returns 0, or -1 with err set (out left zeroed). */
+int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt_transport *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    if (check_set(a, "first", err) || check_set(b, "second", err)) return -1;
+    if (a->nverts != b->nverts || a->nvecs != b->nvecs ||
+        memcmp(a->vec_first, b->vec_first, sizeof(uint32_t) * ((size_t)a->nverts + 1)) != 0)
+        return prt_fail(err, "gather: cannot sum transport sets with different layouts (%d/%d vertices, %d/%d vectors)",
+                        a->nverts, b->nverts, a->nvecs, b->nvecs);
+    int *cnt = vec_counts(a, err);
+    if (!cnt) return -1;
+    int rc = transport_init(out, a->nverts, cnt, a->N, a->qbits, err);
+    free(cnt);
+    if (rc) { memset(out, 0, sizeof *out); return -1; }
+    int nth = prt_thread_count(nthreads);
+    sum_ctx c = { .a = a, .b = b, .out = out };
+    c.plane = prt_calloc((size_t)nth, sizeof(float *), err);
+    c.scratch = c.plane ? prt_calloc((size_t)nth, sizeof(void *), err) : NULL;
+    bool ok = c.scratch != NULL;
+    for (int i = 0; ok && i < nth; i++) {
+        c.plane[i] = prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err);
+        c.scratch[i] = c.plane[i] ? prt_calloc(1, transport_scratch_size(), err) : NULL;
+        ok = c.scratch[i] != NULL;
+    }
+    if (ok) prt_parallel_for(a->nvecs, 64, nth, sum_range, &c);
+    for (int i = 0; i < nth; i++) {
+        if (c.plane) free(c.plane[i]);
+        if (c.scratch) free(c.scratch[i]);
+    }
+    free(c.plane);
+    free(c.scratch);
+    if (!ok || transport_finish(out, err)) {
+        transport_free(out);
+        memset(out, 0, sizeof *out);
+        return -1;
+    }
+    return 0;
+}
+
+/* Sum over vectors and channels of squared dequantized coefficients (see gather.h). */
+double gather_energy(const prt_transport *t) {
+    if (!t || !t->coef_first || t->stage_count) return 0.0;
+    double e = 0.0;
+    for (int i = 0; i < t->nvecs; i++) {
+        double q[3] = { 0, 0, 0 };
+        for (uint32_t c = t->coef_first[i]; c < t->coef_first[i + 1]; c++) {
+            double v0, v1, v2;
+            if (t->qbits == 8) {
+                uint32_t p = t->packed[c];
+                v0 = (int8_t)(uint8_t)(p >> 8); v1 = (int8_t)(uint8_t)(p >> 16); v2 = (int8_t)(uint8_t)(p >> 24);
+            } else if (t->qbits == 16) {
+                v0 = t->q16[3 * c]; v1 = t->q16[3 * c + 1]; v2 = t->q16[3 * c + 2];
+            } else {
+                v0 = t->f32[3 * c]; v1 = t->f32[3 * c + 1]; v2 = t->f32[3 * c + 2];
+            }
+            q[0] += v0 * v0; q[1] += v1 * v1; q[2] += v2 * v2;
+        }
+        for (int ch = 0; ch < 3; ch++) {
+            double s = vec_scale(t, i, ch);
+            e += q[ch] * s * s;
+        }
+    }
+    return e;
+}

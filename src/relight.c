@@ -1,0 +1,170 @@
+/* relight.c - CPU relighting with Eq. 5: colour = h(view) . g(light) per vertex.
+ *
+ * A light change recomputes the light-dependent K-vectors g = T x L for every
+ * transport vector (transport_light, both cores) and caches them. A view change
+ * then costs, per vertex, one normalization, a frame change into the vertex's
+ * Eq. 10 tangent frame (precomputed here once), a bilinear lookup of the K view
+ * maps h_k (brdf_factor_view) and a K-term dot product per channel. Lambertian
+ * materials have a constant view map, so their h is read once per material and
+ * their vertices skip the lookup (also below the horizon, where a back-facing
+ * vertex is hidden anyway).
+ *
+ * Output policy: the truncated wavelet approximation can ring slightly below
+ * zero near hard shadow edges; negative radiance has no physical meaning and
+ * would wrap in 8-bit output, so relight_view and relight_vertex clamp it to 0.
+ * Non-finite results (impossible with valid data) are also written as 0.
+ *
+ * Per-vertex data is packed into one 48-byte record (position and the frame s,
+ * t, n) so the view loop streams a single array. */
+#include "relight.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct relight_vert {
+    float pos[3], s[3], t[3], n[3];
+} relight_vert;
+
+struct relight_ctx {
+    const prt_data *d;
+    int nthreads;
+    int nverts, nvecs;
+    relight_vert *verts;          /* [nverts] */
+    float *g;                     /* [3 * nvecs] light-dependent K-vectors (Eq. 5's T x L) */
+    float lambert_h[PRT_MAX_MATERIALS][3];   /* constant view map of Lambertian factors */
+};
+
+/* Validates d and precomputes frames; returns a context (free with relight_destroy) or NULL with err set. */
+relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
+    const prt_mesh *m = &d->scene.mesh;
+    const prt_transport *t = &d->transport;
+    const char *bad = NULL;
+    char why[256];
+    if (!t->coef_first || !t->vec_first) bad = "the transport set is not finished";
+    else if (t->nverts != m->nverts) {
+        snprintf(why, sizeof why, "transport has %d vertices but the mesh has %d", t->nverts, m->nverts);
+        bad = why;
+    } else if (m->nverts > 0 && (!m->pos || !m->nrm)) bad = "the mesh has no positions or normals";
+    else if (d->scene.nmaterials < 1 || d->scene.nmaterials > PRT_MAX_MATERIALS) {
+        snprintf(why, sizeof why, "bad material count %d", d->scene.nmaterials);
+        bad = why;
+    }
+    for (int k = 0; !bad && k < d->scene.nmaterials; k++) {
+        const brdf_factor *f = &d->factors[k];
+        if (f->K < 1 || f->K > BRDF_MAX_SIGMA || f->res < 1 || !f->view) {
+            snprintf(why, sizeof why, "material %d has no usable BRDF factorization (K = %d)", k, f->K);
+            bad = why;
+        }
+    }
+    for (int v = 0; !bad && m->mat && v < m->nverts; v++)
+        if (m->mat[v] >= d->scene.nmaterials) {
+            snprintf(why, sizeof why, "vertex %d uses material %d of %d", v, m->mat[v], d->scene.nmaterials);
+            bad = why;
+        }
+    if (bad) {
+        prt_fail(err, "relight: %s", bad);
+        return NULL;
+    }
+
+    relight_ctx *rc = prt_calloc(1, sizeof *rc, err);
+    if (!rc) return NULL;
+    rc->d = d;
+    rc->nthreads = nthreads;
+    rc->nverts = m->nverts;
+    rc->nvecs = t->nvecs;
+    rc->verts = prt_calloc((size_t)m->nverts, sizeof *rc->verts, err);
+    rc->g = prt_calloc(3 * (size_t)t->nvecs, sizeof *rc->g, err);
+    if (!rc->verts || !rc->g) {
+        relight_destroy(rc);
+        return NULL;
+    }
+    for (int v = 0; v < m->nverts; v++) {
+        relight_vert *rv = &rc->verts[v];
+        memcpy(rv->pos, m->pos + 3 * (size_t)v, sizeof rv->pos);
+        memcpy(rv->n, m->nrm + 3 * (size_t)v, sizeof rv->n);
+        brdf_frame(rv->n, rv->s, rv->t);
+    }
+    for (int k = 0; k < d->scene.nmaterials; k++) {
+        const brdf_factor *f = &d->factors[k];
+        if (!f->lambertian) continue;
+        float h[BRDF_MAX_SIGMA * 3];
+        const float up[3] = { 0, 0, 1 };
+        brdf_factor_view(f, up, h);
+        memcpy(rc->lambert_h[k], h, sizeof rc->lambert_h[k]);
+    }
+    return rc;
+}
+
+/* Frees the context (not the shared prt_data). NULL is fine. */
+void relight_destroy(relight_ctx *rc) {
+    if (!rc) return;
+    free(rc->verts);
+    free(rc->g);
+    free(rc);
+}
+
+/* Light change: g = T x L for every vector (Eq. 5), on rc->nthreads threads. */
+void relight_set_light(relight_ctx *rc, const float (*L)[4]) { transport_light(&rc->d->transport, L, rc->g, rc->nthreads); }
+
+/* The cached K-vectors, [3 * nvecs]; owned by rc. */
+const float *relight_gvec(const relight_ctx *rc) { return rc->g; }
+
+/* h . g of vertex v for local view direction wl (unit), clamped to >= 0 and finite. */
+static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, float rgb[3]) {
+    const prt_data *d = rc->d;
+    int mi = d->scene.mesh.mat ? d->scene.mesh.mat[v] : 0;
+    const brdf_factor *f = &d->factors[mi];
+    uint32_t v0 = d->transport.vec_first[v], nk = d->transport.vec_first[v + 1] - v0;
+    int K = (int)nk < f->K ? (int)nk : f->K;
+    if (kmax > 0 && kmax < K) K = kmax;
+    const float *g = rc->g + 3 * (size_t)v0;
+    float acc[3] = { 0, 0, 0 };
+    if (K > 0) {
+        if (f->lambertian) {
+            for (int c = 0; c < 3; c++) acc[c] = rc->lambert_h[mi][c] * g[c];
+        } else {
+            float h[BRDF_MAX_SIGMA * 3];
+            brdf_factor_view(f, wl, h);
+            for (int k = 0; k < K; k++)
+                for (int c = 0; c < 3; c++) acc[c] += h[3 * k + c] * g[3 * k + c];
+        }
+    }
+    for (int c = 0; c < 3; c++) rgb[c] = acc[c] > 0 && isfinite(acc[c]) ? acc[c] : 0.f;
+}
+
+/* Outgoing radiance of vertex v toward unit world direction wo. */
+void relight_vertex(const relight_ctx *rc, int v, const float wo[3], int kmax, float rgb[3]) {
+    const relight_vert *rv = &rc->verts[v];
+    float wl[3];
+    brdf_to_local(rv->s, rv->t, rv->n, wo, wl);
+    shade(rc, v, wl, kmax, rgb);
+}
+
+typedef struct view_job {
+    const relight_ctx *rc;
+    float eye[3];
+    int kmax;
+    float *rgb;
+} view_job;
+
+/* prt_parallel_for body: shades vertices [begin, end) toward the eye. */
+static void view_chunk(void *p, int begin, int end, int thread) {
+    const view_job *j = p;
+    const relight_vert *verts = j->rc->verts;
+    for (int v = begin; v < end; v++) {
+        const relight_vert *rv = &verts[v];
+        float wo[3] = { j->eye[0] - rv->pos[0], j->eye[1] - rv->pos[1], j->eye[2] - rv->pos[2] };
+        float len2 = wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2];
+        float inv = len2 > 0 ? 1.f / sqrtf(len2) : 0.f;   /* eye at the vertex: no direction, black unless Lambertian */
+        wo[0] *= inv; wo[1] *= inv; wo[2] *= inv;
+        float wl[3];
+        brdf_to_local(rv->s, rv->t, rv->n, wo, wl);
+        shade(j->rc, v, wl, j->kmax, j->rgb + 3 * (size_t)v);
+    }
+}
+
+/* View change: rgb[3v..] = outgoing radiance of every vertex toward eye (both cores). */
+void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb) {
+    view_job j = { rc, { eye[0], eye[1], eye[2] }, kmax, rgb };
+    prt_parallel_for(rc->nverts, 4096, rc->nthreads, view_chunk, &j);
+}

@@ -1,0 +1,386 @@
+/* transport.c - compressed transport vectors: building, storage and the runtime T x L.
+ *
+ * Each vector keeps its N largest wavelet coefficients (section 4.1.1), quantized
+ * uniformly per channel (section 4.1.2), with its indices split into a block
+ * (index / 256) and an offset (index % 256). Because the kept indices are sorted
+ * and cluster at the start of each face (haar.h's Morton order), consecutive
+ * coefficients mostly share a block, so blocks are stored run-length coded as
+ * (block, count-1) bytes and the offsets travel in the coefficient words.
+ *
+ * Building is two-phase so that the precomputation can store vectors from many
+ * threads at once: transport_store writes only vector i's own staging slots
+ * (stage_count[i], stage_idx/stage_val[i*N ..], scale[3i ..]); transport_finish
+ * then packs the variable-length vectors contiguously.
+ *
+ * The runtime kernel (Eq. 5, T x L) walks each vector's runs with a base pointer
+ * L + 256*block and accumulates value * L[offset] in float RGB(A) lanes: with
+ * 8-bit data one 32-bit word gives the offset and the three int8 values, which
+ * SSE4.1 sign-extends to int32 lanes straight from memory; the per-channel
+ * scale is applied once per vector at the end. Vectors are split across both
+ * cores in chunks of a few thousand. */
+#include "transport.h"
+#include <assert.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef __SSE4_1__
+#include <smmintrin.h>
+#endif
+
+static int qmax_of(int qbits) { return qbits == 8 ? 127 : qbits == 16 ? 32767 : 0; }
+
+/* Sizes the set and allocates staging; returns 0, or -1 with err set. */
+int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int N, int qbits, prt_error *err) {
+    memset(t, 0, sizeof *t);
+    if (nverts < 0 || (nverts > 0 && !nvec_of_vertex)) return prt_fail(err, "transport: bad vertex count %d", nverts);
+    if (N < 1 || N > CUBE_TEXELS) return prt_fail(err, "transport: N = %d is outside 1..%d", N, CUBE_TEXELS);
+    if (qbits != 8 && qbits != 16 && qbits != 32) return prt_fail(err, "transport: qbits must be 8, 16 or 32, not %d", qbits);
+    size_t nvecs = 0;
+    for (int v = 0; v < nverts; v++) {
+        if (nvec_of_vertex[v] < 0 || nvec_of_vertex[v] > 4096)
+            return prt_fail(err, "transport: vertex %d has a bad vector count %d", v, nvec_of_vertex[v]);
+        nvecs += (size_t)nvec_of_vertex[v];
+    }
+    if (nvecs > (size_t)INT32_MAX / 4) return prt_fail(err, "transport: too many vectors (%zu)", nvecs);
+    t->nverts = nverts;
+    t->nvecs = (int)nvecs;
+    t->N = N;
+    t->qbits = qbits;
+    t->vec_first = prt_calloc((size_t)nverts + 1, sizeof *t->vec_first, err);
+    t->scale = prt_calloc(3 * nvecs, sizeof *t->scale, err);
+    t->stage_count = prt_calloc(nvecs, sizeof *t->stage_count, err);
+    t->stage_idx = prt_calloc(nvecs * (size_t)N, sizeof *t->stage_idx, err);
+    t->stage_val = prt_calloc(nvecs * (size_t)N * 3, sizeof *t->stage_val, err);
+    if (!t->vec_first || !t->scale || !t->stage_count || !t->stage_idx || !t->stage_val) {
+        prt_error e2;
+        prt_fail(&e2, "transport: out of memory for %zu vectors of %d coefficients", nvecs, N);
+        transport_free(t);
+        return prt_fail(err, "%s", e2.msg);
+    }
+    for (int v = 0; v < nverts; v++) t->vec_first[v + 1] = t->vec_first[v] + (uint32_t)nvec_of_vertex[v];
+    if (qbits == 32)
+        for (size_t k = 0; k < 3 * nvecs; k++) t->scale[k] = 1.f;
+    return 0;
+}
+
+/* Bytes of scratch transport_store needs. */
+size_t transport_scratch_size(void) { return 2 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(uint32_t); }
+
+static double sq(double x) { return x * x; }
+
+/* Selects, quantizes and stages vector i; returns the squared L2 error of what is kept. */
+double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
+    assert(t->stage_count && i >= 0 && i < t->nvecs);
+    float *keys = scratch;
+    uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
+    int n = sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
+    const float *ch[3] = { r, g, b };
+    float *val = t->stage_val + (size_t)i * t->N * 3;
+    uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
+    int qmax = qmax_of(t->qbits);
+    for (int c = 0; c < 3; c++) {
+        float step = 1.f;
+        if (qmax) {
+            float m = 0;
+            for (int k = 0; k < n; k++) {
+                float a = fabsf(ch[c][idx[k]]);
+                if (a > m && isfinite(a)) m = a;
+            }
+            step = sparse_step(m, qmax);
+        }
+        t->scale[3 * i + c] = step;
+        for (int k = 0; k < n; k++) {
+            float x = ch[c][idx[k]];
+            val[3 * k + c] = qmax ? (float)sparse_quantize(x, step, qmax) * step : (isfinite(x) ? x : 0.f);
+        }
+    }
+    memcpy(sidx, idx, sizeof(uint32_t) * (size_t)n);
+    t->stage_count[i] = (uint32_t)n;
+    /* Error: dropped coefficients' energy plus the kept ones' quantization error
+     * (summed directly, not as total - kept, to avoid cancellation). Non-finite
+     * inputs count as zero, as sparse_select treats them. */
+    double err = 0;
+    int k = 0;
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        double e;
+        if (k < n && idx[k] == (uint32_t)j) {
+            e = sq((double)r[j] - val[3 * k]) + sq((double)g[j] - val[3 * k + 1]) + sq((double)b[j] - val[3 * k + 2]);
+            k++;
+        } else {
+            e = sq(r[j]) + sq(g[j]) + sq(b[j]);
+        }
+        if (isfinite(e)) err += e;
+    }
+    return err;
+}
+
+typedef struct finish_ctx { prt_transport *t; } finish_ctx;
+
+/* Pass 1: number of runs (distinct blocks) of each vector into run_first[i+1]. */
+static void count_runs(void *p, int begin, int end, int thread) {
+    prt_transport *t = ((finish_ctx *)p)->t;
+    for (int i = begin; i < end; i++) {
+        const uint32_t *idx = t->stage_idx + (size_t)i * t->N;
+        uint32_t n = t->stage_count[i], runs = 0, last = UINT32_MAX;
+        for (uint32_t k = 0; k < n; k++) {
+            uint32_t blk = idx[k] / SPARSE_BLOCK;
+            if (blk != last) { runs++; last = blk; }
+        }
+        t->run_first[i + 1] = runs;
+    }
+}
+
+/* Pass 2: runs and coefficient words of each vector at its final place. */
+static void pack_vectors(void *p, int begin, int end, int thread) {
+    prt_transport *t = ((finish_ctx *)p)->t;
+    int qmax = qmax_of(t->qbits);
+    for (int i = begin; i < end; i++) {
+        const uint32_t *idx = t->stage_idx + (size_t)i * t->N;
+        const float *val = t->stage_val + (size_t)i * t->N * 3;
+        const float *sc = t->scale + 3 * (size_t)i;
+        uint32_t n = t->stage_count[i], c0 = t->coef_first[i];
+        uint8_t *runs = t->runs + 2 * (size_t)t->run_first[i];
+        int nr = -1;
+        uint32_t last = UINT32_MAX;
+        for (uint32_t k = 0; k < n; k++) {
+            uint32_t blk = idx[k] / SPARSE_BLOCK, off = idx[k] % SPARSE_BLOCK;
+            if (blk != last) {
+                nr++;
+                runs[2 * nr] = (uint8_t)blk;
+                runs[2 * nr + 1] = 0;
+                last = blk;
+            } else {
+                runs[2 * nr + 1]++;
+            }
+            size_t c = c0 + k;
+            if (t->qbits == 8) {
+                /* staged values are exactly q * step, so dividing by step recovers q */
+                t->packed[c] = sparse_pack8(off, sparse_quantize(val[3 * k], sc[0], qmax),
+                                            sparse_quantize(val[3 * k + 1], sc[1], qmax), sparse_quantize(val[3 * k + 2], sc[2], qmax));
+            } else if (t->qbits == 16) {
+                t->offs[c] = (uint8_t)off;
+                for (int ch = 0; ch < 3; ch++) t->q16[3 * c + ch] = (int16_t)sparse_quantize(val[3 * k + ch], sc[ch], qmax);
+            } else {
+                t->offs[c] = (uint8_t)off;
+                memcpy(t->f32 + 3 * c, val + 3 * k, 3 * sizeof(float));
+            }
+        }
+        assert(nr + 1 == (int)(t->run_first[i + 1] - t->run_first[i]));
+    }
+}
+
+/* Compacts the staged vectors; frees staging. Returns 0, or -1 with err set (OOM, overflow). */
+int transport_finish(prt_transport *t, prt_error *err) {
+    if (!t->stage_count) return 0;
+    size_t nv = (size_t)t->nvecs;
+    t->coef_first = prt_calloc(nv + 1, sizeof *t->coef_first, err);
+    t->run_first = prt_calloc(nv + 1, sizeof *t->run_first, err);
+    if (!t->coef_first || !t->run_first) goto oom;
+    uint64_t total = 0;
+    for (size_t i = 0; i < nv; i++) {
+        total += t->stage_count[i];
+        if (total > UINT32_MAX) {
+            free(t->coef_first); free(t->run_first);
+            t->coef_first = t->run_first = NULL;
+            return prt_fail(err, "transport: more than 2^32 coefficients");
+        }
+        t->coef_first[i + 1] = (uint32_t)total;
+    }
+    finish_ctx ctx = { t };
+    prt_parallel_for(t->nvecs, 4096, 0, count_runs, &ctx);
+    for (size_t i = 0; i < nv; i++) t->run_first[i + 1] += t->run_first[i];
+    size_t nc = total, nr = t->run_first[nv];
+    t->runs = prt_calloc(2 * nr, 1, err);
+    if (!t->runs) goto oom;
+    if (t->qbits == 8) t->packed = prt_calloc(nc, sizeof *t->packed, err);
+    else t->offs = prt_calloc(nc, 1, err);
+    if (t->qbits == 16) t->q16 = prt_calloc(3 * nc, sizeof *t->q16, err);
+    if (t->qbits == 32) t->f32 = prt_calloc(3 * nc, sizeof *t->f32, err);
+    if (t->qbits == 8 ? !t->packed : (!t->offs || (t->qbits == 16 ? !t->q16 : !t->f32))) goto oom;
+    prt_parallel_for(t->nvecs, 4096, 0, pack_vectors, &ctx);
+    free(t->stage_count); free(t->stage_idx); free(t->stage_val);
+    t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL;
+    return 0;
+oom:
+    /* leave the staged data intact so the caller may retry or free */
+    free(t->coef_first); free(t->run_first); free(t->runs); free(t->packed); free(t->offs); free(t->q16); free(t->f32);
+    t->coef_first = t->run_first = NULL; t->runs = NULL; t->packed = NULL; t->offs = NULL; t->q16 = NULL; t->f32 = NULL;
+    return prt_fail(err, "transport: out of memory compacting %d vectors", t->nvecs);
+}
+
+/* Calls fn for every stored coefficient of vector i (after finish), in index order. */
+void transport_foreach(const prt_transport *t, int i, void (*fn)(void *ctx, uint32_t index, float r, float g, float b), void *ctx) {
+    assert(t->coef_first && i >= 0 && i < t->nvecs);
+    const float *sc = t->scale + 3 * (size_t)i;
+    size_t c = t->coef_first[i];
+    for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
+        uint32_t base = (uint32_t)t->runs[2 * r] * SPARSE_BLOCK, cnt = (uint32_t)t->runs[2 * r + 1] + 1;
+        for (uint32_t k = 0; k < cnt; k++, c++) {
+            if (t->qbits == 8) {
+                uint32_t off;
+                int qr, qg, qb;
+                sparse_unpack8(t->packed[c], &off, &qr, &qg, &qb);
+                fn(ctx, base + off, (float)qr * sc[0], (float)qg * sc[1], (float)qb * sc[2]);
+            } else if (t->qbits == 16) {
+                fn(ctx, base + t->offs[c], t->q16[3 * c] * sc[0], t->q16[3 * c + 1] * sc[1], t->q16[3 * c + 2] * sc[2]);
+            } else {
+                fn(ctx, base + t->offs[c], t->f32[3 * c], t->f32[3 * c + 1], t->f32[3 * c + 2]);
+            }
+        }
+    }
+}
+
+typedef struct decode_ctx { float *r, *g, *b; } decode_ctx;
+/* transport_foreach callback: scatters one coefficient into the dense planar arrays. */
+static void decode_one(void *p, uint32_t index, float r, float g, float b) {
+    decode_ctx *d = p;
+    d->r[index] = r; d->g[index] = g; d->b[index] = b;
+}
+
+/* Dense planar r,g,b[CUBE_TEXELS] of vector i (zeros where nothing is stored). */
+void transport_decode(const prt_transport *t, int i, float *r, float *g, float *b) {
+    memset(r, 0, sizeof(float) * CUBE_TEXELS);
+    memset(g, 0, sizeof(float) * CUBE_TEXELS);
+    memset(b, 0, sizeof(float) * CUBE_TEXELS);
+    decode_ctx d = { r, g, b };
+    transport_foreach(t, i, decode_one, &d);
+}
+
+/* Coefficients stored in all (staged ones before finish). */
+size_t transport_ncoefs(const prt_transport *t) {
+    if (t->coef_first) return t->coef_first[t->nvecs];
+    size_t n = 0;
+    if (t->stage_count)
+        for (int i = 0; i < t->nvecs; i++) n += t->stage_count[i];
+    return n;
+}
+
+/* Runs stored in all (0 before finish). */
+size_t transport_nruns(const prt_transport *t) { return t->run_first ? t->run_first[t->nvecs] : 0; }
+
+/* Coefficient payload: words (4 B for 8-bit; offset + 6 or 12 B otherwise), 2 B per run,
+ * 12 B of scales per vector. */
+size_t transport_bytes(const prt_transport *t) {
+    size_t nc = transport_ncoefs(t), per = t->qbits == 8 ? 4 : t->qbits == 16 ? 7 : 13;
+    return nc * per + 2 * transport_nruns(t) + 12 * (size_t)t->nvecs;
+}
+
+static inline float finite_or_zero(float x) { return isfinite(x) ? x : 0.f; }
+
+#ifdef __SSE4_1__
+/* acc += L[base + offset] * (r, g, b, junk) for the 8-bit word at wp. The three int8
+ * values are sign-extended straight from memory starting at the word's byte 1, so
+ * lane 3 holds the next word's offset byte: it multiplies L's padding lane, which is
+ * never read. That read touches one byte past the word, so the very last word of the
+ * array goes through mac8_safe, which shifts the word in a register instead. */
+static inline __m128 mac8(__m128 acc, const float (*base)[4], const uint32_t *wp) {
+    int32_t rgbx;
+    memcpy(&rgbx, (const char *)wp + 1, sizeof rgbx);
+    __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128(rgbx)));
+    return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
+}
+/* mac8 without reading past the word. */
+static inline __m128 mac8_safe(__m128 acc, const float (*base)[4], const uint32_t *wp) {
+    __m128 q = _mm_cvtepi32_ps(_mm_cvtepi8_epi32(_mm_cvtsi32_si128((int)(*wp >> 8))));
+    return _mm_add_ps(acc, _mm_mul_ps(_mm_loadu_ps(base[*wp & 255u]), q));
+}
+#endif
+
+/* Eq. 5's g = T x L for vectors [first, last): 8-bit words, SSE4.1 when available.
+ * Runs give the block base; two accumulators hide the add latency; the scale is
+ * applied once per vector. */
+static void light_range8(const prt_transport *t, const float (*L)[4], float *g, int first, int last) {
+    const uint32_t *packed = t->packed;
+    const uint8_t *runs = t->runs;
+    const uint32_t *array_end = packed + t->coef_first[t->nvecs];
+    for (int i = first; i < last; i++) {
+        const uint32_t *w = packed + t->coef_first[i];
+        uint32_t r0 = t->run_first[i], r1 = t->run_first[i + 1];
+#ifdef __SSE4_1__
+        __m128 a0 = _mm_setzero_ps(), a1 = _mm_setzero_ps();
+        if (packed + t->coef_first[i + 1] < array_end) {
+            for (uint32_t r = r0; r < r1; r++) {
+                const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
+                const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
+                for (; w + 1 < end; w += 2) {
+                    a0 = mac8(a0, base, w);
+                    a1 = mac8(a1, base, w + 1);
+                }
+                if (w < end) a0 = mac8(a0, base, w++);
+            }
+        } else {   /* the vector that ends the array */
+            for (uint32_t r = r0; r < r1; r++) {
+                const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
+                const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
+                for (; w < end; w++) a0 = mac8_safe(a0, base, w);
+            }
+        }
+        float acc[4];
+        _mm_storeu_ps(acc, _mm_add_ps(a0, a1));
+#else
+        float acc[4] = { 0, 0, 0, 0 };
+        (void)array_end;
+        for (uint32_t r = r0; r < r1; r++) {
+            const float (*base)[4] = L + (size_t)runs[2 * r] * SPARSE_BLOCK;
+            const uint32_t *end = w + (uint32_t)runs[2 * r + 1] + 1;
+            for (; w < end; w++) {
+                const float *l = base[*w & 255u];
+                acc[0] += (float)(int8_t)(*w >> 8) * l[0];
+                acc[1] += (float)(int8_t)(*w >> 16) * l[1];
+                acc[2] += (float)(int8_t)(*w >> 24) * l[2];
+            }
+        }
+#endif
+        const float *sc = t->scale + 3 * (size_t)i;
+        for (int c = 0; c < 3; c++) g[3 * (size_t)i + c] = finite_or_zero(acc[c] * sc[c]);
+    }
+}
+
+/* 16-bit and float data: plain scalar loops (not the default format). */
+static void light_range_wide(const prt_transport *t, const float (*L)[4], float *g, int first, int last) {
+    for (int i = first; i < last; i++) {
+        size_t c = t->coef_first[i];
+        float acc[3] = { 0, 0, 0 };
+        for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
+            const float (*base)[4] = L + (size_t)t->runs[2 * r] * SPARSE_BLOCK;
+            size_t end = c + (uint32_t)t->runs[2 * r + 1] + 1;
+            for (; c < end; c++) {
+                const float *l = base[t->offs[c]];
+                if (t->qbits == 16)
+                    for (int ch = 0; ch < 3; ch++) acc[ch] += (float)t->q16[3 * c + ch] * l[ch];
+                else
+                    for (int ch = 0; ch < 3; ch++) acc[ch] += t->f32[3 * c + ch] * l[ch];
+            }
+        }
+        const float *sc = t->scale + 3 * (size_t)i;
+        for (int ch = 0; ch < 3; ch++) g[3 * (size_t)i + ch] = finite_or_zero(acc[ch] * sc[ch]);
+    }
+}
+
+/* g[3i + ch] for vectors [first, last) (after finish). */
+void transport_light_range(const prt_transport *t, const float (*L)[4], float *g, int first, int last) {
+    assert(t->coef_first && first >= 0 && last <= t->nvecs);
+    if (t->qbits == 8) light_range8(t, L, g, first, last);
+    else light_range_wide(t, L, g, first, last);
+}
+
+typedef struct light_ctx { const prt_transport *t; const float (*L)[4]; float *g; } light_ctx;
+/* prt_parallel_for body: one chunk of vectors. */
+static void light_chunk(void *p, int begin, int end, int thread) {
+    light_ctx *c = p;
+    transport_light_range(c->t, c->L, c->g, begin, end);
+}
+
+/* g for every vector on nthreads threads (0: all cores). */
+void transport_light(const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
+    light_ctx c = { t, L, g };
+    prt_parallel_for(t->nvecs, 2048, nthreads, light_chunk, &c);
+}
+
+/* Frees every array; leaves a zeroed set. */
+void transport_free(prt_transport *t) {
+    free(t->vec_first); free(t->coef_first); free(t->run_first); free(t->runs); free(t->scale);
+    free(t->packed); free(t->offs); free(t->q16); free(t->f32);
+    free(t->stage_count); free(t->stage_idx); free(t->stage_val);
+    memset(t, 0, sizeof *t);
+}

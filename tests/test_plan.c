@@ -1,0 +1,218 @@
+/* test_plan.c - the effects plan: simulate only what the scene calls for.
+ *
+ * A lone convex sphere casts no light on itself, so no bounce pass is planned
+ * even when bounces are allowed; a Lambert-only scene gets one BRDF term per
+ * vertex; a box open at the top (surfaces facing each other) gets bounce passes
+ * that brighten its inside; force_bounces and max_terms / term_error override
+ * the plan; a progress callback can cancel; bad settings fail with a message. */
+#include "check.h"
+#include "light.h"
+#include "mesh.h"
+#include "precompute.h"
+#include "probe.h"
+#include "relight.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int make_sphere_scene(prt_scene *sc, const char *spec, prt_error *err) {
+    prt_mesh m = { 0 };
+    float c[3] = { 0, 1, 0 };
+    if (mesh_make_sphere(&m, c, 1, 16, 32, err)) return -1;
+    return scene_from_mesh(&m, spec, sc, err);
+}
+
+/* A box open at the top, seen from inside: mesh_make_box's normals point out of the box, so
+ * they are flipped (and the triangles reversed) to make an open "room" whose floor and walls
+ * face each other. */
+static int make_box_scene(prt_scene *sc, prt_error *err) {
+    prt_mesh m = { 0 };
+    float lo[3] = { -1, 0, -1 }, hi[3] = { 1, 1, 1 };
+    if (mesh_make_box(&m, lo, hi, 6, true, err)) return -1;
+    for (int i = 0; i < 3 * m.nverts; i++) m.nrm[i] = -m.nrm[i];
+    for (int t = 0; t < m.ntris; t++) {
+        uint32_t x = m.tris[3 * t + 1];
+        m.tris[3 * t + 1] = m.tris[3 * t + 2];
+        m.tris[3 * t + 2] = x;
+    }
+    return scene_from_mesh(&m, "lambert:kd=0.8", sc, err);
+}
+
+/* Radiance of vertex v toward its normal under a constant white environment. */
+static float radiance_up(const prt_data *d, int v) {
+    prt_error err;
+    prt_probe pr;
+    float one[3] = { 1, 1, 1 }, rgb[3] = { 0, 0, 0 };
+    if (probe_make_constant(one, &pr, &err)) return -1;
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    probe_to_cube(&pr, CUBE_RES, NULL, 0, cube);
+    float (*L)[4] = light_alloc();
+    light_desc ld = { 0 };
+    light_from_cube(cube, &ld, L, NULL);
+    relight_ctx *rc = relight_create(d, 2, &err);
+    if (rc) {
+        relight_set_light(rc, (const float (*)[4])L);
+        relight_vertex(rc, v, d->scene.mesh.nrm + 3 * v, 0, rgb);
+        relight_destroy(rc);
+    }
+    free(L);
+    free(cube);
+    probe_free(&pr);
+    return rgb[0];
+}
+
+static bool cancel_at_half(void *user, const char *stage, double f) {
+    int *calls = user;
+    (*calls)++;
+    return f < 0.5;
+}
+
+int main(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc base = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2 };
+
+    /* A lone convex sphere: no bounce pass, and the plan says why. */
+    CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
+    precompute_desc d = base;
+    d.bounces = 2;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(out.stats.hit_fraction < 0.005, "convex sphere hit fraction %g", out.stats.hit_fraction);
+    CHECK(out.stats.bounces == 0, "convex sphere: %d bounce passes", out.stats.bounces);
+    CHECK(strstr(out.plan, "interreflections: none") != NULL, "plan: %s", out.plan);
+    CHECK(out.factors[0].K == 4, "glossy default K = 4, got %d", out.factors[0].K);
+    CHECK(strstr(out.plan, "material 0 phong: K=4") != NULL, "plan: %s", out.plan);
+    CHECK(strstr(out.plan, "estimate: direct pass") != NULL, "plan has a time estimate");
+    CHECK(sc.mesh.nverts == 0 && sc.mesh.pos == NULL, "scene moved into out");
+    printf("--- plan for a lone sphere ---\n%s", out.plan);
+    prt_data_free(&out);
+
+    /* Forced on: the sphere gets the passes anyway (carrying next to nothing). */
+    CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
+    d = base;
+    d.bounces = 2;
+    d.force_bounces = 1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(out.stats.bounces == 2, "forced: %d passes", out.stats.bounces);
+    CHECK_LE(out.stats.bounce_energy[0], 1e-4, "a convex sphere reflects nothing onto itself");
+    CHECK(strstr(out.plan, "forced") != NULL, "plan: %s", out.plan);
+    prt_data_free(&out);
+
+    /* Lambert only: K = 1 everywhere, one vector per vertex. */
+    {
+        prt_mesh pl = { 0 }, sp = { 0 };
+        float c[3] = { 0, 1, 0 };
+        CHECK(mesh_make_plane(&pl, -2, 2, -2, 2, 0, 8, 8, &err) == 0, "%s", err.msg);
+        CHECK(mesh_make_sphere(&sp, c, 0.5f, 10, 20, &err) == 0, "%s", err.msg);
+        int first = pl.nverts;
+        CHECK(mesh_append(&pl, &sp, &err) == 0, "%s", err.msg);
+        mesh_free(&sp);
+        CHECK(scene_from_mesh(&pl, "lambert:kd=0.7", &sc, &err) == 0, "%s", err.msg);
+        CHECK(scene_material(&sc, "lambert:kd=0.2,0.4,0.6", &err) == 1, "%s", err.msg);
+        for (int v = first; v < sc.mesh.nverts; v++) sc.mesh.mat[v] = 1;
+        d = base;
+        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+        CHECK(out.factors[0].K == 1 && out.factors[1].K == 1, "Lambert K = %d, %d", out.factors[0].K, out.factors[1].K);
+        CHECK(out.transport.nvecs == out.scene.mesh.nverts, "one vector per vertex");
+        CHECK(strstr(out.plan, "material 1 lambert: K=1") != NULL, "plan: %s", out.plan);
+        CHECK(strstr(out.plan, "bounces 0") != NULL, "plan notes that bounces were not asked for: %s", out.plan);
+        prt_data_free(&out);
+    }
+
+    /* A box open at the top: concave, so bounces are planned and brighten the inside. */
+    CHECK(make_box_scene(&sc, &err) == 0, "%s", err.msg);
+    d = base;
+    d.force_bounces = -1;
+    d.bounces = 3;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(out.stats.bounces == 0, "forced off: %d passes", out.stats.bounces);
+    CHECK(strstr(out.plan, "forced off") != NULL, "plan: %s", out.plan);
+    /* the centre of the box's floor: the vertex nearest (0, 0, 0) with normal +y */
+    int centre = -1;
+    float best = 1e9f;
+    for (int v = 0; v < out.scene.mesh.nverts; v++) {
+        const float *p = out.scene.mesh.pos + 3 * v, *n = out.scene.mesh.nrm + 3 * v;
+        float dd = p[0] * p[0] + p[1] * p[1] + p[2] * p[2];
+        if (n[1] > 0.99f && dd < best) { best = dd; centre = v; }
+    }
+    CHECK(centre >= 0 && best < 1e-6f, "box floor centre vertex");
+    float direct = radiance_up(&out, centre);
+    /* Direct light at the floor centre is albedo x the form factor of the 2 x 2 opening at height 1:
+     * F = (2/pi) [X/sqrt(1+X^2) atan(Y/sqrt(1+X^2)) + Y/sqrt(1+Y^2) atan(X/sqrt(1+Y^2))], X = Y = 1
+     * (a point under the centre of a rectangle); 2% covers the 8-bit and 16-bit steps and the 64^2 cube. */
+    double ff = 2 / M_PI * 2 * (1 / sqrt(2.0)) * atan(1 / sqrt(2.0));
+    CHECK_NEAR(direct, 0.8 * ff, 0.02 * 0.8 * ff, "box floor centre, direct only");
+    double hit_box = out.stats.hit_fraction;
+    prt_data_free(&out);
+
+    CHECK(make_box_scene(&sc, &err) == 0, "%s", err.msg);
+    d = base;
+    d.bounces = 3;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(hit_box > 0.1, "open box: %.1f%% of rays hit", 100 * hit_box);
+    CHECK(out.stats.bounces >= 1, "open box: %d bounce passes", out.stats.bounces);
+    CHECK(out.stats.bounce_energy[0] > 0.01, "first bounce energy %g", out.stats.bounce_energy[0]);
+    for (int b = 1; b < out.stats.bounces; b++)
+        CHECK(out.stats.bounce_energy[b] < out.stats.bounce_energy[b - 1], "bounce energies decrease");
+    if (out.stats.bounces < 3)
+        CHECK(out.stats.bounce_energy[out.stats.bounces - 1] < 0.01, "stopped only below the threshold");
+    float bounced = radiance_up(&out, centre);
+    /* Under a constant white sky the floor centre of the box sees 0.8 * (open fraction) directly;
+     * the walls it sees reflect more: the bounce brightens it, but less than a closed furnace would
+     * (radiance stays below the albedo 0.8). */
+    CHECK(bounced > direct * 1.05f, "bounces brighten the box floor: %g -> %g", direct, bounced);
+    CHECK(bounced < 0.8f, "below the albedo: %g", bounced);
+    printf("--- plan for an open box ---\n%s", out.plan);
+    printf("box floor centre: direct %.4f, with %d bounce(s) %.4f\n", direct, out.stats.bounces, bounced);
+    prt_data_free(&out);
+
+    /* Forced K: max_terms caps a glossy material; term_error picks the smallest K meeting it. */
+    CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
+    d = base;
+    d.max_terms = 2;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(out.factors[0].K == 2, "max_terms 2: K = %d", out.factors[0].K);
+    CHECK(out.transport.nvecs == 2 * out.scene.mesh.nverts, "two vectors per vertex");
+    prt_data_free(&out);
+
+    CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
+    d = base;
+    d.max_terms = 8;
+    d.term_error = 0.2f;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    {
+        const brdf_factor *f = &out.factors[0];
+        CHECK(f->K >= 1 && f->K <= 8, "K = %d", f->K);
+        CHECK(f->rel_rms[f->K] <= 0.2f || f->K == 8, "K = %d meets the target: %g", f->K, f->rel_rms[f->K]);
+        if (f->K > 1) CHECK(f->rel_rms[f->K - 1] > 0.2f, "K - 1 = %d would not: %g", f->K - 1, f->rel_rms[f->K - 1]);
+        CHECK(strstr(out.plan, "target") != NULL, "plan: %s", out.plan);
+    }
+    prt_data_free(&out);
+
+    /* Cancel through the progress callback. */
+    CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
+    int calls = 0;
+    d = base;
+    d.progress = cancel_at_half;
+    d.progress_user = &calls;
+    CHECK(precompute_run(&sc, &d, &out, &err) == -1, "cancelled run fails");
+    CHECK(strcmp(err.msg, "cancelled") == 0, "message: %s", err.msg);
+    CHECK(calls > 0, "progress called");
+    CHECK(sc.mesh.pos == NULL, "scene taken even on failure");
+
+    /* Bad settings. */
+    int bad[5][3] = { { -1, 8, 64 }, { 64, 12, 64 }, { 64, 8, 100 }, { CUBE_TEXELS + 1, 8, 64 }, { 64, 8, 64 } };
+    for (int q = 0; q < 5; q++) {
+        CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
+        d = base;
+        d.N = bad[q][0];
+        d.qbits = bad[q][1];
+        d.vis_res = bad[q][2];
+        if (q == 4) d.sh_order = 2;
+        err.msg[0] = 0;
+        CHECK(precompute_run(&sc, &d, &out, &err) == -1, "bad setting %d accepted", q);
+        CHECK(strncmp(err.msg, "precompute: ", 12) == 0, "message: %s", err.msg);
+    }
+    return check_summary();
+}

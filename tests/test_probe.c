@@ -1,0 +1,426 @@
+/* test_probe.c - probe.h: layout parsing and detection, clamping, lookups in
+ * every layout against an analytic environment (the images are built here
+ * from the documented pixel -> direction maps, written as EXR and loaded
+ * back), pixel directions and solid angles, resampling to the cube (constant
+ * stays constant, power is preserved, the sun survives and rotates), the sky's
+ * sun power at any disc size, and rotation parsing. */
+#include "check.h"
+#include "cubemap.h"
+#include "probe.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+
+static float rnd(unsigned *s) {
+    *s = *s * 1664525u + 1013904223u;
+    return (float)(*s >> 8) / 16777216.f;
+}
+
+/* Uniform random unit vector. */
+static void rnd_dir(unsigned *s, float d[3]) {
+    float z = 2 * rnd(s) - 1, ph = 2 * (float)PI * rnd(s), r = sqrtf(fmaxf(0, 1 - z * z));
+    d[0] = r * cosf(ph); d[1] = r * sinf(ph); d[2] = z;
+}
+
+/* The analytic environment every layout encodes: smooth, different per channel. */
+static void env_fn(const double d[3], float rgb[3]) {
+    rgb[0] = (float)(1.0 + 0.5 * d[0] + 0.3 * d[1] * d[1]);
+    rgb[1] = (float)(1.0 - 0.4 * d[2] + 0.2 * d[0] * d[1]);
+    rgb[2] = (float)(0.8 + 0.5 * d[1] + 0.1 * d[2] * d[2]);
+}
+
+static void normalize_d(double d[3]) {
+    double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    d[0] /= l; d[1] /= l; d[2] /= l;
+}
+
+/* The documented maps from image position to direction (probe.h / probe.c), written
+ * independently of probe.c. Return false outside the valid area. u, v in [0,1] of the image. */
+static bool latlong_dir(double u, double v, double d[3]) {
+    double th = v * PI, ph = (u - 0.5) * 2 * PI;
+    d[0] = sin(th) * sin(ph); d[1] = cos(th); d[2] = -sin(th) * cos(ph);
+    return true;
+}
+static bool angular_dir(double u, double v, double d[3]) {
+    double a = 2 * u - 1, b = 1 - 2 * v, r = sqrt(a * a + b * b);
+    if (r > 1) return false;
+    double th = PI * r;
+    d[0] = r > 0 ? sin(th) * a / r : 0; d[1] = r > 0 ? sin(th) * b / r : 0; d[2] = -cos(th);
+    return true;
+}
+/* Cross: cell (col,row) and face coordinates s right, t down in [-1,1]. */
+static bool cross_dir(bool vertical, int col, int row, double s, double t, double d[3]) {
+    double x, y, z;
+    if (col == 1 && row == 0) { x = s; y = 1; z = -t; }            /* +Y */
+    else if (col == 0 && row == 1) { x = -1; y = -t; z = -s; }     /* -X */
+    else if (col == 1 && row == 1) { x = s; y = -t; z = -1; }      /* -Z front */
+    else if (col == 2 && row == 1) { x = 1; y = -t; z = s; }       /* +X */
+    else if (col == 1 && row == 2) { x = s; y = -1; z = t; }       /* -Y */
+    else if (vertical && col == 1 && row == 3) { x = s; y = t; z = 1; }        /* +Z upside down */
+    else if (!vertical && col == 3 && row == 1) { x = -s; y = -t; z = 1; }     /* +Z */
+    else return false;
+    d[0] = x; d[1] = y; d[2] = z;
+    normalize_d(d);
+    return true;
+}
+
+/* Image of the analytic environment in a layout: w x h, each pixel the value at its centre. */
+static prt_image make_layout_image(probe_layout l, int w, int h) {
+    prt_image im;
+    prt_error err;
+    image_alloc(&im, w, h, 3, &err);
+    int F = l == PROBE_VCROSS ? w / 3 : w / 4;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            double d[3];
+            bool ok;
+            if (l == PROBE_LATLONG) ok = latlong_dir((x + 0.5) / w, (y + 0.5) / h, d);
+            else if (l == PROBE_ANGULAR) ok = angular_dir((x + 0.5) / w, (y + 0.5) / h, d);
+            else ok = cross_dir(l == PROBE_VCROSS, x / F, y / F, 2.0 * (x % F + 0.5) / F - 1, 2.0 * (y % F + 0.5) / F - 1, d);
+            float *p = im.data + 3 * (y * w + x);
+            if (ok) env_fn(d, p);
+            else p[0] = p[1] = p[2] = 0;   /* black outside the circle / cross, as in real probes */
+        }
+    return im;
+}
+
+static void test_parse(void) {
+    probe_layout l;
+    CHECK(probe_parse_layout("latlong", &l) == 0 && l == PROBE_LATLONG);
+    CHECK(probe_parse_layout("angular", &l) == 0 && l == PROBE_ANGULAR);
+    CHECK(probe_parse_layout("VCross", &l) == 0 && l == PROBE_VCROSS);
+    CHECK(probe_parse_layout("hcross", &l) == 0 && l == PROBE_HCROSS);
+    CHECK(probe_parse_layout("cross", &l) == 0 && l == PROBE_CROSS);
+    CHECK(probe_parse_layout("auto", &l) == 0 && l == PROBE_AUTO);
+    CHECK(probe_parse_layout("sphere", &l) == -1);
+    CHECK(probe_parse_layout("", &l) == -1);
+
+    /* Rotation: "Y,P" is pitch(P about x) after yaw(Y about y); compare with matrices built here. */
+    float R[9];
+    CHECK(probe_parse_rotation("90", R) == 0);
+    float ex[9] = { 0, 0, 1, 0, 1, 0, -1, 0, 0 };   /* yaw 90: x -> -z, z -> x */
+    double e = 0;
+    for (int i = 0; i < 9; i++) e = fmax(e, fabs(R[i] - ex[i]));
+    CHECK_LE(e, 1e-6, "yaw 90");
+    CHECK(probe_parse_rotation(" 30 , -20 ", R) == 0);
+    double y = 30 * PI / 180, p = -20 * PI / 180;
+    double Ry[9] = { cos(y), 0, sin(y), 0, 1, 0, -sin(y), 0, cos(y) };
+    double Rx[9] = { 1, 0, 0, 0, cos(p), -sin(p), 0, sin(p), cos(p) };
+    e = 0;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) {
+            double m = 0;
+            for (int k = 0; k < 3; k++) m += Rx[3 * r + k] * Ry[3 * k + c];
+            e = fmax(e, fabs(m - R[3 * r + c]));
+        }
+    CHECK_LE(e, 1e-6, "Rx(P) Ry(Y)");
+    CHECK(probe_parse_rotation("abc", R) == -1);
+    CHECK(probe_parse_rotation("10,", R) == -1);
+    CHECK(probe_parse_rotation("10,x", R) == -1);
+    CHECK(probe_parse_rotation("1,2,3", R) == -1);
+    CHECK(probe_parse_rotation("", R) == -1);
+    CHECK(probe_parse_rotation("nan", R) == -1);
+}
+
+static void test_detect_and_clamp(void) {
+    struct { int w, h; probe_layout want, got; int ok; } cases[] = {
+        { 64, 32, PROBE_AUTO, PROBE_LATLONG, 1 },  { 32, 32, PROBE_AUTO, PROBE_ANGULAR, 1 },
+        { 48, 64, PROBE_AUTO, PROBE_VCROSS, 1 },   { 64, 48, PROBE_AUTO, PROBE_HCROSS, 1 },
+        { 48, 64, PROBE_CROSS, PROBE_VCROSS, 1 },  { 64, 48, PROBE_CROSS, PROBE_HCROSS, 1 },
+        { 50, 30, PROBE_AUTO, PROBE_AUTO, 0 },     { 64, 32, PROBE_VCROSS, PROBE_AUTO, 0 },
+        { 64, 32, PROBE_ANGULAR, PROBE_ANGULAR, 1 }, /* an explicit layout overrides detection */
+        { 1025, 512, PROBE_AUTO, PROBE_LATLONG, 1 },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        prt_image im;
+        prt_error err;
+        prt_probe p;
+        image_alloc(&im, cases[i].w, cases[i].h, 3, &err);
+        int rc = probe_from_image(&im, cases[i].want, "sz.exr", &p, &err);
+        CHECK(im.data == NULL, "image taken over");
+        if (cases[i].ok) CHECK(rc == 0 && p.layout == cases[i].got, "%dx%d case %zu", cases[i].w, cases[i].h, i);
+        else CHECK(rc == -1 && strstr(err.msg, "sz.exr"), "%dx%d must fail naming the file: %s", cases[i].w, cases[i].h, err.msg);
+        probe_free(&p);
+    }
+
+    prt_image im;
+    prt_error err;
+    prt_probe p;
+    image_alloc(&im, 8, 4, 4, &err);   /* RGBA: alpha dropped */
+    for (int i = 0; i < 32 * 4; i++) im.data[i] = 1.f + (float)(i % 4);
+    im.data[0] = -1;                                 /* texel 0: negative */
+    im.data[4 * 1 + 1] = -2; im.data[4 * 1 + 2] = -3; /* texel 1: two negatives, counted once */
+    im.data[4 * 2] = NAN;                            /* texel 2: NaN */
+    im.data[4 * 3 + 2] = INFINITY;                   /* texel 3: Inf */
+    im.data[4 * 4 + 1] = -INFINITY;                  /* texel 4: -Inf counts as non-finite */
+    im.data[4 * 5 + 0] = 7.5f;                       /* the maximum */
+    CHECK(probe_from_image(&im, PROBE_AUTO, "c.exr", &p, &err) == 0, "%s", err.msg);
+    CHECK(p.img.c == 3 && p.layout == PROBE_LATLONG);
+    CHECK(p.clamped_negative == 2, "negatives %ld", p.clamped_negative);
+    CHECK(p.clamped_nonfinite == 3, "non-finite %ld", p.clamped_nonfinite);
+    CHECK_NEAR(p.max_value, 7.5, 0);
+    int ok = 1;
+    for (int i = 0; i < 32 * 3; i++) ok &= isfinite(p.img.data[i]) && p.img.data[i] >= 0;
+    CHECK(ok, "all texels finite and >= 0");
+    CHECK(p.img.data[0] == 0 && p.img.data[1] == 2 && p.img.data[2] == 3, "texel 0 = (0,2,3)");
+    CHECK(p.img.data[6] == 0 && p.img.data[7] == 2 && p.img.data[8] == 3, "texel 2 = (0,2,3)");
+    CHECK(p.img.data[15] == 7.5f && p.img.data[16] == 2, "alpha dropped, channels kept");
+    probe_free(&p);
+    CHECK(probe_load("build/no/such/probe.exr", PROBE_AUTO, &p, &err) == -1 && strstr(err.msg, "probe.exr"));
+}
+
+/* Each layout, from the same analytic function: load the EXR, probe_eval at random
+ * directions against the function, pixel directions against the documented maps,
+ * solid angles summing to 4 pi, and probe_to_cube against the function. */
+static void test_layouts(const char *dir) {
+    struct { probe_layout l; int w, h; const char *name; double tol_max, tol_rms; } L[] = {
+        /* Bilinear error of this smooth function at these sizes (measured: latlong 1.2e-4 max,
+         * angular 7e-5, crosses 5e-3 max from clamping the taps at face edges). */
+        { PROBE_LATLONG, 256, 128, "latlong", 5e-4, 1e-4 },
+        { PROBE_ANGULAR, 256, 256, "angular", 5e-4, 1e-4 },
+        { PROBE_VCROSS, 192, 256, "vcross", 1e-2, 5e-4 },
+        { PROBE_HCROSS, 256, 192, "hcross", 1e-2, 5e-4 },
+    };
+    for (int k = 0; k < 4; k++) {
+        char path[512];
+        prt_error err;
+        prt_probe p;
+        snprintf(path, sizeof path, "%s/%s.exr", dir, L[k].name);
+        prt_image im = make_layout_image(L[k].l, L[k].w, L[k].h);
+        CHECK(image_write(path, &im, NULL, &err) == 0, "%s", err.msg);
+        image_free(&im);
+        CHECK(probe_load(path, PROBE_AUTO, &p, &err) == 0, "%s", err.msg);
+        CHECK(p.layout == L[k].l, "%s detected", L[k].name);
+        if (p.layout != L[k].l) { probe_free(&p); continue; }
+
+        /* probe_eval vs the function. */
+        unsigned s = 99 + k;
+        double maxe = 0, sse = 0;
+        int n = 4000;
+        for (int i = 0; i < n; i++) {
+            float d[3], got[3], want[3];
+            rnd_dir(&s, d);
+            double dd[3] = { d[0], d[1], d[2] };
+            env_fn(dd, want);
+            probe_eval(&p, d, got);
+            for (int ch = 0; ch < 3; ch++) {
+                double e = fabs(got[ch] - want[ch]);
+                maxe = fmax(maxe, e);
+                sse += e * e;
+            }
+        }
+        double rms = sqrt(sse / (3 * n));
+        CHECK_LE(maxe, L[k].tol_max, "%s probe_eval max error", L[k].name);
+        CHECK_LE(rms, L[k].tol_rms, "%s probe_eval RMS error", L[k].name);
+        /* The exact centres of the directions straight ahead and overhead. */
+        float fwd[3] = { 0, 0, -1 }, got[3], want[3];
+        double dfw[3] = { 0, 0, -1 };
+        env_fn(dfw, want);
+        probe_eval(&p, fwd, got);
+        CHECK_NEAR(got[1], want[1], L[k].tol_max, "%s front", L[k].name);
+
+        /* Pixel directions and solid angles. */
+        double omega = 0, dir_err = 0;
+        int valid = 0, F = L[k].l == PROBE_VCROSS ? L[k].w / 3 : L[k].w / 4;
+        for (int y = 0; y < p.img.h; y++)
+            for (int x = 0; x < p.img.w; x++) {
+                float d[3], sa;
+                double ref[3];
+                bool want_ok;
+                if (L[k].l == PROBE_LATLONG) want_ok = latlong_dir((x + 0.5) / p.img.w, (y + 0.5) / p.img.h, ref);
+                else if (L[k].l == PROBE_ANGULAR) want_ok = angular_dir((x + 0.5) / p.img.w, (y + 0.5) / p.img.h, ref);
+                else want_ok = cross_dir(L[k].l == PROBE_VCROSS, x / F, y / F, 2.0 * (x % F + 0.5) / F - 1,
+                                         2.0 * (y % F + 0.5) / F - 1, ref);
+                bool got_ok = probe_pixel_dir(&p, x, y, d, &sa);
+                if (got_ok != want_ok) { dir_err = 1; continue; }
+                if (!got_ok) continue;
+                valid++;
+                omega += sa;
+                for (int c = 0; c < 3; c++) dir_err = fmax(dir_err, fabs(d[c] - ref[c]));
+            }
+        CHECK_LE(dir_err, 1e-5, "%s pixel directions", L[k].name);
+        CHECK_NEAR(omega, 4 * PI, L[k].l == PROBE_ANGULAR ? 4 * PI * 1e-4 : 4 * PI * 1e-5, "%s solid angles", L[k].name);
+        if (L[k].l == PROBE_VCROSS || L[k].l == PROBE_HCROSS) CHECK(valid == 6 * F * F, "%s: 6 faces valid", L[k].name);
+        if (L[k].l == PROBE_ANGULAR) CHECK(valid < L[k].w * L[k].h && valid > 0.78 * L[k].w * L[k].h, "angular: the disc only");
+
+        /* Neighbouring pixels in the image that lie on different faces must be
+         * neighbours on the sphere too (the cross unfolds the cube continuously). */
+        if (L[k].l == PROBE_VCROSS || L[k].l == PROBE_HCROSS) {
+            double worst = 0;
+            int pairs = 0;
+            for (int y = 0; y < p.img.h; y++)
+                for (int x = 0; x < p.img.w; x++)
+                    for (int dir2 = 0; dir2 < 2; dir2++) {
+                        int x2 = x + (dir2 == 0), y2 = y + (dir2 == 1);
+                        if (x2 >= p.img.w || y2 >= p.img.h) continue;
+                        if (x / F == x2 / F && y / F == y2 / F) continue;
+                        float a[3], b[3];
+                        if (!probe_pixel_dir(&p, x, y, a, NULL) || !probe_pixel_dir(&p, x2, y2, b, NULL)) continue;
+                        double c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+                        worst = fmax(worst, acos(fmin(1.0, c)));
+                        pairs++;
+                    }
+            CHECK(pairs == 5 * F, "%s: 5 seams inside the cross (%d pairs)", L[k].name, pairs);
+            CHECK_LE(worst, 2.0 / F, "%s: seams are continuous (angle in radians)", L[k].name);
+        }
+
+        /* Resampling: a smooth function's texel average is within a little of its centre
+         * value (measured 1.2e-3 at res 16 for every layout). */
+        int res = 16;
+        float *cube = malloc(sizeof(float) * 6 * res * res * 3);
+        probe_to_cube(&p, res, NULL, 4, cube);
+        double ce = 0;
+        for (int t = 0; t < 6 * res * res; t++) {
+            float d[3], want3[3];
+            cube_texel_dir(res, t, d);
+            double dd[3] = { d[0], d[1], d[2] };
+            env_fn(dd, want3);
+            for (int ch = 0; ch < 3; ch++) ce = fmax(ce, fabs(cube[3 * t + ch] - want3[ch]));
+        }
+        CHECK_LE(ce, 3e-3, "%s probe_to_cube vs function", L[k].name);
+        free(cube);
+        probe_free(&p);
+    }
+}
+
+static void test_constant(void) {
+    float rgb[3] = { 0.7f, 1.3f, 2.5f };
+    prt_probe p;
+    prt_error err;
+    CHECK(probe_make_constant(rgb, &p, &err) == 0, "%s", err.msg);
+    float nan_d[3] = { NAN, 0, 1 }, got[3] = { 1, 1, 1 };
+    probe_eval(&p, nan_d, got);
+    CHECK(got[0] == 0 && got[1] == 0 && got[2] == 0, "a non-finite direction gives 0, not a wild read");
+    int res = 32;
+    float *cube = malloc(sizeof(float) * 6 * res * res * 3);
+    float R[9];
+    probe_parse_rotation("37,-12", R);
+    for (int pass = 0; pass < 2; pass++) {
+        probe_to_cube(&p, res, pass ? R : NULL, 0, cube);
+        double e = 0;
+        for (int t = 0; t < 6 * res * res; t++)
+            for (int ch = 0; ch < 3; ch++) e = fmax(e, fabs(cube[3 * t + ch] - rgb[ch]));
+        CHECK_LE(e, 1e-4, "constant probe gives a constant cube (rotated: %d)", pass);
+    }
+    free(cube);
+    probe_free(&p);
+}
+
+/* Sum of pixel * pixel solid angle over a latlong, with the solid angles computed here. */
+static void latlong_power(const prt_probe *p, double out[3]) {
+    int w = p->img.w, h = p->img.h;
+    out[0] = out[1] = out[2] = 0;
+    for (int y = 0; y < h; y++) {
+        double om = 2 * PI / w * (cos(y * PI / h) - cos((y + 1) * PI / h));
+        for (int x = 0; x < w; x++)
+            for (int ch = 0; ch < 3; ch++) out[ch] += om * p->img.data[3 * (y * w + x) + ch];
+    }
+}
+
+static void cube_power(const float *cube, int res, double out[3]) {
+    out[0] = out[1] = out[2] = 0;
+    for (int t = 0; t < 6 * res * res; t++) {
+        int r = t % (res * res);
+        double om = cube_texel_solid_angle(res, r % res, r / res);
+        for (int ch = 0; ch < 3; ch++) out[ch] += om * cube[3 * t + ch];
+    }
+}
+
+static int brightest(const float *cube, int n) {
+    int best = 0;
+    for (int t = 1; t < n; t++)
+        if (cube[3 * t] + cube[3 * t + 1] + cube[3 * t + 2] > cube[3 * best] + cube[3 * best + 1] + cube[3 * best + 2]) best = t;
+    return best;
+}
+
+static void test_sky(void) {
+    prt_probe p;
+    prt_error err;
+    sky_desc d = { 0 };
+    CHECK(probe_make_sky(&d, &p, &err) == 0, "%s", err.msg);
+    CHECK(p.img.w == 512 && p.img.h == 256 && p.layout == PROBE_LATLONG);
+    CHECK(p.clamped_negative == 0 && p.clamped_nonfinite == 0);
+    /* Default sun: elevation 45 deg. */
+    float sun[3] = { 0.5f, sqrtf(0.5f), -0.5f };
+    int res = CUBE_RES, n = 6 * res * res;
+    float *cube = malloc(sizeof(float) * n * 3);
+    probe_to_cube(&p, res, NULL, 0, cube);
+    double pl[3], pc[3];
+    latlong_power(&p, pl);
+    cube_power(cube, res, pc);
+    for (int ch = 0; ch < 3; ch++) CHECK_NEAR(pc[ch] / pl[ch], 1.0, 0.01, "cube power vs latlong power, channel %d", ch);
+    int b = brightest(cube, n), want = cube_texel_index(res, sun);
+    CHECK(b == want, "brightest texel %d is the sun's %d", b, want);
+    /* The sun is most of the power: it did not get lost in resampling. */
+    double sun_power = 2000 * 2 * PI * (1 - cos(1.5 * PI / 180));
+    CHECK(pc[0] > sun_power, "power %g includes the sun's %g", pc[0], sun_power);
+
+    /* Rotation by 90 deg about y: the light at d moves to R d. */
+    float R[9];
+    probe_parse_rotation("90", R);
+    probe_to_cube(&p, res, R, 0, cube);
+    float rs[3] = { R[0] * sun[0] + R[1] * sun[1] + R[2] * sun[2], R[3] * sun[0] + R[4] * sun[1] + R[5] * sun[2],
+                    R[6] * sun[0] + R[7] * sun[1] + R[8] * sun[2] };
+    CHECK_NEAR(rs[0], -0.5, 1e-6, "yaw 90 takes (0.5, y, -0.5) to (-0.5, y, -0.5)");
+    CHECK_NEAR(rs[2], -0.5, 1e-6);
+    b = brightest(cube, n);
+    want = cube_texel_index(res, rs);
+    CHECK(b == want, "rotated: brightest texel %d is the rotated sun's %d", b, want);
+    double pr[3];
+    cube_power(cube, res, pr);
+    CHECK_NEAR(pr[0] / pc[0], 1.0, 0.01, "rotation keeps the power");
+    free(cube);
+    probe_free(&p);
+
+    /* The sun's power L * 2 pi (1 - cos r) at any disc size in pixels, over a near-black sky. */
+    int widths[3] = { 64, 512, 2048 };
+    float radii[3] = { 0.02f, 1.5f, 10.f };
+    for (int wi = 0; wi < 3; wi++)
+        for (int ri = 0; ri < 3; ri++) {
+            sky_desc sd = { .width = widths[wi], .sun_dir = { 0.3f, 0.8f, 0.52f }, .sun_radius_deg = radii[ri],
+                            .sun_radiance = 5000, .sky_zenith = { 1e-9f, 1e-9f, 1e-9f },
+                            .sky_horizon = { 1e-9f, 1e-9f, 1e-9f }, .ground = { 1e-9f, 1e-9f, 1e-9f } };
+            CHECK(probe_make_sky(&sd, &p, &err) == 0, "%s", err.msg);
+            double pw[3];
+            latlong_power(&p, pw);
+            double want_p = 5000 * 2 * PI * (1 - cos(radii[ri] * PI / 180));
+            CHECK_NEAR(pw[1] / want_p, 1.0, 0.01, "sun power, width %d radius %g deg", widths[wi], radii[ri]);
+            CHECK(p.max_value > 0 && isfinite(p.max_value));
+            probe_free(&p);
+        }
+    /* A sun narrower than a pixel of a 2048-wide probe, near the zenith where latlong pixels are
+     * narrowest, and one at the horizon: resampled at the default ss its power must survive
+     * (plain 4 x 4 bilinear sub-samples stepped over it and lost all of it). */
+    float suns[2][3] = { { 0.05f, 0.99f, 0.1f }, { 0.7f, 0.05f, 0.2f } };
+    cube = malloc(sizeof(float) * n * 3);
+    for (int k = 0; k < 2; k++) {
+        sky_desc sd = { .width = 2048, .sun_dir = { suns[k][0], suns[k][1], suns[k][2] }, .sun_radius_deg = 0.02f,
+                        .sun_radiance = 5e5f, .sky_zenith = { 0.5f, 0.5f, 0.5f }, .sky_horizon = { 0.5f, 0.5f, 0.5f },
+                        .ground = { 0.5f, 0.5f, 0.5f } };
+        CHECK(probe_make_sky(&sd, &p, &err) == 0, "%s", err.msg);
+        double sunp = 5e5 * 2 * PI * (1 - cos(0.02 * PI / 180)), bg = 0.5 * 4 * PI;
+        latlong_power(&p, pl);
+        CHECK_NEAR(pl[0] / (sunp + bg), 1.0, 1e-3, "latlong power");
+        float R0[9];
+        probe_parse_rotation(k ? "0" : "15,10", R0);
+        probe_to_cube(&p, res, R0, 0, cube);
+        cube_power(cube, res, pc);
+        CHECK_NEAR((pc[0] - bg) / sunp, 1.0, 0.02, "sub-pixel sun %d keeps its power through resampling", k);
+        probe_free(&p);
+    }
+    free(cube);
+
+    sky_desc bad = { .sun_dir = { NAN, 1, 0 } };
+    CHECK(probe_make_sky(&bad, &p, &err) == -1);
+}
+
+int main(void) {
+    test_parse();
+    test_detect_and_clamp();
+    test_layouts(check_tmpdir());
+    test_constant();
+    test_sky();
+    return check_summary();
+}

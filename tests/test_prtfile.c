@@ -1,0 +1,369 @@
+/* test_prtfile.c - prtfile.h: a hand-built prt_data (two materials with different K,
+ * transport in 8-, 16- and 32-bit form) survives a write/read round trip field by
+ * field and re-writes to identical bytes; damaged files (truncated at many lengths,
+ * flipped bytes, wrong magic, wrong version, empty, missing, a directory) and crafted
+ * files with a valid checksum but out-of-range indices each fail with one line naming
+ * the file; failed writes leave no file behind. */
+#include "check.h"
+#include "prtfile.h"
+#include <dirent.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <zlib.h>
+
+static void *xcalloc(size_t n, size_t s) { return calloc(n ? n : 1, s); }
+
+/* The test data: 5 vertices, 3 triangles; vertices 0-2 use material 0 (K = 1), 3-4
+ * material 1 (K = 3), so 9 vectors. Vector i holds i % 5 coefficients at ascending
+ * wavelet indices spread over blocks (some sharing a block). */
+static void make_data(prt_data *d, int qbits) {
+    memset(d, 0, sizeof *d);
+    prt_scene *sc = &d->scene;
+    prt_mesh *m = &sc->mesh;
+    int nv = 5, nt = 3;
+    m->nverts = nv;
+    m->ntris = nt;
+    m->pos = xcalloc(3 * nv, sizeof(float));
+    m->nrm = xcalloc(3 * nv, sizeof(float));
+    m->tris = xcalloc(3 * nt, sizeof(uint32_t));
+    m->mat = xcalloc(nv, sizeof(uint16_t));
+    for (int i = 0; i < 3 * nv; i++) {
+        m->pos[i] = 0.25f * i - 1.f;
+        m->nrm[i] = (i % 3 == 1) ? 1.f : 0.f;
+    }
+    uint32_t tris[9] = { 0, 1, 2, 2, 3, 4, 0, 2, 4 };
+    memcpy(m->tris, tris, sizeof tris);
+    for (int v = 0; v < nv; v++) m->mat[v] = v < 3 ? 0 : 1;
+    sc->nmaterials = 2;
+    sc->materials[0] = (brdf_params){ .type = BRDF_LAMBERT, .kd = { 0.8f, 0.7f, 0.6f } };
+    sc->materials[1] = (brdf_params){ .type = BRDF_LAFORTUNE, .kd = { 0.1f, 0.2f, 0.3f }, .ks = { 0.5f, 0.5f, 0.5f },
+                                      .n = 50, .nu = 10, .nv = 100, .alpha = 0.2f, .nlobes = 2,
+                                      .lobe = { { -1, -1, 1, 20 }, { -0.5f, -0.5f, 1, 5 } } };
+    strcpy(sc->material_spec[0], "lambert:kd=0.8,0.7,0.6");
+    strcpy(sc->material_spec[1], "lafortune:kd=0.1,0.2,0.3;lobe=-1,-1,1,20;lobe=-0.5,-0.5,1,5");
+    sc->floor_first_vertex = 3;
+    for (int k = 0; k < 3; k++) { sc->bmin[k] = -1.f - k; sc->bmax[k] = 2.f + k; }
+    sc->load_stats = (mesh_load_stats){ 10, 11, 12, 13, 14 };
+
+    int Ks[2] = { 1, 3 }, res[2] = { 4, 3 };
+    for (int f = 0; f < 2; f++) {
+        brdf_factor *F = &d->factors[f];
+        F->K = Ks[f];
+        F->res = res[f];
+        F->param = f ? BRDF_PARAM_POLAR : BRDF_PARAM_GRID;
+        size_t cnt = (size_t)res[f] * res[f] * Ks[f] * 3;
+        F->light = xcalloc(cnt, sizeof(float));
+        F->view = xcalloc(cnt, sizeof(float));
+        for (size_t i = 0; i < cnt; i++) { F->light[i] = 0.01f * i + f; F->view[i] = -0.02f * i; }
+        F->nsigma = 5 + f;
+        for (int c = 0; c < 3; c++)
+            for (int k = 0; k < BRDF_MAX_SIGMA; k++) F->sigma[c][k] = k < F->nsigma ? 1.f / (k + 1 + c) : 0.f;
+        for (int k = 0; k <= BRDF_MAX_SIGMA; k++) F->rel_rms[k] = k <= F->nsigma ? 1.f / (k + 1) : 0.f;
+        F->lambertian = f == 0;
+        F->seconds = 0.125 + f;
+    }
+
+    prt_transport *t = &d->transport;
+    t->nverts = nv;
+    t->nvecs = 9;
+    t->N = 8;
+    t->qbits = qbits;
+    t->vec_first = xcalloc(nv + 1, sizeof(uint32_t));
+    for (int v = 0; v < nv; v++) t->vec_first[v + 1] = t->vec_first[v] + (uint32_t)Ks[m->mat[v]];
+    t->coef_first = xcalloc(t->nvecs + 1, sizeof(uint32_t));
+    t->run_first = xcalloc(t->nvecs + 1, sizeof(uint32_t));
+    t->scale = xcalloc(3 * t->nvecs, sizeof(float));
+    uint32_t idx[64], nc = 0;
+    uint8_t runs[128];
+    uint32_t nr = 0;
+    for (int i = 0; i < t->nvecs; i++) {
+        int n = i % 5;
+        for (int k = 0; k < n; k++) idx[nc + k] = (uint32_t)(i * 7 + k * 200);   /* k*200: some pairs share a block */
+        for (int k = 0; k < n; k++) {
+            uint32_t b = idx[nc + k] / 256;
+            if (k > 0 && idx[nc + k - 1] / 256 == b) runs[2 * nr - 1]++;
+            else { runs[2 * nr] = (uint8_t)b; runs[2 * nr + 1] = 0; nr++; }
+        }
+        nc += n;
+        t->coef_first[i + 1] = nc;
+        t->run_first[i + 1] = nr;
+        for (int ch = 0; ch < 3; ch++) t->scale[3 * i + ch] = qbits == 32 ? 1.f : 0.001f * (i + 1) * (ch + 1);
+    }
+    t->runs = xcalloc(2 * nr, 1);
+    memcpy(t->runs, runs, 2 * nr);
+    if (qbits == 8) {
+        t->packed = xcalloc(nc, sizeof(uint32_t));
+        for (uint32_t c = 0; c < nc; c++) t->packed[c] = sparse_pack8(idx[c] % 256, (int)c - 5, -(int)c, 100 - (int)c);
+    } else {
+        t->offs = xcalloc(nc, 1);
+        for (uint32_t c = 0; c < nc; c++) t->offs[c] = (uint8_t)(idx[c] % 256);
+        if (qbits == 16) {
+            t->q16 = xcalloc(3 * nc, sizeof(int16_t));
+            for (uint32_t c = 0; c < 3 * nc; c++) t->q16[c] = (int16_t)(1000 * (int)c - 20000);
+        } else {
+            t->f32 = xcalloc(3 * nc, sizeof(float));
+            for (uint32_t c = 0; c < 3 * nc; c++) t->f32[c] = 0.5f * c - 3.25f;
+        }
+    }
+    d->vis_res = 128;
+    d->gather_res = 32;
+    d->sh_order = 0;
+    prt_stats *s = &d->stats;
+    s->t_brdf = 1.5; s->t_visibility = 2.5; s->t_transport = 3.5;
+    for (int b = 0; b < PRT_MAX_BOUNCES; b++) { s->t_bounce[b] = 0.1 * b; s->bounce_energy[b] = 0.01 * b; }
+    s->t_write = 0.25; s->t_total = 9.75;
+    s->rays_traced = 123456789012L; s->rays_hit = 987654321L; s->hit_fraction = 0.008;
+    s->bounces = 2; s->trunc_rel_err = 0.0123; s->peak_rss_bytes = (size_t)3 << 30;
+    snprintf(d->plan, sizeof d->plan, "direct: K=1/3 terms\nbounces: 2 (gather 32)\n");
+}
+
+#define SAME_ARR(a, b, n) ((a) && (b) && memcmp((a), (b), (n) * sizeof *(a)) == 0)
+
+/* Field-by-field equality of everything a prt_data holds. */
+static void check_equal(const prt_data *a, const prt_data *b, int qbits) {
+    const prt_mesh *ma = &a->scene.mesh, *mb = &b->scene.mesh;
+    CHECK(ma->nverts == mb->nverts && ma->ntris == mb->ntris, "mesh sizes (%d)", qbits);
+    CHECK(SAME_ARR(ma->pos, mb->pos, 3 * ma->nverts) && SAME_ARR(ma->nrm, mb->nrm, 3 * ma->nverts), "positions, normals");
+    CHECK(SAME_ARR(ma->tris, mb->tris, 3 * ma->ntris) && SAME_ARR(ma->mat, mb->mat, ma->nverts), "triangles, materials");
+    CHECK(a->scene.nmaterials == b->scene.nmaterials);
+    CHECK(a->scene.floor_first_vertex == b->scene.floor_first_vertex);
+    CHECK(memcmp(a->scene.bmin, b->scene.bmin, sizeof a->scene.bmin) == 0 && memcmp(a->scene.bmax, b->scene.bmax, sizeof a->scene.bmax) == 0);
+    CHECK(memcmp(&a->scene.load_stats, &b->scene.load_stats, sizeof a->scene.load_stats) == 0, "load stats");
+    for (int i = 0; i < a->scene.nmaterials; i++) {
+        const brdf_params *p = &a->scene.materials[i], *q = &b->scene.materials[i];
+        CHECK(p->type == q->type && p->n == q->n && p->nu == q->nu && p->nv == q->nv && p->alpha == q->alpha &&
+              p->nlobes == q->nlobes && memcmp(p->kd, q->kd, sizeof p->kd) == 0 && memcmp(p->ks, q->ks, sizeof p->ks) == 0 &&
+              memcmp(p->lobe, q->lobe, sizeof p->lobe) == 0, "material %d params", i);
+        CHECK(strcmp(a->scene.material_spec[i], b->scene.material_spec[i]) == 0, "spec %d", i);
+        const brdf_factor *f = &a->factors[i], *g = &b->factors[i];
+        CHECK(f->K == g->K && f->res == g->res && f->param == g->param && f->nsigma == g->nsigma &&
+              f->lambertian == g->lambertian && f->seconds == g->seconds, "factor %d fields", i);
+        CHECK(memcmp(f->sigma, g->sigma, sizeof f->sigma) == 0 && memcmp(f->rel_rms, g->rel_rms, sizeof f->rel_rms) == 0, "factor %d sigma", i);
+        size_t cnt = (size_t)f->res * f->res * f->K * 3;
+        CHECK(SAME_ARR(f->light, g->light, cnt) && SAME_ARR(f->view, g->view, cnt), "factor %d maps", i);
+    }
+    const prt_transport *s = &a->transport, *t = &b->transport;
+    CHECK(s->nverts == t->nverts && s->nvecs == t->nvecs && s->N == t->N && s->qbits == t->qbits, "transport sizes");
+    size_t nc = s->coef_first[s->nvecs], nr = s->run_first[s->nvecs];
+    CHECK(SAME_ARR(s->vec_first, t->vec_first, s->nverts + 1) && SAME_ARR(s->coef_first, t->coef_first, s->nvecs + 1) &&
+          SAME_ARR(s->run_first, t->run_first, s->nvecs + 1), "transport offsets");
+    CHECK(SAME_ARR(s->runs, t->runs, 2 * nr) && SAME_ARR(s->scale, t->scale, 3 * s->nvecs), "runs, scales");
+    if (qbits == 8) CHECK(SAME_ARR(s->packed, t->packed, nc) && !t->offs && !t->q16 && !t->f32, "8-bit coefficients");
+    if (qbits == 16) CHECK(SAME_ARR(s->offs, t->offs, nc) && SAME_ARR(s->q16, t->q16, 3 * nc) && !t->packed && !t->f32, "16-bit");
+    if (qbits == 32) CHECK(SAME_ARR(s->offs, t->offs, nc) && SAME_ARR(s->f32, t->f32, 3 * nc) && !t->packed && !t->q16, "float");
+    CHECK(!t->stage_count && !t->stage_idx && !t->stage_val);
+    CHECK(a->vis_res == b->vis_res && a->gather_res == b->gather_res && a->sh_order == b->sh_order);
+    CHECK(memcmp(&a->stats, &b->stats, sizeof a->stats) == 0, "stats");
+    CHECK(strcmp(a->plan, b->plan) == 0, "plan");
+}
+
+static unsigned char *slurp(const char *path, size_t *n) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *n = (size_t)ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(*n ? *n : 1);
+    if (fread(b, 1, *n, f) != *n) *n = 0;
+    fclose(f);
+    return b;
+}
+static void spit(const char *path, const void *b, size_t n) {
+    FILE *f = fopen(path, "wb");
+    fwrite(b, 1, n, f);
+    fclose(f);
+}
+
+static int count_files(const char *dir, const char *needle) {
+    DIR *d = opendir(dir);
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        if (strstr(e->d_name, needle)) n++;
+    if (d) closedir(d);
+    return n;
+}
+
+/* Reading path fails with one line that names it (and contains want, if given). */
+static void expect_fail(const char *path, const char *name, const char *want, const char *what) {
+    prt_data d;
+    prt_error err = { { 0 } };
+    int rc = prtfile_read(path, &d, &err);
+    CHECK(rc == -1, "%s: read should fail", what);
+    CHECK(strstr(err.msg, name) != NULL, "%s: message '%s' names the file", what, err.msg);
+    CHECK(strchr(err.msg, '\n') == NULL, "%s: one line", what);
+    if (want) CHECK(strstr(err.msg, want) != NULL, "%s: message '%s' should say '%s'", what, err.msg, want);
+    CHECK(d.scene.mesh.pos == NULL && d.transport.vec_first == NULL, "%s: nothing left allocated", what);
+}
+
+/* Offset of section tag's contents in a file image (walking the section headers). */
+static size_t section(const unsigned char *b, size_t n, const char *tag) {
+    size_t pos = 16;
+    while (pos + 12 <= n - 4) {
+        uint64_t len;
+        memcpy(&len, b + pos + 4, 8);
+        if (memcmp(b + pos, tag, 4) == 0) return pos + 12;
+        pos += 12 + len;
+    }
+    return 0;
+}
+
+/* Writes a copy of the file image with 4 bytes at off replaced by v and a fresh CRC. */
+static void patch32(const char *path, const unsigned char *b, size_t n, size_t off, uint32_t v) {
+    unsigned char *c = malloc(n);
+    memcpy(c, b, n);
+    memcpy(c + off, &v, 4);
+    uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), c, (uInt)(n - 4));
+    memcpy(c + n - 4, &crc, 4);
+    spit(path, c, n);
+    free(c);
+}
+
+int main(void) {
+    const char *dir = check_tmpdir();
+    char path[512], path2[512], bad[512];
+    prt_error err;
+
+    /* Round trips. */
+    for (int q = 8; q <= 32; q *= 2) {
+        prt_data a, b;
+        make_data(&a, q);
+        snprintf(path, sizeof path, "%s/rt%d.prt", dir, q);
+        CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
+        CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
+        if (b.scene.mesh.pos) check_equal(&a, &b, q);
+        /* Re-writing what was read gives the same bytes. */
+        snprintf(path2, sizeof path2, "%s/rt%d_again.prt", dir, q);
+        CHECK(prtfile_write(path2, &b, &err) == 0, "%s", err.msg);
+        size_t n1 = 0, n2 = 0;
+        unsigned char *b1 = slurp(path, &n1), *b2 = slurp(path2, &n2);
+        CHECK(n1 == n2 && n1 > 0 && memcmp(b1, b2, n1) == 0, "re-written file identical (%d-bit)", q);
+        free(b1);
+        free(b2);
+        prt_data_free(&a);
+        prt_data_free(&b);
+        CHECK(b.scene.mesh.pos == NULL && b.transport.packed == NULL && b.factors[1].light == NULL, "freed and zeroed");
+    }
+    CHECK(count_files(dir, ".tmp.") == 0, "no temporaries after writes");
+
+    /* Damaged files, from the 16-bit one. */
+    snprintf(path, sizeof path, "%s/rt16.prt", dir);
+    size_t n = 0;
+    unsigned char *img = slurp(path, &n);
+    CHECK(n > 200, "file size %zu", n);
+    snprintf(bad, sizeof bad, "%s/bad.prt", dir);
+    size_t cuts[] = { 0, 1, 3, 4, 10, 16, 19, 20, 27, 100, n / 2, n - 5, n - 4, n - 1 };
+    for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
+        spit(bad, img, cuts[i]);
+        char what[64];
+        snprintf(what, sizeof what, "truncated to %zu bytes", cuts[i]);
+        expect_fail(bad, "bad.prt", cuts[i] == 0 ? "empty" : cuts[i] < 4 ? "not a prt file" : "truncated", what);
+    }
+    size_t flips[] = { 0, 5, 9, 20, 40, n / 3, n / 2, n - 30, n - 2 };
+    for (size_t i = 0; i < sizeof flips / sizeof flips[0]; i++) {
+        img[flips[i]] ^= 0x10;
+        spit(bad, img, n);
+        img[flips[i]] ^= 0x10;
+        char what[64];
+        snprintf(what, sizeof what, "byte %zu flipped", flips[i]);
+        /* Past the header every flip is caught by the checksum. */
+        expect_fail(bad, "bad.prt", flips[i] >= 16 ? "corrupt (checksum mismatch)" : NULL, what);
+    }
+    memcpy(img, "PRTX", 4);
+    spit(bad, img, n);
+    memcpy(img, "PRTF", 4);
+    expect_fail(bad, "bad.prt", "not a prt file", "wrong magic");
+    img[4] = 7;
+    spit(bad, img, n);
+    img[4] = 1;
+    expect_fail(bad, "bad.prt", "bad.prt: version 7 not supported (expected 1)", "wrong version");
+    unsigned char *longer = malloc(n + 3);
+    memcpy(longer, img, n);
+    memset(longer + n, 0, 3);
+    spit(bad, longer, n + 3);
+    free(longer);
+    expect_fail(bad, "bad.prt", "corrupt", "trailing bytes");
+    snprintf(bad, sizeof bad, "%s/missing.prt", dir);
+    expect_fail(bad, "missing.prt", "cannot open", "missing file");
+    snprintf(bad, sizeof bad, "%s/adir.prt", dir);
+    mkdir(bad, 0755);
+    expect_fail(bad, "adir.prt", NULL, "a directory");
+
+    /* Crafted files: valid checksum, contents out of range. */
+    snprintf(bad, sizeof bad, "%s/crafted.prt", dir);
+    size_t mesh = section(img, n, "MESH"), matl = section(img, n, "MATL"), tran = section(img, n, "TRAN");
+    CHECK(mesh && matl && tran, "sections found");
+    int nv = 5, nvec = 9;
+    size_t tris = mesh + 8 + 24 * (size_t)nv, mats = tris + 36;
+    size_t k0 = matl + 4 + 4 + 24 + 16 + 4 + 64 + 4 + strlen("lambert:kd=0.8,0.7,0.6");   /* material 0's K */
+    size_t vecf = tran + 32, coeff = vecf + 4 * (nv + 1), runf = coeff + 4 * (nvec + 1), runs = runf + 4 * (nvec + 1);
+    struct { size_t off; uint32_t v; const char *want; const char *what; } crafts[] = {
+        { tris, 5, "triangle", "triangle index = nverts" },
+        { tris + 8, 0xffffffffu, "triangle", "triangle index 2^32-1" },
+        { mats, 2 | (0u << 16), "material", "vertex material = nmaterials" },
+        { mesh, 0x7ffffff0u, "mesh size", "huge vertex count" },
+        { mesh, 100000000u, "MESH section too short", "vertex count larger than the section" },
+        { mesh + 8, 0x7fc00000u, "non-finite", "NaN position" },
+        { k0, 65, "K = 65", "K = 65" },
+        { k0, 2, NULL, "K disagrees with the vertices' vector counts" },
+        { k0 + 4, 100000, "resolution", "BRDF map resolution 100000" },
+        { vecf + 4, 2, "vector", "vertex 0 with 2 vectors (K = 1)" },
+        { coeff + 4 * 2, 0, "coefficient", "coefficient offsets decreasing" },
+        { runf + 4 * 9, 99, NULL, "run offsets past the runs" },
+        { runs, 96 | (0u << 8), "block", "block 96" },
+        { tran + 16, 1000, NULL, "coefficient total inflated" },
+        { tran + 12, 12, "quantization", "qbits 12" },
+        { tran + 8, 0, "N = 0", "N = 0" },
+        { tran, 4, NULL, "transport vertex count differs from the mesh" },
+    };
+    for (size_t i = 0; i < sizeof crafts / sizeof crafts[0]; i++) {
+        /* Keep the other bytes of a 4-byte window when patching a smaller field. */
+        uint32_t v = crafts[i].v;
+        if (crafts[i].off == mats) { uint16_t hi; memcpy(&hi, img + mats + 2, 2); v = (v & 0xffff) | (uint32_t)hi << 16; }
+        if (crafts[i].off == runs) v = (v & 0xff) | (uint32_t)img[runs + 1] << 8 | (uint32_t)img[runs + 2] << 16 | (uint32_t)img[runs + 3] << 24;
+        patch32(bad, img, n, crafts[i].off, v);
+        char what[128];
+        snprintf(what, sizeof what, "crafted: %s", crafts[i].what);
+        expect_fail(bad, "crafted.prt", crafts[i].want, what);
+    }
+    /* A run claiming one more coefficient than the vector has. */
+    {
+        prt_data a;
+        make_data(&a, 16);
+        size_t r = 0;
+        for (int i = 0; i < nvec; i++)
+            if (a.transport.run_first[i + 1] > a.transport.run_first[i]) { r = a.transport.run_first[i]; break; }
+        unsigned char *c = malloc(n);
+        memcpy(c, img, n);
+        c[runs + 2 * r + 1] += 1;
+        uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), c, (uInt)(n - 4));
+        memcpy(c + n - 4, &crc, 4);
+        spit(bad, c, n);
+        free(c);
+        expect_fail(bad, "crafted.prt", "runs cover", "crafted: run longer than its vector");
+        prt_data_free(&a);
+    }
+    free(img);
+
+    /* Failed writes leave nothing behind. */
+    prt_data a;
+    make_data(&a, 8);
+    snprintf(path, sizeof path, "%s/nodir/x.prt", dir);
+    CHECK(prtfile_write(path, &a, &err) == -1 && strstr(err.msg, "nodir/x.prt"), "%s", err.msg);
+    a.scene.mesh.tris[4] = 99;   /* the writer refuses what the reader would */
+    snprintf(path, sizeof path, "%s/refused.prt", dir);
+    CHECK(prtfile_write(path, &a, &err) == -1 && strstr(err.msg, "refused.prt") && strstr(err.msg, "triangle"), "%s", err.msg);
+    a.scene.mesh.tris[4] = 3;
+    a.factors[1].view[2] = NAN;
+    CHECK(prtfile_write(path, &a, &err) == -1 && strstr(err.msg, "non-finite"), "%s", err.msg);
+    struct stat st;
+    CHECK(stat(path, &st) != 0, "no file after a refused write");
+    CHECK(count_files(dir, ".tmp.") == 0 && count_files(dir, "refused") == 0, "no temporaries after failed writes");
+    snprintf(path, sizeof path, "%s/adir.prt", dir);   /* a directory in the way: rename fails */
+    a.factors[1].view[2] = 0;
+    CHECK(prtfile_write(path, &a, &err) == -1 && strstr(err.msg, "adir.prt"), "%s", err.msg);
+    CHECK(count_files(dir, ".tmp.") == 0, "no temporary after a failed rename");
+    prt_data_free(&a);
+    return check_summary();
+}

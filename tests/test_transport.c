@@ -1,0 +1,333 @@
+/* test_transport.c - staging, compaction, run coding, quantization bounds, decode,
+ * T x L against a dense double-precision inner product, concurrency, and a
+ * benchmark of the runtime kernel on a synthetic set of the paper's size. */
+#include "check.h"
+#include "transport.h"
+#include "haar.h"
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static uint32_t rnd_u(uint32_t *s) { *s ^= *s << 13; *s ^= *s >> 17; *s ^= *s << 5; return *s; }
+static float rnd(uint32_t *s) { return (float)(rnd_u(s) >> 8) / 16777216.f; }
+
+enum { T = CUBE_TEXELS };
+
+static double thread_cpu(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+static double process_cpu(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Dense test vector number v (deterministic): several kinds, see comments. */
+static void make_vec(int v, float *r, float *g, float *b) {
+    uint32_t s = 1000u + (uint32_t)v * 7919u;
+    memset(r, 0, sizeof(float) * T); memset(g, 0, sizeof(float) * T); memset(b, 0, sizeof(float) * T);
+    int kind = v % 6;
+    if (kind == 0) return;                                    /* all zero: nothing stored */
+    if (kind == 1) { r[0] = 2.f; g[0] = 1.f; b[0] = 0.5f; return; }  /* one scaling coefficient */
+    if (kind == 2) {                                          /* a dominant coefficient, tiny rest */
+        for (int i = 0; i < T; i++) { r[i] = 1e-3f * (rnd(&s) - 0.5f); g[i] = 1e-4f * rnd(&s); b[i] = 0; }
+        r[77] = 1e30f; g[77] = -3e29f; b[300] = 1e-30f;
+        return;
+    }
+    if (kind == 3) {                                          /* fewer non-zeros than N */
+        for (int k = 0; k < 40; k++) { int i = (int)(rnd_u(&s) % T); r[i] = rnd(&s) - 0.5f; g[i] = rnd(&s); b[i] = -rnd(&s); }
+        return;
+    }
+    /* a transformed, shadowed lobe (kind 4) or dense noise (kind 5) */
+    float tex[3][64 * 64 * 6], tmp[2 * 64 * 64];
+    for (int i = 0; i < T; i++) {
+        float d[3];
+        cube_texel_dir(CUBE_RES, i, d);
+        float lobe = fmaxf(d[1], 0.f) * ((d[0] > 0.3f * (float)(v % 5) - 0.5f) ? 1.f : 0.f);
+        tex[0][i] = kind == 4 ? lobe : rnd(&s) - 0.5f;
+        tex[1][i] = kind == 4 ? 0.5f * lobe * lobe : rnd(&s) - 0.5f;
+        tex[2][i] = kind == 4 ? 0.1f * lobe : rnd(&s) - 0.5f;
+    }
+    haar_cube_forward(tex[0], CUBE_RES, r, tmp);
+    haar_cube_forward(tex[1], CUBE_RES, g, tmp);
+    haar_cube_forward(tex[2], CUBE_RES, b, tmp);
+}
+
+typedef struct store_ctx { prt_transport *t; double *errs; } store_ctx;
+static void store_chunk(void *p, int begin, int end, int thread) {
+    store_ctx *c = p;
+    float *r = malloc(sizeof(float) * T * 3), *g = r + T, *b = g + T;
+    void *scratch = malloc(transport_scratch_size());
+    for (int i = begin; i < end; i++) {
+        make_vec(i, r, g, b);
+        c->errs[i] = transport_store(c->t, i, r, g, b, scratch);
+    }
+    free(r); free(scratch);
+}
+
+/* Builds a set of nverts vertices with 1..4 vectors each, storing with nthreads threads. */
+static int build(prt_transport *t, int nverts, int N, int qbits, int nthreads, double **errs) {
+    int *nv = malloc(sizeof(int) * (size_t)nverts);
+    for (int v = 0; v < nverts; v++) nv[v] = 1 + v % 4;
+    prt_error err;
+    int rc = transport_init(t, nverts, nv, N, qbits, &err);
+    free(nv);
+    if (rc) { fprintf(stderr, "%s\n", err.msg); return rc; }
+    *errs = malloc(sizeof(double) * (size_t)t->nvecs);
+    store_ctx c = { t, *errs };
+    prt_parallel_for(t->nvecs, 3, nthreads, store_chunk, &c);
+    rc = transport_finish(t, &err);
+    if (rc) fprintf(stderr, "%s\n", err.msg);
+    return rc;
+}
+
+typedef struct idx_list { uint32_t *idx; int n; } idx_list;
+static void collect(void *p, uint32_t index, float r, float g, float b) { idx_list *l = p; l->idx[l->n++] = index; }
+
+int main(void) {
+    float *r = malloc(sizeof(float) * T), *g = malloc(sizeof(float) * T), *b = malloc(sizeof(float) * T);
+    float *dr = malloc(sizeof(float) * T), *dg = malloc(sizeof(float) * T), *db = malloc(sizeof(float) * T);
+    float *sel_scratch = malloc(sizeof(float) * 2 * T);
+    uint32_t *sel = malloc(sizeof(uint32_t) * T), *got = malloc(sizeof(uint32_t) * T);
+    float (*L)[4] = aligned_alloc(64, sizeof(float) * 4 * T);
+    uint32_t s = 5;
+    for (int i = 0; i < T; i++) { L[i][0] = rnd(&s) * 2 - 0.5f; L[i][1] = rnd(&s); L[i][2] = rnd(&s) * 10; L[i][3] = 0; }
+
+    /* 1. Bad arguments fail with a message. */
+    {
+        prt_transport t;
+        prt_error err = { "" };
+        int nv[2] = { 1, 1 };
+        CHECK(transport_init(&t, 2, nv, 0, 8, &err) == -1 && strstr(err.msg, "N"), "N = 0: %s", err.msg);
+        CHECK(transport_init(&t, 2, nv, 128, 12, &err) == -1 && strstr(err.msg, "qbits"), "qbits 12: %s", err.msg);
+        int neg[2] = { 1, -1 };
+        CHECK(transport_init(&t, 2, neg, 128, 8, &err) == -1 && strstr(err.msg, "vertex 1"), "negative count: %s", err.msg);
+    }
+    /* 2..6 for each quantization. */
+    int qb[3] = { 8, 16, 32 };
+    for (int q = 0; q < 3; q++) {
+        prt_transport t, t1;
+        double *errs, *errs1;
+        int nverts = 60, N = 128;
+        CHECK(build(&t, nverts, N, qb[q], 2, &errs) == 0, "build q%d", qb[q]);
+        CHECK(build(&t1, nverts, N, qb[q], 1, &errs1) == 0, "build q%d serial", qb[q]);
+        CHECK(t.stage_count == NULL && t.stage_idx == NULL && t.stage_val == NULL, "staging freed");
+        CHECK(t.nvecs == 150 && t.vec_first[nverts] == 150 && t.vec_first[1] == 1 && t.vec_first[2] == 3, "vector numbering");
+        /* 2. Two threads store exactly what one thread stores. */
+        size_t nc = transport_ncoefs(&t), nr = transport_nruns(&t);
+        int same = nc == transport_ncoefs(&t1) && nr == transport_nruns(&t1) &&
+                   memcmp(t.coef_first, t1.coef_first, sizeof(uint32_t) * (t.nvecs + 1)) == 0 &&
+                   memcmp(t.runs, t1.runs, 2 * nr) == 0 && memcmp(t.scale, t1.scale, sizeof(float) * 3 * t.nvecs) == 0 &&
+                   memcmp(errs, errs1, sizeof(double) * t.nvecs) == 0;
+        if (qb[q] == 8) same = same && memcmp(t.packed, t1.packed, 4 * nc) == 0;
+        if (qb[q] == 16) same = same && memcmp(t.q16, t1.q16, 6 * nc) == 0 && memcmp(t.offs, t1.offs, nc) == 0;
+        if (qb[q] == 32) same = same && memcmp(t.f32, t1.f32, 12 * nc) == 0 && memcmp(t.offs, t1.offs, nc) == 0;
+        CHECK(same, "q%d: threaded build differs from serial build", qb[q]);
+        /* 3. Per vector: stored indices are sparse_select's, decode error <= step/2 per
+         * coefficient, the returned error equals the brute-force one, runs are consistent. */
+        int bad_idx = 0, bad_q = 0, bad_err = 0, bad_runs = 0, nonfinite = 0;
+        size_t runs_brute = 0;
+        for (int i = 0; i < t.nvecs; i++) {
+            make_vec(i, r, g, b);
+            int k = sparse_select(r, g, b, T, N, sel, sel_scratch);
+            idx_list l = { got, 0 };
+            transport_foreach(&t, i, collect, &l);
+            if (l.n != k || memcmp(sel, got, sizeof(uint32_t) * (size_t)k) != 0 || (int)(t.coef_first[i + 1] - t.coef_first[i]) != k) bad_idx++;
+            for (int c = 0; c < k; c++)
+                if (c == 0 || sel[c] / 256 != sel[c - 1] / 256) runs_brute++;
+            transport_decode(&t, i, dr, dg, db);
+            double e = 0;
+            for (int j = 0; j < T; j++) {
+                if (!isfinite(dr[j]) || !isfinite(dg[j]) || !isfinite(db[j])) nonfinite++;
+                e += ((double)r[j] - dr[j]) * ((double)r[j] - dr[j]) + ((double)g[j] - dg[j]) * ((double)g[j] - dg[j]) +
+                     ((double)b[j] - db[j]) * ((double)b[j] - db[j]);
+            }
+            if (fabs(e - errs[i]) > 1e-6 * e + 1e-30 && !(i % 6 == 2)) bad_err++;
+            if (i % 6 == 2 && fabs(e - errs[i]) > 1e-6 * e) bad_err++;   /* huge values: relative only */
+            const float *ch[3] = { r, g, b }, *dch[3] = { dr, dg, db };
+            for (int c = 0; c < 3; c++) {
+                float step = t.scale[3 * i + c];
+                float m = 0;
+                for (int x = 0; x < k; x++) m = fmaxf(m, fabsf(ch[c][sel[x]]));
+                if (qb[q] == 32) { if (step != 1.f) bad_q++; }
+                else if (fabsf(step - m / (qb[q] == 8 ? 127.f : 32767.f)) > 1e-6f * step) bad_q++;
+                for (int x = 0; x < k; x++) {
+                    double d = fabs((double)ch[c][sel[x]] - dch[c][sel[x]]);
+                    /* step/2 plus the float rounding of q * step (2 ulps of the value) */
+                    if (qb[q] == 32 ? d != 0 : d > 0.5 * step + 2.4e-7 * fabs(ch[c][sel[x]])) bad_q++;
+                }
+            }
+        }
+        CHECK(bad_idx == 0, "q%d: %d vectors store other indices than sparse_select", qb[q], bad_idx);
+        CHECK(bad_q == 0, "q%d: %d quantization errors beyond step/2 (or wrong steps)", qb[q], bad_q);
+        CHECK(bad_err == 0, "q%d: %d returned errors differ from brute force", qb[q], bad_err);
+        CHECK(nonfinite == 0, "q%d: %d non-finite decoded values", qb[q], nonfinite);
+        CHECK(runs_brute == nr && bad_runs == 0, "q%d: %zu runs stored, %zu expected", qb[q], nr, runs_brute);
+        /* 4. Special vectors: all-zero stores 0 coefficients; the single scaling coefficient
+         * round-trips exactly; the dominant coefficient survives without NaN. */
+        CHECK(t.coef_first[1] - t.coef_first[0] == 0 && t.run_first[1] == t.run_first[0], "q%d: zero vector stores nothing", qb[q]);
+        transport_decode(&t, 1, dr, dg, db);
+        CHECK(t.coef_first[2] - t.coef_first[1] == 1 && dr[0] == 2.f && dg[0] == 1.f && db[0] == 0.5f, "q%d: scaling coefficient %g %g %g", qb[q], dr[0], dg[0], db[0]);
+        transport_decode(&t, 2, dr, dg, db);
+        CHECK(dr[77] == 1e30f && fabsf(dg[77] + 3e29f) <= 3e29f * 1e-4f && isfinite(db[300]), "q%d: dominant coefficient %g %g", qb[q], dr[77], dg[77]);
+        /* 5. T x L against a dense double inner product of the decoded vectors. */
+        float *gv = malloc(sizeof(float) * 3 * t.nvecs), *gv1 = malloc(sizeof(float) * 3 * t.nvecs), *gr = malloc(sizeof(float) * 3 * t.nvecs);
+        transport_light(&t, (const float (*)[4])L, gv, 2);
+        transport_light(&t, (const float (*)[4])L, gv1, 1);
+        transport_light_range(&t, (const float (*)[4])L, gr, 10, 37);
+        int bad_tl = 0, bad_thr = 0;
+        double worst = 0;
+        for (int i = 0; i < t.nvecs; i++) {
+            transport_decode(&t, i, dr, dg, db);
+            const float *dch[3] = { dr, dg, db };
+            for (int c = 0; c < 3; c++) {
+                double ref = 0, mag = 0;
+                for (int j = 0; j < T; j++) { ref += (double)dch[c][j] * L[j][c]; mag += fabs((double)dch[c][j] * L[j][c]); }
+                double rel = fabs(gv[3 * i + c] - ref) / (mag > 0 ? mag : 1);
+                if (mag == 0 && gv[3 * i + c] != 0) rel = 1;
+                if (i % 6 == 2 && c == 0) rel = fabs(gv[3 * i + c] - ref) / fabs(ref);  /* 1e30-scale: finite and relative */
+                worst = fmax(worst, rel);
+                if (!(rel <= 1e-5)) bad_tl++;
+                if (gv[3 * i + c] != gv1[3 * i + c]) bad_thr++;
+                if (i >= 10 && i < 37 && gr[3 * i + c] != gv[3 * i + c]) bad_thr++;
+            }
+        }
+        CHECK(bad_tl == 0, "q%d: %d T x L values off (worst rel %.3g)", qb[q], bad_tl, worst);
+        CHECK(bad_thr == 0, "q%d: %d values depend on threads / range", qb[q], bad_thr);
+        size_t per = qb[q] == 8 ? 4 : qb[q] == 16 ? 7 : 13;
+        CHECK(transport_bytes(&t) == nc * per + 2 * nr + 12 * (size_t)t.nvecs, "q%d bytes", qb[q]);
+        free(gv); free(gv1); free(gr); free(errs); free(errs1);
+        transport_free(&t);
+        transport_free(&t1);
+        CHECK(t.nvecs == 0 && t.packed == NULL && t.vec_first == NULL, "free zeroes the set");
+    }
+    /* 6. Every index 0..24575 through runs: one dense vector with N = 24576 (96 full runs of
+     * 256, count-1 = 255) and 192 vectors of 128 consecutive indices. */
+    for (int qi = 0; qi < 2; qi++) {
+        prt_transport t;
+        prt_error err;
+        int nvert = qi == 0 ? 1 : 192, N = qi == 0 ? T : 128;
+        int *nv = malloc(sizeof(int) * (size_t)nvert);
+        for (int v = 0; v < nvert; v++) nv[v] = 1;
+        CHECK(transport_init(&t, nvert, nv, N, 8, &err) == 0, "init %s", err.msg);
+        void *scratch = malloc(transport_scratch_size());
+        for (int v = 0; v < nvert; v++) {
+            memset(r, 0, sizeof(float) * T); memset(g, 0, sizeof(float) * T); memset(b, 0, sizeof(float) * T);
+            for (int i = 0; i < T; i++)
+                if (qi == 0 || i / 128 == v) { r[i] = (float)(i % 255) - 127; g[i] = 127 - (float)(i % 254); b[i] = 1 + (float)(i % 3); }
+            r[v * 128] = 127;   /* fix each vector's step at 1 for r */
+            transport_store(&t, v, r, g, b, scratch);
+        }
+        CHECK(transport_finish(&t, &err) == 0, "finish %s", err.msg);
+        int bad = 0;
+        uint32_t expect = 0;
+        for (int v = 0; v < nvert; v++) {
+            idx_list l = { got, 0 };
+            transport_foreach(&t, v, collect, &l);
+            for (int c = 0; c < l.n; c++)
+                if (got[c] != expect++) bad++;
+        }
+        CHECK(bad == 0 && expect == T, "qi %d: %d index mismatches, %u indices", qi, bad, expect);
+        CHECK(transport_nruns(&t) == (qi == 0 ? 96u : 192u), "runs %zu", transport_nruns(&t));
+        if (qi == 0) CHECK(t.runs[0] == 0 && t.runs[1] == 255 && t.runs[2 * 95] == 95 && t.runs[2 * 95 + 1] == 255, "full runs");
+        free(nv); free(scratch);
+        transport_free(&t);
+    }
+    /* 7. Benchmark (printed, not asserted): ~36K vertices x 4 vectors + 31K x 1, N = 128,
+     * 8-bit. Index patterns come from 256 realistic vectors (shadowed cosine and glossy
+     * lobes, transformed and truncated: about 10 runs per vector), values are random. */
+    {
+        enum { NPAT = 256 };
+        int nv4 = 36000, nv1 = 31000, nverts = nv4 + nv1, N = 128;
+        uint32_t (*pat)[128] = malloc(sizeof(uint32_t) * 128 * NPAT);
+        int patn[NPAT];
+        float *tex = malloc(sizeof(float) * 3 * T), sa[64 * 64], tmp[2 * 64 * 64];
+        cube_face_solid_angles(CUBE_RES, sa);
+        for (int p = 0; p < NPAT; p++) {
+            float n[3] = { rnd(&s) - .5f, rnd(&s) - .2f, rnd(&s) - .5f }, o[3] = { rnd(&s) - .5f, rnd(&s) - .5f, rnd(&s) - .5f };
+            float ln = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), lo = sqrtf(o[0] * o[0] + o[1] * o[1] + o[2] * o[2]);
+            float cr = cosf(0.3f + 0.6f * rnd(&s));
+            for (int i = 0; i < T; i++) {
+                float d[3];
+                cube_texel_dir(CUBE_RES, i, d);
+                float cs = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / ln;
+                float vis = (d[0] * o[0] + d[1] * o[1] + d[2] * o[2]) / lo > cr || d[1] < -0.1f ? 0.f : 1.f;
+                float gl = p % 2 ? powf(fmaxf(0.f, (d[0] * n[0] - d[1] * n[1] + d[2] * n[2]) / ln), 20.f) : 1.f;
+                float v = cs > 0 ? cs * vis * gl * sa[i % 4096] : 0.f;
+                tex[i] = v; tex[T + i] = 0.8f * v; tex[2 * T + i] = 0.5f * v;
+            }
+            haar_cube_forward(tex, CUBE_RES, r, tmp);
+            haar_cube_forward(tex + T, CUBE_RES, g, tmp);
+            haar_cube_forward(tex + 2 * T, CUBE_RES, b, tmp);
+            patn[p] = sparse_select(r, g, b, T, N, pat[p], sel_scratch);
+        }
+        prt_transport t;
+        memset(&t, 0, sizeof t);
+        t.nverts = nverts; t.nvecs = nv4 * 4 + nv1; t.N = N; t.qbits = 8;
+        size_t nvec = (size_t)t.nvecs, nc = nvec * N;
+        t.vec_first = malloc(sizeof(uint32_t) * (nverts + 1));
+        t.vec_first[0] = 0;
+        for (int v = 0; v < nverts; v++) t.vec_first[v + 1] = t.vec_first[v] + (v < nv4 ? 4 : 1);
+        t.coef_first = malloc(sizeof(uint32_t) * (nvec + 1));
+        t.run_first = malloc(sizeof(uint32_t) * (nvec + 1));
+        t.runs = malloc(2 * nc);
+        t.packed = malloc(4 * nc);
+        t.scale = malloc(sizeof(float) * 3 * nvec);
+        size_t c = 0, nr = 0;
+        for (size_t i = 0; i < nvec; i++) {
+            t.coef_first[i] = (uint32_t)c;
+            t.run_first[i] = (uint32_t)nr;
+            int pn = (int)(rnd_u(&s) % NPAT), k = patn[pn];
+            const uint32_t *pi = pat[pn];
+            for (int q = 0; q < k; q++) {
+                uint32_t blk = pi[q] / 256;
+                if (q == 0 || blk != pi[q - 1] / 256) { t.runs[2 * nr] = (uint8_t)blk; t.runs[2 * nr + 1] = 0; nr++; }
+                else t.runs[2 * nr - 1]++;
+                t.packed[c++] = sparse_pack8(pi[q] % 256, (int)(rnd_u(&s) % 255) - 127, (int)(rnd_u(&s) % 255) - 127, (int)(rnd_u(&s) % 255) - 127);
+            }
+            for (int ch = 0; ch < 3; ch++) t.scale[3 * i + ch] = 1e-3f;
+        }
+        t.coef_first[nvec] = (uint32_t)c;
+        t.run_first[nvec] = (uint32_t)nr;
+        float *gv = malloc(sizeof(float) * 3 * nvec);
+        double best = 1e9, best1 = 1e9, cpu1 = 1e9, cpu2 = 1e9;
+        for (int rep = 0; rep < 10; rep++) {
+            double t0 = prt_now(), c0 = process_cpu();
+            transport_light(&t, (const float (*)[4])L, gv, 2);
+            best = fmin(best, prt_now() - t0);
+            cpu2 = fmin(cpu2, process_cpu() - c0);
+        }
+        for (int rep = 0; rep < 4; rep++) {
+            double t0 = prt_now(), c0 = thread_cpu();
+            transport_light(&t, (const float (*)[4])L, gv, 1);
+            best1 = fmin(best1, prt_now() - t0);
+            cpu1 = fmin(cpu1, thread_cpu() - c0);
+        }
+        /* wall times depend on what else the shared machine runs; the CPU time of the
+         * single-thread run is the kernel's own cost */
+        printf("transport_light benchmark: %zu vectors, %.1f coefs and %.1f runs per vector (%.0f MB): "
+               "%.2f ms wall / %.2f ms CPU (both threads) on 2 threads, %.2f ms wall / %.2f ms CPU on 1 thread (best of 10/4)\n",
+               nvec, (double)c / nvec, (double)nr / nvec, 4.0 * c / 1e6, 1e3 * best, 1e3 * cpu2, 1e3 * best1, 1e3 * cpu1);
+        /* spot check of the benchmark set against a direct double sum */
+        int bad = 0;
+        for (int i = 0; i < 1000; i++) {
+            double ref[3] = { 0, 0, 0 };
+            for (uint32_t rr = t.run_first[i], cc = t.coef_first[i]; rr < t.run_first[i + 1]; rr++)
+                for (int k = 0; k <= t.runs[2 * rr + 1]; k++, cc++) {
+                    uint32_t off; int qv[3];
+                    sparse_unpack8(t.packed[cc], &off, &qv[0], &qv[1], &qv[2]);
+                    for (int ch = 0; ch < 3; ch++) ref[ch] += (double)qv[ch] * 1e-3 * L[t.runs[2 * rr] * 256 + off][ch];
+                }
+            for (int ch = 0; ch < 3; ch++)
+                if (fabs(gv[3 * i + ch] - ref[ch]) > 1e-5 * (fabs(ref[ch]) + 1)) bad++;
+        }
+        CHECK(bad == 0, "benchmark set: %d values off", bad);
+        free(gv); free(pat); free(tex);
+        transport_free(&t);
+    }
+    free(r); free(g); free(b); free(dr); free(dg); free(db); free(sel_scratch); free(sel); free(got); free(L);
+    return check_summary();
+}

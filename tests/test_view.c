@@ -1,0 +1,179 @@
+/* test_view.c - `prt view` in a real window under Xvfb, against the headless renderer.
+ *
+ * Self-contained: the test writes a small procedural OBJ (a sphere) and a
+ * procedural sky probe (EXR), precomputes them with `build/prt precompute`
+ * (glossy Phong sphere, 2 BRDF terms, diffuse floor), then for each runtime
+ * (CPU and GL) runs
+ *     xvfb-run prt view scene.prt --probe sky.exr --camera C --size WxH --frames 3 --screenshot shot.png
+ * and `prt render` of the same camera, size and exposure (headless, OSMesa), and
+ * compares the two PNGs in 8-bit sRGB code values: at most 2 codes apart at any
+ * pixel (tolerance for rasterization through GLX vs OSMesa; the same float
+ * image gives identical codes). A render from another camera must differ by far
+ * more, so the comparison can fail. Xvfb missing is a failure, not a skip. */
+#include "check.h"
+#include "image.h"
+#include "probe.h"
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define W 200
+#define H 150
+static const char *k_cam = "2.2,1.6,2.9,0,0.35,0,40";
+
+/* A UV sphere of radius 0.5 centred at (0, 0.5, 0), as OBJ text. */
+static int write_obj(const char *path) {
+    FILE *f = fopen(path, "w");
+    if (!f) return -1;
+    const int rings = 16, segs = 24;
+    fprintf(f, "# procedural sphere for test_view\nv 0 1 0\n");
+    for (int r = 1; r < rings; r++)
+        for (int s = 0; s < segs; s++) {
+            double th = M_PI * r / rings, ph = 2 * M_PI * s / segs;
+            fprintf(f, "v %.6f %.6f %.6f\n", 0.5 * sin(th) * cos(ph), 0.5 + 0.5 * cos(th), 0.5 * sin(th) * sin(ph));
+        }
+    fprintf(f, "v 0 0 0\n");
+    int south = 2 + (rings - 1) * segs;
+    for (int s = 0; s < segs; s++) fprintf(f, "f 1 %d %d\n", 2 + (s + 1) % segs, 2 + s);
+    for (int r = 0; r + 2 < rings; r++)
+        for (int s = 0; s < segs; s++) {
+            int a = 2 + r * segs + s, b = 2 + r * segs + (s + 1) % segs, c = b + segs, d = a + segs;
+            fprintf(f, "f %d %d %d\nf %d %d %d\n", a, b, c, a, c, d);
+        }
+    for (int s = 0; s < segs; s++) {
+        int base = 2 + (rings - 2) * segs;
+        fprintf(f, "f %d %d %d\n", base + s, base + (s + 1) % segs, south);
+    }
+    return fclose(f);
+}
+
+/* 8-bit sRGB code of a linear value (what the PNG holds; image_read decodes it back to linear). */
+static int code(float x) {
+    x = x < 0 ? 0 : x > 1 ? 1 : x;
+    float s = x <= 0.0031308f ? 12.92f * x : 1.055f * powf(x, 1 / 2.4f) - 0.055f;
+    return (int)lroundf(s * 255);
+}
+
+/* Max and mean code difference of two images of the same size (-1 if sizes differ or unreadable). */
+static double compare_png(const char *a, const char *b, double *mean) {
+    prt_image ia = { 0 }, ib = { 0 };
+    prt_error err;
+    double worst = -1;
+    *mean = -1;
+    if (image_read(a, &ia, &err) == 0 && image_read(b, &ib, &err) == 0 && ia.w == ib.w && ia.h == ib.h) {
+        worst = 0;
+        double sum = 0;
+        size_t n = (size_t)ia.w * ia.h * 3;
+        for (size_t i = 0; i < n; i++) {
+            int d = abs(code(ia.data[i]) - code(ib.data[i]));
+            if (d > worst) worst = d;
+            sum += d;
+        }
+        *mean = sum / (double)n;
+    } else fprintf(stderr, "compare %s %s: %s\n", a, b, err.msg);
+    image_free(&ia);
+    image_free(&ib);
+    return worst;
+}
+
+static double mean_code(const char *path) {
+    prt_image im = { 0 };
+    prt_error err;
+    if (image_read(path, &im, &err)) return -1;
+    double s = 0;
+    for (size_t i = 0; i < (size_t)im.w * im.h * 3; i++) s += code(im.data[i]);
+    s /= (double)im.w * im.h * 3;
+    image_free(&im);
+    return s;
+}
+
+int main(void) {
+    const char *dir = check_tmpdir(), *prt = check_prt_bin();
+    char obj[512], sky[512], scene[512], cmd[8192], out[16384];
+    snprintf(obj, sizeof obj, "%s/sphere.obj", dir);
+    snprintf(sky, sizeof sky, "%s/sky.exr", dir);
+    snprintf(scene, sizeof scene, "%s/scene.prt", dir);
+    CHECK(access(prt, X_OK) == 0, "%s not built", prt);
+    int have_xvfb = check_run("command -v xvfb-run", NULL, 0) == 0;
+    CHECK(have_xvfb, "xvfb-run is not installed (apt-get install xvfb): the viewer cannot be tested");
+
+    /* Inputs. */
+    CHECK(write_obj(obj) == 0, "cannot write %s", obj);
+    prt_probe p;
+    prt_error err = { { 0 } };
+    sky_desc sd = { .width = 256, .sun_dir = { 0.5f, 0.7f, 0.3f }, .sun_radius_deg = 4, .sun_radiance = 60 };
+    int rc = probe_make_sky(&sd, &p, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc == 0) {
+        CHECK(image_write(sky, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
+        probe_free(&p);
+    }
+    snprintf(cmd, sizeof cmd,
+             "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --terms 2 --floor 1500 --coeffs 64 "
+             "--vis-res 64 --quiet -o %s",
+             prt, obj, scene);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "precompute failed (%d): %s", rc, out);
+
+    /* --help lists every key. */
+    snprintf(cmd, sizeof cmd, "%s view --help", prt);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "view --help failed: %s", out);
+    const char *keys[] = { "orbit", "pan", "zoom", "rotate the lighting", "1 .. 9", "next / previous probe",
+                           "exposure", "K / k", "CPU runtime", "direct only", "screenshot", "quit", "--frames",
+                           "--screenshot", "--probes" };
+    for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
+        CHECK(strstr(out, keys[i]) != NULL, "--help does not mention '%s'", keys[i]);
+
+    /* Bad input: one-line errors, before any window. */
+    snprintf(cmd, sizeof cmd, "%s view %s/missing.prt --probe %s --frames 1", prt, dir, sky);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 1 && strstr(out, "missing.prt") && strchr(out, '\n') == out + strlen(out) - 1, "rc %d: %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s view %s", prt, scene);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "probe"), "no probe: rc %d: %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s view %s --probe %s --camera 1,2 --frames 1", prt, scene, sky);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc != 0 && strstr(out, "--camera"), "bad camera: rc %d: %s", rc, out);
+
+    /* Window screenshot vs headless render, both runtimes. */
+    const char *backends[2] = { "cpu", "gl" };
+    for (int b = 0; b < 2 && have_xvfb; b++) {
+        char shot[512], ref[512];
+        snprintf(shot, sizeof shot, "%s/shot_%s.png", dir, backends[b]);
+        snprintf(ref, sizeof ref, "%s/ref_%s.png", dir, backends[b]);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --exposure -1 "
+                 "--backend %s --frames 3 --screenshot %s",
+                 prt, scene, sky, k_cam, W, H, backends[b], shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "view --backend %s failed (%d): %s", backends[b], rc, out);
+        CHECK(strstr(out, "view: 3 frames") != NULL, "no frame summary: %s", out);
+        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s -o %s", prt,
+                 scene, sky, k_cam, W, H, backends[b], ref);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "render --backend %s failed (%d): %s", backends[b], rc, out);
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0, "%s: images missing or of different sizes", backends[b]);
+        CHECK_LE(worst, 2, "%s: viewer screenshot differs from the headless render (mean %.4f codes)", backends[b], mean);
+        CHECK_LE(mean, 0.05, "%s: mean code difference", backends[b]);
+        double m = mean_code(shot);
+        CHECK(m > 10 && m < 245, "%s: screenshot is blank (mean code %.1f)", backends[b], m);
+    }
+    /* Power of the comparison: another camera gives a clearly different image. */
+    if (have_xvfb) {
+        char other[512], ref[512];
+        snprintf(other, sizeof other, "%s/other.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_cpu.png", dir);
+        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera 2.3,1.6,2.8,0,0.35,0,40 --size %dx%d --exposure -1 -o %s",
+                 prt, scene, sky, W, H, other);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+        double mean, worst = compare_png(other, ref, &mean);
+        CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
+    }
+    /* prt glbench runs headless and prints both runtimes beside the paper's figures. */
+    snprintf(cmd, sizeof cmd, "%s glbench %s --probe %s --size 64x48 --runs 1", prt, scene, sky);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0 && strstr(out, "GL runtime") && strstr(out, "CPU runtime") && strstr(out, "Table II"),
+          "glbench failed (%d): %s", rc, out);
+    return check_summary();
+}
