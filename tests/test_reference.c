@@ -153,10 +153,7 @@ static void test_furnace_sphere(void) {
     zstats z = { 0 };
     int away_nonzero = 0;
     for (int v = 0; v < n; v++) {
-        float wo[3];
-        v3_sub(wo, eye, s.mesh.pos + 3 * v);
-        v3_normalize(wo);
-        if (v3_dot(wo, s.mesh.nrm + 3 * v) <= 0) {
+        if (!ref_vertex_faces(&s.mesh, v, eye)) {
             away_nonzero += rgb[3 * v] != 0 || rgb[3 * v + 1] != 0 || rgb[3 * v + 2] != 0;
             continue;
         }
@@ -479,12 +476,13 @@ static void test_determinism_and_errors(void) {
     char path[512];
     snprintf(path, sizeof path, "%s/v.csv", check_tmpdir());
     float rgb[6] = { 1, 2, 3, 4, 5, 6 }, se2[6] = { 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f };
-    CHECK(ref_write_vertex_csv(path, rgb, se2, 2, &err) == 0, "%s", err.msg);
+    uint8_t facing[2] = { 1, 0 };
+    CHECK(ref_write_vertex_csv(path, rgb, se2, facing, 2, &err) == 0, "%s", err.msg);
     FILE *f = fopen(path, "r");
     char buf[256] = { 0 };
     if (f) { size_t got = fread(buf, 1, sizeof buf - 1, f); buf[got] = 0; fclose(f); }
-    CHECK(strcmp(buf, "vertex,r,g,b,stderr_r,stderr_g,stderr_b\n0,1,2,3,0.1,0.2,0.30000001\n1,4,5,6,0.40000001,0.5,0.60000002\n") == 0,
-          "CSV contents: %s", buf);
+    CHECK(strcmp(buf, "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing\n0,1,2,3,0.1,0.2,0.30000001,1\n"
+                      "1,4,5,6,0.40000001,0.5,0.60000002,0\n") == 0, "CSV contents: %s", buf);
     free(a);
     free(b);
     free(c);
