@@ -497,7 +497,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     }
     out->stats.t_brdf = prt_now() - t0;
 
-    plan_add(plan, pcap, "effects plan: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
+    plan_add(plan, pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
              out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", nthreads, nthreads == 1 ? "" : "s");
     plan_add(plan, pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
     for (int i = 0; i < out->scene.nmaterials; i++)
@@ -597,7 +597,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
         plan_add(plan, pcap, "  estimate: direct pass %s\n", e1);
     }
     /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
-    if (!d.quiet) { fputs(plan, stderr); fflush(stderr); }
+    if (!d.quiet) { fprintf(stderr, "effects plan\n%s", plan); fflush(stderr); }
 
     /* 3b. The rest of the direct pass. */
     {
