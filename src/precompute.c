@@ -56,6 +56,9 @@
 #define PC_GATHER_SAMPLE 32     /* vertices whose gather rays are timed for the bounce estimate */
 #define PC_HIT_MIN 0.005        /* below this fraction of hitting rays, no interreflections */
 #define PC_MAX_THREADS 64
+/* Plane stride of the K x 3 transport cubes: CUBE_TEXELS floats is a multiple of 4 KB, so the
+ * 12 planes' same texel would fall in one L1 set; 32 floats of padding spread them out. */
+#define PC_TSTRIDE (CUBE_TEXELS + 32)
 #define PC_DECODE_NS 0.55       /* per decoded coefficient x term in gathering: fit to the bunny's bounce pass */
 
 /* CPU seconds used by the calling thread (so estimates see through a busy machine). */
@@ -70,7 +73,7 @@ typedef struct pc_scratch {
     uint8_t *vis;       /* [6 * vres^2] visibility bytes */
     float *w;           /* [vres^2] V max(n.w,0) dw of one face */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
-    float *T;           /* [Kmax * 3 * CUBE_TEXELS] planar transport cubes */
+    float *T;           /* [Kmax * 3][PC_TSTRIDE] planar transport cubes */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
     float *tmp;         /* [2 * CUBE_RES^2] Haar scratch */
     float *sh;          /* [SH_MAX_ORDER^2] */
@@ -117,7 +120,7 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     s->vis = prt_calloc((size_t)6 * vres * vres, 1, err);
     s->w = s->vis ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
     s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
-    s->T = s->acc ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
+    s->T = s->acc ? prt_calloc((size_t)kmax * 3 * PC_TSTRIDE, sizeof(float), err) : NULL;
     s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
     s->tmp = s->wav ? prt_calloc(2 * CUBE_RES * CUBE_RES, sizeof(float), err) : NULL;
     s->sh = s->tmp ? prt_calloc(SH_MAX_ORDER * SH_MAX_ORDER, sizeof(float), err) : NULL;
@@ -192,31 +195,22 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     if (fac->lambertian) {
         const float *g = c->lambert_g[mat];
         for (int ch = 0; ch < 3; ch++) {
-            float *T = s->T + (size_t)ch * ct;
+            float *T = s->T + (size_t)ch * PC_TSTRIDE;
             for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
     } else {
-        /* Face by face: an unlit face (below the horizon or fully blocked) is zeroed in bulk;
-         * otherwise g_k is looked up at each lit texel's centre and the K x 3 planar cubes are
-         * written in step (12 store streams within one 16 KB face slice each). */
+        /* Face by face: the K x 3 face slices are zeroed in bulk, then g_k is looked up at each
+         * lit texel's centre and written to the slices in step (12 store streams, padded apart). */
         float sv[3], tv[3], g[BRDF_MAX_SIGMA * 3];
         brdf_frame(n, sv, tv);
         const int K3 = 3 * K, F = CUBE_RES * CUBE_RES;
         for (int f = 0; f < 6; f++) {
             const float *acc = s->acc + (size_t)f * F;
             float *T = s->T + (size_t)f * F;
-            int lit = 0;
-            for (int i = 0; i < F && !lit; i++) lit = acc[i] != 0;
-            if (!lit) {
-                for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * ct, 0, sizeof(float) * F);
-                continue;
-            }
+            for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * PC_TSTRIDE, 0, sizeof(float) * F);
             for (int i = 0; i < F; i++) {
                 const float a = acc[i];
-                if (a == 0) {
-                    for (int kc = 0; kc < K3; kc++) T[(size_t)kc * ct + i] = 0;
-                    continue;
-                }
+                if (a == 0) continue;
                 float wl[3];
                 brdf_to_local(sv, tv, n, c->ldir + 3 * ((size_t)f * F + i), wl);
                 /* A straddling texel's centre may be just below the horizon while some of its
@@ -228,7 +222,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
                     wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
                 }
                 brdf_factor_light(fac, wl, g);
-                for (int kc = 0; kc < K3; kc++) T[(size_t)kc * ct + i] = g[kc] * a;
+                for (int kc = 0; kc < K3; kc++) T[(size_t)kc * PC_TSTRIDE + i] = g[kc] * a;
             }
         }
     }
@@ -237,7 +231,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++) {
-            const float *T = s->T + (size_t)(k * 3 + ch) * ct;
+            const float *T = s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE;
             float *out = s->wav + (size_t)ch * ct;
             if (c->sh_order > 0) {
                 int nc = c->sh_order * c->sh_order;
