@@ -220,10 +220,11 @@ static int create_egl(glctx *c, bool require_hw, prt_error *err) {
 
 static int create_glfw(glctx *c, const glctx_window_desc *wd, prt_error *err) {
     const char *desc = NULL;
+    if (!getenv("DISPLAY") && !getenv("WAYLAND_DISPLAY"))
+        return prt_fail(err, "cannot open a window: no display (DISPLAY is not set; use xvfb-run on a machine without one)");
     if (!glfwInit()) {
         glfwGetError(&desc);
-        return prt_fail(err, "cannot open a window: %s%s", desc ? desc : "glfwInit failed",
-                        getenv("DISPLAY") ? "" : " (DISPLAY is not set; run under xvfb-run for no screen)");
+        return prt_fail(err, "cannot open a window: %s", desc ? desc : "glfwInit failed");
     }
     int w = wd && wd->width > 0 ? wd->width : 1024, h = wd && wd->height > 0 ? wd->height : 768;
     GLFWwindow *win = NULL;

@@ -758,9 +758,14 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
 
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
     if (current(rt, err)) return -1;
+    double t0 = prt_now();
     if (gldraw_target(&rt->draw, w, h, err)) return -1;
     gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
-    return gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
+    int rc = gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
+    rt->gl->Finish();
+    rt->timing.view_ms = 1e3 * (prt_now() - t0);
+    rt->timing.view_gpu_ms = 0;
+    return rc;
 }
 
 int glrt_read(glrt *rt, prt_image *out, prt_error *err) {

@@ -73,8 +73,8 @@ typedef struct glrt_timing {
     double upload_ms;           /* create: uploading transport, view maps, mesh */
     double light_ms;            /* last light change, wall clock: upload L + kernel, finished */
     double light_gpu_ms;        /* GPU time of the last light kernel (timer query) */
-    double view_ms;             /* last glrt_draw, wall clock (finished) */
-    double view_gpu_ms;         /* GPU time of the last draw */
+    double view_ms;             /* last glrt_draw or glrt_draw_vertex_colors, wall clock (finished) */
+    double view_gpu_ms;         /* GPU time of the last glrt_draw */
     double method_ms[GLRT_LIGHT_COUNT]; /* AUTO: measured kernel time per method (0: not run / unavailable) */
     size_t gpu_bytes;           /* bytes uploaded for transport, view maps and mesh */
     glrt_light_method light_method;

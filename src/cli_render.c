@@ -114,7 +114,9 @@ int cli_render(int argc, char **argv) {
     if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_read = prt_now() - t0;
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     if (cam_s && camera_parse(cam_s, &cam) != 0) {
         prt_data_free(&d);
         return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);

@@ -62,7 +62,6 @@ typedef struct pc_scratch {
     float *w;           /* [vres^2] V max(n.w,0) dw of one face */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
     float *T;           /* [Kmax * 3 * CUBE_TEXELS] planar transport cubes */
-    float *G;           /* [CUBE_TEXELS][Kmax * 3] light-map values at lit texels */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
     float *tmp;         /* [2 * CUBE_RES^2] Haar scratch */
     float *sh;          /* [SH_MAX_ORDER^2] */
@@ -97,7 +96,7 @@ typedef struct pc_ctx {
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
-    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->G); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
+    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
     memset(s, 0, sizeof *s);
 }
 
@@ -109,8 +108,7 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     s->w = s->vis ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
     s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
     s->T = s->acc ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
-    s->G = s->T ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
-    s->wav = s->G ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
+    s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
     s->tmp = s->wav ? prt_calloc(2 * CUBE_RES * CUBE_RES, sizeof(float), err) : NULL;
     s->sh = s->tmp ? prt_calloc(SH_MAX_ORDER * SH_MAX_ORDER, sizeof(float), err) : NULL;
     s->tscratch = s->sh ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
@@ -188,32 +186,39 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
             for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
     } else {
-        /* g_k at each lit texel's centre into G[j][3K] (only where a_j > 0), then the K x 3
-         * planar cubes are written sequentially, one at a time. */
-        float sv[3], tv[3];
+        /* Face by face: an unlit face (below the horizon or fully blocked) is zeroed in bulk;
+         * otherwise g_k is looked up at each lit texel's centre and the K x 3 planar cubes are
+         * written in step (12 store streams within one 16 KB face slice each). */
+        float sv[3], tv[3], g[BRDF_MAX_SIGMA * 3];
         brdf_frame(n, sv, tv);
-        float *G = s->G;
-        const int K3 = 3 * K;
-        for (size_t j = 0; j < ct; j++) {
-            if (s->acc[j] == 0) continue;
-            float wl[3];
-            brdf_to_local(sv, tv, n, c->ldir + 3 * j, wl);
-            /* A straddling texel's centre may be just below the horizon while some of its
-             * sub-texels are above: evaluate g at the horizon then (the maps are extended
-             * outward from the disk, so this is their boundary value). */
-            if (wl[2] < 1e-4f) {
-                float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
-                float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
-                wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
+        const int K3 = 3 * K, F = CUBE_RES * CUBE_RES;
+        for (int f = 0; f < 6; f++) {
+            const float *acc = s->acc + (size_t)f * F;
+            float *T = s->T + (size_t)f * F;
+            int lit = 0;
+            for (int i = 0; i < F && !lit; i++) lit = acc[i] != 0;
+            if (!lit) {
+                for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * ct, 0, sizeof(float) * F);
+                continue;
             }
-            brdf_factor_light(fac, wl, G + j * K3);
-        }
-        for (int kc = 0; kc < K3; kc++) {
-            float *restrict T = s->T + (size_t)kc * ct;
-            const float *restrict g = G + kc;
-            for (size_t j = 0; j < ct; j++) {
-                float a = s->acc[j];
-                T[j] = a != 0 ? g[j * K3] * a : 0.f;
+            for (int i = 0; i < F; i++) {
+                const float a = acc[i];
+                if (a == 0) {
+                    for (int kc = 0; kc < K3; kc++) T[(size_t)kc * ct + i] = 0;
+                    continue;
+                }
+                float wl[3];
+                brdf_to_local(sv, tv, n, c->ldir + 3 * ((size_t)f * F + i), wl);
+                /* A straddling texel's centre may be just below the horizon while some of its
+                 * sub-texels are above: evaluate g at the horizon then (the maps are extended
+                 * outward from the disk, so this is their boundary value). */
+                if (wl[2] < 1e-4f) {
+                    float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
+                    float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
+                    wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
+                }
+                brdf_factor_light(fac, wl, g);
+                for (int kc = 0; kc < K3; kc++) T[(size_t)kc * ct + i] = g[kc] * a;
             }
         }
     }
@@ -233,13 +238,16 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
                 haar_cube_forward(T, CUBE_RES, out, s->tmp);
             }
         }
-        /* |vector|^2 for the error statistics, in 8 float lanes (vectorizes), summed in double */
-        double norm2 = 0;
-        for (size_t i0 = 0; i0 < 3 * ct; i0 += 1024) {
-            float part = 0;   /* float blocks of 1024, summed in double */
-            for (size_t i = i0; i < i0 + 1024; i++) part += s->wav[i] * s->wav[i];
-            norm2 += part;
+        /* |vector|^2 for the error statistics: 8 independent float accumulators (no dependency
+         * chain; the vector length is a multiple of 8), summed in double */
+        float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
+        const float *x = s->wav;
+        for (size_t i = 0; i < 3 * ct; i += 8) {
+            p8[0] += x[i] * x[i]; p8[1] += x[i + 1] * x[i + 1]; p8[2] += x[i + 2] * x[i + 2]; p8[3] += x[i + 3] * x[i + 3];
+            p8[4] += x[i + 4] * x[i + 4]; p8[5] += x[i + 5] * x[i + 5]; p8[6] += x[i + 6] * x[i + 6]; p8[7] += x[i + 7] * x[i + 7];
         }
+        double norm2 = 0;
+        for (int q = 0; q < 8; q++) norm2 += p8[q];
         double e2 = transport_store(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         if (norm2 > 0) {
             s->err_sum += e2 / norm2;
