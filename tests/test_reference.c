@@ -58,8 +58,18 @@ static void test_env_sampling(void) {
     CHECK(make_scene_mesh(&m, "lambert:kd=0.5", &s) == 0, "scene");
     float R[9];
     CHECK(probe_parse_rotation("70,20", R) == 0, "rotation parses");
-    for (int rot = 0; rot < 2; rot++) {
-        ref_ctx *rc = ref_create(&s, &sky, rot ? R : NULL, &err);
+    /* An angular-map probe (not latlong: the sampling grid is resampled through probe_eval). */
+    prt_image aimg;
+    CHECK(image_alloc(&aimg, 128, 128, 3, &err) == 0, "%s", err.msg);
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 128; x++) {
+            float d2 = (float)((x - 40) * (x - 40) + (y - 70) * (y - 70));
+            for (int ch = 0; ch < 3; ch++) aimg.data[3 * (y * 128 + x) + ch] = 1.f + ch * 0.2f + 50.f * expf(-d2 / 20.f);
+        }
+    prt_probe ang;
+    CHECK(probe_from_image(&aimg, PROBE_ANGULAR, "angular test probe", &ang, &err) == 0, "%s", err.msg);
+    for (int rot = 0; rot < 3; rot++) {
+        ref_ctx *rc = ref_create(&s, rot == 2 ? &ang : &sky, rot == 1 ? R : NULL, &err);
         CHECK(rc != NULL, "%s", err.msg);
         if (!rc) continue;
         /* Integral of the pdf and of L over the sphere by a fine midpoint grid (world frame). */
@@ -76,7 +86,7 @@ static void test_env_sampling(void) {
                 iL += L[1] * dw;
             }
         }
-        CHECK_NEAR(ipdf, 1.0, 2e-3, "environment pdf integrates to 1 (rotation %d)", rot);
+        CHECK_NEAR(ipdf, 1.0, 2e-3, "environment pdf integrates to 1 (case %d: sky, rotated sky, angular)", rot);
         /* E[L/pdf] by environment samples; the sample's pdf agrees with ref_env_pdf. */
         int n = 200000, pdf_mismatch = 0;
         double sum = 0, sum2 = 0;
@@ -94,7 +104,7 @@ static void test_env_sampling(void) {
         }
         double mean = sum / n, se = sqrt((sum2 / n - mean * mean) / n);
         CHECK(pdf_mismatch <= n / 10000, "%d samples whose pdf disagrees with ref_env_pdf", pdf_mismatch);
-        CHECK_NEAR(mean, iL, 4 * se + 2e-3 * iL, "E[L/pdf] = integral of L (rotation %d, se %.3g)", rot, se);
+        CHECK_NEAR(mean, iL, 4 * se + 2e-3 * iL, "E[L/pdf] = integral of L (case %d, se %.3g)", rot, se);
         CHECK_LE(se / mean, 0.01, "importance sampling makes L/pdf nearly constant");
         ref_destroy(rc);
     }
@@ -126,6 +136,7 @@ static void test_env_sampling(void) {
         ref_destroy(rc);
     }
     probe_free(&black);
+    probe_free(&ang);
     scene_free(&s);
     probe_free(&sky);
 }
