@@ -61,6 +61,7 @@ typedef struct wr {
     bool bad;
 } wr;
 
+/* Writes (or only counts) len bytes and folds them into the CRC. */
 static void w_bytes(wr *w, const void *p, size_t len) {
     if (w->f && len) {
         if (fwrite(p, 1, len, w->f) != len) w->bad = true;
@@ -74,6 +75,7 @@ static void w_bytes(wr *w, const void *p, size_t len) {
     w->n += len;
 }
 static void w_u8(wr *w, uint8_t v) { w_bytes(w, &v, 1); }
+/* Little-endian scalars (floats as their IEEE bits). */
 static void w_u16(wr *w, uint16_t v) {
     uint8_t b[2] = { (uint8_t)v, (uint8_t)(v >> 8) };
     w_bytes(w, b, 2);
@@ -109,6 +111,7 @@ static void w_arr(wr *w, const void *p, size_t count, size_t es) {
         else { uint32_t v; memcpy(&v, b + 4 * i, 4); w_u32(w, v); }
     }
 }
+/* u32 length (at most cap) and the bytes, no terminator. */
 static void w_str(wr *w, const char *s, size_t cap) {
     size_t n = strnlen(s, cap);
     w_u32(w, (uint32_t)n);
@@ -118,6 +121,7 @@ static void w_str(wr *w, const char *s, size_t cap) {
 static size_t ncoefs_of(const prt_transport *t) { return t->coef_first && t->nvecs >= 0 ? t->coef_first[t->nvecs] : 0; }
 static size_t nruns_of(const prt_transport *t) { return t->run_first && t->nvecs >= 0 ? t->run_first[t->nvecs] : 0; }
 
+/* Section writers: each emits its fields in the order its reader takes them. */
 static void sec_meta(wr *w, const prt_data *d) {
     const prt_stats *s = &d->stats;
     w_i32(w, d->vis_res);
@@ -269,6 +273,7 @@ typedef struct rd {
     bool bad;
 } rd;
 
+/* Are count elements of es bytes left? Sets bad (sticky) if not; overflow-safe. */
 static bool r_need(rd *r, size_t count, size_t es) {
     if (r->bad) return false;
     if (es && count > (r->n - r->pos) / es) {
@@ -277,6 +282,7 @@ static bool r_need(rd *r, size_t count, size_t es) {
     }
     return true;
 }
+/* Little-endian scalars; 0 once the cursor has overrun. */
 static uint32_t r_u32(rd *r) {
     if (!r_need(r, 1, 4)) return 0;
     const uint8_t *b = r->p + r->pos;
@@ -341,6 +347,7 @@ static bool r_str(rd *r, char *buf, size_t cap) {
     return true;
 }
 
+/* True if none of v[0..n) is NaN or infinite. */
 static bool all_finite(const float *v, size_t n) {
     for (size_t i = 0; i < n; i++)
         if (!isfinite(v[i])) return false;
@@ -459,6 +466,7 @@ typedef struct parse {
     uint64_t nc, nr;   /* TRAN's coefficient and run totals */
 } parse;
 
+/* Section readers: parse one section into P->d; false with P->why on a short or oversized section. */
 static bool rd_meta(parse *P, rd *r) {
     prt_data *d = P->d;
     prt_stats *s = &d->stats;
