@@ -172,7 +172,11 @@ static const char *k_view_common =
     "vec3 shade(ivec4 mi, vec3 w, vec3 g[KMAX], int kuse) {\n"
     "    int res = mi.y, K = mi.z;\n"
     "    bool polar = (mi.w & 1) != 0, lambert = (mi.w & 2) != 0;\n"
-    "    if (!lambert && w.z <= 0.0) return vec3(0.0);\n"
+    /* As relight.c: a view below the horizon is shaded at a grazing view (z = 0.02, same azimuth). */
+    "    if (!lambert && w.z < 0.02) {\n"
+    "        float r = length(w.xy);\n"
+    "        w = vec3(r > 1e-12 ? w.xy * (0.99979998 / r) : vec2(0.99979998, 0.0), 0.02);\n"
+    "    }\n"
     "    float x, y;\n"
     "    if (lambert) { x = 0.5; y = 0.5; }\n"
     "    else if (polar) { x = atan(w.y, w.x) * 0.15915494309189535; if (x < 0.0) x += 1.0;\n"

@@ -6,8 +6,11 @@
  * Eq. 10 tangent frame (precomputed here once), a bilinear lookup of the K view
  * maps h_k (brdf_factor_view) and a K-term dot product per channel. Lambertian
  * materials have a constant view map, so their h is read once per material and
- * their vertices skip the lookup (also below the horizon, where a back-facing
- * vertex is hidden anyway).
+ * their vertices skip the lookup. A back-facing vertex is never seen itself, but
+ * Gouraud interpolation carries its colour into the silhouette's front-facing
+ * triangles; so glossy vertices seen from below the horizon are shaded at a grazing
+ * view (local z clamped to RELIGHT_MIN_COS), like Lambertian ones keep their
+ * value, and silhouettes do not darken. (prt compare skips back-facing vertices.)
  *
  * Output policy: the truncated wavelet approximation can ring slightly below
  * zero near hard shadow edges; negative radiance has no physical meaning and
@@ -20,6 +23,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* The smallest view cosine used for glossy shading (see the header comment). */
+#define RELIGHT_MIN_COS 0.02f
 
 typedef struct relight_vert {
     float pos[3], s[3], t[3], n[3];
@@ -123,8 +129,16 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
         if (f->lambertian) {
             for (int c = 0; c < 3; c++) acc[c] = rc->lambert_h[mi][c] * g[c];
         } else {
-            float h[BRDF_MAX_SIGMA * 3];
-            brdf_factor_view(f, wl, h);
+            float h[BRDF_MAX_SIGMA * 3], w[3] = { wl[0], wl[1], wl[2] };
+            if (w[2] < RELIGHT_MIN_COS) {
+                /* Below or at the horizon: the grazing direction with the same azimuth. */
+                float r = sqrtf(w[0] * w[0] + w[1] * w[1]);
+                float sxy = sqrtf(1.f - RELIGHT_MIN_COS * RELIGHT_MIN_COS) / (r > 1e-12f ? r : 1.f);
+                if (r <= 1e-12f) { w[0] = 1.f; w[1] = 0.f; }
+                else { w[0] *= sxy; w[1] *= sxy; }
+                w[2] = RELIGHT_MIN_COS;
+            }
+            brdf_factor_view(f, w, h);
             for (int k = 0; k < K; k++)
                 for (int c = 0; c < 3; c++) acc[c] += h[3 * k + c] * g[3 * k + c];
         }
