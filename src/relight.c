@@ -34,6 +34,7 @@ typedef struct relight_vert {
 struct relight_ctx {
     const prt_data *d;
     int nthreads;
+    bool use_direct;       /* light changes use d->direct (see relight_use_direct) */
     int nverts, nvecs;
     relight_vert *verts;          /* [nverts] */
     float *g;                     /* [3 * nvecs] light-dependent K-vectors (Eq. 5's T x L) */
@@ -110,7 +111,17 @@ void relight_destroy(relight_ctx *rc) {
 }
 
 /* Light change: g = T x L for every vector (Eq. 5), on rc->nthreads threads. */
-void relight_set_light(relight_ctx *rc, const float (*L)[4]) { transport_light(&rc->d->transport, L, rc->g, rc->nthreads); }
+void relight_set_light(relight_ctx *rc, const float (*L)[4]) {
+    const prt_transport *t = rc->use_direct && rc->d->direct.nvecs ? &rc->d->direct : &rc->d->transport;
+    transport_light(t, L, rc->g, rc->nthreads);
+}
+
+/* Chooses the direct-only set (when the file keeps one) or the total; true if the choice is available. */
+bool relight_use_direct(relight_ctx *rc, bool direct) {
+    if (direct && !rc->d->direct.nvecs) return false;
+    rc->use_direct = direct;
+    return true;
+}
 
 /* The cached K-vectors, [3 * nvecs]; owned by rc. */
 const float *relight_gvec(const relight_ctx *rc) { return rc->g; }
