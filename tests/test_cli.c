@@ -170,6 +170,75 @@ int main(void) {
     }
     CHECK(nrows == 9, "csv rows %d", nrows);
 
+    /* Interreflections kept apart: an L of two 2x2 Lambert squares (a floor facing +y and a
+     * wall at x = 0 facing +x, 5x5 vertices each), albedo 0.8, with one forced bounce
+     * and --keep-direct. Under a constant probe the total (direct + bounce) is at least the
+     * direct everywhere, strictly more inside the box, and --direct-only reproduces the
+     * direct file's radiance (same direct pass). */
+    {
+        char obj[16384];
+        size_t o = 0;
+        for (int w = 0; w < 2; w++)          /* w = 0: floor (x, 0, z); w = 1: wall (0, y, z) */
+            for (int i = 0; i < 5; i++)
+                for (int j = 0; j < 5; j++) {
+                    float a = 0.5f * i, b = -1 + 0.5f * j;
+                    o += snprintf(obj + o, sizeof obj - o, "v %g %g %g\n", w ? 0.f : a, w ? a : 0.f, b);
+                }
+        for (int w = 0; w < 2; w++)
+            for (int i = 0; i < 4; i++)
+                for (int j = 0; j < 4; j++) {
+                    int v00 = 1 + 25 * w + 5 * i + j, v01 = v00 + 1, v10 = v00 + 5, v11 = v10 + 1;
+                    /* Floor: CCW seen from +y; wall: CCW seen from +x. */
+                    if (!w) o += snprintf(obj + o, sizeof obj - o, "f %d %d %d %d\n", v00, v01, v11, v10);
+                    else o += snprintf(obj + o, sizeof obj - o, "f %d %d %d %d\n", v00, v10, v11, v01);
+                }
+        write_file("ell.obj", obj);
+    }
+    char bprt[1024], dprt[1024], tcsv[1024], dcsv[1024], d2csv[1024];
+    snprintf(bprt, sizeof bprt, "%s/box.prt", D);
+    snprintf(dprt, sizeof dprt, "%s/boxd.prt", D);
+    snprintf(tcsv, sizeof tcsv, "%s/total.csv", D);
+    snprintf(dcsv, sizeof dcsv, "%s/direct.csv", D);
+    snprintf(d2csv, sizeof d2csv, "%s/direct2.csv", D);
+    snprintf(args, sizeof args, "%s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --bounces 1 --force-bounces "
+             "--gather-res 16 --keep-direct --quiet && %s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --quiet", check_prt_bin(), D, bprt,
+             check_prt_bin(), D, dprt);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0, "box precompute: %s", buf);
+    snprintf(args, sizeof args, "%s info %s", check_prt_bin(), bprt);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "direct-only transport kept"), "info: %s", buf);
+    const char *renders[3][2] = { { bprt, tcsv }, { bprt, dcsv }, { dprt, d2csv } };
+    for (int k = 0; k < 3; k++) {
+        snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/box%d.exr --size 32x24 --vertices %s %s",
+                 check_prt_bin(), renders[k][0], D, D, k, renders[k][1], k == 1 ? "--direct-only" : "");
+        rc = check_run(args, buf, sizeof buf);
+        CHECK(rc == 0, "box render %d: %s", k, buf);
+    }
+    snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/nod.exr --direct-only", dprt, D, D);
+    snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/nod.exr --direct-only", check_prt_bin(), dprt, D, D);
+    CHECK(check_run(args, buf, sizeof buf) == 0, "--direct-only on a file without bounces: %s", buf);
+    {
+        FILE *ft = fopen(tcsv, "r"), *fd = fopen(dcsv, "r"), *f2 = fopen(d2csv, "r");
+        char l1[256], l2[256], l3[256];
+        int n = 0, more = 0, v1, v2, v3;
+        float t[3], dd[3], d2[3];
+        if (ft && fd && f2 && fgets(l1, sizeof l1, ft) && fgets(l2, sizeof l2, fd) && fgets(l3, sizeof l3, f2)) {
+            while (fscanf(ft, "%d,%f,%f,%f", &v1, &t[0], &t[1], &t[2]) == 4 &&
+                   fscanf(fd, "%d,%f,%f,%f", &v2, &dd[0], &dd[1], &dd[2]) == 4 &&
+                   fscanf(f2, "%d,%f,%f,%f", &v3, &d2[0], &d2[1], &d2[2]) == 4) {
+                n++;
+                CHECK_NEAR(dd[0], d2[0], 1e-6 + 1e-5 * d2[0], "vertex %d: --direct-only vs the direct file", v1);
+                CHECK(t[0] >= dd[0] - 0.01f, "vertex %d: total %g < direct %g", v1, t[0], dd[0]);
+                more += t[0] > dd[0] + 0.02f;
+            }
+        }
+        if (ft) fclose(ft);
+        if (fd) fclose(fd);
+        if (f2) fclose(f2);
+        CHECK(n == 45 && more > n / 2, "%d vertices, %d brighter with the bounce", n, more);
+    }
+
     /* Bad probes. */
     snprintf(args, sizeof args, "render %s --probe %s/missing.exr -o %s/x.png", q, D, D);
     snprintf(p, sizeof p, "%s/x.png", D);
