@@ -48,7 +48,7 @@ static const char *k_keys =
     "  K / k                    use more / fewer BRDF terms\n"
     "  b                        toggle the GL runtime / the CPU runtime\n"
     "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
-    "  d                        direct only vs with bounces (when the file keeps both)\n"
+    "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
     "  r                        reset camera and light rotation\n"
     "  h or ?                   show / hide this help on screen\n"
@@ -95,6 +95,7 @@ typedef struct viewer {
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
     bool gl, vertex_model, help, quit;
+    bool direct;            /* direct lighting only (files precomputed with --keep-direct; CPU runtime) */
     int kmax, kfile, nthreads;
     float exposure;
     bool light_dirty, g_dirty_gl, g_dirty_cpu, probe_dirty, view_dirty, present_dirty;
@@ -398,6 +399,10 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         break;
     }
     case 'b': case 'B':
+        if (v->direct && !v->gl) {
+            set_status(v, "direct-only lighting runs on the CPU runtime (press d for direct + bounces first)");
+            break;
+        }
         v->gl = !v->gl;
         v->view_dirty = true;
         set_status(v, v->gl ? "GL runtime" : "CPU runtime");
@@ -408,7 +413,20 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         v->view_dirty = true;
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
-    case 'd': case 'D': set_status(v, "file has no separate direct transport (it keeps one transport set)"); break;
+    case 'd': case 'D':
+        /* The direct-only set is a second transport of the same layout (prt_data.direct); the CPU
+         * runtime switches sets with relight_use_direct, the GL runtime keeps the total on the GPU. */
+        if (v->d.stats.bounces == 0) set_status(v, "the file has no interreflection passes: it is direct lighting only");
+        else if (!v->d.direct.nvecs) set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
+        else {
+            v->direct = !v->direct;
+            relight_use_direct(v->rc, v->direct);
+            v->g_dirty_cpu = true;
+            v->gl = false;
+            v->view_dirty = true;
+            set_status(v, v->direct ? "direct lighting only (CPU runtime)" : "direct + interreflections (CPU runtime; b for GL)");
+        }
+        break;
     case 's': case 'S': take_screenshot(v); break;
     case 'r': case 'R':
         v->cam = v->cam0;
