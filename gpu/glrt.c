@@ -47,6 +47,7 @@ struct glrt {
     glrt_timing timing;
 };
 
+/* Static name of a light kernel. */
 const char *glrt_light_method_name(glrt_light_method m) {
     switch (m) {
     case GLRT_LIGHT_FRAGMENT: return "fragment";
@@ -172,7 +173,11 @@ static const char *k_view_common =
     "vec3 shade(ivec4 mi, vec3 w, vec3 g[KMAX], int kuse) {\n"
     "    int res = mi.y, K = mi.z;\n"
     "    bool polar = (mi.w & 1) != 0, lambert = (mi.w & 2) != 0;\n"
-    "    if (!lambert && w.z <= 0.0) return vec3(0.0);\n"
+    /* As relight.c: a view below the horizon is shaded at a grazing view (z = 0.02, same azimuth). */
+    "    if (!lambert && w.z < 0.02) {\n"
+    "        float r = length(w.xy);\n"
+    "        w = vec3(r > 1e-12 ? w.xy * (0.99979998 / r) : vec2(0.99979998, 0.0), 0.02);\n"
+    "    }\n"
     "    float x, y;\n"
     "    if (lambert) { x = 0.5; y = 0.5; }\n"
     "    else if (polar) { x = atan(w.y, w.x) * 0.15915494309189535; if (x < 0.0) x += 1.0;\n"
@@ -289,6 +294,7 @@ static GLuint make_buffer(const gl_api *gl, const void *data, size_t bytes, GLen
     return b;
 }
 
+/* A buffer texture viewing buf with format fmt. */
 static GLuint make_texbuf(const gl_api *gl, GLuint buf, GLenum fmt) {
     GLuint t;
     gl->GenTextures(1, &t);
@@ -355,6 +361,7 @@ static int upload_transport(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the transport", err);
 }
 
+/* All materials' view maps into one RGBA32F buffer texture; -1 with err. */
 static int upload_view_maps(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     const prt_data *d = rt->d;
@@ -384,6 +391,7 @@ static int upload_view_maps(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the view maps", err);
 }
 
+/* Vertex arrays of the view pass (position, normal, first vector + count, material); -1 with err. */
 static int upload_mesh(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     const prt_mesh *m = &rt->d->scene.mesh;
@@ -427,6 +435,7 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
+/* Compiles the light kernels this context can run and both view programs; -1 with err. */
 static int build_programs(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     char head[512];
@@ -552,10 +561,12 @@ static double time_method(glrt *rt, glrt_light_method m) {
     return 1e3 * (prt_now() - t0);
 }
 
+/* True when kernel m compiled on this context. */
 static bool method_available(const glrt *rt, glrt_light_method m) {
     return m > GLRT_LIGHT_AUTO && m < GLRT_LIGHT_COUNT && rt->prog_light[m] != 0;
 }
 
+/* Chooses (AUTO: times) the light kernel; -1 with err when unavailable. */
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
     if (current(rt, err)) return -1;
     if (m == GLRT_LIGHT_AUTO) {
@@ -580,6 +591,7 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
     return 0;
 }
 
+/* See glrt.h. The caller owns the runtime (glrt_destroy); d must outlive it. */
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
     const prt_transport *t = &d->transport;
@@ -663,6 +675,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     return rt;
 }
 
+/* Frees every GL object and an owned context; NULL is fine. */
 void glrt_destroy(glrt *rt) {
     if (!rt) return;
     if (rt->gl && current(rt, NULL) == 0) {
@@ -688,6 +701,7 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
+/* Light change: uploads L and runs the kernel, finished and timed; -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
@@ -707,6 +721,7 @@ int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     return glctx_check(gl, "light change", err);
 }
 
+/* Uploads the probe shown behind the scene; -1 with err. */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err) {
     if (current(rt, err)) return -1;
     rt->bg_rotated = R != NULL;
@@ -714,11 +729,13 @@ int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_erro
     return gldraw_set_probe(&rt->draw, p, err);
 }
 
+/* Sets only the background rotation. */
 void glrt_set_background_rotation(glrt *rt, const float R[9]) {
     rt->bg_rotated = R != NULL;
     if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
 }
 
+/* View change into the float target, finished and timed; -1 with err. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
@@ -756,6 +773,7 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     return glctx_check(gl, "view change", err);
 }
 
+/* CPU-computed colours drawn into the float target, finished and timed; -1 with err. */
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
     if (current(rt, err)) return -1;
     double t0 = prt_now();
@@ -768,22 +786,26 @@ int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const
     return rc;
 }
 
+/* The float target as a new image (caller frees); -1 with err. */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err) {
     if (current(rt, err)) return -1;
     return gldraw_read(&rt->draw, out, err);
 }
 
+/* glrt_draw then glrt_read; -1 with err. */
 int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_image *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     if (glrt_draw(rt, cam, w, h, kmax, err)) return -1;
     return glrt_read(rt, out, err);
 }
 
+/* Tone-mapped blit of the target to the current window. */
 void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops) {
     if (current(rt, NULL)) return;
     gldraw_present(&rt->draw, win_w, win_h, exposure_stops);
 }
 
+/* Copies the K-vectors into g[3*nvecs]; -1 with err. */
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;

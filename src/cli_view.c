@@ -48,12 +48,13 @@ static const char *k_keys =
     "  K / k                    use more / fewer BRDF terms\n"
     "  b                        toggle the GL runtime / the CPU runtime\n"
     "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
-    "  d                        direct only vs with bounces (when the file keeps both)\n"
+    "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
     "  r                        reset camera and light rotation\n"
     "  h or ?                   show / hide this help on screen\n"
     "  q or Esc                 quit\n";
 
+/* Prints the usage, options and keys. */
 static void view_help(void) {
     printf("usage: prt view FILE.prt --probe PROBE [--probe P2 ...] [--probes DIR] [options]\n"
            "\n"
@@ -94,6 +95,7 @@ typedef struct viewer {
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
     bool gl, vertex_model, help, quit;
+    bool direct;            /* direct lighting only (files precomputed with --keep-direct; CPU runtime) */
     int kmax, kfile, nthreads;
     float exposure;
     bool light_dirty, g_dirty_gl, g_dirty_cpu, probe_dirty, view_dirty, present_dirty;
@@ -109,6 +111,7 @@ typedef struct viewer {
     int shots;
 } viewer;
 
+/* Shows msg on screen for a few seconds and on stderr. */
 static void set_status(viewer *v, const char *msg) {
     snprintf(v->status, sizeof v->status, "%s", msg);
     v->status_until = prt_now() + 4.0;
@@ -176,6 +179,7 @@ static int view_change(viewer *v, prt_error *err) {
     return 0;
 }
 
+/* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
     char buf[2048];
     glrt_timing t;
@@ -281,6 +285,7 @@ static void orbit(viewer *v, float dyaw, float dpitch) {
     v->view_dirty = true;
 }
 
+/* Moves eye and target in the view plane by a pixel offset. */
 static void pan(viewer *v, float dx, float dy) {
     float f[3], r[3], u[3], off[3];
     camera_basis(&v->cam, f, r, u);
@@ -295,6 +300,7 @@ static void pan(viewer *v, float dx, float dy) {
     v->view_dirty = true;
 }
 
+/* Dollies the eye toward the target by 10% per wheel step, within sane limits. */
 static void zoom(viewer *v, float steps) {
     float off[3];
     v3_sub(off, v->cam.eye, v->cam.target);
@@ -307,6 +313,7 @@ static void zoom(viewer *v, float steps) {
     v->view_dirty = true;
 }
 
+/* Starts a drag: left orbit, shift/ctrl-left light rotation, right/middle pan. */
 static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (action == GLFW_RELEASE) { v->drag = 0; return; }
@@ -315,6 +322,7 @@ static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     else if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) v->drag = 2;
 }
 
+/* Applies the current drag. */
 static void on_cursor(GLFWwindow *w, double x, double y) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (!v->drag) return;
@@ -338,11 +346,13 @@ static void on_cursor(GLFWwindow *w, double x, double y) {
     }
 }
 
+/* Wheel: zoom. */
 static void on_scroll(GLFWwindow *w, double dx, double dy) {
     viewer *v = glfwGetWindowUserPointer(w);
     zoom(v, (float)dy);
 }
 
+/* Switches to probe i (a light change) or says there is no such probe. */
 static void select_probe(viewer *v, int i) {
     char msg[160];
     if (i < 0 || i >= v->nprobes) {
@@ -356,6 +366,7 @@ static void select_probe(viewer *v, int i) {
     v->light_dirty = v->probe_dirty = true;
 }
 
+/* S key: saves the float target as PNG (next free prt-view-NNN.png or --screenshot). */
 static void take_screenshot(viewer *v) {
     char path[4096], msg[4200];
     if (v->shot_path) snprintf(path, sizeof path, "%s", v->shot_path);
@@ -369,6 +380,7 @@ static void take_screenshot(viewer *v) {
     set_status(v, msg);
 }
 
+/* Character keys (see k_keys). */
 static void on_char(GLFWwindow *w, unsigned int c) {
     viewer *v = glfwGetWindowUserPointer(w);
     switch (c) {
@@ -387,6 +399,10 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         break;
     }
     case 'b': case 'B':
+        if (v->direct && !v->gl) {
+            set_status(v, "direct-only lighting runs on the CPU runtime (press d for direct + bounces first)");
+            break;
+        }
         v->gl = !v->gl;
         v->view_dirty = true;
         set_status(v, v->gl ? "GL runtime" : "CPU runtime");
@@ -397,7 +413,20 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         v->view_dirty = true;
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
-    case 'd': case 'D': set_status(v, "file has no separate direct transport (it keeps one transport set)"); break;
+    case 'd': case 'D':
+        /* The direct-only set is a second transport of the same layout (prt_data.direct); the CPU
+         * runtime switches sets with relight_use_direct, the GL runtime keeps the total on the GPU. */
+        if (v->d.stats.bounces == 0) set_status(v, "the file has no interreflection passes: it is direct lighting only");
+        else if (!v->d.direct.nvecs) set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
+        else {
+            v->direct = !v->direct;
+            relight_use_direct(v->rc, v->direct);
+            v->g_dirty_cpu = true;
+            v->gl = false;
+            v->view_dirty = true;
+            set_status(v, v->direct ? "direct lighting only (CPU runtime)" : "direct + interreflections (CPU runtime; b for GL)");
+        }
+        break;
     case 's': case 'S': take_screenshot(v); break;
     case 'r': case 'R':
         v->cam = v->cam0;
@@ -413,12 +442,14 @@ static void on_char(GLFWwindow *w, unsigned int c) {
     }
 }
 
+/* Esc quits, F1 toggles help. */
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE) v->quit = true;
     if (action == GLFW_PRESS && key == GLFW_KEY_F1) { v->help = !v->help; v->present_dirty = true; }
 }
 
+/* A resized framebuffer needs a new view change. */
 static void on_resize(GLFWwindow *w, int width, int height) {
     viewer *v = glfwGetWindowUserPointer(w);
     v->view_dirty = true;
@@ -437,6 +468,7 @@ static int add_probe(viewer *v, const char *path, const char *layout) {
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
+/* Adds every .exr/.hdr/.pfm in dir, sorted by name; 1 after printing an error. */
 static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
     DIR *dp = opendir(dir);
     if (!dp) return cli_error(k_view, "%s: cannot open directory", dir);
@@ -462,6 +494,7 @@ static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
     return rc;
 }
 
+/* Releases everything the viewer holds (not v itself). */
 static void viewer_free(viewer *v) {
     if (v->ctx) glctx_make_current(v->ctx, NULL);
     gltext_free(&v->text);
@@ -474,6 +507,7 @@ static void viewer_free(viewer *v) {
     prt_data_free(&v->d);
 }
 
+/* `prt view` (see view_help): 0, 1 on errors, 2 on usage errors. */
 int cli_view(int argc, char **argv) {
     viewer *v = calloc(1, sizeof *v);
     if (!v) return cli_error(k_view, "out of memory");
@@ -668,16 +702,19 @@ static void glbench_help(void) {
          "  --kernel K       GL light kernel: auto (default), fragment, thread, warp");
 }
 
+/* qsort order for doubles. */
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return x < y ? -1 : x > y;
 }
 
+/* Median of x[0..n) (sorts x). */
 static double median(double *x, int n) {
     qsort(x, n, sizeof *x, cmp_double);
     return n % 2 ? x[n / 2] : 0.5 * (x[n / 2 - 1] + x[n / 2]);
 }
 
+/* `prt glbench` (see glbench_help): 0, 1 on errors, 2 on usage errors. */
 int cli_glbench(int argc, char **argv) {
     const char *k_cmd = "glbench", *in = NULL, *probe_path = NULL, *val, *kernel = "auto";
     int w = 800, h = 600, runs = 5, kmax = 0, nthreads = 0;

@@ -457,7 +457,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     pc_scratch scratch[PC_MAX_THREADS];
     memset(scratch, 0, sizeof scratch);
     prt_transport direct = { 0 }, total = { 0 }, last = { 0 };
-    bool last_is_total = true, have_lock = false;
+    bool have_lock = false;
     pc_ctx c;
     memset(&c, 0, sizeof c);
     int rc = -1;
@@ -636,11 +636,10 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
         }
     }
 
-    /* 4. Interreflection passes (Eq. 8), adaptive unless forced. */
-    total = direct;
-    memset(&direct, 0, sizeof direct);
+    /* 4. Interreflection passes (Eq. 8), adaptive unless forced. Pass b gathers pass b-1
+     * (`last`, the direct set for b = 1); `total` = direct + passes so far. */
     if (plan_bounces && max_b > 0) {
-        double e0 = gather_energy(&total);
+        double e0 = gather_energy(&direct);
         char line[256];
         for (int b = 1; b <= max_b; b++) {
             char stage[32];
@@ -649,14 +648,13 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
                                .progress_user = d.progress_user, .stage = stage };
             prt_transport next = { 0 }, sum = { 0 };
             double tb0 = prt_now();
-            if (gather_pass(out, vs, last_is_total ? &total : &last, &gd, &next, err)) goto fail;
+            if (gather_pass(out, vs, b == 1 ? &direct : &last, &gd, &next, err)) goto fail;
             double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
-            if (gather_sum(&total, &next, nthreads, &sum, err)) { transport_free(&next); goto fail; }
+            if (gather_sum(b == 1 ? &direct : &total, &next, nthreads, &sum, err)) { transport_free(&next); goto fail; }
             transport_free(&total);
             total = sum;
-            if (!last_is_total) transport_free(&last);
+            transport_free(&last);
             last = next;
-            last_is_total = false;
             out->stats.t_bounce[b - 1] = prt_now() - tb0;
             out->stats.bounce_energy[b - 1] = e;
             out->stats.bounces = b;
@@ -667,10 +665,18 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
             if (stop) break;
         }
     }
-    if (!last_is_total) transport_free(&last);
-    last_is_total = true;
-    out->transport = total;
-    memset(&total, 0, sizeof total);
+    transport_free(&last);
+    if (out->stats.bounces > 0) {
+        out->transport = total;
+        memset(&total, 0, sizeof total);
+        if (d.keep_direct) {   /* the viewer's direct-only toggle */
+            out->direct = direct;
+            memset(&direct, 0, sizeof direct);
+        }
+    } else {
+        out->transport = direct;
+        memset(&direct, 0, sizeof direct);
+    }
 
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();
@@ -682,7 +688,7 @@ fail:
     free(vdir); free(vdw); free(ldir); free(order); free(nvec);
     transport_free(&direct);
     transport_free(&total);
-    if (!last_is_total) transport_free(&last);
+    transport_free(&last);
     if (rc) prt_data_free(out);
     return rc;
 }

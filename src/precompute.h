@@ -39,6 +39,7 @@ typedef struct precompute_desc {
     int bounces;            /* maximum interreflection passes; 0: none */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
+    bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
     int nthreads;           /* 0: all cores */
     prt_progress_fn progress;

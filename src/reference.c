@@ -540,6 +540,15 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
             pcg32 rng;
             pcg32_seed(&rng, j->seed, (uint64_t)idx);
             ref_acc a = { { 0 }, { 0 }, 0 };
+            /* Background as prt render draws it: the probe along the pixel-centre ray, so that
+             * background pixels compare equal and prt compare measures the surfaces. */
+            float bg[3] = { 0, 0, 0 };
+            if (!j->d->black_background) {
+                float cdir[3];
+                camera_ray(j->cam, j->w, j->h, x + 0.5f, y + 0.5f, cdir);
+                v3_normalize(cdir);
+                ref_env_radiance(j->rc, cdir, bg);
+            }
             for (int k = 0; k < j->spp; k++) {
                 float dir[3], xr[3];
                 float px = x + pcg32_float(&rng), py = y + pcg32_float(&rng);
@@ -547,10 +556,8 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
                 v3_normalize(dir);
                 vis_hit hit;
                 j->rays[thread]++;
-                if (!vis_closest(j->rc->vs, j->cam->eye, dir, 0.f, INFINITY, &hit)) {
-                    if (j->d->black_background) v3_set(xr, 0, 0, 0);
-                    else ref_env_radiance(j->rc, dir, xr);
-                } else {
+                if (!vis_closest(j->rc->vs, j->cam->eye, dir, 0.f, INFINITY, &hit)) v3_copy(xr, bg);
+                else {
                     ref_surf s;
                     surf_from_hit(j->rc, &hit, dir, &s);
                     float wo[3];

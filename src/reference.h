@@ -28,6 +28,10 @@
  * -1 = to convergence with Russian roulette after 3 bounces (survival = min(0.95,
  * max throughput)). Emission is only the environment.
  *
+ * Images: each pixel averages spp camera rays jittered over its area (box filter). Rays
+ * that miss the scene show the probe along the pixel-centre ray, as `prt render` draws
+ * its background, so background pixels compare equal and only surfaces differ.
+ *
  * Noise: each pixel / vertex gets spp independent samples; the standard error is
  * the sample standard deviation / sqrt(spp), per channel. Determinism: sample s
  * of item i uses PCG32 stream i seeded from `seed`, so results do not depend on the

@@ -34,6 +34,7 @@ set -u
 PRT=${1:-build/prt}
 QUICK=${STUDY_QUICK:-0}
 T_START=$(date +%s)
+LOAD_START=$(cut -d' ' -f1-3 /proc/loadavg)
 
 die() { echo "study: $*" >&2; exit 1; }
 [ -x "$PRT" ] || die "$PRT not found or not executable (run make first)"
@@ -74,7 +75,7 @@ else
   WORK=build/study
   OUT=${STUDY_OUT:-docs/study}
   SIZE=${STUDY_SIZE:-400x300}
-  REF_SPP=${STUDY_REF_SPP:-512}; REF_VSPP=${STUDY_REF_VSPP:-4096}; FRAMES=30
+  REF_SPP=${STUDY_REF_SPP:-1024}; REF_VSPP=${STUDY_REF_VSPP:-8192}; FRAMES=30
   N_LIST="16 32 64 128 256 512 $UNC"; Q_LIST="8 16 32"; V_LIST="64 128 256"; K_LIST="1 2 4 8 16"
   B_LIST="0 1 2 3"; G_LIST="8 16 32 64"; SH_LIST="3 4 5 6 7 8 9 10"; GB_LIST=${STUDY_GLOSSY_BOUNCES:-"0 1"}
   BUNNY_VERTS=${STUDY_BUNNY_VERTS:-6000}; BUNNY_FLOOR=${STUDY_BUNNY_FLOOR:-4096}
@@ -163,7 +164,8 @@ precompute() { # id
   f="$WORK/$id.prt"
   if [ -f "$f" ] && grep -q '^  total' "$WORK/log/$id.pre"; then return 0; fi
   # shellcheck disable=SC2086
-  nice "$PRT" precompute ${SCENE_ARGS[$s]} "${args[@]}" -o "$f" 2> "$WORK/log/$id.pre.raw"
+  /usr/bin/time -f "cpu %U %S" -o "$WORK/log/$id.cpu" nice "$PRT" precompute ${SCENE_ARGS[$s]} "${args[@]}" -o "$f" \
+    2> "$WORK/log/$id.pre.raw"
   local rc=$?
   tr '\r' '\n' < "$WORK/log/$id.pre.raw" | grep -v -E ': +[0-9]+%|^\s*$' > "$WORK/log/$id.pre"
   rm -f "$WORK/log/$id.pre.raw"
@@ -180,16 +182,25 @@ reference() { # scene probe bounces base-id
     nice "$PRT" reference "$WORK/$base.prt" --probe "$DATA/probes/$p.exr" --bounces "$b" --spp "$REF_SPP" \
       --vertex-spp "$REF_VSPP" --size "$SIZE" --no-background --vertices "$r.csv" -o "$r.exr" --quiet \
       2> "$r.log" || { cat "$r.log" >&2; die "reference $s/$p/b$b failed"; }
-    oiiotool "$r.exr" --colorconvert linear sRGB -o "$r.png" 2>/dev/null || true
   fi
+  # PNGs for the figures: one exposure per reference (its brightest pixel at 75%), shared
+  # by the PRT renders compared with it.
+  oiiotool --stats "$r.exr" 2>/dev/null | awk '/Stats Max:/ { m = $3; if ($4 > m) m = $4; if ($5 > m) m = $5;
+    printf "%.6g\n", (m > 0 ? 0.75 / m : 1) }' > "$r.scale"
+  oiiotool "$r.exr" --mulc "$(cat "$r.scale")" --colorconvert linear sRGB -o "$r.png" 2>/dev/null || true
+  # Vertices the reference leaves at exactly 0 with zero standard error face away from
+  # the camera (reference.h: one-sided surfaces reflect nothing below their horizon;
+  # prt's relight keeps a Lambertian vertex's colour there, as it is hidden anyway):
+  # they are left out of the per-vertex comparison, on both sides.
+  awk -F, 'NR == 1 || $2 != 0 || $3 != 0 || $4 != 0 || $5 != 0 || $6 != 0 || $7 != 0' "$r.csv" > "$r.front.csv"
   REF_NOISE_V[$s-$p-$b]=$(awk '/\.csv:/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
   REF_NOISE_I[$s-$p-$b]=$(awk '/\.exr/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
-  say "  reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]*s' "$r.log" | tr '\n' ' '))"
+  say "  $(( $(wc -l < "$r.front.csv") - 1 )) of $(( $(wc -l < "$r.csv") - 1 )) vertices face the camera; reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]*s' "$r.log" | tr '\n' ' '))"
 }
 
 # --- measure one point -----------------------------------------------------------------
 CSV="$WORK/study.csv"
-echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,id" > "$CSV"
+echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,id" > "$CSV"
 summary_s() { awk -v k="$2" 'index($0, "  " k) == 1 { v = $NF; sub(/s$/, "", v); s += v } END { printf "%.2f", s }' "$1"; }
 
 measure() { # index id
@@ -197,11 +208,13 @@ measure() { # index id
   IFS=_ read -r s n k q v b g sh <<< "$id"
   n=${n#n}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}
   local L="$WORK/log/$id"
-  local pre_s vis_s tr_s bo_s mb light view kk basis coeffs
-  pre_s=$(summary_s "$L.pre" total); vis_s=$(summary_s "$L.pre" visibility)
+  local pre_s cpu_s vis_s tr_s bo_s mb light view kk basis coeffs
+  pre_s=$(summary_s "$L.pre" total); cpu_s=$(awk '/^cpu/ { printf "%.2f", $2 + $3 }' "$L.cpu"); vis_s=$(summary_s "$L.pre" visibility)
   tr_s=$(summary_s "$L.pre" transport); bo_s=$(summary_s "$L.pre" bounce)
   mb=$(stat -c %s "$f" | awk '{ printf "%.4f", $1 / 1e6 }')
-  "$PRT" bench "$f" --probe "$DATA/probes/$SHARP.exr" --frames "$FRAMES" > "$L.bench" 2>&1 || die "prt bench $id failed"
+  local frames=$FRAMES
+  [ "$n" = $UNC ] && frames=5   # a light change of an uncompressed file takes about a second
+  "$PRT" bench "$f" --probe "$DATA/probes/$SHARP.exr" --frames "$frames" > "$L.bench" 2>&1 || die "prt bench $id failed"
   light=$(awk '/^light change:/ { print $3 }' "$L.bench"); view=$(awk '/^view change:/ { print $3 }' "$L.bench")
   kk=$(grep -o 'max K = [0-9]*' "$L.bench" | awk '{ print $4 }')
   if [ "$sh" != 0 ]; then basis=sh; coeffs=$((sh * sh)); else basis=haar; coeffs=$n; fi
@@ -210,10 +223,11 @@ measure() { # index id
     local o="$WORK/out/$id-$p" r="$WORK/ref/$s-$p-b$b" cv ci
     "$PRT" render "$f" --probe "$DATA/probes/$p.exr" --size "$SIZE" --no-background -o "$o.exr" --vertices "$o.csv" \
       2> "$o.render.log" || { cat "$o.render.log" >&2; die "prt render $id ($p) failed"; }
-    cv=$("$PRT" compare "$o.csv" "$r.csv") || die "prt compare (vertices) $id ($p) failed"
+    awk -F, 'NR == FNR { keep[$1] = 1; next } FNR == 1 || ($1 in keep)' "$r.front.csv" "$o.csv" > "$o.front.csv"
+    cv=$("$PRT" compare "$o.front.csv" "$r.front.csv") || die "prt compare (vertices) $id ($p) failed"
     ci=$("$PRT" compare "$o.exr" "$r.exr" --error-image "$o.err.png" 2>/dev/null) || die "prt compare (image) $id ($p) failed"
-    oiiotool "$o.exr" --colorconvert linear sRGB -o "$o.png" 2>/dev/null || true
-    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),${REF_NOISE_V[$s-$p-$b]},${REF_NOISE_I[$s-$p-$b]},$id" >> "$CSV"
+    oiiotool "$o.exr" --mulc "$(cat "$r.scale")" --colorconvert linear sRGB -o "$o.png" 2>/dev/null || true
+    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$id" >> "$CSV"
     line="$line; $p: vertex err $(kv "$cv" rel_rmse), image err $(kv "$ci" rel_rmse)"
   done
   say "$line"
@@ -246,6 +260,8 @@ cp "$CSV" "$OUT/study.csv"
 {
   echo "mode=$([ "$QUICK" = 1 ] && echo quick || echo full)"
   echo "runtime_s=$RUNTIME"
+  echo "load_start=$LOAD_START"
+  echo "load_end=$(cut -d' ' -f1-3 /proc/loadavg)"
   echo "machine=$(nproc) cores, $(awk '/MemTotal/{printf "%.0f GB", $2/1e6}' /proc/meminfo), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
   echo "date=$(date -u +%Y-%m-%dT%H:%MZ)"
   echo "commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
