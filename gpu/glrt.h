@@ -106,6 +106,10 @@ int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_ima
 void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops);
 /* Copies the light-dependent K-vectors back: g[3*i + ch] for every vector (as relight_gvec). */
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err);
+/* Direct-only lighting (true; the file's d->direct set, kept by `precompute --keep-direct`) or
+ * direct + bounces (false, the default): re-uploads that transport set. Call glrt_set_light again
+ * to see the change. -1 with err when the file keeps no direct set. */
+int glrt_use_direct(glrt *rt, bool direct, prt_error *err);
 /* Switches the view mode / light kernel (a method the context cannot run fails). */
 void glrt_set_view_mode(glrt *rt, glrt_view_mode mode);
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err);
