@@ -48,7 +48,7 @@ static const char *k_keys =
     "  K / k                    use more / fewer BRDF terms\n"
     "  b                        toggle the GL runtime / the CPU runtime\n"
     "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
-    "  d                        direct only vs with bounces (when the file keeps both)\n"
+    "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
     "  r                        reset camera and light rotation\n"
     "  h or ?                   show / hide this help on screen\n"
@@ -382,8 +382,12 @@ static void take_screenshot(viewer *v) {
 
 /* D key: direct-only lighting vs direct + bounces, when the file keeps both (precompute --keep-direct). */
 static void toggle_direct(viewer *v) {
+    if (v->d.stats.bounces == 0) {
+        set_status(v, "the file has no interreflection passes: it is direct lighting only");
+        return;
+    }
     if (v->d.direct.nvecs == 0) {
-        set_status(v, "file has no separate direct transport (precompute with --bounces and --keep-direct to compare)");
+        set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
         return;
     }
     prt_error err = { { 0 } };

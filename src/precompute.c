@@ -49,12 +49,21 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define PC_GRAIN 16             /* vertices per dynamic chunk */
 #define PC_SAMPLE 200           /* vertices in the planning sample */
 #define PC_GATHER_SAMPLE 32     /* vertices whose gather rays are timed for the bounce estimate */
 #define PC_HIT_MIN 0.005        /* below this fraction of hitting rays, no interreflections */
 #define PC_MAX_THREADS 64
+#define PC_DECODE_NS 0.55       /* per decoded coefficient x term in gathering: fit to the bunny's bounce pass */
+
+/* CPU seconds used by the calling thread (so estimates see through a busy machine). */
+static double pc_cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 /* Per-thread scratch for the direct pass. */
 typedef struct pc_scratch {
@@ -67,6 +76,7 @@ typedef struct pc_scratch {
     float *sh;          /* [SH_MAX_ORDER^2] */
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
+    double t_cpu;           /* CPU seconds of the thread in pc_range (t_cpu / t_busy: share of a core it got) */
     long traced, hits;
     double err_sum;     /* sum over vectors of (relative L2 error)^2 */
     long err_count;
@@ -264,7 +274,9 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     pc_ctx *c = ctx;
     pc_scratch *s = &c->scratch[thread];
     if (atomic_load(&c->cancelled)) return;
+    double cpu0 = pc_cpu_now();
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
+    s->t_cpu += pc_cpu_now() - cpu0;
     long done = atomic_fetch_add(&c->done, end - begin) + (end - begin);
     if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
@@ -330,10 +342,11 @@ static void plan_material(char *plan, size_t cap, int i, const brdf_params *p, c
     }
 }
 
-/* Rough time of one gather pass: times the gather rays of a few sample vertices and models the
- * decoding as (distinct neighbour vertices) x K_neighbour x N x K x 3 multiply-adds at ~1 ns. */
+/* Rough CPU seconds per vertex of one gather pass: times (in CPU time) the gather rays of a few
+ * sample vertices and models the decoding as (distinct neighbour vertices) x K_neighbour x N x K x 3
+ * multiply-adds at PC_DECODE_NS each, plus the dense K x 3 cube accumulators. */
 static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const brdf_factor *factors, int gres, int N,
-                                 int nthreads, const int *sample, int nsample) {
+                                 const int *sample, int nsample) {
     int nd = 6 * gres * gres;
     float *dirs = malloc(sizeof(float) * 3 * (size_t)nd);
     float *hd = malloc(sizeof(float) * 3 * (size_t)nd);
@@ -355,9 +368,9 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
                 nh++;
             }
         float org[3] = { p[0] + eps * n[0], p[1] + eps * n[1], p[2] + eps * n[2] };
-        double t0 = prt_now();
+        double t0 = pc_cpu_now();
         vis_closest_many(vs, org, hd, nh, eps, hits);
-        secs += prt_now() - t0;
+        secs += pc_cpu_now() - t0;
         int nn = 0;
         for (int i = 0; i < nh; i++)
             if (hits[i].tri >= 0)
@@ -376,12 +389,11 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
                 distinct++;
                 kn += factors[m->mat ? m->mat[nb[i]] : 0].K;
             }
-        secs += kn * (double)N * K * 3 * 1e-9 + K * 3 * (double)CUBE_TEXELS * 2e-9;
+        secs += kn * (double)N * K * 3 * PC_DECODE_NS * 1e-9 + K * 3 * (double)CUBE_TEXELS * 2e-9;
         count++;
     }
     free(dirs); free(hd); free(hits); free(nb);
-    if (!count) return 0;
-    return secs / count * m->nverts / (double)(nthreads > 0 ? nthreads : 1);
+    return count ? secs / count : 0;
 }
 
 /* Validates desc and fills defaults into *d. Returns 0 or -1. */
@@ -485,7 +497,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     }
     out->stats.t_brdf = prt_now() - t0;
 
-    plan_add(plan, pcap, "effects plan: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
+    plan_add(plan, pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
              out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", nthreads, nthreads == 1 ? "" : "s");
     plan_add(plan, pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
     for (int i = 0; i < out->scene.nmaterials; i++)
@@ -574,14 +586,18 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     char e1[32], e2[32];
     fmt_dur(e1, sizeof e1, est_direct + t_sample);
     if (plan_bounces) {
-        double eg = pc_estimate_gather(m, vs, out->factors, d.gather_res, d.N, nthreads, order, nsample);
+        /* CPU estimate turned into wall time with the share of a core the sample's threads got */
+        double busy = 0, cpu = 0;
+        for (int t = 0; t < nthreads; t++) { busy += scratch[t].t_busy; cpu += scratch[t].t_cpu; }
+        double share = busy > 0 && cpu > 0 ? fmin(1.0, cpu / busy) : 1.0;
+        double eg = pc_estimate_gather(m, vs, out->factors, d.gather_res, d.N, order, nsample) * m->nverts / nthreads / share;
         fmt_dur(e2, sizeof e2, eg);
         plan_add(plan, pcap, "  estimate: direct pass %s, each bounce pass ~%s (rough)\n", e1, e2);
     } else {
         plan_add(plan, pcap, "  estimate: direct pass %s\n", e1);
     }
     /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
-    if (!d.quiet) { fputs(plan, stderr); fflush(stderr); }
+    if (!d.quiet) { fprintf(stderr, "effects plan\n%s", plan); fflush(stderr); }
 
     /* 3b. The rest of the direct pass. */
     {

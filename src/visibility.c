@@ -59,12 +59,19 @@ void vis_destroy(vis_scene *vs) {
     free(vs);
 }
 
-/* Builds the Embree scene over m. Returns NULL with err set on failure (caller frees with vis_destroy). */
+/* Builds the Embree scene over m. Returns a scene the caller frees with vis_destroy, or NULL
+ * with err set (an invalid mesh or an Embree failure; nothing to free then). */
 vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
     if (!m || m->nverts < 0 || m->ntris < 0 || (m->ntris > 0 && (!m->pos || !m->tris))) {
         prt_fail(err, "visibility: invalid mesh");
         return NULL;
     }
+    /* Embree does not range-check indices: a bad one would be read out of bounds. */
+    for (size_t i = 0; i < 3 * (size_t)m->ntris; i++)
+        if (m->tris[i] >= (uint32_t)m->nverts) {
+            prt_fail(err, "visibility: triangle %zu uses vertex %u of %d", i / 3, m->tris[i], m->nverts);
+            return NULL;
+        }
     vis_scene *vs = prt_calloc(1, sizeof *vs, err);
     if (!vs) return NULL;
     vs->ntris = m->ntris;

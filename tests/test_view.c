@@ -229,6 +229,32 @@ int main(void) {
         double mean, worst = compare_png(other, ref, &mean);
         CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
     }
+    /* The same toggle on the CPU runtime (the scene has one bounce pass and keeps its direct set):
+     * key d switches to direct lighting only, which must match `prt render --direct-only`, and
+     * differ from the total. */
+    if (have_xvfb) {
+        const char *bscene = scene;
+        char shot[512], ref[512], reft[512];
+        snprintf(shot, sizeof shot, "%s/shot_direct_cpu.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_direct0.png", dir);
+        snprintf(reft, sizeof reft, "%s/ref_total0.png", dir);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --backend cpu "
+                 "--frames 3 --keys d --screenshot %s",
+                 prt, bscene, sky, k_cam, W, H, shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view with key d failed (%d): %s", rc, out);
+        for (int k = 0; k < 2; k++) {
+            snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d %s -o %s", prt, bscene, sky, k_cam,
+                     W, H, k ? "" : "--direct-only", k ? reft : ref);
+            rc = check_run(cmd, out, sizeof out);
+            CHECK(rc == 0, "render failed (%d): %s", rc, out);
+        }
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0 && worst <= 2, "key d: viewer differs from render --direct-only (max %g, mean %.4f codes)", worst, mean);
+        worst = compare_png(ref, reft, &mean);
+        CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
+    }
     /* prt glbench runs headless and prints both runtimes beside the paper's figures. */
     snprintf(cmd, sizeof cmd, "%s glbench %s --probe %s --size 64x48 --runs 1", prt, scene, sky);
     rc = check_run(cmd, out, sizeof out);
