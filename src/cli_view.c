@@ -94,8 +94,7 @@ typedef struct viewer {
     float (*L)[4];
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
-    bool gl, vertex_model, help, quit;
-    bool direct;            /* direct lighting only (files precomputed with --keep-direct; CPU runtime) */
+    bool gl, vertex_model, help, quit, direct;
     int kmax, kfile, nthreads;
     float exposure;
     bool light_dirty, g_dirty_gl, g_dirty_cpu, probe_dirty, view_dirty, present_dirty;
@@ -187,13 +186,14 @@ static void overlay(viewer *v) {
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
-                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f\n"
+                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
                      v->gl ? t.light_method_name : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      t.renderer, t.context,
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
-                     v->kfile, v->exposure, v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
+                     v->kfile, v->exposure,
+                     v->d.direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
@@ -380,6 +380,32 @@ static void take_screenshot(viewer *v) {
     set_status(v, msg);
 }
 
+/* D key: direct-only lighting vs direct + bounces, when the file keeps both (precompute --keep-direct). */
+static void toggle_direct(viewer *v) {
+    if (v->d.stats.bounces == 0) {
+        set_status(v, "the file has no interreflection passes: it is direct lighting only");
+        return;
+    }
+    if (v->d.direct.nvecs == 0) {
+        set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
+        return;
+    }
+    prt_error err = { { 0 } };
+    bool want = !v->direct;
+    if (!relight_use_direct(v->rc, want) || glrt_use_direct(v->rt, want, &err)) {
+        relight_use_direct(v->rc, v->direct);
+        char msg[1100];
+        snprintf(msg, sizeof msg, "cannot switch the transport: %s", err.msg[0] ? err.msg : "no direct set");
+        set_status(v, msg);
+        return;
+    }
+    v->direct = want;
+    v->g_dirty_gl = v->g_dirty_cpu = true;
+    char msg[128];
+    snprintf(msg, sizeof msg, "%s", want ? "direct lighting only" : "direct lighting + interreflections");
+    set_status(v, msg);
+}
+
 /* Character keys (see k_keys). */
 static void on_char(GLFWwindow *w, unsigned int c) {
     viewer *v = glfwGetWindowUserPointer(w);
@@ -399,10 +425,6 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         break;
     }
     case 'b': case 'B':
-        if (v->direct && !v->gl) {
-            set_status(v, "direct-only lighting runs on the CPU runtime (press d for direct + bounces first)");
-            break;
-        }
         v->gl = !v->gl;
         v->view_dirty = true;
         set_status(v, v->gl ? "GL runtime" : "CPU runtime");
@@ -413,20 +435,7 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         v->view_dirty = true;
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
-    case 'd': case 'D':
-        /* The direct-only set is a second transport of the same layout (prt_data.direct); the CPU
-         * runtime switches sets with relight_use_direct, the GL runtime keeps the total on the GPU. */
-        if (v->d.stats.bounces == 0) set_status(v, "the file has no interreflection passes: it is direct lighting only");
-        else if (!v->d.direct.nvecs) set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
-        else {
-            v->direct = !v->direct;
-            relight_use_direct(v->rc, v->direct);
-            v->g_dirty_cpu = true;
-            v->gl = false;
-            v->view_dirty = true;
-            set_status(v, v->direct ? "direct lighting only (CPU runtime)" : "direct + interreflections (CPU runtime; b for GL)");
-        }
-        break;
+    case 'd': case 'D': toggle_direct(v); break;
     case 's': case 'S': take_screenshot(v); break;
     case 'r': case 'R':
         v->cam = v->cam0;

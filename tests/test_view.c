@@ -119,7 +119,7 @@ int main(void) {
     }
     snprintf(cmd, sizeof cmd,
              "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --terms 2 --floor 1500 --coeffs 64 "
-             "--vis-res 64 --quiet -o %s",
+             "--vis-res 64 --bounces 1 --force-bounces --keep-direct --quiet -o %s",
              prt, obj, scene);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 0, "precompute failed (%d): %s", rc, out);
@@ -194,6 +194,30 @@ int main(void) {
         worst = compare_png(shot, ref, &mean);
         CHECK(worst > 20 && mean > 1, "keys had no visible effect (max %g, mean %g)", worst, mean);
     }
+    /* D: direct lighting only (the file keeps both sets). The GL runtime in its per-vertex view model
+     * against the CPU runtime's `render --direct-only`; the bounce must have changed the image. */
+    if (have_xvfb) {
+        char shot[512], ref[512], full[512];
+        snprintf(shot, sizeof shot, "%s/shot_direct.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_direct.png", dir);
+        snprintf(full, sizeof full, "%s/ref_cpu.png", dir);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --exposure -1 "
+                 "--backend gl --view-model vertex --frames 3 --keys d --screenshot %s",
+                 prt, scene, sky, k_cam, W, H, shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view --keys d failed (%d): %s", rc, out);
+        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only -o %s", prt,
+                 scene, sky, k_cam, W, H, ref);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "render --direct-only failed (%d): %s", rc, out);
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0, "direct: images missing or of different sizes");
+        CHECK_LE(worst, 2, "direct: GL per-vertex viewer differs from the CPU direct-only render (mean %.4f codes)", mean);
+        worst = compare_png(ref, full, &mean);
+        fprintf(stderr, "test_view: one bounce changes the image by max %g, mean %.3f codes\n", worst, mean);
+        CHECK(worst > 3, "the bounce had no visible effect (max %g codes)", worst);
+    }
     /* Power of the comparison: another camera gives a clearly different image. */
     if (have_xvfb) {
         char other[512], ref[512];
@@ -205,20 +229,15 @@ int main(void) {
         double mean, worst = compare_png(other, ref, &mean);
         CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
     }
-    /* The direct/bounces toggle: a file with one bounce pass and --keep-direct; key d switches to
-     * direct lighting only, which must match `prt render --direct-only`, and differ from the total. */
+    /* The same toggle on the CPU runtime (the scene has one bounce pass and keeps its direct set):
+     * key d switches to direct lighting only, which must match `prt render --direct-only`, and
+     * differ from the total. */
     if (have_xvfb) {
-        char bscene[512], shot[512], ref[512], reft[512];
-        snprintf(bscene, sizeof bscene, "%s/bounce.prt", dir);
-        snprintf(shot, sizeof shot, "%s/shot_direct.png", dir);
-        snprintf(ref, sizeof ref, "%s/ref_direct.png", dir);
-        snprintf(reft, sizeof reft, "%s/ref_total.png", dir);
-        snprintf(cmd, sizeof cmd,
-                 "%s precompute %s --material 'lambert:kd=0.9' --floor 1500 --coeffs 64 --vis-res 64 --bounces 1 "
-                 "--force-bounces --gather-res 8 --keep-direct --quiet -o %s",
-                 prt, obj, bscene);
-        rc = check_run(cmd, out, sizeof out);
-        CHECK(rc == 0, "bounce precompute failed (%d): %s", rc, out);
+        const char *bscene = scene;
+        char shot[512], ref[512], reft[512];
+        snprintf(shot, sizeof shot, "%s/shot_direct_cpu.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_direct0.png", dir);
+        snprintf(reft, sizeof reft, "%s/ref_total0.png", dir);
         snprintf(cmd, sizeof cmd,
                  "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --backend cpu "
                  "--frames 3 --keys d --screenshot %s",
