@@ -88,7 +88,7 @@ int cli_precompute(int argc, char **argv) {
             continue;
         }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--sh", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--sh", v, 1, 16, &pd.sh_order)) return 2;
+            if (r < 0 || !cli_int(k_cmd, "--sh", v, 3, 10, &pd.sh_order)) return 2;
             continue;
         }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {
