@@ -175,7 +175,7 @@ static void test_images(const char *dir) {
     CHECK(cmp_files(pa, pc, NULL, &r, &err) == -1, "second call fails the same");
 }
 
-/* The command line: output line format and exit codes (only when build/prt exists). */
+/* The command line: output line format and exit codes. */
 static void test_cli(const char *dir) {
     char cmd[2048], out[4096];
     snprintf(cmd, sizeof cmd, "%s compare %s/a.exr %s/b.exr", check_prt_bin(), dir, dir);
