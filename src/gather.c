@@ -280,19 +280,13 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
         }
     }
 
-    /* Decode each distinct neighbour vector once and accumulate, prefetching the next
-     * neighbour's coefficients (they are cold: neighbours lie anywhere in the set). */
+    /* Decode each distinct neighbour vector once and accumulate. (Software prefetching of the
+     * next neighbour's coefficients and visiting neighbours in vertex order were measured on the
+     * bunny + floor and gained nothing: the lines mostly come from the shared L3.) */
     memset(th->touched, 0, sizeof th->touched);
     for (int sl = 0; sl < nslots; sl++) {
         int y = th->slot_vert[sl];
         th->slot_of[y] = -1;
-        if (sl + 1 < nslots) {
-            int y2 = th->slot_vert[sl + 1];
-            uint32_t c0 = prev->coef_first[prev->vec_first[y2]], c1 = prev->coef_first[prev->vec_first[y2 + 1]];
-            const char *p0 = prev->qbits == 8 ? (const char *)(prev->packed + c0) : (const char *)(prev->offs + c0);
-            const char *p1 = prev->qbits == 8 ? (const char *)(prev->packed + c1) : (const char *)(prev->offs + c1);
-            for (const char *q = p0; q < p1; q += 64) __builtin_prefetch(q);
-        }
         int nl = nvec_of(prev, y);
         const float *W = th->slot_w + (size_t)sl * c->kmax * SL;
         for (int l = 0; l < nl; l++) {
