@@ -193,14 +193,22 @@ reference() { # scene probe bounces base-id
   # prt's relight keeps a Lambertian vertex's colour there, as it is hidden anyway):
   # they are left out of the per-vertex comparison, on both sides.
   awk -F, 'NR == 1 || $2 != 0 || $3 != 0 || $4 != 0 || $5 != 0 || $6 != 0 || $7 != 0' "$r.csv" > "$r.front.csv"
+  # Shadow region: floor vertices whose reference radiance (r+g+b) is below 60% of the floor's
+  # median, i.e. where the model's shadow falls (sharp under the sun of city, soft otherwise).
+  # Whole-scene errors are dominated by smoothly lit surfaces; this is where bases differ.
+  local ff med
+  ff=$(awk '/floor:/ { gsub(/\)/, ""); print $NF }' "$WORK/log/$base.info")
+  med=$(awk -F, -v f="${ff:-999999999}" 'NR > 1 && $1 >= f { print $2 + $3 + $4 }' "$r.front.csv" | sort -g \
+        | awk '{ a[NR] = $1 } END { print (NR ? a[int((NR + 1) / 2)] : 0) }')
+  awk -F, -v f="${ff:-999999999}" -v m="$med" 'NR == 1 || ($1 >= f && $2 + $3 + $4 < 0.6 * m)' "$r.front.csv" > "$r.shadow.csv"
   REF_NOISE_V[$s-$p-$b]=$(awk '/\.csv:/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
   REF_NOISE_I[$s-$p-$b]=$(awk '/\.exr/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
-  say "  $(( $(wc -l < "$r.front.csv") - 1 )) of $(( $(wc -l < "$r.csv") - 1 )) vertices face the camera; reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]*s' "$r.log" | tr '\n' ' '))"
+  say "  $(( $(wc -l < "$r.front.csv") - 1 )) of $(( $(wc -l < "$r.csv") - 1 )) vertices face the camera, $(( $(wc -l < "$r.shadow.csv") - 1 )) in the floor's shadow region; reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]*s' "$r.log" | tr '\n' ' '))"
 }
 
 # --- measure one point -----------------------------------------------------------------
 CSV="$WORK/study.csv"
-echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,id" > "$CSV"
+echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,shadow_rel_rmse,ref_shadow_noise,id" > "$CSV"
 summary_s() { awk -v k="$2" 'index($0, "  " k) == 1 { v = $NF; sub(/s$/, "", v); s += v } END { printf "%.2f", s }' "$1"; }
 
 measure() { # index id
@@ -229,10 +237,15 @@ measure() { # index id
       2> "$o.render.log" || { cat "$o.render.log" >&2; die "prt render $id ($p) failed"; }
     awk -F, 'NR == FNR { keep[$1] = 1; next } FNR == 1 || ($1 in keep)' "$r.front.csv" "$o.csv" > "$o.front.csv"
     cv=$("$PRT" compare "$o.front.csv" "$r.front.csv") || die "prt compare (vertices) $id ($p) failed"
+    local cs="rel_rmse=nan ref_noise=nan"
+    if [ "$(wc -l < "$r.shadow.csv")" -gt 1 ]; then
+      awk -F, 'NR == FNR { keep[$1] = 1; next } FNR == 1 || ($1 in keep)' "$r.shadow.csv" "$o.csv" > "$o.shadow.csv"
+      cs=$("$PRT" compare "$o.shadow.csv" "$r.shadow.csv") || die "prt compare (shadow) $id ($p) failed"
+    fi
     ci=$("$PRT" compare "$o.exr" "$r.exr" --error-image "$o.err.png" 2>/dev/null) || die "prt compare (image) $id ($p) failed"
     oiiotool "$o.exr" --mulc "$(cat "$r.scale")" --colorconvert linear sRGB -o "$o.png" 2>/dev/null || true
-    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$id" >> "$CSV"
-    line="$line; $p: vertex err $(kv "$cv" rel_rmse), image err $(kv "$ci" rel_rmse)"
+    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$(kv "$cs" rel_rmse),$(kv "$cs" ref_noise),$id" >> "$CSV"
+    line="$line; $p: vertex err $(kv "$cv" rel_rmse), shadow $(kv "$cs" rel_rmse), image $(kv "$ci" rel_rmse)"
   done
   say "$line"
 }

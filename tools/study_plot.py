@@ -72,7 +72,7 @@ def read(out):
         r["sweeps"] = r["sweeps"].split(";")
         for k in ("precompute_s", "precompute_cpu_s", "visibility_s", "transport_s", "bounce_s", "file_mb", "light_ms", "view_ms", "light_min_ms", "view_min_ms",
                   "vert_rel_rmse", "vert_max_rel_err", "img_rel_rmse", "img_max_rel_err", "ref_vert_noise",
-                  "ref_img_noise"):
+                  "ref_img_noise", "shadow_rel_rmse", "ref_shadow_noise"):
             r[k] = fnum(r.get(k))
         # Best frame of prt bench where recorded (steadier on a shared machine), else the median.
         for what in ("light", "view"):
@@ -114,6 +114,8 @@ def plot_knobs(rows, meta, scene, out):
         xs = [r[xcol] for r in pts]
         ax.plot(xs, [r["vert_rel_rmse"] for r in pts], "o-", label="per vertex")
         ax.plot(xs, [r["img_rel_rmse"] for r in pts], "s--", label="image")
+        if any(r["shadow_rel_rmse"] == r["shadow_rel_rmse"] for r in pts):
+            ax.plot(xs, [r["shadow_rel_rmse"] for r in pts], "^:", label="floor shadow vertices")
         for r in pts:
             ax.annotate(val(r), (r[xcol], r["vert_rel_rmse"]), textcoords="offset points", xytext=(4, 4), fontsize=8)
         noise = [r["ref_vert_noise"] for r in pts if r["ref_vert_noise"] == r["ref_vert_noise"]]
@@ -212,17 +214,25 @@ def plot_sh_haar(rows, meta, out):
                 ax.axis("off")
                 continue
             cs = [c for c, _, _ in pairs]
-            for col, ls, what in (("vert_rel_rmse", "-", "vertex"), ("img_rel_rmse", ":", "image")):
+            # Haar beyond SH's largest order (the N sweep's 128..512, 8-bit): where wavelets go on.
+            more = sorted((r for r in rows if r["scene"] == scene and r["probe"] == probe and "N" in r["sweeps"]
+                           and cs[-1] < int(r["N"]) < UNC), key=lambda r: int(r["N"]))
+            for col, ls, what in (("vert_rel_rmse", "-", "all vertices"), ("shadow_rel_rmse", "--", "floor shadow"),
+                                  ("img_rel_rmse", ":", "image")):
+                if not any(h[col] == h[col] for _, _, h in pairs):
+                    continue
                 ax.plot(cs, [s[col] for _, s, _ in pairs], "o" + ls, color="C3", label=f"SH ({what})")
-                ax.plot(cs, [h[col] for _, _, h in pairs], "s" + ls, color="C0", label=f"Haar ({what})")
+                ax.plot(cs + [int(r["N"]) for r in more], [h[col] for _, _, h in pairs] + [r[col] for r in more],
+                        "s" + ls, color="C0", label=f"Haar ({what})")
+                cs_all = cs + [int(r["N"]) for r in more]
             logaxes(ax)
-            ax.set_xticks(cs)
-            ax.set_xticklabels([str(c) for c in cs], fontsize=7)
+            ax.set_xticks(cs_all)
+            ax.set_xticklabels([str(c) for c in cs_all], fontsize=7)
             ax.set_xlabel("coefficients per transport vector (8-bit)")
             ax.set_ylabel("relative RMS error")
             ax.set_title(f"{scene} under {probe}", fontsize=10)
             ax.grid(True, which="both", alpha=0.3)
-            ax.legend(fontsize=7)
+            ax.legend(fontsize=6)
     fig.suptitle(f"Spherical harmonics against Haar wavelets at equal storage{title_suffix(meta)}")
     fig.tight_layout()
     fig.savefig(os.path.join(out, "sh_vs_haar.png"), dpi=90)
@@ -285,13 +295,22 @@ def headline(rows, meta):
                 txt = ", ".join(f"{c}: SH {pct(s['vert_rel_rmse'], 1)}% / Haar {pct(h['vert_rel_rmse'], 1)}%"
                                 for c, s, h in pairs)
                 lines.append(f"- **{scene}, {probe}, SH vs Haar** (per-vertex error at equal coefficient count) {txt}")
+                if any(h["shadow_rel_rmse"] == h["shadow_rel_rmse"] for _, _, h in pairs):
+                    txt = ", ".join(f"{c}: SH {pct(s['shadow_rel_rmse'], 1)}% / Haar {pct(h['shadow_rel_rmse'], 1)}%"
+                                    for c, s, h in pairs)
+                    more = sorted((r for r in rows if r["scene"] == scene and r["probe"] == probe
+                                   and "N" in r["sweeps"] and pairs[-1][0] < int(r["N"])), key=lambda r: int(r["N"]))
+                    txt2 = ", ".join(f"{'all (float)' if int(r['N']) == UNC else r['N']}: "
+                                     f"{pct(r['shadow_rel_rmse'], 1)}%" for r in more)
+                    lines.append(f"- **{scene}, {probe}, floor shadow region** (same, vertices in the shadow only) "
+                                 f"{txt}; Haar beyond: {txt2}")
     return lines
 
 
 def table(rows):
     cols = ["scene", "probe", "sweeps", "basis", "coeffs", "K", "quant", "vis", "bounces", "gather", "precompute s",
-            "CPU s", "MB", "light ms (best)", "view ms (best)", "vertex err %", "(corr.)", "vertex max %", "image err %", "(corr.)",
-            "image max %", "ref noise v/i %"]
+            "CPU s", "MB", "light ms (best)", "view ms (best)", "vertex err %", "(corr.)", "vertex max %", "shadow err %",
+            "image err %", "(corr.)", "image max %", "ref noise v/i %"]
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         coeffs = "all" if r["N"] == str(UNC) else r["coeffs"]
@@ -302,7 +321,7 @@ def table(rows):
             f"{r['precompute_cpu_s']:.1f}", f"{r['file_mb']:.3g}", f"{r['light_ms']:.3g} ({r['light_best_ms']:.3g})",
             f"{r['view_ms']:.3g} ({r['view_best_ms']:.3g})",
             pct(r["vert_rel_rmse"]), pct(r["vert_rel_rmse_corr"]), pct(r["vert_max_rel_err"], 1),
-            pct(r["img_rel_rmse"]), pct(r["img_rel_rmse_corr"]), pct(r["img_max_rel_err"], 1),
+            pct(r["shadow_rel_rmse"]), pct(r["img_rel_rmse"]), pct(r["img_rel_rmse_corr"]), pct(r["img_max_rel_err"], 1),
             f"{pct(r['ref_vert_noise'], 3)} / {pct(r['ref_img_noise'], 2)}"]) + " |")
     return out
 
@@ -340,7 +359,8 @@ def main():
     md += ["", "## Every point", "",
            "Errors are prt compare's rel_rmse / max_rel_err against the reference with the same number of bounces "
            "(so bounce points are not comparable across bounce counts); `sweeps` names the one-knob sweeps the "
-           "point belongs to; (corr.) is the error less the reference's own noise in quadrature. Costs: precompute "
+           "point belongs to; shadow err is rel_rmse over the floor vertices in the model's shadow (reference "
+           "radiance below 60% of the floor's median); (corr.) is the error less the reference's own noise in quadrature. Costs: precompute "
            "wall time (s) and CPU time (user + system, s; steadier on a shared machine), file size (MB), CPU light- "
            "and view-change times of prt bench (wall clock, both cores): median, and in brackets the best frame, "
            "which the plots use because other processes on a shared machine disturb the median.", ""] + table(rows) + [""]
