@@ -40,6 +40,8 @@ TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
 .PHONY: all deps test demo bench study clean
+# Keep the test objects (they are intermediate files of the test binaries).
+.SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
 
 # Install missing Debian packages once (root: apt-get; otherwise sudo if available).
