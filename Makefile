@@ -41,9 +41,6 @@ TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wi
 
 .PHONY: all deps test demo bench study clean
 all: $(BUILD)/.deps $(BUILD)/prt
-ifneq ($(BUILD),build)
-	@mkdir -p build && ln -sf $(abspath $(BUILD)/prt) build/prt
-endif
 
 # Install missing Debian packages once (root: apt-get; otherwise sudo if available).
 $(BUILD)/.deps:
@@ -74,7 +71,7 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 	$(CC) $(LDFLAGS) $< $(TEST_SUPPORT) $(BUILD)/libprt.a $(LDLIBS) -o $@
 
 test: all $(TESTS)
-	@BUILD=$(BUILD) tools/run_tests.sh $(TESTS)
+	@PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS)
 
 demo: all
 	$(BUILD)/prt demo -o demo.png

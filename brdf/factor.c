@@ -10,13 +10,18 @@
  * largest magnitude plus all eigenvalues (for the error curve), so we reduce to
  * tridiagonal form once (dsytrd), get every eigenvalue in O(n^2) (dsterf), then
  * the K wanted vectors (dstemr on the two ends of the spectrum) and back-
- * transform only those (dormtr). Measured on this machine for the 1810 x 1810
- * matrix of res 48 (2 cores, one channel): symmetric double ~0.3-0.5 s,
- * symmetric single ~0.2-0.3 s, dgesdd ~1.3 s, sgesdd ~1.2 s (tests/test_factor.c
- * prints the current figures). AUTO uses the symmetric double path: within 2x of
- * the single-precision one, and its tail eigenvalues (hence rel_rms near 0, the
- * Lambert rank test) are accurate to 1e-16 instead of 1e-7. Channels whose
- * tabulations are bitwise identical (grey BRDFs) are factored once.
+ * transform only those (dormtr). Measured on this 2-core machine (shared, so
+ * minimum of 5 runs; one 1810 x 1810 channel, paper-as at res 48, K = 4):
+ *     dsytrd+dstemr (double) 0.35 s    ssytrd+sstemr (single) 0.24 s
+ *     dgesdd                 1.8 s     sgesdd                 0.8 s (29 s, and a
+ *                                      rank-3 answer, on a rank-1 Lambert matrix)
+ * AUTO uses the double eigensolver: single precision's backward error (~n eps
+ * ||M||, up to 1e-5 of sigma_1) blurs the numerical rank (a Lambert matrix came
+ * out rank 2 with one BLAS thread; exact-rank Lafortune lobes keep a 10x margin
+ * instead of 2000x) and breaks the 1e-5 reconstruction bound, for ~0.1 s saved.
+ * Two shortcuts make common cases cheap: channels whose tabulations are identical
+ * or proportional (grey or uniformly tinted BRDFs) are factored once, and a
+ * rank-1 channel (Lambertian) is detected in O(n^2) and factored exactly.
  *
  * Texels outside the disk are filled from their nearest inside texel so
  * bilinear lookups near the horizon do not fade to zero. Lookups are plain

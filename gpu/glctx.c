@@ -36,6 +36,7 @@ static glctx_proc load_osmesa(const char *name) { return (glctx_proc)OSMesaGetPr
 static glctx_proc load_egl(const char *name) { return (glctx_proc)eglGetProcAddress(name); }
 static glctx_proc load_glfw(const char *name) { return (glctx_proc)glfwGetProcAddress(name); }
 
+/* Static name of a kind. */
 const char *glctx_kind_name(glctx_kind k) {
     switch (k) {
     case GLCTX_OSMESA: return "osmesa";
@@ -45,6 +46,7 @@ const char *glctx_kind_name(glctx_kind k) {
     }
 }
 
+/* Kind from its name; -1 if unknown (*out untouched). */
 int glctx_parse_kind(const char *s, glctx_kind *out) {
     if (!s) return -1;
     if (!strcasecmp(s, "osmesa")) *out = GLCTX_OSMESA;
@@ -57,6 +59,7 @@ int glctx_parse_kind(const char *s, glctx_kind *out) {
 /* True when an NVIDIA GPU device node exists (EGL is then the headless path). */
 static bool have_nvidia(void) { return access("/dev/nvidia0", F_OK) == 0; }
 
+/* What GLCTX_AUTO means here: $PRT_GL, else EGL with /dev/nvidia0, else OSMesa. */
 int glctx_resolve_auto(glctx_kind *out, prt_error *err) {
     const char *e = getenv("PRT_GL");
     if (e && *e) {
@@ -68,6 +71,7 @@ int glctx_resolve_auto(glctx_kind *out, prt_error *err) {
     return 0;
 }
 
+/* $PRT_GL when set, else dflt; -1 with err for an unknown name. */
 int glctx_kind_from_env(glctx_kind dflt, glctx_kind *out, prt_error *err) {
     const char *e = getenv("PRT_GL");
     if (!e || !*e) { *out = dflt; return 0; }
@@ -119,6 +123,7 @@ static int query_version(glctx *c, prt_error *err) {
 static const int k_versions[][2] = { { 4, 5 }, { 4, 3 }, { 3, 3 } };
 #define NVERSIONS ((int)(sizeof k_versions / sizeof k_versions[0]))
 
+/* OSMesa context, core 4.5/4.3/3.3 else legacy, made current; -1 with err. */
 static int create_osmesa(glctx *c, prt_error *err) {
     OSMesaContext ctx = NULL;
     for (int i = 0; i < NVERSIONS && !ctx; i++) {
@@ -139,6 +144,7 @@ static int create_osmesa(glctx *c, prt_error *err) {
     return query_version(c, err);
 }
 
+/* True when the space-separated extension list holds name exactly. */
 static bool has_ext(const char *list, const char *name) {
     if (!list) return false;
     size_t n = strlen(name);
@@ -184,6 +190,7 @@ static int egl_try_display(glctx *c, EGLDisplay dpy, prt_error *err) {
     return query_version(c, err);
 }
 
+/* EGL device-platform context (hardware devices first; software only when allowed); -1 with err. */
 static int create_egl(glctx *c, bool require_hw, prt_error *err) {
     PFNEGLQUERYDEVICESEXTPROC query_devices = (PFNEGLQUERYDEVICESEXTPROC)eglGetProcAddress("eglQueryDevicesEXT");
     PFNEGLGETPLATFORMDISPLAYEXTPROC get_display =
@@ -218,12 +225,14 @@ static int create_egl(glctx *c, bool require_hw, prt_error *err) {
     return prt_fail(err, "%s", last.msg);
 }
 
+/* GLFW window with a core context, made current; -1 with err (no display, no GL 3.3). */
 static int create_glfw(glctx *c, const glctx_window_desc *wd, prt_error *err) {
     const char *desc = NULL;
+    if (!getenv("DISPLAY") && !getenv("WAYLAND_DISPLAY"))
+        return prt_fail(err, "cannot open a window: no display (DISPLAY is not set; use xvfb-run on a machine without one)");
     if (!glfwInit()) {
         glfwGetError(&desc);
-        return prt_fail(err, "cannot open a window: %s%s", desc ? desc : "glfwInit failed",
-                        getenv("DISPLAY") ? "" : " (DISPLAY is not set; run under xvfb-run for no screen)");
+        return prt_fail(err, "cannot open a window: %s", desc ? desc : "glfwInit failed");
     }
     int w = wd && wd->width > 0 ? wd->width : 1024, h = wd && wd->height > 0 ? wd->height : 768;
     GLFWwindow *win = NULL;
@@ -249,6 +258,7 @@ static int create_glfw(glctx *c, const glctx_window_desc *wd, prt_error *err) {
     return query_version(c, err);
 }
 
+/* See glctx.h. The caller owns the context (glctx_destroy). */
 glctx *glctx_create(glctx_kind kind, const glctx_window_desc *window, prt_error *err) {
     bool require_hw = false;
     if (kind == GLCTX_AUTO) {
@@ -273,6 +283,7 @@ glctx *glctx_create(glctx_kind kind, const glctx_window_desc *window, prt_error 
     return c;
 }
 
+/* Makes c current on this thread; -1 with err (err may be NULL). */
 int glctx_make_current(glctx *c, prt_error *err) {
     bool ok = true;
     switch (c->kind) {
@@ -284,6 +295,7 @@ int glctx_make_current(glctx *c, prt_error *err) {
     return ok ? 0 : prt_fail(err, "GL context (%s): cannot make current", glctx_kind_name(c->kind));
 }
 
+/* Frees the context and its window; NULL is fine. */
 void glctx_destroy(glctx *c) {
     if (!c) return;
     if (c->osmesa) {
@@ -299,7 +311,9 @@ void glctx_destroy(glctx *c) {
     }
     if (c->kind == GLCTX_GLFW) {
         if (c->window) glfwDestroyWindow((GLFWwindow *)c->window);
-        glfwTerminate();
+        /* No glfwTerminate: it closes the X display, which unloads Mesa's driver, whose own
+         * allocations LeakSanitizer then reports as leaks (their owner is unmapped). GLFW stays
+         * initialized (a later glfwInit is a no-op); the display closes at process exit. */
     }
     free(c);
 }
@@ -322,6 +336,7 @@ static GLuint compile(const gl_api *gl, GLenum type, const char *src, const char
     return s;
 }
 
+/* Links the compiled stages (deleting them); 0 with err holding the log. */
 static GLuint link_program(const gl_api *gl, GLuint *sh, int n, const char *name, prt_error *err) {
     GLuint p = gl->CreateProgram();
     for (int i = 0; i < n; i++) gl->AttachShader(p, sh[i]);
@@ -355,6 +370,7 @@ GLuint glctx_compute_program(const gl_api *gl, const char *cs, const char *name,
     return link_program(gl, sh, 1, name, err);
 }
 
+/* Drains glGetError; -1 with err naming `what` and the first error. */
 int glctx_check(const gl_api *gl, const char *what, prt_error *err) {
     GLenum e = gl->GetError(), first = e;
     while (e != GL_NO_ERROR) e = gl->GetError();

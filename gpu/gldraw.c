@@ -63,6 +63,7 @@ static const char *k_present_fs =
     "    o_color = vec4(mix(hi, lo, vec3(lessThanEqual(c, vec3(0.0031308)))), 1.0);\n"
     "}\n";
 
+/* Compiles the passes; -1 with err. Free with gldraw_free. */
 int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err) {
     memset(d, 0, sizeof *d);
     d->gl = gl;
@@ -115,6 +116,7 @@ int gldraw_set_probe(gldraw *d, const prt_probe *p, prt_error *err) {
     return 0;
 }
 
+/* Uploads positions and triangles; -1 with err (OOM, GL out of memory). */
 int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
     const gl_api *gl = d->gl;
     free(d->scratch);
@@ -145,6 +147,7 @@ int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
     return glctx_check(gl, "mesh upload", err);
 }
 
+/* Sizes (if needed), binds and clears the float FBO; -1 with err. */
 int gldraw_target(gldraw *d, int w, int h, prt_error *err) {
     const gl_api *gl = d->gl;
     if (w != d->fbo_w || h != d->fbo_h || !d->fbo) {
@@ -186,12 +189,14 @@ int gldraw_target(gldraw *d, int w, int h, prt_error *err) {
     return 0;
 }
 
+/* Column-major R^T of row-major R (identity for NULL). */
 void gldraw_mat3_transpose_gl(const float R[9], float out[9]) {
     /* Row-major R read as column-major is R^T. */
     static const float I[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
     memcpy(out, R ? R : I, 9 * sizeof(float));
 }
 
+/* Full-screen probe pass (camera_ray per pixel), no depth writes. */
 void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]) {
     if (!d->has_probe) return;
     const gl_api *gl = d->gl;
@@ -220,6 +225,7 @@ void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const flo
     gl->BindTexture(GL_TEXTURE_2D, 0);
 }
 
+/* Near/far planes bracketing the mesh bounds along the view direction. */
 void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar) {
     float f[3], r[3], u[3];
     camera_basis(cam, f, r, u);
@@ -251,6 +257,7 @@ void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[
         }
 }
 
+/* Uploads sanitized colours and draws the mesh with the depth test; -1 with err. */
 int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
     const gl_api *gl = d->gl;
     if (d->ntris == 0) return 0;
@@ -271,6 +278,7 @@ int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const f
     return glctx_check(gl, "drawing the mesh", err);
 }
 
+/* Reads the FBO into a new top-first RGB image (caller frees); -1 with err. */
 int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
     const gl_api *gl = d->gl;
     int w = d->fbo_w, h = d->fbo_h;
@@ -296,6 +304,7 @@ int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
     return 0;
 }
 
+/* Tone-mapped blit of the FBO to the window framebuffer. */
 void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops) {
     const gl_api *gl = d->gl;
     gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -313,6 +322,7 @@ void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops) {
     gl->BindTexture(GL_TEXTURE_2D, 0);
 }
 
+/* Deletes every GL object (context current) and zeroes d. */
 void gldraw_free(gldraw *d) {
     const gl_api *gl = d->gl;
     if (!gl) return;
@@ -360,6 +370,7 @@ static const char *k_text_fs =
     "    o_color = u_color;\n"
     "}\n";
 
+/* Uploads the font atlas and compiles the text shader; -1 with err. */
 int gltext_init(gltext *t, const gl_api *gl, prt_error *err) {
     memset(t, 0, sizeof *t);
     t->gl = gl;
@@ -396,6 +407,7 @@ static float *quad(float *p, float x0, float y0, float x1, float y1, float u0, f
     return p + 24;
 }
 
+/* Draws text over the window framebuffer; returns the height used in pixels. */
 int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const char *text) {
     const gl_api *gl = t->gl;
     if (scale < 1) scale = 1;
@@ -463,6 +475,7 @@ int gltext_draw(gltext *t, int win_w, int win_h, int x, int y, int scale, const 
     return lines * lh + 2 * pad;
 }
 
+/* Deletes the text objects (context current) and zeroes t. */
 void gltext_free(gltext *t) {
     const gl_api *gl = t->gl;
     if (gl) {

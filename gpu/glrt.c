@@ -30,7 +30,8 @@ struct glrt {
     const prt_data *d;
     gldraw draw;
     int nverts, nvecs, kmax_all, nmat, qbits;
-    size_t ncoefs;
+    size_t ncoefs, transport_bytes, other_bytes;
+    bool direct;                /* the direct-only transport set is uploaded */
     GLuint buf_first, buf_words, buf_blocks, buf_scale, buf_L, buf_g, buf_view;
     GLuint tex_first, tex_words, tex_blocks, tex_scale, tex_L, tex_g, tex_view;
     GLuint prog_light[GLRT_LIGHT_COUNT];
@@ -47,6 +48,7 @@ struct glrt {
     glrt_timing timing;
 };
 
+/* Static name of a light kernel. */
 const char *glrt_light_method_name(glrt_light_method m) {
     switch (m) {
     case GLRT_LIGHT_FRAGMENT: return "fragment";
@@ -172,7 +174,11 @@ static const char *k_view_common =
     "vec3 shade(ivec4 mi, vec3 w, vec3 g[KMAX], int kuse) {\n"
     "    int res = mi.y, K = mi.z;\n"
     "    bool polar = (mi.w & 1) != 0, lambert = (mi.w & 2) != 0;\n"
-    "    if (!lambert && w.z <= 0.0) return vec3(0.0);\n"
+    /* As relight.c: a view below the horizon is shaded at a grazing view (z = 0.02, same azimuth). */
+    "    if (!lambert && w.z < 0.02) {\n"
+    "        float r = length(w.xy);\n"
+    "        w = vec3(r > 1e-12 ? w.xy * (0.99979998 / r) : vec2(0.99979998, 0.0), 0.02);\n"
+    "    }\n"
     "    float x, y;\n"
     "    if (lambert) { x = 0.5; y = 0.5; }\n"
     "    else if (polar) { x = atan(w.y, w.x) * 0.15915494309189535; if (x < 0.0) x += 1.0;\n"
@@ -289,6 +295,7 @@ static GLuint make_buffer(const gl_api *gl, const void *data, size_t bytes, GLen
     return b;
 }
 
+/* A buffer texture viewing buf with format fmt. */
 static GLuint make_texbuf(const gl_api *gl, GLuint buf, GLenum fmt) {
     GLuint t;
     gl->GenTextures(1, &t);
@@ -298,10 +305,22 @@ static GLuint make_texbuf(const gl_api *gl, GLuint buf, GLenum fmt) {
     return t;
 }
 
-/* Encodes the transport into the GPU layout (see the file comment). */
-static int upload_transport(glrt *rt, prt_error *err) {
+/* -1 with err when set t does not fit the GL buffer-texture limit (texels). */
+static int check_limits(glrt *rt, const prt_transport *t, prt_error *err) {
+    GLint maxtb = 0;
+    rt->gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
+    size_t words = (size_t)t->coef_first[t->nvecs] * (t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4);
+    if ((size_t)maxtb < words + 1 || (size_t)maxtb < (size_t)t->nvecs + 1)
+        return prt_fail(err, "GL runtime: %zu transport words exceed the GL buffer-texture limit (%d texels)", words, maxtb);
+    return 0;
+}
+
+/* Encodes transport set t into the GPU layout (see the file comment), replacing the coefficient
+ * buffers; -1 with err. */
+static int upload_transport(glrt *rt, const prt_transport *t, prt_error *err) {
     const gl_api *gl = rt->gl;
-    const prt_transport *t = &rt->d->transport;
+    rt->ncoefs = t->coef_first[t->nvecs];
+    rt->qbits = t->qbits;
     size_t nc = rt->ncoefs;
     int wpc = t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4;
     uint32_t *words = prt_calloc(nc * wpc + 1, sizeof(uint32_t), err);
@@ -331,12 +350,18 @@ static int upload_transport(glrt *rt, prt_error *err) {
             scale[3 * i + ch] = isfinite(s) ? s : 0.0f;
         }
     }
+    GLuint old[8] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale,
+                      rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale };
+    for (int i = 0; i < 4; i++)
+        if (old[i]) gl->DeleteBuffers(1, &old[i]);
+    for (int i = 4; i < 8; i++)
+        if (old[i]) gl->DeleteTextures(1, &old[i]);
     rt->buf_first = make_buffer(gl, t->coef_first, sizeof(uint32_t) * ((size_t)rt->nvecs + 1), GL_STATIC_DRAW);
     rt->buf_words = make_buffer(gl, words, sizeof(uint32_t) * (nc * wpc + 1), GL_STATIC_DRAW);
     rt->buf_blocks = make_buffer(gl, blocks, (nc + 4) & ~(size_t)3, GL_STATIC_DRAW);
     rt->buf_scale = make_buffer(gl, scale, sizeof(float) * ((size_t)3 * rt->nvecs + 1), GL_STATIC_DRAW);
-    rt->timing.gpu_bytes += sizeof(uint32_t) * ((size_t)rt->nvecs + 1 + nc * wpc) + ((nc + 4) & ~(size_t)3) +
-                            sizeof(float) * 3 * (size_t)rt->nvecs;
+    rt->transport_bytes = sizeof(uint32_t) * ((size_t)rt->nvecs + 1 + nc * wpc) + ((nc + 4) & ~(size_t)3) +
+                          sizeof(float) * 3 * (size_t)rt->nvecs;
     free(words);
     free(blocks);
     free(scale);
@@ -344,17 +369,29 @@ static int upload_transport(glrt *rt, prt_error *err) {
     rt->tex_words = make_texbuf(gl, rt->buf_words, GL_R32UI);
     rt->tex_blocks = make_texbuf(gl, rt->buf_blocks, GL_R8UI);
     rt->tex_scale = make_texbuf(gl, rt->buf_scale, GL_R32F);
-    rt->buf_L = make_buffer(gl, NULL, sizeof(float) * 4 * CUBE_TEXELS, GL_DYNAMIC_DRAW);
-    rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
-    /* g: padded to the fragment kernel's rectangle so a pixel-pack read fills it. */
-    rt->frag_w = rt->nvecs < 2048 ? (rt->nvecs > 0 ? rt->nvecs : 1) : 2048;
-    rt->frag_h = (rt->nvecs + rt->frag_w - 1) / rt->frag_w;
-    if (rt->frag_h < 1) rt->frag_h = 1;
-    rt->buf_g = make_buffer(gl, NULL, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, GL_DYNAMIC_COPY);
-    rt->tex_g = make_texbuf(gl, rt->buf_g, GL_RGBA32F);
     return glctx_check(gl, "uploading the transport", err);
 }
 
+/* The light vector and K-vector buffers (the same for every transport set); -1 with err. */
+static int make_light_buffers(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    /* g is padded to the fragment kernel's rectangle so that a pixel-pack read fills it. */
+    rt->frag_w = rt->nvecs < 2048 ? (rt->nvecs > 0 ? rt->nvecs : 1) : 2048;
+    rt->frag_h = (rt->nvecs + rt->frag_w - 1) / rt->frag_w;
+    if (rt->frag_h < 1) rt->frag_h = 1;
+    size_t lsize = sizeof(float) * 4 * CUBE_TEXELS, gsize = sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h;
+    /* Both start at zero (the light kernels are timed on this zero light at create). */
+    float *zero = prt_calloc(gsize > lsize ? gsize : lsize, 1, err);
+    if (!zero) return -1;
+    rt->buf_L = make_buffer(gl, zero, lsize, GL_DYNAMIC_DRAW);
+    rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
+    rt->buf_g = make_buffer(gl, zero, gsize, GL_DYNAMIC_COPY);
+    free(zero);
+    rt->tex_g = make_texbuf(gl, rt->buf_g, GL_RGBA32F);
+    return glctx_check(gl, "allocating the light buffers", err);
+}
+
+/* All materials' view maps into one RGBA32F buffer texture; -1 with err. */
 static int upload_view_maps(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     const prt_data *d = rt->d;
@@ -379,11 +416,12 @@ static int upload_view_maps(glrt *rt, prt_error *err) {
     }
     rt->buf_view = make_buffer(gl, v, sizeof(float) * 4 * (texels + 1), GL_STATIC_DRAW);
     rt->tex_view = make_texbuf(gl, rt->buf_view, GL_RGBA32F);
-    rt->timing.gpu_bytes += sizeof(float) * 4 * texels;
+    rt->other_bytes += sizeof(float) * 4 * texels;
     free(v);
     return glctx_check(gl, "uploading the view maps", err);
 }
 
+/* Vertex arrays of the view pass (position, normal, first vector + count, material); -1 with err. */
 static int upload_mesh(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     const prt_mesh *m = &rt->d->scene.mesh;
@@ -423,16 +461,20 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), m->tris, GL_STATIC_DRAW);
     gl->BindVertexArray(0);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-    rt->timing.gpu_bytes += sizeof(float) * 8 * (size_t)m->nverts + sizeof(uint32_t) * 3 * (size_t)m->ntris;
+    rt->other_bytes += sizeof(float) * 8 * (size_t)m->nverts + sizeof(uint32_t) * 3 * (size_t)m->ntris;
     return glctx_check(gl, "uploading the mesh", err);
 }
 
-static int build_programs(glrt *rt, prt_error *err) {
+/* Compiles the light kernels this context can run for the current qbits (replacing any); -1 with err. */
+static int build_light_programs(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
-    char head[512];
-    char decode[2048];
+    char head[64], decode[2048];
+    for (int i = 0; i < GLRT_LIGHT_COUNT; i++)
+        if (rt->prog_light[i]) {
+            gl->DeleteProgram(rt->prog_light[i]);
+            rt->prog_light[i] = 0;
+        }
     snprintf(decode, sizeof decode, "#define QBITS %d\n%s", rt->qbits, k_decode);
-    /* Light kernels. */
     snprintf(head, sizeof head, "#version 330 core\n");
     char *fs = build_src(head, k_light_frag, decode, "");
     if (!fs) return prt_fail(err, "out of memory");
@@ -451,6 +493,14 @@ static int build_programs(glrt *rt, prt_error *err) {
             rt->prog_light[b ? GLRT_LIGHT_WARP : GLRT_LIGHT_THREAD] = p;
         }
     }
+    return 0;
+}
+
+/* Compiles the light kernels (build_light_programs) and both view programs; -1 with err. */
+static int build_programs(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    char head[512];
+    if (build_light_programs(rt, err)) return -1;
     /* View programs. */
     for (int pv = 0; pv < 2; pv++) {
         snprintf(head, sizeof head, "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n",
@@ -552,10 +602,12 @@ static double time_method(glrt *rt, glrt_light_method m) {
     return 1e3 * (prt_now() - t0);
 }
 
+/* True when kernel m compiled on this context. */
 static bool method_available(const glrt *rt, glrt_light_method m) {
     return m > GLRT_LIGHT_AUTO && m < GLRT_LIGHT_COUNT && rt->prog_light[m] != 0;
 }
 
+/* Chooses (AUTO: times) the light kernel; -1 with err when unavailable. */
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
     if (current(rt, err)) return -1;
     if (m == GLRT_LIGHT_AUTO) {
@@ -580,6 +632,7 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
     return 0;
 }
 
+/* See glrt.h. The caller owns the runtime (glrt_destroy); d must outlive it. */
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
     const prt_transport *t = &d->transport;
@@ -620,40 +673,22 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->timing.context = glctx_kind_name(rt->ctx->kind);
     rt->timing.renderer = rt->ctx->renderer;
     rt->timing.version = rt->ctx->version;
-    GLint maxtb = 0;
-    gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
-    size_t words = rt->ncoefs * (t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4);
-    if ((size_t)maxtb < words + 1 || (size_t)maxtb < (size_t)rt->nvecs + 1) {
-        prt_fail(err, "GL runtime: %zu transport words exceed the GL buffer-texture limit (%d texels)", words, maxtb);
+    if (check_limits(rt, t, err)) {
         glrt_destroy(rt);
         return NULL;
     }
-    if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || upload_transport(rt, err) ||
-        upload_view_maps(rt, err) || upload_mesh(rt, err) || build_programs(rt, err)) {
+    if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || upload_transport(rt, t, err) ||
+        make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || build_programs(rt, err)) {
         glrt_destroy(rt);
         return NULL;
     }
     gl->GenQueries(1, &rt->query);
-    /* g starts at zero: a draw before any light change shows black, not garbage. */
-    float *zero = calloc((size_t)4 * rt->frag_w * rt->frag_h, sizeof(float));
-    if (zero) {
-        gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
-        gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, zero);
-        gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-        free(zero);
-    }
     if (glrt_set_light_method(rt, dd.light, err)) {
         glrt_destroy(rt);
         return NULL;
     }
-    /* Timing AUTO ran kernels on the zero light; g must be zero again. */
-    float *z2 = calloc((size_t)4 * rt->frag_w * rt->frag_h, sizeof(float));
-    if (z2) {
-        gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
-        gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * (size_t)rt->frag_w * rt->frag_h, z2);
-        gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-        free(z2);
-    }
+    /* Timing AUTO ran the kernels on the zero light, so g is zero (or untouched zeros): a draw before
+     * the first light change shows black, not garbage. */
     gl->Finish();
     if (glctx_check(gl, "creating the runtime", err)) {
         glrt_destroy(rt);
@@ -663,6 +698,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     return rt;
 }
 
+/* Frees every GL object and an owned context; NULL is fine. */
 void glrt_destroy(glrt *rt) {
     if (!rt) return;
     if (rt->gl && current(rt, NULL) == 0) {
@@ -688,6 +724,7 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
+/* Light change: uploads L and runs the kernel, finished and timed; -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
@@ -707,6 +744,7 @@ int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     return glctx_check(gl, "light change", err);
 }
 
+/* Uploads the probe shown behind the scene; -1 with err. */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err) {
     if (current(rt, err)) return -1;
     rt->bg_rotated = R != NULL;
@@ -714,11 +752,13 @@ int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_erro
     return gldraw_set_probe(&rt->draw, p, err);
 }
 
+/* Sets only the background rotation. */
 void glrt_set_background_rotation(glrt *rt, const float R[9]) {
     rt->bg_rotated = R != NULL;
     if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
 }
 
+/* View change into the float target, finished and timed; -1 with err. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
@@ -756,29 +796,39 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     return glctx_check(gl, "view change", err);
 }
 
+/* CPU-computed colours drawn into the float target, finished and timed; -1 with err. */
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err) {
     if (current(rt, err)) return -1;
+    double t0 = prt_now();
     if (gldraw_target(&rt->draw, w, h, err)) return -1;
     gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
-    return gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
+    int rc = gldraw_vertex_colors(&rt->draw, cam, w, h, rgb, err);
+    rt->gl->Finish();
+    rt->timing.view_ms = 1e3 * (prt_now() - t0);
+    rt->timing.view_gpu_ms = 0;
+    return rc;
 }
 
+/* The float target as a new image (caller frees); -1 with err. */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err) {
     if (current(rt, err)) return -1;
     return gldraw_read(&rt->draw, out, err);
 }
 
+/* glrt_draw then glrt_read; -1 with err. */
 int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_image *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     if (glrt_draw(rt, cam, w, h, kmax, err)) return -1;
     return glrt_read(rt, out, err);
 }
 
+/* Tone-mapped blit of the target to the current window. */
 void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops) {
     if (current(rt, NULL)) return;
     gldraw_present(&rt->draw, win_w, win_h, exposure_stops);
 }
 
+/* Copies the K-vectors into g[3*nvecs]; -1 with err. */
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
@@ -795,7 +845,27 @@ int glrt_read_gvec(glrt *rt, float *g, prt_error *err) {
 
 void glrt_set_view_mode(glrt *rt, glrt_view_mode mode) { rt->view_mode = mode; }
 
-void glrt_get_timing(const glrt *rt, glrt_timing *out) { *out = rt->timing; }
+/* Uploads the direct-only set (or direct + bounces) in place of the current one; see glrt.h. */
+int glrt_use_direct(glrt *rt, bool direct, prt_error *err) {
+    const prt_data *d = rt->d;
+    if (direct == rt->direct) return 0;
+    if (direct && d->direct.nvecs == 0) return prt_fail(err, "the file keeps no separate direct transport");
+    const prt_transport *t = direct ? &d->direct : &d->transport;
+    if (t->nvecs != rt->nvecs || t->nverts != rt->nverts)
+        return prt_fail(err, "direct transport (%d vectors) does not match the full one (%d)", t->nvecs, rt->nvecs);
+    if (current(rt, err) || check_limits(rt, t, err)) return -1;
+    int old_qbits = rt->qbits;
+    if (upload_transport(rt, t, err)) return -1;
+    if (rt->qbits != old_qbits && build_light_programs(rt, err)) return -1;
+    rt->direct = direct;
+    rt->light_set = false;
+    return 0;
+}
+
+void glrt_get_timing(const glrt *rt, glrt_timing *out) {
+    *out = rt->timing;
+    out->gpu_bytes = rt->transport_bytes + rt->other_bytes + sizeof(float) * 4 * (CUBE_TEXELS + (size_t)rt->frag_w * rt->frag_h);
+}
 
 int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc *rd, int kmax, prt_image *out,
                       prt_error *err) {

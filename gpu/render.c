@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* Orthonormal forward/right/up of cam (see render.h). */
 void camera_basis(const prt_camera *cam, float fwd[3], float right[3], float up[3]) {
     v3_sub(fwd, cam->target, cam->eye);
     if (v3_normalize(fwd) == 0.0f) v3_set(fwd, 0, 0, -1);
@@ -32,6 +33,7 @@ void camera_basis(const prt_camera *cam, float fwd[3], float right[3], float up[
     v3_normalize(up);
 }
 
+/* Frames the box: its bounding sphere fits the narrower half field of view. */
 void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_camera *out) {
     float c[3], r = 0;
     for (int i = 0; i < 3; i++) {
@@ -56,6 +58,7 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
     v3_set(out->up, 0, 1, 0);
 }
 
+/* Parses 3, 6 or 7 comma-separated finite numbers into cam; -1 leaves cam unchanged. */
 int camera_parse(const char *s, prt_camera *cam) {
     if (!s) return -1;
     float v[7];
@@ -89,6 +92,7 @@ int camera_parse(const char *s, prt_camera *cam) {
     return 0;
 }
 
+/* gluLookAt / gluPerspective equivalents, column-major. */
 void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfar, float view[16], float proj[16]) {
     float f[3], r[3], u[3];
     camera_basis(cam, f, r, u);
@@ -112,6 +116,7 @@ void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfa
     proj[14] = 2 * zfar * znear / (znear - zfar);
 }
 
+/* Unit ray through continuous image point (px, py), top-left origin. */
 void camera_ray(const prt_camera *cam, int w, int h, float px, float py, float dir[3]) {
     float f[3], r[3], u[3];
     camera_basis(cam, f, r, u);
@@ -122,6 +127,7 @@ void camera_ray(const prt_camera *cam, int w, int h, float px, float py, float d
     v3_normalize(dir);
 }
 
+/* See render.h; out is the caller's (image_free); -1 with err. */
 int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc *d, prt_image *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     int w = d->width, h = d->height;

@@ -22,6 +22,8 @@ static void help(void) {
          "\n"
          "  --error-image OUT.png   false-colour map of per-pixel relative error (turbo, log scale:\n"
          "                          black <= 0.1%, blue 0.2%, green 3%, orange 10%, dark red >= 100%)\n"
+         "  --all-vertices          CSV: also compare vertices the reference marks as facing away\n"
+         "                          from the eye (by default only facing = 1 rows are compared)\n"
          "  -v, --verbose           also print item counts and the worst item\n");
 }
 
@@ -30,11 +32,13 @@ int cli_compare(int argc, char **argv) {
     const char *files[2] = { NULL, NULL }, *errimg = NULL;
     int nfiles = 0;
     bool verbose = false;
+    cmp_desc desc = { 0 };
     for (int i = 1; i < argc; i++) {
         int r;
         if (cli_is_help(argv[i])) { help(); return 0; }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--error-image", &errimg))) { if (r < 0) return 2; continue; }
         if (!strcmp(argv[i], "-v") || !strcmp(argv[i], "--verbose")) { verbose = true; continue; }
+        if (!strcmp(argv[i], "--all-vertices")) { desc.all_vertices = true; continue; }
         if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
         if (nfiles == 2) { cli_error(k_cmd, "more than two files ('%s')", argv[i]); return 2; }
         files[nfiles++] = argv[i];
@@ -42,13 +46,14 @@ int cli_compare(int argc, char **argv) {
     if (nfiles < 2) { cli_error(k_cmd, "needs two files: A (result) and B (reference) (see --help)"); return 2; }
     cmp_result r;
     prt_error err = { { 0 } };
-    if (cmp_files(files[0], files[1], errimg, &r, &err)) return cli_error(k_cmd, "%s", err.msg);
+    desc.error_image = errimg;
+    if (cmp_files(files[0], files[1], &desc, &r, &err)) return cli_error(k_cmd, "%s", err.msg);
     printf("rel_rmse=%.6g max_rel_err=%.6g", r.rel_rmse, r.max_rel_err);
     if (r.ref_noise >= 0) printf(" ref_noise=%.6g", r.ref_noise);
     printf("\n");
     if (verbose)
-        fprintf(stderr, "%ld items compared, %ld above the 1%% floor, worst item %d\n", r.items, r.items_in_max,
-                r.worst_item);
+        fprintf(stderr, "%ld items compared (%ld vertices facing away left out), %ld above the 1%% floor, worst item %d\n",
+                r.items, r.skipped, r.items_in_max, r.worst_item);
     if (errimg) fprintf(stderr, "wrote %s\n", errimg);
     return 0;
 }

@@ -19,12 +19,12 @@ static const char *k_cmd = "demo";
 int cli_demo(int argc, char **argv) {
     const char *out = "demo.png", *prt_out = NULL, *v;
     int w = 960, h = 600, floor_verts = 12000, bounces = 1;
-    float exposure = 0;
+    float exposure = -1;
     bool quiet = false;
     for (int i = 1; i < argc; i++) {
         int r;
         if (cli_is_help(argv[i])) {
-            puts("usage: prt demo [-o OUT.png] [--size WxH] [--floor VERTS] [--bounces B] [--exposure E] [--prt OUT.prt] [--quiet]\n"
+            puts("usage: prt demo [-o OUT.png] [--size WxH] [--floor VERTS] [--bounces B] [--exposure E (default -1)] [--prt OUT.prt] [--quiet]\n"
                  "\nPrecomputes a built-in scene (glossy sphere, diffuse torus, glossy box over a floor) and\n"
                  "renders it under a built-in HDR sky with a small sun (sharp and soft shadows). Default demo.png.");
             return 0;
@@ -69,8 +69,9 @@ int cli_demo(int argc, char **argv) {
     int rc = 1;
     prt_probe sky;
     memset(&sky, 0, sizeof sky);
-    /* Sun low enough (35 deg) for long sharp shadows; the sky adds soft ones. */
-    sky_desc sd = { .width = 1024, .sun_dir = { 0.55f, 0.57f, 0.61f }, .sun_radius_deg = 1.0f, .sun_radiance = 4000.f };
+    /* Sun behind the objects and low (about 35 deg) so their long sharp shadows fall toward
+     * the default camera; the sky adds the soft ones. */
+    sky_desc sd = { .width = 1024, .sun_dir = { -0.45f, 0.57f, -0.69f }, .sun_radius_deg = 1.0f, .sun_radiance = 4000.f };
     float (*L)[4] = NULL;
     float *rgb = NULL;
     relight_ctx *rc_ctx = NULL;
@@ -81,7 +82,9 @@ int cli_demo(int argc, char **argv) {
     rc_ctx = relight_create(&d, 0, &err);
     if (!L || !rgb || !rc_ctx) { cli_error(k_cmd, "%s", rc_ctx ? "out of memory" : err.msg); goto done; }
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     relight_set_light(rc_ctx, L);
     relight_view(rc_ctx, cam.eye, 0, rgb);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };

@@ -60,7 +60,8 @@ int cli_info(int argc, char **argv) {
         for (int k = 0; k < f->nsigma && k < 8; k++) printf(" %.4g", f->sigma[0][k]);
         printf("\n");
     }
-    printf("interreflect  %d pass(es), gather cube %dx%dx6\n", ps->bounces, d.gather_res, d.gather_res);
+    printf("interreflect  %d pass(es), gather cube %dx%dx6%s\n", ps->bounces, d.gather_res, d.gather_res,
+           d.direct.nvecs ? "; direct-only transport kept too" : "");
     for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++)
         printf("              pass %d: %.3f%% of the direct energy, %.1fs\n", b + 1, 100 * ps->bounce_energy[b],
                ps->t_bounce[b]);

@@ -34,6 +34,8 @@ static void help(void) {
          "  --bounce-threshold T   stop when a pass carries < T of the direct energy (default 0.01)\n"
          "  --force-bounces        do all B passes even if the plan would skip them\n"
          "  --no-bounces           never do interreflection passes\n"
+         "  --keep-direct          also store the direct-only transport (for render --direct-only and\n"
+         "                         the viewer's direct/bounces toggle; about doubles the file)\n"
          "other:\n"
          "  --threads T            worker threads (default: all cores)\n"
          "  --quiet                no progress output\n");
@@ -61,6 +63,7 @@ int cli_precompute(int argc, char **argv) {
         if (!strcmp(argv[i], "--polar")) { pd.param = BRDF_PARAM_POLAR; continue; }
         if (!strcmp(argv[i], "--force-bounces")) { pd.force_bounces = 1; continue; }
         if (!strcmp(argv[i], "--no-bounces")) { pd.force_bounces = -1; continue; }
+        if (!strcmp(argv[i], "--keep-direct")) { pd.keep_direct = true; continue; }
         if (!strcmp(argv[i], "--quiet")) { quiet = true; continue; }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
             if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &pd.max_terms)) return 2;
@@ -85,7 +88,7 @@ int cli_precompute(int argc, char **argv) {
             continue;
         }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--sh", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--sh", v, 1, 16, &pd.sh_order)) return 2;
+            if (r < 0 || !cli_int(k_cmd, "--sh", v, 3, 10, &pd.sh_order)) return 2;
             continue;
         }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {

@@ -32,7 +32,8 @@ static void help(void) {
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera (default: framed as by prt render)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera with standard\n"
-         "                          errors: vertex,r,g,b,stderr_r,stderr_g,stderr_b\n"
+         "                          errors: vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing (facing 0:\n"
+         "                          the normal faces away from the eye, radiance 0, left out by compare)\n"
          "  --vertex-spp N          samples per vertex (default: --spp)\n"
          "  --no-image              only the per-vertex CSV (needs --vertices; -o not needed)\n"
          "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
@@ -111,7 +112,9 @@ int cli_reference(int argc, char **argv) {
     memset(&d, 0, sizeof d);
     if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     if (cam_s && camera_parse(cam_s, &cam) != 0) {
         prt_data_free(&d);
         return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
@@ -123,6 +126,7 @@ int cli_reference(int argc, char **argv) {
     int rc = 1;
     ref_ctx *ref = NULL;
     float *rgb = NULL, *se = NULL, *ise = NULL;
+    uint8_t *facing = NULL;
     prt_image img = { 0 };
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
@@ -144,7 +148,10 @@ int cli_reference(int argc, char **argv) {
         ref_stats st;
         if (ref_render_vertices(ref, cam.eye, NULL, n, &vd, rgb, se, &st, &err)) { prt_bar_done(&bar); cli_error(k_cmd, "%s", err.msg); goto done; }
         prt_bar_done(&bar);
-        if (ref_write_vertex_csv(vert_out, rgb, se, n, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+        facing = malloc((size_t)n);
+        if (!facing) { cli_error(k_cmd, "out of memory"); goto done; }
+        for (int v = 0; v < n; v++) facing[v] = ref_vertex_faces(&d.scene.mesh, v, cam.eye);
+        if (ref_write_vertex_csv(vert_out, rgb, se, facing, n, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
         fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", vert_out,
                 n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
                 st.dropped ? " (non-finite samples dropped)" : "");
@@ -168,6 +175,7 @@ done:
     free(rgb);
     free(se);
     free(ise);
+    free(facing);
     image_free(&img);
     probe_free(&probe);
     prt_data_free(&d);

@@ -31,6 +31,7 @@ static void help(void) {
          "  --terms K               use only the first K BRDF terms (default: all)\n"
          "  --backend cpu|gl        CPU relighting + OSMesa raster (default) or the GLSL runtime\n"
          "  --no-background         black background instead of the probe\n"
+         "  --direct-only           direct lighting only (files with bounces need precompute --keep-direct)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
          "  --threads T             worker threads (default: all cores)\n");
 }
@@ -50,7 +51,7 @@ int cli_render(int argc, char **argv) {
     const char *vert_out = NULL, *v;
     int w = 800, h = 600, kmax = 0, nthreads = 0, tonemap = 0;
     float exposure = 0;
-    bool gl = false, background = true;
+    bool gl = false, background = true, direct_only = false;
     for (int i = 1; i < argc; i++) {
         int r;
         if (cli_is_help(argv[i])) { help(); return 0; }
@@ -61,6 +62,7 @@ int cli_render(int argc, char **argv) {
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--light-rotation", &rot_s))) { if (r < 0) return 2; continue; }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertices", &vert_out))) { if (r < 0) return 2; continue; }
         if (!strcmp(argv[i], "--no-background")) { background = false; continue; }
+        if (!strcmp(argv[i], "--direct-only")) { direct_only = true; continue; }
         if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
             if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
             continue;
@@ -113,8 +115,18 @@ int cli_render(int argc, char **argv) {
     double t0 = prt_now();
     if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_read = prt_now() - t0;
+    if (direct_only && d.stats.bounces > 0 && d.direct.nvecs == 0) {
+        prt_data_free(&d);
+        return cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", in);
+    }
+    if (direct_only && gl) {
+        prt_data_free(&d);
+        return cli_error(k_cmd, "--direct-only needs the CPU backend");
+    }
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     if (cam_s && camera_parse(cam_s, &cam) != 0) {
         prt_data_free(&d);
         return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
@@ -142,6 +154,7 @@ int cli_render(int argc, char **argv) {
         rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
         rcx = relight_create(&d, nthreads, &err);
         if (!rgb || !rcx) { cli_error(k_cmd, "%s", rcx ? "out of memory" : err.msg); goto done; }
+        if (direct_only) relight_use_direct(rcx, d.direct.nvecs > 0);
         double t2 = prt_now();
         relight_set_light(rcx, L);
         double t3 = prt_now();

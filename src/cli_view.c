@@ -48,12 +48,13 @@ static const char *k_keys =
     "  K / k                    use more / fewer BRDF terms\n"
     "  b                        toggle the GL runtime / the CPU runtime\n"
     "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
-    "  d                        direct only vs with bounces (when the file keeps both)\n"
+    "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
     "  r                        reset camera and light rotation\n"
     "  h or ?                   show / hide this help on screen\n"
     "  q or Esc                 quit\n";
 
+/* Prints the usage, options and keys. */
 static void view_help(void) {
     printf("usage: prt view FILE.prt --probe PROBE [--probe P2 ...] [--probes DIR] [options]\n"
            "\n"
@@ -93,7 +94,7 @@ typedef struct viewer {
     float (*L)[4];
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
-    bool gl, vertex_model, help, quit;
+    bool gl, vertex_model, help, quit, direct;
     int kmax, kfile, nthreads;
     float exposure;
     bool light_dirty, g_dirty_gl, g_dirty_cpu, probe_dirty, view_dirty, present_dirty;
@@ -109,6 +110,7 @@ typedef struct viewer {
     int shots;
 } viewer;
 
+/* Shows msg on screen for a few seconds and on stderr. */
 static void set_status(viewer *v, const char *msg) {
     snprintf(v->status, sizeof v->status, "%s", msg);
     v->status_until = prt_now() + 4.0;
@@ -176,6 +178,7 @@ static int view_change(viewer *v, prt_error *err) {
     return 0;
 }
 
+/* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
     char buf[2048];
     glrt_timing t;
@@ -183,13 +186,14 @@ static void overlay(viewer *v) {
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
-                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f\n"
+                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
                      v->gl ? t.light_method_name : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      t.renderer, t.context,
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
-                     v->kfile, v->exposure, v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
+                     v->kfile, v->exposure,
+                     v->d.direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
@@ -281,6 +285,7 @@ static void orbit(viewer *v, float dyaw, float dpitch) {
     v->view_dirty = true;
 }
 
+/* Moves eye and target in the view plane by a pixel offset. */
 static void pan(viewer *v, float dx, float dy) {
     float f[3], r[3], u[3], off[3];
     camera_basis(&v->cam, f, r, u);
@@ -295,6 +300,7 @@ static void pan(viewer *v, float dx, float dy) {
     v->view_dirty = true;
 }
 
+/* Dollies the eye toward the target by 10% per wheel step, within sane limits. */
 static void zoom(viewer *v, float steps) {
     float off[3];
     v3_sub(off, v->cam.eye, v->cam.target);
@@ -307,6 +313,7 @@ static void zoom(viewer *v, float steps) {
     v->view_dirty = true;
 }
 
+/* Starts a drag: left orbit, shift/ctrl-left light rotation, right/middle pan. */
 static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (action == GLFW_RELEASE) { v->drag = 0; return; }
@@ -315,6 +322,7 @@ static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     else if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) v->drag = 2;
 }
 
+/* Applies the current drag. */
 static void on_cursor(GLFWwindow *w, double x, double y) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (!v->drag) return;
@@ -338,11 +346,13 @@ static void on_cursor(GLFWwindow *w, double x, double y) {
     }
 }
 
+/* Wheel: zoom. */
 static void on_scroll(GLFWwindow *w, double dx, double dy) {
     viewer *v = glfwGetWindowUserPointer(w);
     zoom(v, (float)dy);
 }
 
+/* Switches to probe i (a light change) or says there is no such probe. */
 static void select_probe(viewer *v, int i) {
     char msg[160];
     if (i < 0 || i >= v->nprobes) {
@@ -356,6 +366,7 @@ static void select_probe(viewer *v, int i) {
     v->light_dirty = v->probe_dirty = true;
 }
 
+/* S key: saves the float target as PNG (next free prt-view-NNN.png or --screenshot). */
 static void take_screenshot(viewer *v) {
     char path[4096], msg[4200];
     if (v->shot_path) snprintf(path, sizeof path, "%s", v->shot_path);
@@ -369,6 +380,33 @@ static void take_screenshot(viewer *v) {
     set_status(v, msg);
 }
 
+/* D key: direct-only lighting vs direct + bounces, when the file keeps both (precompute --keep-direct). */
+static void toggle_direct(viewer *v) {
+    if (v->d.stats.bounces == 0) {
+        set_status(v, "the file has no interreflection passes: it is direct lighting only");
+        return;
+    }
+    if (v->d.direct.nvecs == 0) {
+        set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
+        return;
+    }
+    prt_error err = { { 0 } };
+    bool want = !v->direct;
+    if (!relight_use_direct(v->rc, want) || glrt_use_direct(v->rt, want, &err)) {
+        relight_use_direct(v->rc, v->direct);
+        char msg[1100];
+        snprintf(msg, sizeof msg, "cannot switch the transport: %s", err.msg[0] ? err.msg : "no direct set");
+        set_status(v, msg);
+        return;
+    }
+    v->direct = want;
+    v->g_dirty_gl = v->g_dirty_cpu = true;
+    char msg[128];
+    snprintf(msg, sizeof msg, "%s", want ? "direct lighting only" : "direct lighting + interreflections");
+    set_status(v, msg);
+}
+
+/* Character keys (see k_keys). */
 static void on_char(GLFWwindow *w, unsigned int c) {
     viewer *v = glfwGetWindowUserPointer(w);
     switch (c) {
@@ -397,7 +435,7 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         v->view_dirty = true;
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
-    case 'd': case 'D': set_status(v, "file has no separate direct transport (it keeps one transport set)"); break;
+    case 'd': case 'D': toggle_direct(v); break;
     case 's': case 'S': take_screenshot(v); break;
     case 'r': case 'R':
         v->cam = v->cam0;
@@ -413,12 +451,14 @@ static void on_char(GLFWwindow *w, unsigned int c) {
     }
 }
 
+/* Esc quits, F1 toggles help. */
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (action == GLFW_PRESS && key == GLFW_KEY_ESCAPE) v->quit = true;
     if (action == GLFW_PRESS && key == GLFW_KEY_F1) { v->help = !v->help; v->present_dirty = true; }
 }
 
+/* A resized framebuffer needs a new view change. */
 static void on_resize(GLFWwindow *w, int width, int height) {
     viewer *v = glfwGetWindowUserPointer(w);
     v->view_dirty = true;
@@ -437,6 +477,7 @@ static int add_probe(viewer *v, const char *path, const char *layout) {
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
 
+/* Adds every .exr/.hdr/.pfm in dir, sorted by name; 1 after printing an error. */
 static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
     DIR *dp = opendir(dir);
     if (!dp) return cli_error(k_view, "%s: cannot open directory", dir);
@@ -462,6 +503,7 @@ static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
     return rc;
 }
 
+/* Releases everything the viewer holds (not v itself). */
 static void viewer_free(viewer *v) {
     if (v->ctx) glctx_make_current(v->ctx, NULL);
     gltext_free(&v->text);
@@ -474,6 +516,7 @@ static void viewer_free(viewer *v) {
     prt_data_free(&v->d);
 }
 
+/* `prt view` (see view_help): 0, 1 on errors, 2 on usage errors. */
 int cli_view(int argc, char **argv) {
     viewer *v = calloc(1, sizeof *v);
     if (!v) return cli_error(k_view, "out of memory");
@@ -564,7 +607,9 @@ int cli_view(int argc, char **argv) {
     prt_error err = { { 0 } };
     int rc = 1;
     if (prtfile_read(v->file, &v->d, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-    camera_default(v->d.scene.bmin, v->d.scene.bmax, (float)w / h, &v->cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&v->d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &v->cam);
     if (cam_s && camera_parse(cam_s, &v->cam) != 0) {
         cli_error(k_view, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
         rc = 2;
@@ -666,16 +711,19 @@ static void glbench_help(void) {
          "  --kernel K       GL light kernel: auto (default), fragment, thread, warp");
 }
 
+/* qsort order for doubles. */
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return x < y ? -1 : x > y;
 }
 
+/* Median of x[0..n) (sorts x). */
 static double median(double *x, int n) {
     qsort(x, n, sizeof *x, cmp_double);
     return n % 2 ? x[n / 2] : 0.5 * (x[n / 2 - 1] + x[n / 2]);
 }
 
+/* `prt glbench` (see glbench_help): 0, 1 on errors, 2 on usage errors. */
 int cli_glbench(int argc, char **argv) {
     const char *k_cmd = "glbench", *in = NULL, *probe_path = NULL, *val, *kernel = "auto";
     int w = 800, h = 600, runs = 5, kmax = 0, nthreads = 0;
@@ -729,7 +777,9 @@ int cli_glbench(int argc, char **argv) {
     rgb = malloc(sizeof(float) * 3 * (size_t)(d.scene.mesh.nverts > 0 ? d.scene.mesh.nverts : 1));
     if (!L || !rgb || !t) { cli_error(k_cmd, "out of memory"); goto done; }
     prt_camera cam;
-    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    float fb0[3], fb1[3];
+    scene_focus_bounds(&d.scene, fb0, fb1);
+    camera_default(fb0, fb1, (float)w / h, &cam);
     int kfile = 0;
     for (int m = 0; m < d.scene.nmaterials; m++)
         if (d.factors[m].K > kfile) kfile = d.factors[m].K;
@@ -788,27 +838,29 @@ int cli_glbench(int argc, char **argv) {
         t[r] = 1e3 * (prt_now() - t0);
     }
     res[1][0] = median(t, runs);
-    /* CPU view change: per-vertex view maps, then drawing the colours (same GL raster, finished). */
+    /* CPU view change: per-vertex view maps (relight_view), then drawing the colours with the same GL
+     * raster (finished). */
+    double *t2 = calloc((size_t)runs, sizeof(double));
+    if (!t2) { cli_error(k_cmd, "out of memory"); goto done; }
     for (int r = 0; r < runs; r++) {
         cam.eye[0] += 1e-4f;
         double t0 = prt_now();
         relight_view(rcx, cam.eye, kuse, rgb);
-        if (glrt_draw_vertex_colors(rt, &cam, w, h, rgb, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        prt_image img;
-        if (glrt_read(rt, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; } /* finishes the frame */
-        image_free(&img);
+        t2[r] = 1e3 * (prt_now() - t0);
+        if (glrt_draw_vertex_colors(rt, &cam, w, h, rgb, &err)) { free(t2); cli_error(k_cmd, "%s", err.msg); goto done; }
         t[r] = 1e3 * (prt_now() - t0);
     }
     res[1][1] = median(t, runs);
+    double t_maps = median(t2, runs);
+    free(t2);
 
-    printf("%-26s %22s %22s\n", "", "light change", "view change");
-    printf("%-26s %13.2f fps (%6.1f ms) %13.2f fps (%6.1f ms)\n", "GL runtime", 1e3 / res[0][0], res[0][0],
-           1e3 / res[0][1], res[0][1]);
-    printf("%-26s %22s %22s\n", "  GPU time (timer query)", "", "");
-    printf("%-26s %13.2f fps (%6.1f ms) %13.2f fps (%6.1f ms)\n", "", gpu[0] > 0 ? 1e3 / gpu[0] : 0, gpu[0],
-           gpu[1] > 0 ? 1e3 / gpu[1] : 0, gpu[1]);
-    printf("%-26s %13.2f fps (%6.1f ms) %13.2f fps (%6.1f ms)\n", "CPU runtime", 1e3 / res[1][0], res[1][0],
-           1e3 / res[1][1], res[1][1]);
+    printf("%-30s %24s %24s\n", "", "light change", "view change");
+    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms)\n", "GL runtime (wall, finished)", 1e3 / res[0][0],
+           res[0][0], 1e3 / res[0][1], res[0][1]);
+    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms)\n", "GL runtime (GPU timer query)",
+           gpu[0] > 0 ? 1e3 / gpu[0] : 0, gpu[0], gpu[1] > 0 ? 1e3 / gpu[1] : 0, gpu[1]);
+    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms) = view maps %.1f ms + raster %.1f ms\n",
+           "CPU runtime", 1e3 / res[1][0], res[1][0], 1e3 / res[1][1], res[1][1], t_maps, res[1][1] - t_maps);
     printf("glbench: K=%d gl_light_ms=%.3f gl_view_ms=%.3f cpu_light_ms=%.3f cpu_view_ms=%.3f kernel=%s\n", kuse,
            res[0][0], res[0][1], res[1][0], res[1][1], tm.light_method_name);
     printf("\npaper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"

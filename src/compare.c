@@ -78,7 +78,7 @@ void cmp_colormap(float t, float rgb[3]) {
 /* sRGB display value -> linear (image_write encodes linear back to sRGB for PNG). */
 static float srgb_to_linear(float v) { return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f); }
 
-typedef struct vrow { int id; float v[6]; } vrow;
+typedef struct vrow { int id; float v[7]; } vrow;   /* r, g, b, stderr r, g, b, facing */
 static int vrow_cmp(const void *x, const void *y) {
     int a = ((const vrow *)x)->id, b = ((const vrow *)y)->id;
     return (a > b) - (a < b);
@@ -123,18 +123,25 @@ static int split_csv(char *line, char **fields, int max) {
     return n;
 }
 
+/* Frees a vertex table (a zeroed one is fine). */
+void cmp_vertices_free(cmp_vertices *v) {
+    free(v->ids);
+    free(v->rgb);
+    free(v->se);
+    free(v->facing);
+    memset(v, 0, sizeof *v);
+}
+
 /* Per-vertex CSV reader (see header). */
-int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float **se_out, int *n_out, prt_error *err) {
-    *ids_out = NULL;
-    *rgb_out = NULL;
-    if (se_out) *se_out = NULL;
-    *n_out = 0;
+int cmp_read_vertex_csv(const char *path, cmp_vertices *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
     size_t len;
     char *text = slurp(path, &len, err);
     if (!text) return -1;
-    /* Column roles: vertex, r, g, b, stderr_r, stderr_g, stderr_b (-1 absent). */
-    int col[7] = { 0, 1, 2, 3, -1, -1, -1 };
-    static const char *names[7] = { "vertex", "r", "g", "b", "stderr_r", "stderr_g", "stderr_b" };
+    /* Column roles: vertex, r, g, b, stderr_r, stderr_g, stderr_b, facing (-1 absent). */
+    enum { NCOL = 8 };
+    int col[NCOL] = { 0, 1, 2, 3, -1, -1, -1, -1 };
+    static const char *names[NCOL] = { "vertex", "r", "g", "b", "stderr_r", "stderr_g", "stderr_b", "facing" };
     vrow *rows = NULL;
     size_t nrows = 0, cap = 0;
     int lineno = 0, header_seen = 0, rc = -1;
@@ -152,9 +159,9 @@ int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float 
         if (nf > 32) nf = 32;
         if (!header_seen && (isalpha((unsigned char)f[0][0]) || f[0][0] == '_')) {
             /* Header: map the named columns; unknown columns are ignored. */
-            for (int k = 0; k < 7; k++) col[k] = -1;
+            for (int k = 0; k < NCOL; k++) col[k] = -1;
             for (int i = 0; i < nf; i++)
-                for (int k = 0; k < 7; k++)
+                for (int k = 0; k < NCOL; k++)
                     if (!strcmp(f[i], names[k])) col[k] = i;
             if (col[1] < 0 || col[2] < 0 || col[3] < 0) {
                 prt_fail(err, "%s:%d: header has no r, g, b columns", path, lineno);
@@ -173,7 +180,8 @@ int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float 
         }
         vrow *r = &rows[nrows];
         r->id = (int)nrows;
-        for (int k = 0; k < 7; k++) {
+        r->v[6] = 1.f;
+        for (int k = 0; k < NCOL; k++) {
             if (col[k] < 0) continue;
             if (col[k] >= nf) { prt_fail(err, "%s:%d: missing column '%s'", path, lineno, names[k]); goto done; }
             char *end;
@@ -187,8 +195,9 @@ int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float 
                 r->id = (int)id;
             } else {
                 double v = strtod(f[col[k]], &end);
-                if (end == f[col[k]] || *end || !isfinite(v)) {
-                    prt_fail(err, "%s:%d: bad number '%s' in column '%s'", path, lineno, f[col[k]], names[k]);
+                if (end == f[col[k]] || *end || !isfinite(v) || (k == 7 && v != 0 && v != 1)) {
+                    prt_fail(err, "%s:%d: bad %s '%s' in column '%s'", path, lineno, k == 7 ? "flag (0 or 1)" : "number",
+                             f[col[k]], names[k]);
                     goto done;
                 }
                 r->v[k - 1] = (float)v;
@@ -200,25 +209,24 @@ int cmp_read_vertex_csv(const char *path, int **ids_out, float **rgb_out, float 
     qsort(rows, nrows, sizeof *rows, vrow_cmp);
     for (size_t i = 1; i < nrows; i++)
         if (rows[i].id == rows[i - 1].id) { prt_fail(err, "%s: vertex %d listed twice", path, rows[i].id); goto done; }
-    int *ids = malloc(sizeof(int) * nrows);
-    float *rgb = malloc(sizeof(float) * 3 * nrows);
-    float *se = (se_out && col[4] >= 0) ? malloc(sizeof(float) * 3 * nrows) : NULL;
-    if (!ids || !rgb || (se_out && col[4] >= 0 && !se)) {
-        free(ids); free(rgb); free(se);
+    out->ids = malloc(sizeof(int) * nrows);
+    out->rgb = malloc(sizeof(float) * 3 * nrows);
+    if (col[4] >= 0) out->se = malloc(sizeof(float) * 3 * nrows);
+    if (col[7] >= 0) out->facing = malloc(nrows);
+    if (!out->ids || !out->rgb || (col[4] >= 0 && !out->se) || (col[7] >= 0 && !out->facing)) {
+        cmp_vertices_free(out);
         prt_fail(err, "%s: out of memory", path);
         goto done;
     }
     for (size_t i = 0; i < nrows; i++) {
-        ids[i] = rows[i].id;
+        out->ids[i] = rows[i].id;
         for (int c = 0; c < 3; c++) {
-            rgb[3 * i + c] = rows[i].v[c];
-            if (se) se[3 * i + c] = rows[i].v[3 + c];
+            out->rgb[3 * i + c] = rows[i].v[c];
+            if (out->se) out->se[3 * i + c] = rows[i].v[3 + c];
         }
+        if (out->facing) out->facing[i] = rows[i].v[6] != 0;
     }
-    *ids_out = ids;
-    *rgb_out = rgb;
-    if (se_out) *se_out = se;
-    *n_out = (int)nrows;
+    out->n = (int)nrows;
     rc = 0;
 done:
     free(rows);
@@ -248,7 +256,10 @@ static bool is_csv(const char *path) {
 }
 
 /* Compares two files (see header). */
-int cmp_files(const char *a, const char *b, const char *error_image, cmp_result *out, prt_error *err) {
+int cmp_files(const char *a, const char *b, const cmp_desc *desc, cmp_result *out, prt_error *err) {
+    static const cmp_desc k_default = { 0 };
+    if (!desc) desc = &k_default;
+    const char *error_image = desc->error_image;
     memset(out, 0, sizeof *out);
     bool ca = is_csv(a), cb = is_csv(b);
     if (ca != cb)
@@ -256,28 +267,48 @@ int cmp_files(const char *a, const char *b, const char *error_image, cmp_result 
                         ca ? a : b, ca ? b : a);
     if (ca) {
         if (error_image) return prt_fail(err, "%s: an error image needs two images, not per-vertex CSV files", error_image);
-        int *ia = NULL, *ib = NULL, na = 0, nb = 0, rc = -1;
-        float *va = NULL, *vb = NULL, *seb = NULL;
-        if (cmp_read_vertex_csv(a, &ia, &va, NULL, &na, err)) goto csv_done;
-        if (cmp_read_vertex_csv(b, &ib, &vb, &seb, &nb, err)) goto csv_done;
-        if (na != nb) { prt_fail(err, "%s has %d vertices but %s has %d", a, na, b, nb); goto csv_done; }
-        for (int i = 0; i < na; i++)
-            if (ia[i] != ib[i]) { prt_fail(err, "%s and %s list different vertices (vertex %d vs %d)", a, b, ia[i], ib[i]); goto csv_done; }
-        if (cmp_arrays(va, vb, na, 3, out, NULL, err)) {
+        cmp_vertices va = { 0 }, vb = { 0 };
+        int rc = -1;
+        if (cmp_read_vertex_csv(a, &va, err)) goto csv_done;
+        if (cmp_read_vertex_csv(b, &vb, err)) goto csv_done;
+        if (va.n != vb.n) { prt_fail(err, "%s has %d vertices but %s has %d", a, va.n, b, vb.n); goto csv_done; }
+        for (int i = 0; i < va.n; i++)
+            if (va.ids[i] != vb.ids[i]) {
+                prt_fail(err, "%s and %s list different vertices (vertex %d vs %d)", a, b, va.ids[i], vb.ids[i]);
+                goto csv_done;
+            }
+        /* Keep only the vertices B marks as facing the eye (in place: rows stay sorted). */
+        long skipped = 0;
+        if (vb.facing && !desc->all_vertices) {
+            int m = 0;
+            for (int i = 0; i < vb.n; i++) {
+                if (!vb.facing[i]) { skipped++; continue; }
+                va.ids[m] = va.ids[i];
+                memmove(va.rgb + 3 * m, va.rgb + 3 * i, sizeof(float) * 3);
+                memmove(vb.rgb + 3 * m, vb.rgb + 3 * i, sizeof(float) * 3);
+                if (vb.se) memmove(vb.se + 3 * m, vb.se + 3 * i, sizeof(float) * 3);
+                m++;
+            }
+            if (m == 0) { prt_fail(err, "%s: no vertex faces the eye", b); goto csv_done; }
+            va.n = vb.n = m;
+        }
+        if (cmp_arrays(va.rgb, vb.rgb, va.n, 3, out, NULL, err)) {
             char msg[sizeof err->msg];
             snprintf(msg, sizeof msg, "%s", err->msg);
             prt_fail(err, "%s vs %s: %s", a, b, msg);
             goto csv_done;
         }
-        if (out->worst_item >= 0) out->worst_item = ia[out->worst_item];
-        if (seb) {
+        out->skipped = skipped;
+        if (out->worst_item >= 0) out->worst_item = va.ids[out->worst_item];
+        if (vb.se) {
             double s2 = 0, b2 = 0;
-            for (long i = 0; i < 3L * nb; i++) { s2 += (double)seb[i] * seb[i]; b2 += (double)vb[i] * vb[i]; }
+            for (long i = 0; i < 3L * vb.n; i++) { s2 += (double)vb.se[i] * vb.se[i]; b2 += (double)vb.rgb[i] * vb.rgb[i]; }
             out->ref_noise = b2 > 0 ? sqrt(s2 / b2) : 0;
         }
         rc = 0;
     csv_done:
-        free(ia); free(ib); free(va); free(vb); free(seb);
+        cmp_vertices_free(&va);
+        cmp_vertices_free(&vb);
         return rc;
     }
     prt_image ima = { 0 }, imb = { 0 };

@@ -80,6 +80,7 @@ static float tonemap(float x, int op) {
     }
 }
 
+/* Zeroed w x h x c image (c 3 or 4); 0, or -1 with err (bad size, OOM). image_free frees it. */
 extern "C" int image_alloc(prt_image *im, int w, int h, int c, prt_error *err) {
     std::memset(im, 0, sizeof *im);
     if (w <= 0 || h <= 0 || (c != 3 && c != 4)) return prt_fail(err, "bad image size %dx%dx%d", w, h, c);
@@ -92,6 +93,7 @@ extern "C" int image_alloc(prt_image *im, int w, int h, int c, prt_error *err) {
     return 0;
 }
 
+/* Frees the pixels and zeroes the image (NULL is fine). */
 extern "C" void image_free(prt_image *im) {
     if (!im) return;
     std::free(im->data);
@@ -108,6 +110,7 @@ static bool file_is_srgb(const ImageSpec &spec) {
     return true;
 }
 
+/* image_read's body (may throw; the wrapper catches). */
 static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
     struct stat st;
     if (stat(path, &st) != 0) return prt_fail(err, "%s: cannot open: %s", path, std::strerror(errno));
@@ -155,6 +158,7 @@ static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
     return 0;
 }
 
+/* Reads path as linear RGB float; 0, or -1 with one line naming the file. Caller frees with image_free. */
 extern "C" int image_read(const char *path, prt_image *out, prt_error *err) {
     std::memset(out, 0, sizeof *out);
     if (!path || !*path) return prt_fail(err, "empty image path");
@@ -174,6 +178,7 @@ static void tmp_name(const char *path, const char *ext, char *out, size_t cap) {
     std::snprintf(out, cap, "%s.tmp.%ld.%s", path, (long)getpid(), ext);
 }
 
+/* image_write's body (may throw; the wrapper catches and removes the temporary). */
 static int image_write_impl(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!im || !im->data || im->w <= 0 || im->h <= 0 || (im->c != 3 && im->c != 4))
         return prt_fail(err, "%s: nothing to write (empty image)", path);
@@ -259,6 +264,7 @@ static int image_write_impl(const char *path, const prt_image *im, const image_d
     return 0;
 }
 
+/* Writes im to path in the format its extension names, atomically; 0, or -1 naming the file. */
 extern "C" int image_write(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!path || !*path) return prt_fail(err, "empty image path");
     if (std::strlen(path) > 4000) return prt_fail(err, "%.60s...: output path too long", path);

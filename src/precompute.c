@@ -49,25 +49,37 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define PC_GRAIN 16             /* vertices per dynamic chunk */
 #define PC_SAMPLE 200           /* vertices in the planning sample */
 #define PC_GATHER_SAMPLE 32     /* vertices whose gather rays are timed for the bounce estimate */
 #define PC_HIT_MIN 0.005        /* below this fraction of hitting rays, no interreflections */
 #define PC_MAX_THREADS 64
+/* Plane stride of the K x 3 transport cubes: CUBE_TEXELS floats is a multiple of 4 KB, so the
+ * 12 planes' same texel would fall in one L1 set; 32 floats of padding spread them out. */
+#define PC_TSTRIDE (CUBE_TEXELS + 32)
+#define PC_DECODE_NS 0.55       /* per decoded coefficient x term in gathering: fit to the bunny's bounce pass */
+
+/* CPU seconds used by the calling thread (so estimates see through a busy machine). */
+static double pc_cpu_now(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 /* Per-thread scratch for the direct pass. */
 typedef struct pc_scratch {
     uint8_t *vis;       /* [6 * vres^2] visibility bytes */
     float *w;           /* [vres^2] V max(n.w,0) dw of one face */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
-    float *T;           /* [Kmax * 3 * CUBE_TEXELS] planar transport cubes */
-    float *G;           /* [CUBE_TEXELS][Kmax * 3] light-map values at lit texels */
+    float *T;           /* [Kmax * 3][PC_TSTRIDE] planar transport cubes */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
     float *tmp;         /* [2 * CUBE_RES^2] Haar scratch */
     float *sh;          /* [SH_MAX_ORDER^2] */
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
+    double t_cpu;           /* CPU seconds of the thread in pc_range (t_cpu / t_busy: share of a core it got) */
     long traced, hits;
     double err_sum;     /* sum over vectors of (relative L2 error)^2 */
     long err_count;
@@ -97,7 +109,7 @@ typedef struct pc_ctx {
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
-    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->G); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
+    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
     memset(s, 0, sizeof *s);
 }
 
@@ -108,9 +120,8 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     s->vis = prt_calloc((size_t)6 * vres * vres, 1, err);
     s->w = s->vis ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
     s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
-    s->T = s->acc ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
-    s->G = s->T ? prt_calloc((size_t)kmax * 3 * ct, sizeof(float), err) : NULL;
-    s->wav = s->G ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
+    s->T = s->acc ? prt_calloc((size_t)kmax * 3 * PC_TSTRIDE, sizeof(float), err) : NULL;
+    s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
     s->tmp = s->wav ? prt_calloc(2 * CUBE_RES * CUBE_RES, sizeof(float), err) : NULL;
     s->sh = s->tmp ? prt_calloc(SH_MAX_ORDER * SH_MAX_ORDER, sizeof(float), err) : NULL;
     s->tscratch = s->sh ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
@@ -184,36 +195,34 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     if (fac->lambertian) {
         const float *g = c->lambert_g[mat];
         for (int ch = 0; ch < 3; ch++) {
-            float *T = s->T + (size_t)ch * ct;
+            float *T = s->T + (size_t)ch * PC_TSTRIDE;
             for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
     } else {
-        /* g_k at each lit texel's centre into G[j][3K] (only where a_j > 0), then the K x 3
-         * planar cubes are written sequentially, one at a time. */
-        float sv[3], tv[3];
+        /* Face by face: the K x 3 face slices are zeroed in bulk, then g_k is looked up at each
+         * lit texel's centre and written to the slices in step (12 store streams, padded apart). */
+        float sv[3], tv[3], g[BRDF_MAX_SIGMA * 3];
         brdf_frame(n, sv, tv);
-        float *G = s->G;
-        const int K3 = 3 * K;
-        for (size_t j = 0; j < ct; j++) {
-            if (s->acc[j] == 0) continue;
-            float wl[3];
-            brdf_to_local(sv, tv, n, c->ldir + 3 * j, wl);
-            /* A straddling texel's centre may be just below the horizon while some of its
-             * sub-texels are above: evaluate g at the horizon then (the maps are extended
-             * outward from the disk, so this is their boundary value). */
-            if (wl[2] < 1e-4f) {
-                float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
-                float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
-                wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
-            }
-            brdf_factor_light(fac, wl, G + j * K3);
-        }
-        for (int kc = 0; kc < K3; kc++) {
-            float *restrict T = s->T + (size_t)kc * ct;
-            const float *restrict g = G + kc;
-            for (size_t j = 0; j < ct; j++) {
-                float a = s->acc[j];
-                T[j] = a != 0 ? g[j * K3] * a : 0.f;
+        const int K3 = 3 * K, F = CUBE_RES * CUBE_RES;
+        for (int f = 0; f < 6; f++) {
+            const float *acc = s->acc + (size_t)f * F;
+            float *T = s->T + (size_t)f * F;
+            for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * PC_TSTRIDE, 0, sizeof(float) * F);
+            for (int i = 0; i < F; i++) {
+                const float a = acc[i];
+                if (a == 0) continue;
+                float wl[3];
+                brdf_to_local(sv, tv, n, c->ldir + 3 * ((size_t)f * F + i), wl);
+                /* A straddling texel's centre may be just below the horizon while some of its
+                 * sub-texels are above: evaluate g at the horizon then (the maps are extended
+                 * outward from the disk, so this is their boundary value). */
+                if (wl[2] < 1e-4f) {
+                    float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
+                    float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
+                    wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
+                }
+                brdf_factor_light(fac, wl, g);
+                for (int kc = 0; kc < K3; kc++) T[(size_t)kc * PC_TSTRIDE + i] = g[kc] * a;
             }
         }
     }
@@ -222,7 +231,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++) {
-            const float *T = s->T + (size_t)(k * 3 + ch) * ct;
+            const float *T = s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE;
             float *out = s->wav + (size_t)ch * ct;
             if (c->sh_order > 0) {
                 int nc = c->sh_order * c->sh_order;
@@ -233,13 +242,16 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
                 haar_cube_forward(T, CUBE_RES, out, s->tmp);
             }
         }
-        /* |vector|^2 for the error statistics, in 8 float lanes (vectorizes), summed in double */
-        double norm2 = 0;
-        for (size_t i0 = 0; i0 < 3 * ct; i0 += 1024) {
-            float part = 0;   /* float blocks of 1024, summed in double */
-            for (size_t i = i0; i < i0 + 1024; i++) part += s->wav[i] * s->wav[i];
-            norm2 += part;
+        /* |vector|^2 for the error statistics: 8 independent float accumulators (no dependency
+         * chain; the vector length is a multiple of 8), summed in double */
+        float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
+        const float *x = s->wav;
+        for (size_t i = 0; i < 3 * ct; i += 8) {
+            p8[0] += x[i] * x[i]; p8[1] += x[i + 1] * x[i + 1]; p8[2] += x[i + 2] * x[i + 2]; p8[3] += x[i + 3] * x[i + 3];
+            p8[4] += x[i + 4] * x[i + 4]; p8[5] += x[i + 5] * x[i + 5]; p8[6] += x[i + 6] * x[i + 6]; p8[7] += x[i + 7] * x[i + 7];
         }
+        double norm2 = 0;
+        for (int q = 0; q < 8; q++) norm2 += p8[q];
         double e2 = transport_store(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         if (norm2 > 0) {
             s->err_sum += e2 / norm2;
@@ -256,7 +268,9 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     pc_ctx *c = ctx;
     pc_scratch *s = &c->scratch[thread];
     if (atomic_load(&c->cancelled)) return;
+    double cpu0 = pc_cpu_now();
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
+    s->t_cpu += pc_cpu_now() - cpu0;
     long done = atomic_fetch_add(&c->done, end - begin) + (end - begin);
     if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
@@ -322,10 +336,11 @@ static void plan_material(char *plan, size_t cap, int i, const brdf_params *p, c
     }
 }
 
-/* Rough time of one gather pass: times the gather rays of a few sample vertices and models the
- * decoding as (distinct neighbour vertices) x K_neighbour x N x K x 3 multiply-adds at ~1 ns. */
+/* Rough CPU seconds per vertex of one gather pass: times (in CPU time) the gather rays of a few
+ * sample vertices and models the decoding as (distinct neighbour vertices) x K_neighbour x N x K x 3
+ * multiply-adds at PC_DECODE_NS each, plus the dense K x 3 cube accumulators. */
 static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const brdf_factor *factors, int gres, int N,
-                                 int nthreads, const int *sample, int nsample) {
+                                 const int *sample, int nsample) {
     int nd = 6 * gres * gres;
     float *dirs = malloc(sizeof(float) * 3 * (size_t)nd);
     float *hd = malloc(sizeof(float) * 3 * (size_t)nd);
@@ -347,9 +362,9 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
                 nh++;
             }
         float org[3] = { p[0] + eps * n[0], p[1] + eps * n[1], p[2] + eps * n[2] };
-        double t0 = prt_now();
+        double t0 = pc_cpu_now();
         vis_closest_many(vs, org, hd, nh, eps, hits);
-        secs += prt_now() - t0;
+        secs += pc_cpu_now() - t0;
         int nn = 0;
         for (int i = 0; i < nh; i++)
             if (hits[i].tri >= 0)
@@ -368,12 +383,11 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
                 distinct++;
                 kn += factors[m->mat ? m->mat[nb[i]] : 0].K;
             }
-        secs += kn * (double)N * K * 3 * 1e-9 + K * 3 * (double)CUBE_TEXELS * 2e-9;
+        secs += kn * (double)N * K * 3 * PC_DECODE_NS * 1e-9 + K * 3 * (double)CUBE_TEXELS * 2e-9;
         count++;
     }
     free(dirs); free(hd); free(hits); free(nb);
-    if (!count) return 0;
-    return secs / count * m->nverts / (double)(nthreads > 0 ? nthreads : 1);
+    return count ? secs / count : 0;
 }
 
 /* Validates desc and fills defaults into *d. Returns 0 or -1. */
@@ -443,7 +457,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     pc_scratch scratch[PC_MAX_THREADS];
     memset(scratch, 0, sizeof scratch);
     prt_transport direct = { 0 }, total = { 0 }, last = { 0 };
-    bool last_is_total = true, have_lock = false;
+    bool have_lock = false;
     pc_ctx c;
     memset(&c, 0, sizeof c);
     int rc = -1;
@@ -477,7 +491,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     }
     out->stats.t_brdf = prt_now() - t0;
 
-    plan_add(plan, pcap, "effects plan: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
+    plan_add(plan, pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
              out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", nthreads, nthreads == 1 ? "" : "s");
     plan_add(plan, pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
     for (int i = 0; i < out->scene.nmaterials; i++)
@@ -566,14 +580,18 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
     char e1[32], e2[32];
     fmt_dur(e1, sizeof e1, est_direct + t_sample);
     if (plan_bounces) {
-        double eg = pc_estimate_gather(m, vs, out->factors, d.gather_res, d.N, nthreads, order, nsample);
+        /* CPU estimate turned into wall time with the share of a core the sample's threads got */
+        double busy = 0, cpu = 0;
+        for (int t = 0; t < nthreads; t++) { busy += scratch[t].t_busy; cpu += scratch[t].t_cpu; }
+        double share = busy > 0 && cpu > 0 ? fmin(1.0, cpu / busy) : 1.0;
+        double eg = pc_estimate_gather(m, vs, out->factors, d.gather_res, d.N, order, nsample) * m->nverts / nthreads / share;
         fmt_dur(e2, sizeof e2, eg);
         plan_add(plan, pcap, "  estimate: direct pass %s, each bounce pass ~%s (rough)\n", e1, e2);
     } else {
         plan_add(plan, pcap, "  estimate: direct pass %s\n", e1);
     }
     /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
-    if (!d.quiet) { fputs(plan, stderr); fflush(stderr); }
+    if (!d.quiet) { fprintf(stderr, "effects plan\n%s", plan); fflush(stderr); }
 
     /* 3b. The rest of the direct pass. */
     {
@@ -618,11 +636,10 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
         }
     }
 
-    /* 4. Interreflection passes (Eq. 8), adaptive unless forced. */
-    total = direct;
-    memset(&direct, 0, sizeof direct);
+    /* 4. Interreflection passes (Eq. 8), adaptive unless forced. Pass b gathers pass b-1
+     * (`last`, the direct set for b = 1); `total` = direct + passes so far. */
     if (plan_bounces && max_b > 0) {
-        double e0 = gather_energy(&total);
+        double e0 = gather_energy(&direct);
         char line[256];
         for (int b = 1; b <= max_b; b++) {
             char stage[32];
@@ -631,14 +648,13 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
                                .progress_user = d.progress_user, .stage = stage };
             prt_transport next = { 0 }, sum = { 0 };
             double tb0 = prt_now();
-            if (gather_pass(out, vs, last_is_total ? &total : &last, &gd, &next, err)) goto fail;
+            if (gather_pass(out, vs, b == 1 ? &direct : &last, &gd, &next, err)) goto fail;
             double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
-            if (gather_sum(&total, &next, nthreads, &sum, err)) { transport_free(&next); goto fail; }
+            if (gather_sum(b == 1 ? &direct : &total, &next, nthreads, &sum, err)) { transport_free(&next); goto fail; }
             transport_free(&total);
             total = sum;
-            if (!last_is_total) transport_free(&last);
+            transport_free(&last);
             last = next;
-            last_is_total = false;
             out->stats.t_bounce[b - 1] = prt_now() - tb0;
             out->stats.bounce_energy[b - 1] = e;
             out->stats.bounces = b;
@@ -649,10 +665,18 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *o
             if (stop) break;
         }
     }
-    if (!last_is_total) transport_free(&last);
-    last_is_total = true;
-    out->transport = total;
-    memset(&total, 0, sizeof total);
+    transport_free(&last);
+    if (out->stats.bounces > 0) {
+        out->transport = total;
+        memset(&total, 0, sizeof total);
+        if (d.keep_direct) {   /* the viewer's direct-only toggle */
+            out->direct = direct;
+            memset(&direct, 0, sizeof direct);
+        }
+    } else {
+        out->transport = direct;
+        memset(&direct, 0, sizeof direct);
+    }
 
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();
@@ -664,7 +688,7 @@ fail:
     free(vdir); free(vdw); free(ldir); free(order); free(nvec);
     transport_free(&direct);
     transport_free(&total);
-    if (!last_is_total) transport_free(&last);
+    transport_free(&last);
     if (rc) prt_data_free(out);
     return rc;
 }

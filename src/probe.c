@@ -222,6 +222,7 @@ int probe_load(const char *path, probe_layout layout, prt_probe *out, prt_error 
     return probe_from_image(&img, layout, path, out, err);
 }
 
+/* Frees the probe's image and zeroes it (NULL is fine). */
 void probe_free(prt_probe *p) {
     if (!p) return;
     image_free(&p->img);
@@ -238,6 +239,7 @@ static inline bool angular_valid(int w, int h, int x, int y) {
     return a * a + b * b <= 1.0;
 }
 
+/* Bilinear latlong lookup: wraps in u, clamps at the poles. */
 static void eval_latlong(const prt_probe *p, const float d[3], float rgb[3]) {
     int w = p->img.w, h = p->img.h;
     float y = d[1] > 1.f ? 1.f : (d[1] < -1.f ? -1.f : d[1]);
@@ -258,6 +260,7 @@ static void eval_latlong(const prt_probe *p, const float d[3], float rgb[3]) {
         rgb[ch] = (1 - ty) * ((1 - tx) * a[ch] + tx * b[ch]) + ty * ((1 - tx) * c[ch] + tx * e[ch]);
 }
 
+/* Bilinear angular-map lookup over the taps inside the circle. */
 static void eval_angular(const prt_probe *p, const float d[3], float rgb[3]) {
     int w = p->img.w, h = p->img.h;
     float z = -d[2] > 1.f ? 1.f : (-d[2] < -1.f ? -1.f : -d[2]);
@@ -297,6 +300,7 @@ static void eval_angular(const prt_probe *p, const float d[3], float rgb[3]) {
     rgb[0] = t[0]; rgb[1] = t[1]; rgb[2] = t[2];
 }
 
+/* Bilinear cross lookup on the face d falls in, taps clamped to that face. */
 static void eval_cross(const prt_probe *p, const float d[3], float rgb[3]) {
     int F;
     const cross_face *tab = cross_table(p, &F);
@@ -539,6 +543,7 @@ typedef struct cube_job {
     float *out;
 } cube_job;
 
+/* prt_parallel_for body: cube rows [begin,end) (face*res + j) into J->out. */
 static void cube_rows(void *ctx, int begin, int end, int thread) {
     const cube_job *J = ctx;
     int res = J->res;
@@ -645,6 +650,7 @@ static void sky_base(const sky_job *S, const float d[3], float rgb[3]) {
     for (int ch = 0; ch < 3; ch++) rgb[ch] = S->zen[ch] + t * (S->hor[ch] - S->zen[ch]);
 }
 
+/* prt_parallel_for body: sky rows [begin,end) of the latlong, without the sun. */
 static void sky_rows(void *ctx, int begin, int end, int thread) {
     const sky_job *S = ctx;
     int w = S->img->w, h = S->img->h;

@@ -40,6 +40,7 @@
 #define TAG_MESH TAG('M', 'E', 'S', 'H')
 #define TAG_MATL TAG('M', 'A', 'T', 'L')
 #define TAG_TRAN TAG('T', 'R', 'A', 'N')
+#define TAG_DIRT TAG('D', 'I', 'R', 'T')   /* optional: direct-only transport, same layout as TRAN */
 #define HEADER_BYTES 16
 #define MAX_RES 4096          /* vis_res, gather_res, BRDF map res: far above anything sane */
 
@@ -61,6 +62,7 @@ typedef struct wr {
     bool bad;
 } wr;
 
+/* Writes (or only counts) len bytes and folds them into the CRC. */
 static void w_bytes(wr *w, const void *p, size_t len) {
     if (w->f && len) {
         if (fwrite(p, 1, len, w->f) != len) w->bad = true;
@@ -74,6 +76,7 @@ static void w_bytes(wr *w, const void *p, size_t len) {
     w->n += len;
 }
 static void w_u8(wr *w, uint8_t v) { w_bytes(w, &v, 1); }
+/* Little-endian scalars (floats as their IEEE bits). */
 static void w_u16(wr *w, uint16_t v) {
     uint8_t b[2] = { (uint8_t)v, (uint8_t)(v >> 8) };
     w_bytes(w, b, 2);
@@ -109,6 +112,7 @@ static void w_arr(wr *w, const void *p, size_t count, size_t es) {
         else { uint32_t v; memcpy(&v, b + 4 * i, 4); w_u32(w, v); }
     }
 }
+/* u32 length (at most cap) and the bytes, no terminator. */
 static void w_str(wr *w, const char *s, size_t cap) {
     size_t n = strnlen(s, cap);
     w_u32(w, (uint32_t)n);
@@ -118,6 +122,7 @@ static void w_str(wr *w, const char *s, size_t cap) {
 static size_t ncoefs_of(const prt_transport *t) { return t->coef_first && t->nvecs >= 0 ? t->coef_first[t->nvecs] : 0; }
 static size_t nruns_of(const prt_transport *t) { return t->run_first && t->nvecs >= 0 ? t->run_first[t->nvecs] : 0; }
 
+/* Section writers: each emits its fields in the order its reader takes them. */
 static void sec_meta(wr *w, const prt_data *d) {
     const prt_stats *s = &d->stats;
     w_i32(w, d->vis_res);
@@ -194,8 +199,7 @@ static void sec_matl(wr *w, const prt_data *d) {
     }
 }
 
-static void sec_tran(wr *w, const prt_data *d) {
-    const prt_transport *t = &d->transport;
+static void w_transport(wr *w, const prt_transport *t) {
     size_t nc = ncoefs_of(t), nr = nruns_of(t);
     w_i32(w, t->nverts);
     w_i32(w, t->nvecs);
@@ -216,6 +220,9 @@ static void sec_tran(wr *w, const prt_data *d) {
         else w_arr(w, t->f32, 3 * nc, 4);
     }
 }
+
+static void sec_tran(wr *w, const prt_data *d) { w_transport(w, &d->transport); }
+static void sec_dirt(wr *w, const prt_data *d) { w_transport(w, &d->direct); }
 
 typedef void (*sec_fn)(wr *, const prt_data *);
 
@@ -238,10 +245,11 @@ int prtfile_write(const char *path, const prt_data *d, prt_error *err) {
     FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
     if (!f) return -1;
     /* Payload length: the four sections, each with its 12-byte tag and length. */
-    static const sec_fn fns[4] = { sec_meta, sec_mesh, sec_matl, sec_tran };
-    static const uint32_t tags[4] = { TAG_META, TAG_MESH, TAG_MATL, TAG_TRAN };
+    static const sec_fn fns[5] = { sec_meta, sec_mesh, sec_matl, sec_tran, sec_dirt };
+    static const uint32_t tags[5] = { TAG_META, TAG_MESH, TAG_MATL, TAG_TRAN, TAG_DIRT };
+    int nsec = d->direct.nvecs ? 5 : 4;
     uint64_t payload = 0;
-    for (int i = 0; i < 4; i++) {
+    for (int i = 0; i < nsec; i++) {
         wr c = { 0 };
         fns[i](&c, d);
         payload += 12 + c.n;
@@ -250,7 +258,7 @@ int prtfile_write(const char *path, const prt_data *d, prt_error *err) {
     w_bytes(&w, "PRTF", 4);
     w_u32(&w, PRTFILE_VERSION);
     w_u64(&w, payload);
-    for (int i = 0; i < 4; i++) w_section(&w, tags[i], fns[i], d);
+    for (int i = 0; i < nsec; i++) w_section(&w, tags[i], fns[i], d);
     uint32_t crc = (uint32_t)w.crc;
     w_u32(&w, crc);
     if (w.bad) {
@@ -269,6 +277,7 @@ typedef struct rd {
     bool bad;
 } rd;
 
+/* Are count elements of es bytes left? Sets bad (sticky) if not; overflow-safe. */
 static bool r_need(rd *r, size_t count, size_t es) {
     if (r->bad) return false;
     if (es && count > (r->n - r->pos) / es) {
@@ -277,6 +286,7 @@ static bool r_need(rd *r, size_t count, size_t es) {
     }
     return true;
 }
+/* Little-endian scalars; 0 once the cursor has overrun. */
 static uint32_t r_u32(rd *r) {
     if (!r_need(r, 1, 4)) return 0;
     const uint8_t *b = r->p + r->pos;
@@ -341,6 +351,7 @@ static bool r_str(rd *r, char *buf, size_t cap) {
     return true;
 }
 
+/* True if none of v[0..n) is NaN or infinite. */
 static bool all_finite(const float *v, size_t n) {
     for (size_t i = 0; i < n; i++)
         if (!isfinite(v[i])) return false;
@@ -354,54 +365,10 @@ static bool all_finite(const float *v, size_t n) {
 /* True when everything the runtime will index or print is in range and finite; else
  * false with the first problem in why[256]. Array lengths are those the counts imply
  * (the reader has already matched them against the file). */
-static bool data_ok(const prt_data *d, char *why) {
-    const prt_stats *s = &d->stats;
-    if (d->vis_res < 1 || d->vis_res > MAX_RES || d->gather_res < 1 || d->gather_res > MAX_RES)
-        return BAD(why, "bad cube resolutions %d, %d", d->vis_res, d->gather_res);
-    if (d->sh_order < 0 || d->sh_order > 64) return BAD(why, "bad spherical-harmonic order %d", d->sh_order);
-    if (s->bounces < 0 || s->bounces > PRT_MAX_BOUNCES) return BAD(why, "bad bounce count %d", s->bounces);
-    double st[] = { s->t_brdf, s->t_visibility, s->t_transport, s->t_write, s->t_total, s->hit_fraction, s->trunc_rel_err };
-    for (size_t i = 0; i < sizeof st / sizeof st[0]; i++)
-        if (!isfinite(st[i])) return BAD(why, "non-finite statistics");
-    for (int i = 0; i < PRT_MAX_BOUNCES; i++)
-        if (!isfinite(s->t_bounce[i]) || !isfinite(s->bounce_energy[i])) return BAD(why, "non-finite statistics");
-
-    const prt_scene *sc = &d->scene;
-    const prt_mesh *m = &sc->mesh;
-    int nv = m->nverts, nt = m->ntris, nm = sc->nmaterials;
-    if (nv < 1 || nt < 1) return BAD(why, "empty mesh (%d vertices, %d triangles)", nv, nt);
-    if (!m->pos || !m->nrm || !m->mat || !m->tris) return BAD(why, "mesh arrays missing");
-    if (!all_finite(m->pos, 3 * (size_t)nv) || !all_finite(m->nrm, 3 * (size_t)nv)) return BAD(why, "non-finite vertex data");
-    if (!all_finite(sc->bmin, 3) || !all_finite(sc->bmax, 3)) return BAD(why, "non-finite bounds");
-    for (size_t i = 0; i < 3 * (size_t)nt; i++)
-        if (m->tris[i] >= (uint32_t)nv) return BAD(why, "triangle %zu uses vertex %u of %d", i / 3, m->tris[i], nv);
-    if (sc->floor_first_vertex < -1 || sc->floor_first_vertex >= nv) return BAD(why, "bad floor start %d", sc->floor_first_vertex);
-    if (nm < 1 || nm > PRT_MAX_MATERIALS) return BAD(why, "bad material count %d", nm);
-    for (int v = 0; v < nv; v++)
-        if (m->mat[v] >= nm) return BAD(why, "vertex %d uses material %u of %d", v, m->mat[v], nm);
-
-    for (int i = 0; i < nm; i++) {
-        const brdf_params *p = &sc->materials[i];
-        const brdf_factor *f = &d->factors[i];
-        if ((int)p->type < 0 || p->type > BRDF_BECKMANN) return BAD(why, "material %d: unknown BRDF type %d", i, (int)p->type);
-        if (p->nlobes < 0 || p->nlobes > BRDF_MAX_LOBES) return BAD(why, "material %d: bad lobe count %d", i, p->nlobes);
-        float pv[] = { p->kd[0], p->kd[1], p->kd[2], p->ks[0], p->ks[1], p->ks[2], p->n, p->nu, p->nv, p->alpha };
-        if (!all_finite(pv, 10) || !all_finite(&p->lobe[0][0], 4 * BRDF_MAX_LOBES))
-            return BAD(why, "material %d: non-finite BRDF parameters", i);
-        if (f->K < 0 || f->K > BRDF_MAX_SIGMA) return BAD(why, "material %d: bad term count K = %d", i, f->K);
-        if (f->res < 0 || f->res > MAX_RES || (f->K > 0 && f->res < 1))
-            return BAD(why, "material %d: bad BRDF map resolution %d", i, f->res);
-        if (f->param != BRDF_PARAM_GRID && f->param != BRDF_PARAM_POLAR)
-            return BAD(why, "material %d: bad parameterization %d", i, (int)f->param);
-        if (f->nsigma < 0 || f->nsigma > BRDF_MAX_SIGMA) return BAD(why, "material %d: bad singular value count %d", i, f->nsigma);
-        if (!isfinite(f->seconds) || !all_finite(&f->sigma[0][0], 3 * BRDF_MAX_SIGMA) || !all_finite(f->rel_rms, BRDF_MAX_SIGMA + 1))
-            return BAD(why, "material %d: non-finite factor statistics", i);
-        if (f->K > 0 && (!f->light || !f->view)) return BAD(why, "material %d: BRDF maps missing", i);
-        if (f->K > 0 && (!all_finite(f->light, factor_len(f)) || !all_finite(f->view, factor_len(f))))
-            return BAD(why, "material %d: non-finite BRDF maps", i);
-    }
-
-    const prt_transport *t = &d->transport;
+/* Checks one transport set against d's mesh and factors; false with why on the first problem. */
+static bool transport_ok(const prt_data *d, const prt_transport *t, char *why) {
+    const prt_mesh *m = &d->scene.mesh;
+    int nv = m->nverts;
     if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32) return BAD(why, "bad quantization %d bits", t->qbits);
     if (t->N < 1 || t->N > CUBE_TEXELS) return BAD(why, "bad coefficient count N = %d", t->N);
     if (t->nverts != nv) return BAD(why, "transport has %d vertices, the mesh %d", t->nverts, nv);
@@ -449,6 +416,63 @@ static bool data_ok(const prt_data *d, char *why) {
     return true;
 }
 
+static bool data_ok(const prt_data *d, char *why) {
+    const prt_stats *s = &d->stats;
+    if (d->vis_res < 1 || d->vis_res > MAX_RES || d->gather_res < 1 || d->gather_res > MAX_RES)
+        return BAD(why, "bad cube resolutions %d, %d", d->vis_res, d->gather_res);
+    if (d->sh_order < 0 || d->sh_order > 64) return BAD(why, "bad spherical-harmonic order %d", d->sh_order);
+    if (s->bounces < 0 || s->bounces > PRT_MAX_BOUNCES) return BAD(why, "bad bounce count %d", s->bounces);
+    double st[] = { s->t_brdf, s->t_visibility, s->t_transport, s->t_write, s->t_total, s->hit_fraction, s->trunc_rel_err };
+    for (size_t i = 0; i < sizeof st / sizeof st[0]; i++)
+        if (!isfinite(st[i])) return BAD(why, "non-finite statistics");
+    for (int i = 0; i < PRT_MAX_BOUNCES; i++)
+        if (!isfinite(s->t_bounce[i]) || !isfinite(s->bounce_energy[i])) return BAD(why, "non-finite statistics");
+
+    const prt_scene *sc = &d->scene;
+    const prt_mesh *m = &sc->mesh;
+    int nv = m->nverts, nt = m->ntris, nm = sc->nmaterials;
+    if (nv < 1 || nt < 1) return BAD(why, "empty mesh (%d vertices, %d triangles)", nv, nt);
+    if (!m->pos || !m->nrm || !m->mat || !m->tris) return BAD(why, "mesh arrays missing");
+    if (!all_finite(m->pos, 3 * (size_t)nv) || !all_finite(m->nrm, 3 * (size_t)nv)) return BAD(why, "non-finite vertex data");
+    if (!all_finite(sc->bmin, 3) || !all_finite(sc->bmax, 3)) return BAD(why, "non-finite bounds");
+    for (size_t i = 0; i < 3 * (size_t)nt; i++)
+        if (m->tris[i] >= (uint32_t)nv) return BAD(why, "triangle %zu uses vertex %u of %d", i / 3, m->tris[i], nv);
+    if (sc->floor_first_vertex < -1 || sc->floor_first_vertex >= nv) return BAD(why, "bad floor start %d", sc->floor_first_vertex);
+    if (nm < 1 || nm > PRT_MAX_MATERIALS) return BAD(why, "bad material count %d", nm);
+    for (int v = 0; v < nv; v++)
+        if (m->mat[v] >= nm) return BAD(why, "vertex %d uses material %u of %d", v, m->mat[v], nm);
+
+    for (int i = 0; i < nm; i++) {
+        const brdf_params *p = &sc->materials[i];
+        const brdf_factor *f = &d->factors[i];
+        if ((int)p->type < 0 || p->type > BRDF_BECKMANN) return BAD(why, "material %d: unknown BRDF type %d", i, (int)p->type);
+        if (p->nlobes < 0 || p->nlobes > BRDF_MAX_LOBES) return BAD(why, "material %d: bad lobe count %d", i, p->nlobes);
+        float pv[] = { p->kd[0], p->kd[1], p->kd[2], p->ks[0], p->ks[1], p->ks[2], p->n, p->nu, p->nv, p->alpha };
+        if (!all_finite(pv, 10) || !all_finite(&p->lobe[0][0], 4 * BRDF_MAX_LOBES))
+            return BAD(why, "material %d: non-finite BRDF parameters", i);
+        if (f->K < 0 || f->K > BRDF_MAX_SIGMA) return BAD(why, "material %d: bad term count K = %d", i, f->K);
+        if (f->res < 0 || f->res > MAX_RES || (f->K > 0 && f->res < 1))
+            return BAD(why, "material %d: bad BRDF map resolution %d", i, f->res);
+        if (f->param != BRDF_PARAM_GRID && f->param != BRDF_PARAM_POLAR)
+            return BAD(why, "material %d: bad parameterization %d", i, (int)f->param);
+        if (f->nsigma < 0 || f->nsigma > BRDF_MAX_SIGMA) return BAD(why, "material %d: bad singular value count %d", i, f->nsigma);
+        if (!isfinite(f->seconds) || !all_finite(&f->sigma[0][0], 3 * BRDF_MAX_SIGMA) || !all_finite(f->rel_rms, BRDF_MAX_SIGMA + 1))
+            return BAD(why, "material %d: non-finite factor statistics", i);
+        if (f->K > 0 && (!f->light || !f->view)) return BAD(why, "material %d: BRDF maps missing", i);
+        if (f->K > 0 && (!all_finite(f->light, factor_len(f)) || !all_finite(f->view, factor_len(f))))
+            return BAD(why, "material %d: non-finite BRDF maps", i);
+    }
+
+    if (!transport_ok(d, &d->transport, why)) return false;
+    /* The optional direct-only set (kept for the viewer's direct/bounces toggle) has the
+     * same layout as the total transport. */
+    if (d->direct.nvecs || d->direct.vec_first) {
+        if (!transport_ok(d, &d->direct, why)) return false;
+        if (d->direct.nvecs != d->transport.nvecs) return BAD(why, "direct transport has %d vectors, the total %d", d->direct.nvecs, d->transport.nvecs);
+    }
+    return true;
+}
+
 /* ---- section readers: sizes and allocation only; data_ok() checks the contents ------------- */
 
 typedef struct parse {
@@ -456,9 +480,9 @@ typedef struct parse {
     bool oom;
     char why[256];
     int meta_N, meta_qbits;
-    uint64_t nc, nr;   /* TRAN's coefficient and run totals */
 } parse;
 
+/* Section readers: parse one section into P->d; false with P->why on a short or oversized section. */
 static bool rd_meta(parse *P, rd *r) {
     prt_data *d = P->d;
     prt_stats *s = &d->stats;
@@ -556,8 +580,7 @@ static bool rd_matl(parse *P, rd *r) {
     return true;
 }
 
-static bool rd_tran(parse *P, rd *r) {
-    prt_transport *t = &P->d->transport;
+static bool rd_transport(parse *P, rd *r, prt_transport *t) {
     int nverts = r_i32(r), nvecs = r_i32(r), N = r_i32(r), qbits = r_i32(r);
     uint64_t nc = r_u64(r), nr = r_u64(r);
     if (r->bad) return BAD(P->why, "TRAN section too short");
@@ -569,8 +592,6 @@ static bool rd_tran(parse *P, rd *r) {
     t->nvecs = nvecs;
     t->N = N;
     t->qbits = qbits;
-    P->nc = nc;
-    P->nr = nr;
     t->vec_first = r_arr(r, (size_t)nverts + 1, 4, &P->oom);
     t->coef_first = r_arr(r, (size_t)nvecs + 1, 4, &P->oom);
     t->run_first = r_arr(r, (size_t)nvecs + 1, 4, &P->oom);
@@ -588,6 +609,9 @@ static bool rd_tran(parse *P, rd *r) {
     if (t->coef_first[nvecs] != nc || t->run_first[nvecs] != nr) return BAD(P->why, "coefficient or run offsets do not match their totals");
     return true;
 }
+
+static bool rd_tran(parse *P, rd *r) { return rd_transport(P, r, &P->d->transport); }
+static bool rd_dirt(parse *P, rd *r) { return rd_transport(P, r, &P->d->direct); }
 
 /* Reads path into out. Returns 0, or -1 with one line naming the file (out is then empty). */
 int prtfile_read(const char *path, prt_data *out, prt_error *err) {
@@ -654,9 +678,9 @@ int prtfile_read(const char *path, prt_data *out, prt_error *err) {
     }
     /* Sections. */
     rd s = { buf, size - 4, HEADER_BYTES, false };
-    bool seen[4] = { false, false, false, false };
-    static const uint32_t order[4] = { TAG_META, TAG_MESH, TAG_MATL, TAG_TRAN };
-    static const char *names[4] = { "META", "MESH", "MATL", "TRAN" };
+    bool seen[5] = { false, false, false, false, false };
+    static const uint32_t order[5] = { TAG_META, TAG_MESH, TAG_MATL, TAG_TRAN, TAG_DIRT };
+    static const char *names[5] = { "META", "MESH", "MATL", "TRAN", "DIRT" };
     while (s.pos < s.n) {
         uint32_t tag = r_u32(&s);
         uint64_t len = r_u64(&s);
@@ -667,7 +691,7 @@ int prtfile_read(const char *path, prt_data *out, prt_error *err) {
         rd sec = { buf + s.pos, (size_t)len, 0, false };
         s.pos += (size_t)len;
         int which = -1;
-        for (int i = 0; i < 4; i++)
+        for (int i = 0; i < 5; i++)
             if (tag == order[i]) which = i;
         if (which < 0) continue;   /* unknown section: skip */
         if (seen[which]) {
@@ -675,7 +699,7 @@ int prtfile_read(const char *path, prt_data *out, prt_error *err) {
             goto done;
         }
         /* Sections only read here; the cross-section checks follow in data_ok(). */
-        bool ok = which == 0 ? rd_meta(&P, &sec) : which == 1 ? rd_mesh(&P, &sec) : which == 2 ? rd_matl(&P, &sec) : rd_tran(&P, &sec);
+        bool ok = which == 0 ? rd_meta(&P, &sec) : which == 1 ? rd_mesh(&P, &sec) : which == 2 ? rd_matl(&P, &sec) : which == 3 ? rd_tran(&P, &sec) : rd_dirt(&P, &sec);
         if (P.oom) {
             prt_fail(err, "%s: out of memory", path);
             goto done;
@@ -686,7 +710,7 @@ int prtfile_read(const char *path, prt_data *out, prt_error *err) {
         }
         seen[which] = true;
     }
-    for (int i = 0; i < 4; i++)
+    for (int i = 0; i < 4; i++)   /* DIRT is optional */
         if (!seen[i]) {
             prt_fail(err, "%s: corrupt (no %s section)", path, names[i]);
             goto done;
@@ -712,6 +736,7 @@ void prt_data_free(prt_data *d) {
     scene_free(&d->scene);
     for (int m = 0; m < PRT_MAX_MATERIALS; m++) brdf_factor_free(&d->factors[m]);
     transport_free(&d->transport);
+    transport_free(&d->direct);
     memset(d, 0, sizeof *d);
     d->scene.floor_first_vertex = -1;
 }

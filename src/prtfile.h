@@ -4,7 +4,7 @@
  *   "PRTF" magic, u32 version, u64 payload bytes, then tagged sections
  *   (u32 tag, u64 length, bytes): META (N, qbits, resolutions, timings, plan text),
  *   MESH, MATL (params, spec strings, factor maps and singular values), TRAN
- *   (transport arrays), and finally a CRC-32 (zlib) of everything before it.
+ *   (transport arrays), optionally DIRT (the direct-only transport, same layout), and finally a CRC-32 (zlib) of everything before it.
  * prtfile_read checks magic, version, every length against the file size, the
  * CRC and every index (vertex, material, block, run and coefficient counts),
  * so a corrupt, truncated or wrong-version file fails with one line, never a crash.
@@ -39,7 +39,9 @@ typedef struct prt_stats {
 typedef struct prt_data {
     prt_scene scene;
     brdf_factor factors[PRT_MAX_MATERIALS];   /* one per scene material */
-    prt_transport transport;
+    prt_transport transport;  /* direct + every interreflection pass (what the runtime uses) */
+    prt_transport direct;     /* optional (nvecs 0 when absent): the direct pass alone, kept by
+                               * `precompute --keep-direct` for the viewer's direct/bounces toggle */
     int vis_res;        /* visibility cube resolution (128) */
     int gather_res;     /* gathering cube resolution (32) */
     int sh_order;       /* 0: Haar wavelet basis; else spherical harmonics of this order */

@@ -487,6 +487,22 @@ static void job_progress(ref_job *j, long items) {
     pthread_mutex_unlock(&j->lock);
 }
 
+/* Shading normal of vertex v (unit; +y for a zero normal) and its unit direction toward eye
+ * (the normal itself when eye is on the vertex). */
+static void vertex_frame(const prt_mesh *m, int v, const float eye[3], float n[3], float wo[3]) {
+    v3_copy(n, m->nrm + 3 * (size_t)v);
+    if (v3_normalize(n) == 0.f) v3_set(n, 0, 1, 0);
+    v3_sub(wo, eye, m->pos + 3 * (size_t)v);
+    if (v3_normalize(wo) == 0.f) v3_copy(wo, n);
+}
+
+/* True when v's normal faces eye (the same test trace_path applies). */
+bool ref_vertex_faces(const prt_mesh *m, int v, const float eye[3]) {
+    float n[3], wo[3];
+    vertex_frame(m, v, eye, n, wo);
+    return v3_dot(n, wo) > 0.f;
+}
+
 static void vertex_range(void *ctx, int begin, int end, int thread) {
     ref_job *j = ctx;
     if (atomic_load(&j->cancel)) return;
@@ -494,16 +510,13 @@ static void vertex_range(void *ctx, int begin, int end, int thread) {
     for (int i = begin; i < end; i++) {
         int v = j->verts ? j->verts[i] : i;
         ref_surf s;
+        float wo[3];
         v3_copy(s.p, m->pos + 3 * (size_t)v);
-        v3_copy(s.ns, m->nrm + 3 * (size_t)v);
-        if (v3_normalize(s.ns) == 0.f) v3_set(s.ns, 0, 1, 0);
+        vertex_frame(m, v, j->eye, s.ns, wo);
         v3_copy(s.ng, s.ns);
         s.at_vertex = true;
         int mat = m->mat ? m->mat[v] : 0;
         s.mat = mat < j->rc->scene->nmaterials ? mat : 0;
-        float wo[3];
-        v3_sub(wo, j->eye, s.p);
-        if (v3_normalize(wo) == 0.f) v3_copy(wo, s.ns);
         pcg32 rng;
         pcg32_seed(&rng, j->seed, (uint64_t)v);
         ref_acc a = { { 0 }, { 0 }, 0 };
@@ -527,6 +540,15 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
             pcg32 rng;
             pcg32_seed(&rng, j->seed, (uint64_t)idx);
             ref_acc a = { { 0 }, { 0 }, 0 };
+            /* Background as prt render draws it: the probe along the pixel-centre ray, so that
+             * background pixels compare equal and prt compare measures the surfaces. */
+            float bg[3] = { 0, 0, 0 };
+            if (!j->d->black_background) {
+                float cdir[3];
+                camera_ray(j->cam, j->w, j->h, x + 0.5f, y + 0.5f, cdir);
+                v3_normalize(cdir);
+                ref_env_radiance(j->rc, cdir, bg);
+            }
             for (int k = 0; k < j->spp; k++) {
                 float dir[3], xr[3];
                 float px = x + pcg32_float(&rng), py = y + pcg32_float(&rng);
@@ -534,10 +556,8 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
                 v3_normalize(dir);
                 vis_hit hit;
                 j->rays[thread]++;
-                if (!vis_closest(j->rc->vs, j->cam->eye, dir, 0.f, INFINITY, &hit)) {
-                    if (j->d->black_background) v3_set(xr, 0, 0, 0);
-                    else ref_env_radiance(j->rc, dir, xr);
-                } else {
+                if (!vis_closest(j->rc->vs, j->cam->eye, dir, 0.f, INFINITY, &hit)) v3_copy(xr, bg);
+                else {
                     ref_surf s;
                     surf_from_hit(j->rc, &hit, dir, &s);
                     float wo[3];
@@ -629,16 +649,18 @@ int ref_render_image(const ref_ctx *rc, const prt_camera *cam, int w, int h, con
 }
 
 /* Writes the per-vertex CSV (see header). */
-int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, int n, prt_error *err) {
+int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, const uint8_t *facing, int n,
+                         prt_error *err) {
     char tmp[4096];
     FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
     if (!f) return -1;
-    fprintf(f, "vertex,r,g,b,stderr_r,stderr_g,stderr_b\n");
+    fprintf(f, "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing\n");
     for (int v = 0; v < n; v++) {
         const float *c = rgb + 3 * (size_t)v;
         float z[3] = { 0, 0, 0 };
         const float *e = se ? se + 3 * (size_t)v : z;
-        fprintf(f, "%d,%.8g,%.8g,%.8g,%.8g,%.8g,%.8g\n", v, c[0], c[1], c[2], e[0], e[1], e[2]);
+        fprintf(f, "%d,%.8g,%.8g,%.8g,%.8g,%.8g,%.8g,%d\n", v, c[0], c[1], c[2], e[0], e[1], e[2],
+                facing ? facing[v] != 0 : 1);
     }
     return prt_atomic_commit(f, tmp, path, err);
 }

@@ -28,6 +28,10 @@
  * -1 = to convergence with Russian roulette after 3 bounces (survival = min(0.95,
  * max throughput)). Emission is only the environment.
  *
+ * Images: each pixel averages spp camera rays jittered over its area (box filter). Rays
+ * that miss the scene show the probe along the pixel-centre ray, as `prt render` draws
+ * its background, so background pixels compare equal and only surfaces differ.
+ *
  * Noise: each pixel / vertex gets spp independent samples; the standard error is
  * the sample standard deviation / sqrt(spp), per channel. Determinism: sample s
  * of item i uses PCG32 stream i seeded from `seed`, so results do not depend on the
@@ -89,6 +93,12 @@ float ref_env_pdf(const ref_ctx *rc, const float w[3]);
 /* Radiance of the (rotated) environment in world direction w. */
 void ref_env_radiance(const ref_ctx *rc, const float w[3], float rgb[3]);
 
-/* Writes "vertex,r,g,b,stderr_r,stderr_g,stderr_b" (se NULL: zeros) atomically. */
-int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, int n, prt_error *err);
+/* True when vertex v's normal faces eye (n . (eye - p) > 0): only then is radiance toward the eye
+ * defined for a one-sided surface; ref_render_vertices gives exactly 0 for the others. */
+bool ref_vertex_faces(const prt_mesh *m, int v, const float eye[3]);
+
+/* Writes "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing" atomically (se NULL: zeros; facing NULL:
+ * all 1). The facing column lets prt compare leave out back-facing vertices (compare.h). */
+int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, const uint8_t *facing, int n,
+                         prt_error *err);
 #endif

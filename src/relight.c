@@ -6,8 +6,11 @@
  * Eq. 10 tangent frame (precomputed here once), a bilinear lookup of the K view
  * maps h_k (brdf_factor_view) and a K-term dot product per channel. Lambertian
  * materials have a constant view map, so their h is read once per material and
- * their vertices skip the lookup (also below the horizon, where a back-facing
- * vertex is hidden anyway).
+ * their vertices skip the lookup. A back-facing vertex is never seen itself, but
+ * Gouraud interpolation carries its colour into the silhouette's front-facing
+ * triangles; so glossy vertices seen from below the horizon are shaded at a grazing
+ * view (local z clamped to RELIGHT_MIN_COS), like Lambertian ones keep their
+ * value, and silhouettes do not darken. (prt compare skips back-facing vertices.)
  *
  * Output policy: the truncated wavelet approximation can ring slightly below
  * zero near hard shadow edges; negative radiance has no physical meaning and
@@ -21,6 +24,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* The smallest view cosine used for glossy shading (see the header comment). */
+#define RELIGHT_MIN_COS 0.02f
+
 typedef struct relight_vert {
     float pos[3], s[3], t[3], n[3];
 } relight_vert;
@@ -28,6 +34,7 @@ typedef struct relight_vert {
 struct relight_ctx {
     const prt_data *d;
     int nthreads;
+    bool use_direct;       /* light changes use d->direct (see relight_use_direct) */
     int nverts, nvecs;
     relight_vert *verts;          /* [nverts] */
     float *g;                     /* [3 * nvecs] light-dependent K-vectors (Eq. 5's T x L) */
@@ -104,7 +111,17 @@ void relight_destroy(relight_ctx *rc) {
 }
 
 /* Light change: g = T x L for every vector (Eq. 5), on rc->nthreads threads. */
-void relight_set_light(relight_ctx *rc, const float (*L)[4]) { transport_light(&rc->d->transport, L, rc->g, rc->nthreads); }
+void relight_set_light(relight_ctx *rc, const float (*L)[4]) {
+    const prt_transport *t = rc->use_direct && rc->d->direct.nvecs ? &rc->d->direct : &rc->d->transport;
+    transport_light(t, L, rc->g, rc->nthreads);
+}
+
+/* Chooses the direct-only set (when the file keeps one) or the total; true if the choice is available. */
+bool relight_use_direct(relight_ctx *rc, bool direct) {
+    if (direct && !rc->d->direct.nvecs) return false;
+    rc->use_direct = direct;
+    return true;
+}
 
 /* The cached K-vectors, [3 * nvecs]; owned by rc. */
 const float *relight_gvec(const relight_ctx *rc) { return rc->g; }
@@ -123,8 +140,16 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
         if (f->lambertian) {
             for (int c = 0; c < 3; c++) acc[c] = rc->lambert_h[mi][c] * g[c];
         } else {
-            float h[BRDF_MAX_SIGMA * 3];
-            brdf_factor_view(f, wl, h);
+            float h[BRDF_MAX_SIGMA * 3], w[3] = { wl[0], wl[1], wl[2] };
+            if (w[2] < RELIGHT_MIN_COS) {
+                /* Below or at the horizon: the grazing direction with the same azimuth. */
+                float r = sqrtf(w[0] * w[0] + w[1] * w[1]);
+                float sxy = sqrtf(1.f - RELIGHT_MIN_COS * RELIGHT_MIN_COS) / (r > 1e-12f ? r : 1.f);
+                if (r <= 1e-12f) { w[0] = 1.f; w[1] = 0.f; }
+                else { w[0] *= sxy; w[1] *= sxy; }
+                w[2] = RELIGHT_MIN_COS;
+            }
+            brdf_factor_view(f, w, h);
             for (int k = 0; k < K; k++)
                 for (int c = 0; c < 3; c++) acc[c] += h[3 * k + c] * g[3 * k + c];
         }

@@ -19,6 +19,10 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err);
 void relight_destroy(relight_ctx *rc);
 /* L: [CUBE_TEXELS][4] light vector (light.h). */
 void relight_set_light(relight_ctx *rc, const float (*L)[4]);
+/* Light changes from now on use the direct-only transport (true; only when the file keeps
+ * one, d->direct.nvecs > 0) or direct + bounces (false, the default). Returns false when
+ * the direct set is asked for but absent. Call relight_set_light again to see the change. */
+bool relight_use_direct(relight_ctx *rc, bool direct);
 /* The cached light-dependent K-vectors ([3 * nvecs]). */
 const float *relight_gvec(const relight_ctx *rc);
 /* Per-vertex outgoing radiance toward eye: rgb[3*nverts]. kmax 0 = all terms. */

@@ -451,7 +451,7 @@ int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err) {
     /* A glossy red sphere resting on the floor, left. */
     const float sc[3] = { -0.75f, 0.45f, 0.2f };
     if (mesh_make_sphere(&m, sc, 0.45f, 40, 80, err) ||
-        demo_add(out, &m, "phong:kd=0.55,0.07,0.05;ks=0.35;n=80", NULL, NULL, err)) goto fail;
+        demo_add(out, &m, "phong:kd=0.55,0.07,0.05;ks=0.25;n=12", NULL, NULL, err)) goto fail;
     /* A diffuse blue torus standing on its rim, behind, turned 30 degrees. */
     float R[9], Rx[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 }, Ry[9];
     rot_y(Ry, 30.0);
@@ -465,10 +465,26 @@ int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err) {
     const float lo[3] = { -0.3f, 0.f, -0.3f }, hi[3] = { 0.3f, 0.6f, 0.3f }, bt[3] = { 0.7f, 0.f, 0.3f };
     rot_y(R, -25.0);
     if (mesh_make_box(&m, lo, hi, 12, false, err) ||
-        demo_add(out, &m, "ggx:kd=0.45,0.35,0.15;ks=0.6,0.5,0.3;alpha=0.15", R, bt, err)) goto fail;
+        demo_add(out, &m, "ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35", R, bt, err)) goto fail;
     if (scene_add_floor(out, floor_verts, SCENE_DEFAULT_FLOOR_SIZE, SCENE_DEFAULT_FLOOR_MATERIAL, err)) goto fail;
     return 0;
 fail:
     scene_free(out);
     return -1;
+}
+
+/* Bounds of vertices [0, floor_first_vertex): the models a default camera frames. */
+void scene_focus_bounds(const prt_scene *s, float bmin[3], float bmax[3]) {
+    int n = s->floor_first_vertex > 0 ? s->floor_first_vertex : s->mesh.nverts;
+    if (n <= 0) {
+        for (int c = 0; c < 3; c++) bmin[c] = bmax[c] = 0;
+        return;
+    }
+    for (int c = 0; c < 3; c++) bmin[c] = bmax[c] = s->mesh.pos[c];
+    for (int v = 1; v < n; v++)
+        for (int c = 0; c < 3; c++) {
+            float x = s->mesh.pos[3 * v + c];
+            if (x < bmin[c]) bmin[c] = x;
+            if (x > bmax[c]) bmax[c] = x;
+        }
 }

@@ -70,6 +70,10 @@ int scene_material(prt_scene *s, const char *spec, prt_error *err);
 /* Recomputes s->bmin/bmax. */
 void scene_update_bounds(prt_scene *s);
 
+/* Bounds of what a camera should frame: the models without the floor (everything when
+ * there is no floor or nothing but the floor). */
+void scene_focus_bounds(const prt_scene *s, float bmin[3], float bmax[3]);
+
 /* The built-in demo scene: a glossy sphere, a diffuse torus and a glossy box over a floor. */
 int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err);
 

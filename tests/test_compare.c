@@ -99,10 +99,25 @@ static void test_csv(const char *dir) {
     CHECK(cmp_files(pf, pb, NULL, &r, &err) == -1 && strstr(err.msg, "no vertex rows"), "empty: %s", err.msg);
     write_text(pf, "vertex,r,g,b\n0,nan,1,1\n1,1,1,1\n");
     CHECK(cmp_files(pf, pb, NULL, &r, &err) == -1 && strstr(err.msg, "f.csv:2"), "NaN in CSV: %s", err.msg);
+    /* Facing column: back-facing vertices are left out unless all_vertices. */
+    char pg[512], ph[512];
+    snprintf(pg, sizeof pg, "%s/g.csv", dir);
+    snprintf(ph, sizeof ph, "%s/h.csv", dir);
+    write_text(pg, "vertex,r,g,b\n0,1,1,1\n1,5,5,5\n2,2,2,2\n");
+    write_text(ph, "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing\n0,1,1,1,0,0,0,1\n1,0,0,0,0,0,0,0\n2,1,1,1,0,0,0,1\n");
+    CHECK(cmp_files(pg, ph, NULL, &r, &err) == 0, "%s", err.msg);
+    /* Facing items 0 and 2: d^2 = 3, b^2 = 6; max: item 2, |d|/|b| = 1. */
+    CHECK_NEAR(r.rel_rmse, sqrt(0.5), 1e-6, "only facing vertices");
+    CHECK_NEAR(r.max_rel_err, 1.0, 1e-6, "max over facing vertices");
+    CHECK(r.skipped == 1 && r.items == 2 && r.worst_item == 2, "skipped %ld items %ld worst %d", r.skipped, r.items, r.worst_item);
+    CHECK(cmp_files(pg, ph, &(cmp_desc){ .all_vertices = true }, &r, &err) == 0, "%s", err.msg);
+    CHECK_NEAR(r.rel_rmse, sqrt(78.0 / 6), 1e-5, "all vertices: d^2 = 3 + 75");
+    write_text(ph, "vertex,r,g,b,facing\n0,1,1,1,2\n1,0,0,0,0\n2,1,1,1,1\n");
+    CHECK(cmp_files(pg, ph, NULL, &r, &err) == -1 && strstr(err.msg, "h.csv:2"), "facing must be 0 or 1: %s", err.msg);
     char missing[600];
     snprintf(missing, sizeof missing, "%s/nope.csv", dir);
     CHECK(cmp_files(missing, pb, NULL, &r, &err) == -1 && strstr(err.msg, "nope.csv"), "missing file: %s", err.msg);
-    CHECK(cmp_files(pa, pb, "x.png", &r, &err) == -1 && strstr(err.msg, "error image"), "no error image for CSV");
+    CHECK(cmp_files(pa, pb, &(cmp_desc){ .error_image = "x.png" }, &r, &err) == -1 && strstr(err.msg, "error image"), "no error image for CSV");
 }
 
 static int write_img(const char *path, int w, int h, const float *rgb) {
@@ -137,7 +152,7 @@ static void test_images(const char *dir) {
     CHECK(write_img(pa, W, H, a) == 0 && write_img(pb, W, H, b) == 0, "wrote test EXRs");
     prt_error err;
     cmp_result r;
-    CHECK(cmp_files(pa, pb, pe, &r, &err) == 0, "%s", err.msg);
+    CHECK(cmp_files(pa, pb, &(cmp_desc){ .error_image = pe }, &r, &err) == 0, "%s", err.msg);
     CHECK_NEAR(r.rel_rmse, sqrt(d2 / b2), 1e-6, "EXR rel_rmse");
     CHECK_NEAR(r.max_rel_err, 0.5, 1e-6, "EXR max_rel_err: pixel 7 is 50%% too bright");
     CHECK(r.worst_item == 7, "worst pixel %d", r.worst_item);
@@ -160,7 +175,7 @@ static void test_images(const char *dir) {
     CHECK(cmp_files(pa, pc, NULL, &r, &err) == -1, "second call fails the same");
 }
 
-/* The command line: output line format and exit codes (only when build/prt exists). */
+/* The command line: output line format and exit codes. */
 static void test_cli(const char *dir) {
     char cmd[2048], out[4096];
     snprintf(cmd, sizeof cmd, "%s compare %s/a.exr %s/b.exr", check_prt_bin(), dir, dir);

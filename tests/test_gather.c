@@ -348,6 +348,48 @@ static void test_glossy(void) {
         CHECK_LE(er[ri], 0.10, "res %d: random-light projections within 10%% (RMS) of res 64", ri ? 32 : 16);
     }
 
+    /* The 8-bit decode kernels (SIMD for K = 1 and 4) against the generic float path validated
+     * above: an 8-bit set keeping every coefficient, and the same values stored as floats. Both
+     * passes see identical inputs; the 8-bit output differs only by its rounding, at most half a
+     * step per coefficient and channel. */
+    {
+        prt_transport a8, a32, o8, o32;
+        CHECK(fx_direct(&d, vs, CUBE_TEXELS, 8, &a8) == 0, "8-bit full direct");
+        int *cnt = malloc(sizeof(int) * a8.nverts);
+        for (int v = 0; v < a8.nverts; v++) cnt[v] = (int)(a8.vec_first[v + 1] - a8.vec_first[v]);
+        CHECK(transport_init(&a32, a8.nverts, cnt, CUBE_TEXELS, 32, &err) == 0, "init");
+        free(cnt);
+        float *x = malloc(sizeof(float) * 3 * CUBE_TEXELS), *y = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+        void *scr = malloc(transport_scratch_size());
+        for (int i = 0; i < a8.nvecs; i++) {
+            transport_decode(&a8, i, x, x + CUBE_TEXELS, x + 2 * CUBE_TEXELS);
+            transport_store(&a32, i, x, x + CUBE_TEXELS, x + 2 * CUBE_TEXELS, scr);
+        }
+        CHECK(transport_finish(&a32, &err) == 0, "finish");
+        transport_free(&a8);   /* a8 is rebuilt identically below, to keep memory low */
+        CHECK(gather_pass(&d, vs, &a32, &gd, &o32, &err) == 0, "%s", err.msg);
+        transport_free(&a32);
+        CHECK(fx_direct(&d, vs, CUBE_TEXELS, 8, &a8) == 0, "8-bit full direct");
+        CHECK(gather_pass(&d, vs, &a8, &gd, &o8, &err) == 0, "%s", err.msg);
+        double worst = 0;   /* in units of the 8-bit output's step */
+        for (int i = 0; i < o8.nvecs; i++) {
+            transport_decode(&o8, i, x, x + CUBE_TEXELS, x + 2 * CUBE_TEXELS);
+            transport_decode(&o32, i, y, y + CUBE_TEXELS, y + 2 * CUBE_TEXELS);
+            for (int ch = 0; ch < 3; ch++) {
+                double step = o8.scale[3 * i + ch];
+                for (int j = 0; j < CUBE_TEXELS; j++) {
+                    double e = fabs((double)x[ch * CUBE_TEXELS + j] - y[ch * CUBE_TEXELS + j]);
+                    double u = step > 0 ? e / step : (e > 0 ? 1e9 : 0);
+                    if (u > worst) worst = u;
+                }
+            }
+        }
+        printf("8-bit kernels vs float path: largest difference %.4f of the output step\n", worst);
+        CHECK_LE(worst, 0.5 + 1e-3, "8-bit input decoded by the SIMD kernels = float path, up to output rounding");
+        free(x); free(y); free(scr);
+        transport_free(&a8); transport_free(&o8); transport_free(&o32);
+    }
+
     /* (c) compressed path. */
     t0 = prt_now();
     CHECK(gather_pass(&d, vs, &q0, &gd, &q1, &err) == 0, "%s", err.msg);

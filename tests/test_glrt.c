@@ -283,6 +283,39 @@ static void test_synthetic(void) {
     }
 }
 
+/* A file that keeps the direct-only set too (precompute --keep-direct): glrt_use_direct switches the
+ * uploaded set (here also its quantization, 16-bit direct vs 8-bit full, so the kernels are rebuilt). */
+static void test_direct_switch(void) {
+    synth full, dir;
+    synth_make(&full, 14, 40, 8, 31);
+    synth_make(&dir, 14, 40, 16, 32);
+    full.d.direct = dir.d.transport;
+    prt_error err = { { 0 } };
+    glrt *rt = glrt_create(&full.d, NULL, &err);
+    CHECK(rt != NULL, "%s", err.msg);
+    int nv = full.d.transport.nvecs;
+    float *g = calloc(3 * (size_t)nv, sizeof(float));
+    for (int step = 0; rt && step < 3; step++) {
+        bool direct = step == 1;
+        const synth *truth = direct ? &dir : &full;
+        CHECK(glrt_use_direct(rt, direct, &err) == 0, "step %d: %s", step, err.msg);
+        CHECK(glrt_set_light(rt, (const float (*)[4])truth->L, &err) == 0, "%s", err.msg);
+        CHECK(glrt_read_gvec(rt, g, &err) == 0, "%s", err.msg);
+        double worst = 0;
+        for (int i = 0; i < 3 * nv; i++) worst = fmax(worst, fabs(g[i] - truth->gtrue[i]) / (truth->gabs[i] + 1e-30));
+        CHECK_LE(worst, 2e-6, "step %d (%s): K-vectors of the wrong set", step, direct ? "direct" : "full");
+    }
+    free(g);
+    glrt_destroy(rt);
+    memset(&full.d.direct, 0, sizeof full.d.direct);
+    /* No direct set: the switch is refused with a message. */
+    rt = glrt_create(&full.d, NULL, &err);
+    CHECK(rt && glrt_use_direct(rt, true, &err) == -1 && strstr(err.msg, "direct"), "%s", err.msg);
+    glrt_destroy(rt);
+    synth_free(&full);
+    synth_free(&dir);
+}
+
 /* View maps with real lookups: material 0 gets random smooth view maps in the grid or the polar
  * parameterization (its seam crosses the image: the eye is above the plane's middle, so the local
  * view azimuths go all the way round), normals are tilted at random. The per-vertex view model
@@ -522,6 +555,7 @@ int main(void) {
     test_synthetic();
     test_egl();
     test_viewmaps();
+    test_direct_switch();
     test_scene();
     return check_summary();
 }

@@ -190,6 +190,32 @@ static void test_grey(const char *dir) {
     image_free(&im);
 }
 
+/* A hand-written PFM (little-endian floats, rows stored bottom to top): read as
+ * linear floats, exactly, with row 0 at the top. */
+static void test_pfm(const char *dir) {
+    char path[512];
+    snprintf(path, sizeof path, "%s/a.pfm", dir);
+    FILE *f = fopen(path, "wb");
+    fprintf(f, "PF\n3 2\n-1.0\n");
+    for (int y = 0; y < 2; y++)   /* stored row y is image row 1 - y */
+        for (int x = 0; x < 3; x++) {
+            float px[3] = { 1.5f * x, 100.f * (1 - y), -0.25f };
+            fwrite(px, sizeof px, 1, f);
+        }
+    fclose(f);
+    prt_image im;
+    prt_error err;
+    CHECK(image_read(path, &im, &err) == 0, "%s", err.msg);
+    int ok = im.w == 3 && im.h == 2 && im.c == 3;
+    for (int y = 0; y < 2 && ok; y++)
+        for (int x = 0; x < 3; x++) {
+            const float *p = im.data + 3 * (y * 3 + x);
+            ok &= p[0] == 1.5f * x && p[1] == 100.f * y && p[2] == -0.25f;
+        }
+    CHECK(ok, "PFM read exactly, top row first, negatives kept");
+    image_free(&im);
+}
+
 static void test_errors(const char *dir) {
     prt_image im;
     prt_error err;
@@ -250,6 +276,7 @@ int main(void) {
     test_exr_roundtrip(dir);
     test_png(dir);
     test_grey(dir);
+    test_pfm(dir);
     test_errors(dir);
     return check_summary();
 }

@@ -121,6 +121,8 @@ static void make_data(prt_data *d, int qbits) {
 #define SAME_ARR(a, b, n) ((a) && (b) && memcmp((a), (b), (n) * sizeof *(a)) == 0)
 
 /* Field-by-field equality of everything a prt_data holds. */
+static void check_same_transport(const prt_transport *s, const prt_transport *t, int qbits);
+
 static void check_equal(const prt_data *a, const prt_data *b, int qbits) {
     const prt_mesh *ma = &a->scene.mesh, *mb = &b->scene.mesh;
     CHECK(ma->nverts == mb->nverts && ma->ntris == mb->ntris, "mesh sizes (%d)", qbits);
@@ -143,7 +145,16 @@ static void check_equal(const prt_data *a, const prt_data *b, int qbits) {
         size_t cnt = (size_t)f->res * f->res * f->K * 3;
         CHECK(SAME_ARR(f->light, g->light, cnt) && SAME_ARR(f->view, g->view, cnt), "factor %d maps", i);
     }
-    const prt_transport *s = &a->transport, *t = &b->transport;
+    check_same_transport(&a->transport, &b->transport, qbits);
+    CHECK(a->direct.nvecs == b->direct.nvecs, "direct set present in both or neither");
+    if (a->direct.nvecs && b->direct.nvecs) check_same_transport(&a->direct, &b->direct, qbits);
+    CHECK(a->vis_res == b->vis_res && a->gather_res == b->gather_res && a->sh_order == b->sh_order);
+    CHECK(memcmp(&a->stats, &b->stats, sizeof a->stats) == 0, "stats");
+    CHECK(strcmp(a->plan, b->plan) == 0, "plan");
+}
+
+/* Field-by-field equality of two transport sets. */
+static void check_same_transport(const prt_transport *s, const prt_transport *t, int qbits) {
     CHECK(s->nverts == t->nverts && s->nvecs == t->nvecs && s->N == t->N && s->qbits == t->qbits, "transport sizes");
     size_t nc = s->coef_first[s->nvecs], nr = s->run_first[s->nvecs];
     CHECK(SAME_ARR(s->vec_first, t->vec_first, s->nverts + 1) && SAME_ARR(s->coef_first, t->coef_first, s->nvecs + 1) &&
@@ -153,9 +164,6 @@ static void check_equal(const prt_data *a, const prt_data *b, int qbits) {
     if (qbits == 16) CHECK(SAME_ARR(s->offs, t->offs, nc) && SAME_ARR(s->q16, t->q16, 3 * nc) && !t->packed && !t->f32, "16-bit");
     if (qbits == 32) CHECK(SAME_ARR(s->offs, t->offs, nc) && SAME_ARR(s->f32, t->f32, 3 * nc) && !t->packed && !t->q16, "float");
     CHECK(!t->stage_count && !t->stage_idx && !t->stage_val);
-    CHECK(a->vis_res == b->vis_res && a->gather_res == b->gather_res && a->sh_order == b->sh_order);
-    CHECK(memcmp(&a->stats, &b->stats, sizeof a->stats) == 0, "stats");
-    CHECK(strcmp(a->plan, b->plan) == 0, "plan");
 }
 
 static unsigned char *slurp(const char *path, size_t *n) {
@@ -246,6 +254,27 @@ int main(void) {
         CHECK(b.scene.mesh.pos == NULL && b.transport.packed == NULL && b.factors[1].light == NULL, "freed and zeroed");
     }
     CHECK(count_files(dir, ".tmp.") == 0, "no temporaries after writes");
+
+    /* The optional direct-only set (DIRT section) round-trips beside the total transport,
+     * and a file without it reads with an empty direct set. */
+    {
+        prt_data a, b, c;
+        make_data(&a, 8);
+        make_data(&c, 8);
+        a.direct = c.transport;              /* same layout, moved in */
+        memset(&c.transport, 0, sizeof c.transport);
+        prt_data_free(&c);
+        snprintf(path, sizeof path, "%s/dirt.prt", dir);
+        CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
+        CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
+        if (b.scene.mesh.pos) check_equal(&a, &b, 8);
+        CHECK(b.direct.nvecs == a.transport.nvecs, "direct set read back");
+        prt_data_free(&b);
+        snprintf(path2, sizeof path2, "%s/rt8.prt", dir);
+        CHECK(prtfile_read(path2, &b, &err) == 0 && b.direct.nvecs == 0 && b.direct.packed == NULL, "no DIRT: empty set");
+        prt_data_free(&b);
+        prt_data_free(&a);
+    }
 
     /* Damaged files, from the 16-bit one. */
     snprintf(path, sizeof path, "%s/rt16.prt", dir);

@@ -13,6 +13,7 @@
  *   - clean errors (empty scene, vertex out of range, cancellation). */
 #include "check.h"
 #include "brdf.h"
+#include "image.h"
 #include "mesh.h"
 #include "probe.h"
 #include "reference.h"
@@ -57,8 +58,18 @@ static void test_env_sampling(void) {
     CHECK(make_scene_mesh(&m, "lambert:kd=0.5", &s) == 0, "scene");
     float R[9];
     CHECK(probe_parse_rotation("70,20", R) == 0, "rotation parses");
-    for (int rot = 0; rot < 2; rot++) {
-        ref_ctx *rc = ref_create(&s, &sky, rot ? R : NULL, &err);
+    /* An angular-map probe (not latlong: the sampling grid is resampled through probe_eval). */
+    prt_image aimg;
+    CHECK(image_alloc(&aimg, 128, 128, 3, &err) == 0, "%s", err.msg);
+    for (int y = 0; y < 128; y++)
+        for (int x = 0; x < 128; x++) {
+            float d2 = (float)((x - 40) * (x - 40) + (y - 70) * (y - 70));
+            for (int ch = 0; ch < 3; ch++) aimg.data[3 * (y * 128 + x) + ch] = 1.f + ch * 0.2f + 50.f * expf(-d2 / 20.f);
+        }
+    prt_probe ang;
+    CHECK(probe_from_image(&aimg, PROBE_ANGULAR, "angular test probe", &ang, &err) == 0, "%s", err.msg);
+    for (int rot = 0; rot < 3; rot++) {
+        ref_ctx *rc = ref_create(&s, rot == 2 ? &ang : &sky, rot == 1 ? R : NULL, &err);
         CHECK(rc != NULL, "%s", err.msg);
         if (!rc) continue;
         /* Integral of the pdf and of L over the sphere by a fine midpoint grid (world frame). */
@@ -75,7 +86,7 @@ static void test_env_sampling(void) {
                 iL += L[1] * dw;
             }
         }
-        CHECK_NEAR(ipdf, 1.0, 2e-3, "environment pdf integrates to 1 (rotation %d)", rot);
+        CHECK_NEAR(ipdf, 1.0, 2e-3, "environment pdf integrates to 1 (case %d: sky, rotated sky, angular)", rot);
         /* E[L/pdf] by environment samples; the sample's pdf agrees with ref_env_pdf. */
         int n = 200000, pdf_mismatch = 0;
         double sum = 0, sum2 = 0;
@@ -93,7 +104,7 @@ static void test_env_sampling(void) {
         }
         double mean = sum / n, se = sqrt((sum2 / n - mean * mean) / n);
         CHECK(pdf_mismatch <= n / 10000, "%d samples whose pdf disagrees with ref_env_pdf", pdf_mismatch);
-        CHECK_NEAR(mean, iL, 4 * se + 2e-3 * iL, "E[L/pdf] = integral of L (rotation %d, se %.3g)", rot, se);
+        CHECK_NEAR(mean, iL, 4 * se + 2e-3 * iL, "E[L/pdf] = integral of L (case %d, se %.3g)", rot, se);
         CHECK_LE(se / mean, 0.01, "importance sampling makes L/pdf nearly constant");
         ref_destroy(rc);
     }
@@ -125,6 +136,7 @@ static void test_env_sampling(void) {
         ref_destroy(rc);
     }
     probe_free(&black);
+    probe_free(&ang);
     scene_free(&s);
     probe_free(&sky);
 }
@@ -153,10 +165,7 @@ static void test_furnace_sphere(void) {
     zstats z = { 0 };
     int away_nonzero = 0;
     for (int v = 0; v < n; v++) {
-        float wo[3];
-        v3_sub(wo, eye, s.mesh.pos + 3 * v);
-        v3_normalize(wo);
-        if (v3_dot(wo, s.mesh.nrm + 3 * v) <= 0) {
+        if (!ref_vertex_faces(&s.mesh, v, eye)) {
             away_nonzero += rgb[3 * v] != 0 || rgb[3 * v + 1] != 0 || rgb[3 * v + 2] != 0;
             continue;
         }
@@ -479,17 +488,86 @@ static void test_determinism_and_errors(void) {
     char path[512];
     snprintf(path, sizeof path, "%s/v.csv", check_tmpdir());
     float rgb[6] = { 1, 2, 3, 4, 5, 6 }, se2[6] = { 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f };
-    CHECK(ref_write_vertex_csv(path, rgb, se2, 2, &err) == 0, "%s", err.msg);
+    uint8_t facing[2] = { 1, 0 };
+    CHECK(ref_write_vertex_csv(path, rgb, se2, facing, 2, &err) == 0, "%s", err.msg);
     FILE *f = fopen(path, "r");
     char buf[256] = { 0 };
     if (f) { size_t got = fread(buf, 1, sizeof buf - 1, f); buf[got] = 0; fclose(f); }
-    CHECK(strcmp(buf, "vertex,r,g,b,stderr_r,stderr_g,stderr_b\n0,1,2,3,0.1,0.2,0.30000001\n1,4,5,6,0.40000001,0.5,0.60000002\n") == 0,
-          "CSV contents: %s", buf);
+    CHECK(strcmp(buf, "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing\n0,1,2,3,0.1,0.2,0.30000001,1\n"
+                      "1,4,5,6,0.40000001,0.5,0.60000002,0\n") == 0, "CSV contents: %s", buf);
     free(a);
     free(b);
     free(c);
     probe_free(&sky);
     scene_free(&s);
+}
+
+/* ---------------------------------------------------------------- command line, end to end */
+
+/* Parses "rel_rmse=X max_rel_err=Y" from prt compare's output; returns false if absent. */
+static bool parse_metrics(const char *out, double *rel_rmse, double *max_rel) {
+    const char *p = strstr(out, "rel_rmse="), *q = strstr(out, "max_rel_err=");
+    if (!p || !q) return false;
+    *rel_rmse = atof(p + 9);
+    *max_rel = atof(q + 12);
+    return true;
+}
+
+static void test_cli(void) {
+    const char *dir = check_tmpdir(), *prt = check_prt_bin();
+    char path[512], cmd[4096], out[8192];
+    prt_error err;
+    /* A smooth sky without a sun (PRT is accurate there) written as a latlong EXR. */
+    prt_probe sky;
+    sky_desc sd = { .width = 256, .sun_radiance = 1e-6f };
+    CHECK(probe_make_sky(&sd, &sky, &err) == 0, "%s", err.msg);
+    snprintf(path, sizeof path, "%s/sky.exr", dir);
+    image_desc idesc = { 0 };
+    CHECK(image_write(path, &sky.img, &idesc, &err) == 0, "%s", err.msg);
+    probe_free(&sky);
+    snprintf(path, sizeof path, "%s/scene.json", dir);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("{ \"models\": [ { \"sphere\": {\"center\":[0,1,0], \"radius\":1}, \"material\": \"lambert:kd=0.8\" } ],\n"
+              "  \"floor\": { \"vertices\": 400, \"material\": \"lambert:kd=0.6\" } }\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd, "%s precompute %s/scene.json -o %s/s.prt --vis-res 64 --quiet", prt, dir, dir);
+    int rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "precompute (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s render %s/s.prt --probe %s/sky.exr -o %s/prt.exr --vertices %s/prt.csv --size 128x96 --no-background",
+             prt, dir, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "render (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/ref.exr --vertices %s/ref.csv --size 128x96 "
+             "--no-background --spp 64 --vertex-spp 1024 --quiet", prt, dir, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "reference (rc %d): %s", rc, out);
+    /* Per vertex: PRT against the reference. Both see the same scene, camera and probe. */
+    double rel, mx;
+    snprintf(cmd, sizeof cmd, "%s compare %s/prt.csv %s/ref.csv", prt, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0 && parse_metrics(out, &rel, &mx), "compare vertices (rc %d): %s", rc, out);
+    const char *noise = strstr(out, "ref_noise=");
+    double ref_noise = noise ? atof(noise + 10) : 1;
+    printf("prt vs reference per vertex: %s", out);
+    CHECK_LE(rel, 0.05, "Lambert scene under a smooth sky: PRT within 5%% RMS of the reference (noise %.3g)", ref_noise);
+    CHECK_LE(ref_noise, 0.02, "the reference's own noise is small at 1024 spp");
+    snprintf(cmd, sizeof cmd, "%s compare %s/prt.exr %s/ref.exr --error-image %s/err.png", prt, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0 && parse_metrics(out, &rel, &mx), "compare images (rc %d): %s", rc, out);
+    printf("prt vs reference image: rel_rmse=%.4g max_rel_err=%.4g\n", rel, mx);
+    CHECK_LE(rel, 0.15, "image within 15%% RMS (measured 11%%: 5.5%% noise at 64 spp, antialiased edges and Gouraud vs per-pixel shading)");
+    /* Bad input: one line, exit 1 for a missing file, 2 for usage. */
+    snprintf(cmd, sizeof cmd, "%s reference %s/none.prt --probe %s/sky.exr -o %s/x.exr", prt, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 1 && strstr(out, "prt reference:") && strstr(out, "none.prt"), "missing .prt (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt -o %s/x.exr", prt, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "--probe"), "missing probe is a usage error (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/x.exr --spp 0", prt, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "--spp"), "bad --spp (rc %d): %s", rc, out);
 }
 
 int main(void) {
@@ -505,6 +583,8 @@ int main(void) {
     test_mis();
     printf("mis %.1fs\n", prt_now() - t0);
     test_determinism_and_errors();
+    test_cli();
+    printf("cli %.1fs\n", prt_now() - t0);
     printf("total %.1fs\n", prt_now() - t0);
     return check_summary();
 }

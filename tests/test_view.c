@@ -89,9 +89,10 @@ static double mean_code(const char *path) {
 
 int main(void) {
     const char *dir = check_tmpdir(), *prt = check_prt_bin();
-    char obj[512], sky[512], scene[512], cmd[8192], out[16384];
+    char obj[512], sky[512], sky2[512], scene[512], cmd[8192], out[16384];
     snprintf(obj, sizeof obj, "%s/sphere.obj", dir);
     snprintf(sky, sizeof sky, "%s/sky.exr", dir);
+    snprintf(sky2, sizeof sky2, "%s/sky2.exr", dir);
     snprintf(scene, sizeof scene, "%s/scene.prt", dir);
     CHECK(access(prt, X_OK) == 0, "%s not built", prt);
     int have_xvfb = check_run("command -v xvfb-run", NULL, 0) == 0;
@@ -108,9 +109,17 @@ int main(void) {
         CHECK(image_write(sky, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
         probe_free(&p);
     }
+    sky_desc sd2 = { .width = 256, .sun_dir = { -0.6f, 0.5f, -0.2f }, .sun_radius_deg = 8, .sun_radiance = 30,
+                     .sky_zenith = { 0.2f, 0.3f, 0.9f }, .sky_horizon = { 0.9f, 0.6f, 0.4f }, .ground = { 0.1f, 0.2f, 0.1f } };
+    rc = probe_make_sky(&sd2, &p, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc == 0) {
+        CHECK(image_write(sky2, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
+        probe_free(&p);
+    }
     snprintf(cmd, sizeof cmd,
              "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --terms 2 --floor 1500 --coeffs 64 "
-             "--vis-res 64 --quiet -o %s",
+             "--vis-res 64 --bounces 1 --force-bounces --keep-direct --quiet -o %s",
              prt, obj, scene);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 0, "precompute failed (%d): %s", rc, out);
@@ -159,6 +168,56 @@ int main(void) {
         double m = mean_code(shot);
         CHECK(m > 10 && m < 245, "%s: screenshot is blank (mean code %.1f)", backends[b], m);
     }
+    /* Keys, probes and light rotation: start on GL with two probes and a rotated light, then press
+     * b (CPU runtime), 2 (second probe), k (one BRDF term fewer) and + (half a stop brighter); the
+     * last frame must match the headless render of exactly that state. */
+    if (have_xvfb) {
+        char shot[512], ref[512];
+        snprintf(shot, sizeof shot, "%s/shot_keys.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_keys.png", dir);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --probe %s --light-rotation 60,10 --camera %s "
+                 "--size %dx%d --exposure -1 --backend gl --frames 5 --keys b2k+ --screenshot %s",
+                 prt, scene, sky, sky2, k_cam, W, H, shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "CPU runtime"), "view with keys failed (%d): %s", rc, out);
+        snprintf(cmd, sizeof cmd,
+                 "%s render %s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -0.5 --terms 1 -o %s", prt,
+                 scene, sky2, k_cam, W, H, ref);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "render failed (%d): %s", rc, out);
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0, "keys: images missing or of different sizes");
+        CHECK_LE(worst, 2, "keys: viewer state after b2k+ differs from the headless render (mean %.4f codes)", mean);
+        /* ... and differs clearly from the first probe's unrotated 2-term image. */
+        snprintf(ref, sizeof ref, "%s/ref_cpu.png", dir);
+        worst = compare_png(shot, ref, &mean);
+        CHECK(worst > 20 && mean > 1, "keys had no visible effect (max %g, mean %g)", worst, mean);
+    }
+    /* D: direct lighting only (the file keeps both sets). The GL runtime in its per-vertex view model
+     * against the CPU runtime's `render --direct-only`; the bounce must have changed the image. */
+    if (have_xvfb) {
+        char shot[512], ref[512], full[512];
+        snprintf(shot, sizeof shot, "%s/shot_direct.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_direct.png", dir);
+        snprintf(full, sizeof full, "%s/ref_cpu.png", dir);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --exposure -1 "
+                 "--backend gl --view-model vertex --frames 3 --keys d --screenshot %s",
+                 prt, scene, sky, k_cam, W, H, shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view --keys d failed (%d): %s", rc, out);
+        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only -o %s", prt,
+                 scene, sky, k_cam, W, H, ref);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "render --direct-only failed (%d): %s", rc, out);
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0, "direct: images missing or of different sizes");
+        CHECK_LE(worst, 2, "direct: GL per-vertex viewer differs from the CPU direct-only render (mean %.4f codes)", mean);
+        worst = compare_png(ref, full, &mean);
+        fprintf(stderr, "test_view: one bounce changes the image by max %g, mean %.3f codes\n", worst, mean);
+        CHECK(worst > 3, "the bounce had no visible effect (max %g codes)", worst);
+    }
     /* Power of the comparison: another camera gives a clearly different image. */
     if (have_xvfb) {
         char other[512], ref[512];
@@ -169,6 +228,32 @@ int main(void) {
         CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
         double mean, worst = compare_png(other, ref, &mean);
         CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
+    }
+    /* The same toggle on the CPU runtime (the scene has one bounce pass and keeps its direct set):
+     * key d switches to direct lighting only, which must match `prt render --direct-only`, and
+     * differ from the total. */
+    if (have_xvfb) {
+        const char *bscene = scene;
+        char shot[512], ref[512], reft[512];
+        snprintf(shot, sizeof shot, "%s/shot_direct_cpu.png", dir);
+        snprintf(ref, sizeof ref, "%s/ref_direct0.png", dir);
+        snprintf(reft, sizeof reft, "%s/ref_total0.png", dir);
+        snprintf(cmd, sizeof cmd,
+                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --backend cpu "
+                 "--frames 3 --keys d --screenshot %s",
+                 prt, bscene, sky, k_cam, W, H, shot);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view with key d failed (%d): %s", rc, out);
+        for (int k = 0; k < 2; k++) {
+            snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d %s -o %s", prt, bscene, sky, k_cam,
+                     W, H, k ? "" : "--direct-only", k ? reft : ref);
+            rc = check_run(cmd, out, sizeof out);
+            CHECK(rc == 0, "render failed (%d): %s", rc, out);
+        }
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0 && worst <= 2, "key d: viewer differs from render --direct-only (max %g, mean %.4f codes)", worst, mean);
+        worst = compare_png(ref, reft, &mean);
+        CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
     }
     /* prt glbench runs headless and prints both runtimes beside the paper's figures. */
     snprintf(cmd, sizeof cmd, "%s glbench %s --probe %s --size 64x48 --runs 1", prt, scene, sky);

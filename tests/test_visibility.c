@@ -259,6 +259,12 @@ static void test_errors(void) {
     prt_mesh bad = { .nverts = 3, .ntris = 1, .pos = NULL, .tris = NULL };
     CHECK(vis_create(&bad, &err) == NULL, "a mesh without arrays must fail");
     CHECK(strlen(err.msg) > 0, "error message set");
+    float pos3[9] = { 0, 0, 0, 1, 0, 0, 0, 1, 0 };
+    uint32_t badtri[3] = { 0, 1, 3 };
+    prt_mesh badidx = { .nverts = 3, .ntris = 1, .pos = pos3, .tris = badtri };
+    err.msg[0] = 0;
+    CHECK(vis_create(&badidx, &err) == NULL, "an out-of-range index must fail");
+    CHECK(strstr(err.msg, "vertex 3") != NULL, "message names the index: %s", err.msg);
     /* An empty mesh is a valid scene in which nothing is ever hit. */
     prt_mesh empty = { 0 };
     vis_scene *vs = vis_create(&empty, &err);

@@ -22,7 +22,7 @@ echo "-- direct pass: prt precompute (timing summary below)"
 /usr/bin/env time -f "%e s wall, %M KB peak RSS" "$PRT" precompute "$DATA/models/stanford-bunny.obj" --material "$MAT" \
   --floor 31000 --terms 4 --coeffs 128 --no-bounces -o "$OUT/bunny.prt" 2> "$OUT/precompute.log"
 rc=$?
-grep -v -E '^\s*$|: +[0-9]+%|\r' "$OUT/precompute.log" | tail -n 20
+tr '\r' '\n' < "$OUT/precompute.log" | grep -v -E 'ETA|^\s*$' | tail -n 24
 [ $rc -eq 0 ] || { echo "bench: precompute failed"; exit 1; }
 size_mb=$(stat -c %s "$OUT/bunny.prt" | awk '{printf "%.1f", $1/1e6}')
 direct_s=$(awk '/visibility \(ray casting\)|transport\+wavelet|BRDF factorization/{s+=$(NF)+0} END{printf "%.1f", s}' "$OUT/precompute.log")
@@ -45,7 +45,7 @@ if [ "${BENCH_BOUNCES:-2}" != 0 ]; then
   /usr/bin/env time -f "%e s wall, %M KB peak RSS" "$PRT" precompute "$DATA/models/stanford-bunny.obj" --material "$MAT" \
     --floor 31000 --terms 4 --coeffs 128 --bounces 2 --force-bounces -o "$OUT/bunny-b2.prt" 2> "$OUT/bounce.log"
   rc=$?
-  grep -v -E '^\s*$|: +[0-9]+%|\r' "$OUT/bounce.log" | tail -n 20
+  tr '\r' '\n' < "$OUT/bounce.log" | grep -v -E 'ETA|^\s*$' | tail -n 24
   [ $rc -eq 0 ] || { echo "bench: bounce precompute failed"; exit 1; }
   peak_gb=$(awk '/peak RSS/{for(i=1;i<=NF;i++) if($i=="KB") printf "%.2f", $(i-1)/1e6}' "$OUT/bounce.log")
   echo

@@ -1,0 +1,288 @@
+/* test_cli.c - the prt command end to end, as a user meets it.
+ *
+ * Bad input (issue 2's list): missing, unreadable, malformed or empty OBJ; NaN
+ * coordinates; degenerate triangles; corrupt, truncated or wrong-version .prt;
+ * unreadable probe. Each must exit non-zero with exactly one line on stderr that
+ * names the file, without crashing, and leave no output file (nor a temporary one).
+ * A good run (precompute, info, render to PNG and EXR) must succeed and write finite
+ * radiance; a Lambert square under a smaller square, lit by a constant probe, renders
+ * a*L*(1 - F) per vertex, F the blocker's form factor from brute-force integration
+ * (checked through --vertices, uncompressed float transport). */
+#include "check.h"
+#include "image.h"
+#include <dirent.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static char g_dir[512];
+
+static void write_file(const char *name, const char *text) {
+    char p[1024];
+    snprintf(p, sizeof p, "%s/%s", g_dir, name);
+    FILE *f = fopen(p, "wb");
+    if (f) { fputs(text, f); fclose(f); }
+}
+
+/* Form factor from an upward point (x, 0, z) to the square [-0.2,0.2]^2 at height 0.5
+ * facing down: (1/pi) * integral of h^2 / r^4 dA, midpoint rule on 400x400 cells. */
+static double form_factor(double x, double z) {
+    const int n = 400;
+    const double h = 0.5, a = 0.4 / n;
+    double sum = 0;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < n; j++) {
+            double dx = -0.2 + (i + 0.5) * a - x, dz = -0.2 + (j + 0.5) * a - z;
+            double r2 = dx * dx + dz * dz + h * h;
+            sum += h * h / (r2 * r2) * a * a;
+        }
+    return sum / M_PI;
+}
+
+static bool exists(const char *path) { struct stat st; return stat(path, &st) == 0; }
+
+/* Number of files in the scratch folder whose name contains ".tmp." (left-over temporaries). */
+static int temporaries(void) {
+    int n = 0;
+    DIR *d = opendir(g_dir);
+    struct dirent *e;
+    while (d && (e = readdir(d)))
+        if (strstr(e->d_name, ".tmp.")) n++;
+    if (d) closedir(d);
+    return n;
+}
+
+/* Counts lines of s (a trailing newline does not start a new line). */
+static int lines(const char *s) {
+    int n = 0;
+    for (const char *p = s; *p; p++)
+        if (*p == '\n') n++;
+    if (*s && s[strlen(s) - 1] != '\n') n++;
+    return n;
+}
+
+/* Runs `prt ARGS` expecting failure: non-zero exit, one line naming `needle`, no `out` file. */
+static void expect_error(const char *args, const char *needle, const char *out) {
+    char cmd[8192], buf[8192];
+    snprintf(cmd, sizeof cmd, "%s %s", check_prt_bin(), args);
+    int rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc != 0 && rc < 128, "%s: exit status %d (want 1 or 2, no crash)", args, rc);
+    CHECK(lines(buf) == 1, "%s: want one line, got:\n%s", args, buf);
+    CHECK(strstr(buf, needle) != NULL, "%s: message does not name '%s': %s", args, needle, buf);
+    CHECK(!strstr(buf, "Assertion") && !strstr(buf, "Sanitizer"), "%s: %s", args, buf);
+    if (out) CHECK(!exists(out), "%s: output %s was left behind", args, out);
+    CHECK(temporaries() == 0, "%s: a temporary file was left behind", args);
+}
+
+int main(void) {
+    snprintf(g_dir, sizeof g_dir, "%s", check_tmpdir());
+    char p[1024], q[1024], args[8192], buf[8192];
+    const char *D = g_dir;
+
+    /* A 2x2 square facing +y (4 corners and a centre vertex), Lambert albedo 0.5, and a
+     * 0.4x0.4 square at height 0.5 above its centre casting a shadow. */
+    write_file("good.obj", "# two squares\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 0 0\n"
+                           "v -0.2 0.5 -0.2\nv 0.2 0.5 -0.2\nv 0.2 0.5 0.2\nv -0.2 0.5 0.2\n"
+                           "f 1 5 2\nf 2 5 3\nf 3 5 4\nf 4 5 1\nf 6 9 8 7\n");
+    write_file("garbage.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nthis is not obj\nf 1 2 3\n");
+    write_file("empty.obj", "");
+    write_file("comments.obj", "# nothing here\n\n");
+    write_file("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+    write_file("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 2\n");
+    write_file("badindex.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    write_file("notaprobe.exr", "this is text, not an image\n");
+    snprintf(p, sizeof p, "%s/adir.obj", D);
+    mkdir(p, 0755);
+
+    /* Bad OBJ inputs to precompute. */
+    snprintf(q, sizeof q, "%s/out.prt", D);
+    const char *bad_obj[] = { "missing.obj", "adir.obj", "garbage.obj", "empty.obj", "comments.obj",
+                              "nan.obj", "degenerate.obj", "badindex.obj" };
+    for (size_t i = 0; i < sizeof bad_obj / sizeof bad_obj[0]; i++) {
+        snprintf(args, sizeof args, "precompute %s/%s -o %s --quiet", D, bad_obj[i], q);
+        expect_error(args, bad_obj[i], q);
+    }
+    /* Usage errors: exit 2, one line. */
+    snprintf(args, sizeof args, "precompute %s/good.obj -o %s --coeffs 0", D, q);
+    expect_error(args, "--coeffs", q);
+    snprintf(args, sizeof args, "precompute %s/good.obj -o %s --bogus", D, q);
+    expect_error(args, "--bogus", q);
+    snprintf(args, sizeof args, "precompute %s/good.obj -o %s --material 'phong:n=-3'", D, q);
+    expect_error(args, "phong", q);
+    snprintf(args, sizeof args, "precompute %s/good.obj -o %s/no/such/dir/out.prt --quiet --vis-res 64", D, D);
+    expect_error(args, "no/such/dir/out.prt", NULL);
+
+    /* A good precompute. */
+    snprintf(args, sizeof args, "%s precompute %s/good.obj --material lambert:kd=0.5 -o %s --coeffs 24576 --quant 32 --quiet",
+             check_prt_bin(), D, q);
+    int rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && exists(q), "good precompute failed (%d): %s", rc, buf);
+    snprintf(args, sizeof args, "%s info %s", check_prt_bin(), q);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "9 vertices") && strstr(buf, "K = 1") && strstr(buf, "N = 24576"), "info: %s", buf);
+
+    /* A constant probe (2:1 latlong EXR of radiance 2) rendered: the lower square's
+     * upward face sees the sky except where the upper square blocks it; the upper
+     * square's top is unoccluded and must show a*L = 0.5 * 2 = 1. */
+    prt_image im = { 0 };
+    prt_error err;
+    image_alloc(&im, 64, 32, 3, &err);
+    for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = 2.f;
+    snprintf(p, sizeof p, "%s/const.exr", D);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+    char png[1024], exr[1024], csv[1024];
+    snprintf(png, sizeof png, "%s/out.png", D);
+    snprintf(exr, sizeof exr, "%s/out.exr", D);
+    snprintf(csv, sizeof csv, "%s/out.csv", D);
+    snprintf(args, sizeof args, "%s render %s --probe %s -o %s --size 64x48 --camera 0,3,0.01,0,0,0 --vertices %s",
+             check_prt_bin(), q, p, exr, csv);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && exists(exr) && exists(csv), "render exr: %s", buf);
+    snprintf(args, sizeof args, "%s render %s --probe %s -o %s --size 64x48", check_prt_bin(), q, p, png);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && exists(png), "render png: %s", buf);
+    if (image_read(exr, &im, &err) == 0) {
+        int bad = 0;
+        for (int i = 0; i < im.w * im.h * im.c; i++) bad += !isfinite(im.data[i]) || im.data[i] < 0;
+        CHECK(bad == 0 && im.w == 64 && im.h == 48, "%d non-finite or negative pixels", bad);
+        image_free(&im);
+    } else CHECK(false, "%s", err.msg);
+    FILE *f = fopen(csv, "r");
+    int nrows = 0;
+    if (f) {
+        char line[256];
+        if (!fgets(line, sizeof line, f)) line[0] = 0;
+        int v;
+        float r, g, b;
+        while (fscanf(f, "%d,%f,%f,%f", &v, &r, &g, &b) == 4) {
+            nrows++;
+            /* a*L*(1 - F): the upper square (5..8) is unoccluded (F = 0); the lower square's
+             * vertices (0..4, file order) lose the blocker's form factor. Tolerance: the 16-bit
+             * light vector and the 128-res visibility of the blocker's edges (2% of F plus 0.3%). */
+            float px[5] = { -1, 1, 1, -1, 0 }, pz[5] = { -1, -1, 1, 1, 0 };
+            double F = v < 5 ? form_factor(px[v], pz[v]) : 0;
+            CHECK_NEAR(r, 1.0 - F, 0.003 + 0.02 * F, "vertex %d (F = %.4f)", v, F);
+            CHECK_NEAR(g, r, 1e-3 * r + 1e-6, "grey");
+        }
+        fclose(f);
+    }
+    CHECK(nrows == 9, "csv rows %d", nrows);
+
+    /* Interreflections kept apart: an L of two 2x2 Lambert squares (a floor facing +y and a
+     * wall at x = 0 facing +x, 5x5 vertices each), albedo 0.8, with one forced bounce
+     * and --keep-direct. Under a constant probe the total (direct + bounce) is at least the
+     * direct everywhere, strictly more inside the box, and --direct-only reproduces the
+     * direct file's radiance (same direct pass). */
+    {
+        char obj[16384];
+        size_t o = 0;
+        for (int w = 0; w < 2; w++)          /* w = 0: floor (x, 0, z); w = 1: wall (0, y, z) */
+            for (int i = 0; i < 5; i++)
+                for (int j = 0; j < 5; j++) {
+                    float a = 0.5f * i, b = -1 + 0.5f * j;
+                    o += snprintf(obj + o, sizeof obj - o, "v %g %g %g\n", w ? 0.f : a, w ? a : 0.f, b);
+                }
+        for (int w = 0; w < 2; w++)
+            for (int i = 0; i < 4; i++)
+                for (int j = 0; j < 4; j++) {
+                    int v00 = 1 + 25 * w + 5 * i + j, v01 = v00 + 1, v10 = v00 + 5, v11 = v10 + 1;
+                    /* Floor: CCW seen from +y; wall: CCW seen from +x. */
+                    if (!w) o += snprintf(obj + o, sizeof obj - o, "f %d %d %d %d\n", v00, v01, v11, v10);
+                    else o += snprintf(obj + o, sizeof obj - o, "f %d %d %d %d\n", v00, v10, v11, v01);
+                }
+        write_file("ell.obj", obj);
+    }
+    char bprt[1024], dprt[1024], tcsv[1024], dcsv[1024], d2csv[1024];
+    snprintf(bprt, sizeof bprt, "%s/box.prt", D);
+    snprintf(dprt, sizeof dprt, "%s/boxd.prt", D);
+    snprintf(tcsv, sizeof tcsv, "%s/total.csv", D);
+    snprintf(dcsv, sizeof dcsv, "%s/direct.csv", D);
+    snprintf(d2csv, sizeof d2csv, "%s/direct2.csv", D);
+    snprintf(args, sizeof args, "%s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --bounces 1 --force-bounces "
+             "--gather-res 16 --keep-direct --quiet && %s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --quiet", check_prt_bin(), D, bprt,
+             check_prt_bin(), D, dprt);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0, "box precompute: %s", buf);
+    snprintf(args, sizeof args, "%s info %s", check_prt_bin(), bprt);
+    rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "direct-only transport kept"), "info: %s", buf);
+    const char *renders[3][2] = { { bprt, tcsv }, { bprt, dcsv }, { dprt, d2csv } };
+    for (int k = 0; k < 3; k++) {
+        snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/box%d.exr --size 32x24 --vertices %s %s",
+                 check_prt_bin(), renders[k][0], D, D, k, renders[k][1], k == 1 ? "--direct-only" : "");
+        rc = check_run(args, buf, sizeof buf);
+        CHECK(rc == 0, "box render %d: %s", k, buf);
+    }
+    snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/nod.exr --direct-only", dprt, D, D);
+    snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/nod.exr --direct-only", check_prt_bin(), dprt, D, D);
+    CHECK(check_run(args, buf, sizeof buf) == 0, "--direct-only on a file without bounces: %s", buf);
+    {
+        FILE *ft = fopen(tcsv, "r"), *fd = fopen(dcsv, "r"), *f2 = fopen(d2csv, "r");
+        char l1[256], l2[256], l3[256];
+        int n = 0, more = 0, v1, v2, v3;
+        float t[3], dd[3], d2[3];
+        if (ft && fd && f2 && fgets(l1, sizeof l1, ft) && fgets(l2, sizeof l2, fd) && fgets(l3, sizeof l3, f2)) {
+            while (fscanf(ft, "%d,%f,%f,%f", &v1, &t[0], &t[1], &t[2]) == 4 &&
+                   fscanf(fd, "%d,%f,%f,%f", &v2, &dd[0], &dd[1], &dd[2]) == 4 &&
+                   fscanf(f2, "%d,%f,%f,%f", &v3, &d2[0], &d2[1], &d2[2]) == 4) {
+                n++;
+                CHECK_NEAR(dd[0], d2[0], 1e-6 + 1e-5 * d2[0], "vertex %d: --direct-only vs the direct file", v1);
+                CHECK(t[0] >= dd[0] - 0.01f, "vertex %d: total %g < direct %g", v1, t[0], dd[0]);
+                more += t[0] > dd[0] + 0.02f;
+            }
+        }
+        if (ft) fclose(ft);
+        if (fd) fclose(fd);
+        if (f2) fclose(f2);
+        CHECK(n == 45 && more > n / 2, "%d vertices, %d brighter with the bounce", n, more);
+    }
+
+    /* Bad probes. */
+    snprintf(args, sizeof args, "render %s --probe %s/missing.exr -o %s/x.png", q, D, D);
+    snprintf(p, sizeof p, "%s/x.png", D);
+    expect_error(args, "missing.exr", p);
+    snprintf(args, sizeof args, "render %s --probe %s/notaprobe.exr -o %s/x.png", q, D, D);
+    expect_error(args, "notaprobe.exr", p);
+    snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/x.bmpx", q, D, D);
+    expect_error(args, "x.bmpx", NULL);
+
+    /* Damaged .prt files: truncated, a flipped byte, wrong version, empty, missing. */
+    FILE *in = fopen(q, "rb");
+    long size = 0;
+    unsigned char *bytes = NULL;
+    if (in) {
+        fseek(in, 0, SEEK_END);
+        size = ftell(in);
+        fseek(in, 0, SEEK_SET);
+        bytes = malloc(size);
+        if (fread(bytes, 1, size, in) != (size_t)size) size = 0;
+        fclose(in);
+    }
+    CHECK(size > 100, "prt size %ld", size);
+    struct { const char *name; long len; long flip; uint32_t version; } cases[] = {
+        { "trunc.prt", 0, -1, 0 },  { "half.prt", 1, -1, 0 }, { "short.prt", 2, -1, 0 },
+        { "flip.prt", 3, 1, 0 },    { "version.prt", 3, -1, 7 },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0] && size > 100; i++) {
+        long len = cases[i].len == 0 ? 0 : cases[i].len == 1 ? size / 2 : cases[i].len == 2 ? size - 3 : size;
+        snprintf(p, sizeof p, "%s/%s", D, cases[i].name);
+        FILE *o = fopen(p, "wb");
+        unsigned char *copy = malloc(size);
+        memcpy(copy, bytes, size);
+        if (cases[i].flip > 0) copy[size / 3] ^= 0x10;
+        if (cases[i].version) memcpy(copy + 4, &cases[i].version, 4);
+        if (o) { fwrite(copy, 1, len, o); fclose(o); }
+        free(copy);
+        snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/y.png", p, D, D);
+        snprintf(q, sizeof q, "%s/y.png", D);
+        expect_error(args, cases[i].name, q);
+        snprintf(args, sizeof args, "info %s", p);
+        expect_error(args, cases[i].name, NULL);
+    }
+    free(bytes);
+    snprintf(args, sizeof args, "info %s/missing.prt", D);
+    expect_error(args, "missing.prt", NULL);
+    return check_summary();
+}
