@@ -63,6 +63,49 @@ bool cli_size(const char *cmd, const char *s, int *w, int *h) {
 
 bool cli_is_help(const char *a) { return !strcmp(a, "-h") || !strcmp(a, "--help"); }
 
+int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, const char **pos, int maxpos, int *npos) {
+    int n = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (cli_is_help(a)) return 1;
+        const cli_option *o = NULL;
+        for (const cli_option *p = opts; p && p->name; p++)
+            if (!strcmp(a, p->name)) { o = p; break; }
+        if (!o) {
+            if (a[0] == '-' && a[1]) { cli_error(cmd, "unknown option '%s' (see --help)", a); return 2; }
+            if (n >= maxpos) {
+                if (maxpos == 1) cli_error(cmd, "more than one input file ('%s' and '%s')", pos[0], a);
+                else cli_error(cmd, "unexpected argument '%s' (see --help)", a);
+                return 2;
+            }
+            pos[n++] = a;
+            continue;
+        }
+        if (o->set) *o->set = o->setval;
+        if (o->kind == CLI_FLAG) { *(bool *)o->out = true; continue; }
+        if (o->kind == CLI_SET) continue;
+        if (o->kind == CLI_OPT_INT && !(i + 1 < argc && argv[i + 1][0] >= '0' && argv[i + 1][0] <= '9')) continue;
+        if (i + 1 >= argc) { cli_error(cmd, "%s needs a value", a); return 2; }
+        const char *v = argv[++i];
+        switch (o->kind) {
+        case CLI_STR: *(const char **)o->out = v; break;
+        case CLI_INT:
+        case CLI_OPT_INT:
+            if (!cli_int(cmd, a, v, (int)o->lo, (int)o->hi, (int *)o->out)) return 2;
+            break;
+        case CLI_FLOAT:
+            if (!cli_float(cmd, a, v, (float)o->lo, (float)o->hi, (float *)o->out)) return 2;
+            break;
+        case CLI_SIZE:
+            if (!cli_size(cmd, v, &((int *)o->out)[0], &((int *)o->out)[1])) return 2;
+            break;
+        default: break;
+        }
+    }
+    *npos = n;
+    return 0;
+}
+
 #include "cubemap.h"
 #include "light.h"
 #include "shbasis.h"

@@ -11,6 +11,42 @@ bool cli_int(const char *cmd, const char *name, const char *s, int lo, int hi, i
 bool cli_float(const char *cmd, const char *name, const char *s, float lo, float hi, float *out);
 /* Parses "WxH". */
 bool cli_size(const char *cmd, const char *s, int *w, int *h);
+/* Table-driven options: each subcommand lists its options once; cli_parse does the
+ * matching, value parsing, range checks and usage errors for all of them. */
+typedef enum cli_kind {
+    CLI_STR,      /* const char **out */
+    CLI_INT,      /* int *out, in [lo, hi] */
+    CLI_FLOAT,    /* float *out, in [lo, hi] */
+    CLI_SIZE,     /* int out[2], "WxH" */
+    CLI_FLAG,     /* bool *out = true (no value) */
+    CLI_SET,      /* no value: only *set = setval */
+    CLI_OPT_INT,  /* int *out, value optional (taken when the next argument starts with a digit) */
+} cli_kind;
+
+typedef struct cli_option {
+    const char *name;   /* "--probe"; the table ends with a zero entry */
+    cli_kind kind;
+    void *out;
+    double lo, hi;      /* CLI_INT / CLI_FLOAT / CLI_OPT_INT range */
+    int *set;           /* also stores setval here when the option is seen (may be NULL) */
+    int setval;
+} cli_option;
+
+/* Table entries (designated initializers, so unused fields stay zero). */
+#define CLI_S(n, p) { .name = (n), .kind = CLI_STR, .out = (p) }
+#define CLI_I(n, p, a, b) { .name = (n), .kind = CLI_INT, .out = (p), .lo = (a), .hi = (b) }
+#define CLI_F(n, p, a, b) { .name = (n), .kind = CLI_FLOAT, .out = (p), .lo = (a), .hi = (b) }
+#define CLI_WH(n, p) { .name = (n), .kind = CLI_SIZE, .out = (p) }
+#define CLI_B(n, p) { .name = (n), .kind = CLI_FLAG, .out = (p) }
+#define CLI_SETV(n, p, v) { .name = (n), .kind = CLI_SET, .set = (p), .setval = (v) }
+#define CLI_OI(n, p, a, b, sp, sv) { .name = (n), .kind = CLI_OPT_INT, .out = (p), .lo = (a), .hi = (b), .set = (sp), .setval = (sv) }
+#define CLI_END { .name = NULL }
+
+/* Parses argv[1..argc) against opts. Arguments that are not options go to pos[] (at most
+ * maxpos; more is a usage error). Returns 0 (parsed), 1 (--help seen: the caller prints its
+ * help and exits 0) or 2 (usage error, already printed as one line). */
+int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, const char **pos, int maxpos, int *npos);
+
 /* Prints "prt CMD: message" to stderr; returns 1. */
 int cli_error(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* True for -h / --help. */

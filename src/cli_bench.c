@@ -23,32 +23,23 @@ static int cmp_double(const void *a, const void *b) {
 }
 
 int cli_bench(int argc, char **argv) {
-    const char *in = NULL, *probe_path = NULL, *v;
+    const char *in = NULL, *probe_path = NULL;
     int frames = 40, nthreads = 0, kmax = 0;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) {
-            puts("usage: prt bench FILE.prt --probe PROBE [--frames N] [--terms K] [--threads T]\n\n"
-                 "Times CPU light changes (sparse T x L) and view changes (view maps . g) on vertex colours,\n"
-                 "median over N frames (default 40), and prints frames per second.");
-            return 0;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--frames", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--frames", v, 1, 100000, &frames)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &kmax)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &nthreads)) return 2;
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s'", argv[i]); return 2; }
-        in = argv[i];
+    const cli_option opts[] = {
+        CLI_S("--probe", &probe_path),
+        CLI_I("--frames", &frames, 1, 100000),
+        CLI_I("--terms", &kmax, 1, 64),
+        CLI_I("--threads", &nthreads, 1, 64),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    if (pr == 1) {
+        puts("usage: prt bench FILE.prt --probe PROBE [--frames N] [--terms K] [--threads T]\n\n"
+             "Times CPU light changes (sparse T x L) and view changes (view maps . g) on vertex colours,\n"
+             "median over N frames (default 40), and prints frames per second.");
+        return 0;
     }
+    if (pr) return 2;
     if (!in || !probe_path) { cli_error(k_cmd, "usage: prt bench FILE.prt --probe PROBE"); return 2; }
     prt_error err = { { 0 } };
     prt_data d;

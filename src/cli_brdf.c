@@ -23,25 +23,21 @@ static void help(void) {
 }
 
 int cli_brdf(int argc, char **argv) {
-    const char *spec = NULL, *v;
+    const char *spec = NULL;
     brdf_factor_desc fd = { .max_terms = 16 };
     bool csv = false;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { help(); return 0; }
-        if (!strcmp(argv[i], "--polar")) { fd.param = BRDF_PARAM_POLAR; continue; }
-        if (!strcmp(argv[i], "--csv")) { csv = true; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &fd.max_terms)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--res", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--res", v, 8, 128, &fd.res)) return 2;
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s'", argv[i]); return 2; }
-        spec = argv[i];
-    }
+    int param = BRDF_PARAM_GRID;
+    const cli_option opts[] = {
+        CLI_SETV("--polar", &param, BRDF_PARAM_POLAR),
+        CLI_B("--csv", &csv),
+        CLI_I("--terms", &fd.max_terms, 1, 64),
+        CLI_I("--res", &fd.res, 8, 128),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &spec, 1, &npos);
+    if (pr == 1) { help(); return 0; }
+    if (pr) return 2;
+    fd.param = (brdf_param)param;
     if (!spec) { cli_error(k_cmd, "no BRDF spec (see --help)"); return 2; }
     prt_error err = { { 0 } };
     brdf_params p;

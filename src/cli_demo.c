@@ -17,40 +17,29 @@
 static const char *k_cmd = "demo";
 
 int cli_demo(int argc, char **argv) {
-    const char *out = "demo.png", *prt_out = NULL, *v;
-    int w = 960, h = 600, floor_verts = 12000, bounces = 1;
+    const char *out = "demo.png", *prt_out = NULL;
+    int size[2] = { 960, 600 }, floor_verts = 12000, bounces = 1;
     float exposure = -1;
     bool quiet = false;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) {
-            puts("usage: prt demo [-o OUT.png] [--size WxH] [--floor VERTS] [--bounces B] [--exposure E (default -1)] [--prt OUT.prt] [--quiet]\n"
-                 "\nPrecomputes a built-in scene (glossy sphere, diffuse torus, glossy box over a floor) and\n"
-                 "renders it under a built-in HDR sky with a small sun (sharp and soft shadows). Default demo.png.");
-            return 0;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--prt", &prt_out))) { if (r < 0) return 2; continue; }
-        if (!strcmp(argv[i], "--quiet")) { quiet = true; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
-            if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--floor", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--floor", v, 16, 1000000, &floor_verts)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--bounces", v, 0, PRT_MAX_BOUNCES, &bounces)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--exposure", &v))) {
-            if (r < 0 || !cli_float(k_cmd, "--exposure", v, -64, 64, &exposure)) return 2;
-            continue;
-        }
-        cli_error(k_cmd, "unknown argument '%s' (see --help)", argv[i]);
-        return 2;
+    const cli_option opts[] = {
+        CLI_S("-o", &out),
+        CLI_S("--prt", &prt_out),
+        CLI_B("--quiet", &quiet),
+        CLI_WH("--size", size),
+        CLI_I("--floor", &floor_verts, 16, 1000000),
+        CLI_I("--bounces", &bounces, 0, PRT_MAX_BOUNCES),
+        CLI_F("--exposure", &exposure, -64, 64),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, NULL, 0, &npos);
+    if (pr == 1) {
+        puts("usage: prt demo [-o OUT.png] [--size WxH] [--floor VERTS] [--bounces B] [--exposure E (default -1)] [--prt OUT.prt] [--quiet]\n"
+             "\nPrecomputes a built-in scene (glossy sphere, diffuse torus, glossy box over a floor) and\n"
+             "renders it under a built-in HDR sky with a small sun (sharp and soft shadows). Default demo.png.");
+        return 0;
     }
+    if (pr) return 2;
+    int w = size[0], h = size[1];
     prt_error err = { { 0 } };
     double t0 = prt_now();
     prt_scene scene;

@@ -42,75 +42,41 @@ static void help(void) {
 }
 
 int cli_precompute(int argc, char **argv) {
-    const char *in = NULL, *out = NULL, *v;
+    const char *in = NULL, *out = NULL;
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { help(); return 0; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--material", &sd.material))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--floor-material", &sd.floor_material))) { if (r < 0) return 2; continue; }
-        if (!strcmp(argv[i], "--floor")) {
-            sd.floor = 1;
-            if (i + 1 < argc && argv[i + 1][0] >= '0' && argv[i + 1][0] <= '9') {
-                if (!cli_int(k_cmd, "--floor", argv[++i], 4, 4000000, &sd.floor_verts)) return 2;
-            }
-            continue;
-        }
-        if (!strcmp(argv[i], "--no-floor")) { sd.floor = 0; continue; }
-        if (!strcmp(argv[i], "--polar")) { pd.param = BRDF_PARAM_POLAR; continue; }
-        if (!strcmp(argv[i], "--force-bounces")) { pd.force_bounces = 1; continue; }
-        if (!strcmp(argv[i], "--no-bounces")) { pd.force_bounces = -1; continue; }
-        if (!strcmp(argv[i], "--keep-direct")) { pd.keep_direct = true; continue; }
-        if (!strcmp(argv[i], "--quiet")) { quiet = true; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &pd.max_terms)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--term-error", &v))) {
-            if (r < 0 || !cli_float(k_cmd, "--term-error", v, 1e-6f, 1.f, &pd.term_error)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--coeffs", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--coeffs", v, 1, 24576, &pd.N)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--quant", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--quant", v, 8, 32, &pd.qbits)) return 2;
-            if (pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vis-res", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--vis-res", v, 64, 256, &pd.vis_res)) return 2;
-            if (pd.vis_res != 64 && pd.vis_res != 128 && pd.vis_res != 256) return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--sh", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--sh", v, 3, 10, &pd.sh_order)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--bounces", v, 0, PRT_MAX_BOUNCES, &pd.bounces)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--gather-res", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--gather-res", v, 4, 128, &pd.gather_res)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounce-threshold", &v))) {
-            if (r < 0 || !cli_float(k_cmd, "--bounce-threshold", v, 0.f, 1.f, &pd.bounce_threshold)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &pd.nthreads)) return 2;
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
-        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
-        in = argv[i];
-    }
+    int param = BRDF_PARAM_GRID;
+    const cli_option opts[] = {
+        CLI_S("-o", &out),
+        CLI_S("--material", &sd.material),
+        CLI_S("--floor-material", &sd.floor_material),
+        CLI_OI("--floor", &sd.floor_verts, 4, 4000000, &sd.floor, 1),
+        CLI_SETV("--no-floor", &sd.floor, 0),
+        CLI_SETV("--polar", &param, BRDF_PARAM_POLAR),
+        CLI_SETV("--force-bounces", &pd.force_bounces, 1),
+        CLI_SETV("--no-bounces", &pd.force_bounces, -1),
+        CLI_B("--keep-direct", &pd.keep_direct),
+        CLI_B("--quiet", &quiet),
+        CLI_I("--terms", &pd.max_terms, 1, 64),
+        CLI_F("--term-error", &pd.term_error, 1e-6, 1),
+        CLI_I("--coeffs", &pd.N, 1, 24576),
+        CLI_I("--quant", &pd.qbits, 8, 32),
+        CLI_I("--vis-res", &pd.vis_res, 64, 256),
+        CLI_I("--sh", &pd.sh_order, 3, 10),
+        CLI_I("--bounces", &pd.bounces, 0, PRT_MAX_BOUNCES),
+        CLI_I("--gather-res", &pd.gather_res, 4, 128),
+        CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
+        CLI_I("--threads", &pd.nthreads, 1, 64),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    if (pr == 1) { help(); return 0; }
+    if (pr) return 2;
+    pd.param = (brdf_param)param;
+    if (pd.qbits && pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
+    if (pd.vis_res && pd.vis_res != 64 && pd.vis_res != 128 && pd.vis_res != 256)
+        return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
 

@@ -46,52 +46,38 @@ static void help(void) {
 /* Entry point of `prt reference` (see cli.h). */
 int cli_reference(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
-    const char *vert_out = NULL, *v;
-    int w = 800, h = 600, spp = 64, vspp = 0, bounces = 0, nthreads = 0;
+    const char *vert_out = NULL, *seed_s = NULL;
+    int size[2] = { 800, 600 }, spp = 64, vspp = 0, bounces = 0, nthreads = 0;
     unsigned long long seed = 1;
-    bool background = true, quiet = false, no_image = false;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { help(); return 0; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--layout", &layout))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--camera", &cam_s))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--light-rotation", &rot_s))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertices", &vert_out))) { if (r < 0) return 2; continue; }
-        if (!strcmp(argv[i], "--no-background")) { background = false; continue; }
-        if (!strcmp(argv[i], "--no-image")) { no_image = true; continue; }
-        if (!strcmp(argv[i], "--quiet") || !strcmp(argv[i], "-q")) { quiet = true; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
-            if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--spp", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--spp", v, 1, 1 << 24, &spp)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertex-spp", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--vertex-spp", v, 1, 1 << 24, &vspp)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--bounces", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--bounces", v, -1, 1000, &bounces)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &nthreads)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--seed", &v))) {
-            if (r < 0) return 2;
-            char *end;
-            seed = strtoull(v, &end, 10);
-            if (end == v || *end) { cli_error(k_cmd, "bad value for --seed: '%s' (expected an integer)", v); return 2; }
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
-        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
-        in = argv[i];
+    bool no_background = false, quiet = false, no_image = false;
+    const cli_option opts[] = {
+        CLI_S("-o", &out),
+        CLI_S("--probe", &probe_path),
+        CLI_S("--layout", &layout),
+        CLI_S("--camera", &cam_s),
+        CLI_S("--light-rotation", &rot_s),
+        CLI_S("--vertices", &vert_out),
+        CLI_B("--no-background", &no_background),
+        CLI_B("--no-image", &no_image),
+        CLI_B("--quiet", &quiet),
+        CLI_B("-q", &quiet),
+        CLI_WH("--size", size),
+        CLI_I("--spp", &spp, 1, 1 << 24),
+        CLI_I("--vertex-spp", &vspp, 1, 1 << 24),
+        CLI_I("--bounces", &bounces, -1, 1000),
+        CLI_I("--threads", &nthreads, 1, 64),
+        CLI_S("--seed", &seed_s),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    if (pr == 1) { help(); return 0; }
+    if (pr) return 2;
+    int w = size[0], h = size[1];
+    bool background = !no_background;
+    if (seed_s) {
+        char *end;
+        seed = strtoull(seed_s, &end, 10);
+        if (end == seed_s || *end) { cli_error(k_cmd, "bad value for --seed: '%s' (expected an integer)", seed_s); return 2; }
     }
     if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }

@@ -48,56 +48,38 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
 
 int cli_render(int argc, char **argv) {
     const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
-    const char *vert_out = NULL, *v;
-    int w = 800, h = 600, kmax = 0, nthreads = 0, tonemap = 0;
+    const char *vert_out = NULL, *tonemap_s = "clamp", *backend_s = "cpu";
+    int size[2] = { 800, 600 }, kmax = 0, nthreads = 0, tonemap = 0;
     float exposure = 0;
-    bool gl = false, background = true, direct_only = false;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { help(); return 0; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "-o", &out))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--layout", &layout))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--camera", &cam_s))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--light-rotation", &rot_s))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--vertices", &vert_out))) { if (r < 0) return 2; continue; }
-        if (!strcmp(argv[i], "--no-background")) { background = false; continue; }
-        if (!strcmp(argv[i], "--direct-only")) { direct_only = true; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &v))) {
-            if (r < 0 || !cli_size(k_cmd, v, &w, &h)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--exposure", &v))) {
-            if (r < 0 || !cli_float(k_cmd, "--exposure", v, -64, 64, &exposure)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--tonemap", &v))) {
-            if (r < 0) return 2;
-            if (!strcmp(v, "clamp")) tonemap = 0;
-            else if (!strcmp(v, "reinhard")) tonemap = 1;
-            else if (!strcmp(v, "aces")) tonemap = 2;
-            else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", v) + 1;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--terms", v, 1, 64, &kmax)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &v))) {
-            if (r < 0 || !cli_int(k_cmd, "--threads", v, 1, 64, &nthreads)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--backend", &v))) {
-            if (r < 0) return 2;
-            if (!strcmp(v, "cpu")) gl = false;
-            else if (!strcmp(v, "gl")) gl = true;
-            else return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", v) + 1;
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
-        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
-        in = argv[i];
-    }
+    bool gl = false, no_background = false, direct_only = false;
+    const cli_option opts[] = {
+        CLI_S("-o", &out),
+        CLI_S("--probe", &probe_path),
+        CLI_S("--layout", &layout),
+        CLI_S("--camera", &cam_s),
+        CLI_S("--light-rotation", &rot_s),
+        CLI_S("--vertices", &vert_out),
+        CLI_B("--no-background", &no_background),
+        CLI_B("--direct-only", &direct_only),
+        CLI_WH("--size", size),
+        CLI_F("--exposure", &exposure, -64, 64),
+        CLI_S("--tonemap", &tonemap_s),
+        CLI_I("--terms", &kmax, 1, 64),
+        CLI_I("--threads", &nthreads, 1, 64),
+        CLI_S("--backend", &backend_s),
+        CLI_END,
+    };
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    if (pr == 1) { help(); return 0; }
+    if (pr) return 2;
+    int w = size[0], h = size[1];
+    bool background = !no_background;
+    if (!strcmp(tonemap_s, "clamp")) tonemap = 0;
+    else if (!strcmp(tonemap_s, "reinhard")) tonemap = 1;
+    else if (!strcmp(tonemap_s, "aces")) tonemap = 2;
+    else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", tonemap_s) + 1;
+    if (!strcmp(backend_s, "gl")) gl = true;
+    else if (strcmp(backend_s, "cpu")) return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", backend_s) + 1;
     if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
