@@ -880,7 +880,8 @@ int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc 
     glrt *rt = glrt_create(d, &desc, err);
     if (!rt) return -1;
     int rc = -1;
-    if (glrt_set_light(rt, L, err) == 0 && glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0)
+    if ((!rd->direct_only || !d->direct.nvecs || glrt_use_direct(rt, true, err) == 0) && glrt_set_light(rt, L, err) == 0 &&
+        glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0)
         rc = glrt_render(rt, &rd->camera, w, h, kmax, out, err);
     glrt_destroy(rt);
     return rc;

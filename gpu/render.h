@@ -49,6 +49,7 @@ typedef struct render_desc {
     prt_camera camera;
     const prt_probe *background; /* may be NULL */
     const float *background_rotation; /* 3x3 applied to the probe (as in probe_to_cube), may be NULL */
+    bool direct_only;            /* GL runtime (glrt_render_image): light with the file's direct-only set */
 } render_desc;
 
 /* Rasterizes m with per-vertex colours rgb[3*nverts] into a linear RGB float image. */

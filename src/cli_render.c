@@ -101,10 +101,6 @@ int cli_render(int argc, char **argv) {
         prt_data_free(&d);
         return cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", in);
     }
-    if (direct_only && gl) {
-        prt_data_free(&d);
-        return cli_error(k_cmd, "--direct-only needs the CPU backend");
-    }
     prt_camera cam;
     float fb0[3], fb1[3];
     scene_focus_bounds(&d.scene, fb0, fb1);
@@ -126,7 +122,7 @@ int cli_render(int argc, char **argv) {
     prt_image img = { 0 };
     if (!L) { cli_error(k_cmd, "out of memory"); goto done; }
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = background ? &probe : NULL,
-                       .background_rotation = rot_s ? R : NULL };
+                       .background_rotation = rot_s ? R : NULL, .direct_only = direct_only };
     double t_lc = 0, t_vc = 0, t_raster = 0;
     if (gl) {
         double t2 = prt_now();

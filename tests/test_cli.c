@@ -215,7 +215,36 @@ int main(void) {
         rc = check_run(args, buf, sizeof buf);
         CHECK(rc == 0, "box render %d: %s", k, buf);
     }
-    snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/nod.exr --direct-only", dprt, D, D);
+    /* The GL runtime's --direct-only image equals the CPU one (Lambertian: per-pixel and
+     * per-vertex view maps agree) and differs from the GL total. */
+    for (int k = 0; k < 2; k++) {
+        snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/boxgl%d.exr --size 32x24 --backend gl %s",
+                 check_prt_bin(), bprt, D, D, k, k ? "" : "--direct-only");
+        rc = check_run(args, buf, sizeof buf);
+        CHECK(rc == 0, "gl render %d: %s", k, buf);
+    }
+    {
+        prt_image a = { 0 }, b = { 0 }, t = { 0 };
+        char pa[1024], pb[1024], pt[1024];
+        snprintf(pa, sizeof pa, "%s/box1.exr", D);     /* CPU, --direct-only */
+        snprintf(pb, sizeof pb, "%s/boxgl0.exr", D);   /* GL, --direct-only */
+        snprintf(pt, sizeof pt, "%s/boxgl1.exr", D);   /* GL, total */
+        if (image_read(pa, &a, &err) == 0 && image_read(pb, &b, &err) == 0 && image_read(pt, &t, &err) == 0 &&
+            a.w == b.w && a.h == b.h && a.w == t.w && a.h == t.h) {
+            double dab = 0, dbt = 0, sum = 0;
+            for (int i = 0; i < a.w * a.h * a.c; i++) {
+                dab += fabs(a.data[i] - b.data[i]);
+                dbt += fabs(b.data[i] - t.data[i]);
+                sum += fabs(a.data[i]);
+            }
+            CHECK_LE(dab / sum, 2e-3, "GL and CPU --direct-only images differ");
+            CHECK(dbt / sum > 0.01, "GL direct-only and total images should differ (%g)", dbt / sum);
+        } else CHECK(false, "box images: %s", err.msg);
+        image_free(&a);
+        image_free(&b);
+        image_free(&t);
+    }
+
     snprintf(args, sizeof args, "%s render %s --probe %s/const.exr -o %s/nod.exr --direct-only", check_prt_bin(), dprt, D, D);
     CHECK(check_run(args, buf, sizeof buf) == 0, "--direct-only on a file without bounces: %s", buf);
     {
