@@ -133,3 +133,31 @@ float (*cli_light_vector(const prt_probe *p, const float *R, int sh_order))[4] {
     free(cube);
     return L;
 }
+
+int cli_check_image_path(const char *cmd, const char *path) {
+    static const char *const k_ext[] = { "png", "exr", "hdr", "tif", "jpg" };
+    char ext[16];
+    prt_path_ext(path, ext);
+    for (size_t i = 0; i < sizeof k_ext / sizeof k_ext[0]; i++)
+        if (!strcmp(ext, k_ext[i])) return 0;
+    return cli_error(cmd, "%s: unsupported output format '.%s' (use .png or .exr)", path, ext);
+}
+
+int cli_rotation(const char *cmd, const char *s, float R[9]) {
+    if (!s) {
+        for (int i = 0; i < 9; i++) R[i] = i % 4 == 0;
+        return 0;
+    }
+    if (probe_parse_rotation(s, R) != 0)
+        return cli_error(cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", s);
+    return 0;
+}
+
+int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out) {
+    float b0[3], b1[3];
+    scene_focus_bounds(s, b0, b1);
+    camera_default(b0, b1, aspect, out);
+    if (cam_s && camera_parse(cam_s, out) != 0)
+        return cli_error(cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    return 0;
+}

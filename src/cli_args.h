@@ -57,6 +57,18 @@ bool cli_is_help(const char *a);
 #include "probe.h"
 /* Loads a probe (layout name or NULL for auto), printing one warning line per clamped kind. Returns 0 or 1 (error printed). */
 int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out);
+/* One line for every command that writes images: 0 if path's extension is one the image
+ * writer supports (.png .exr .hdr .tif .jpg), else prints "PATH: unsupported ..." and returns 1. */
+int cli_check_image_path(const char *cmd, const char *path);
+/* --light-rotation: fills R from "YAW[,PITCH]" (NULL s: identity). Returns 0, or 1 after printing the error. */
+int cli_rotation(const char *cmd, const char *s, float R[9]);
+/* The camera every command uses (render, reference, view, bench): the models framed
+ * (scene_focus_bounds + camera_default), overridden by --camera cam_s when given, so a
+ * reference and a PRT render of one file see the same view. Returns 0, or 1 after printing. */
+#include "render.h"
+#include "scene.h"
+int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
+
 /* Light vector (CUBE_TEXELS x 4, aligned; free()) for probe p rotated by R (NULL: none), in the
  * basis of the file (sh_order 0: Haar wavelets, 16-bit; else SH). Returns NULL on OOM. */
 float (*cli_light_vector(const prt_probe *p, const float *R, int sh_order))[4];

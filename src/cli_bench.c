@@ -64,9 +64,7 @@ int cli_bench(int argc, char **argv) {
     double *tl = malloc(sizeof(double) * frames), *tv = malloc(sizeof(double) * frames);
     if (!rc || !rgb || !tl || !tv || !Ls[nL - 1]) { cli_error(k_cmd, "%s", rc ? "out of memory" : err.msg); return 1; }
     prt_camera cam;
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&d.scene, fb0, fb1);
-    camera_default(fb0, fb1, 4.f / 3, &cam);
+    cli_camera(k_cmd, &d.scene, 4.f / 3, NULL, &cam);   /* no --camera: cannot fail */
     relight_set_light(rc, Ls[0]); /* warm-up */
     relight_view(rc, cam.eye, kmax, rgb);
     for (int f = 0; f < frames; f++) {

@@ -71,9 +71,7 @@ int cli_demo(int argc, char **argv) {
     rc_ctx = relight_create(&d, 0, &err);
     if (!L || !rgb || !rc_ctx) { cli_error(k_cmd, "%s", rc_ctx ? "out of memory" : err.msg); goto done; }
     prt_camera cam;
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&d.scene, fb0, fb1);
-    camera_default(fb0, fb1, (float)w / h, &cam);
+    cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
     relight_set_light(rc_ctx, L);
     relight_view(rc_ctx, cam.eye, 0, rgb);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };

@@ -83,28 +83,16 @@ int cli_reference(int argc, char **argv) {
     if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (no_image && !vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
     if (!no_image && !out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
-    if (!no_image) {
-        char ext[16];
-        prt_path_ext(out, ext);
-        if (strcmp(ext, "exr") && strcmp(ext, "png") && strcmp(ext, "hdr") && strcmp(ext, "tif") && strcmp(ext, "jpg"))
-            return cli_error(k_cmd, "%s: unsupported output format '.%s' (use .exr)", out, ext);
-    }
+    if (!no_image && cli_check_image_path(k_cmd, out)) return 1;
     float R[9];
-    if (rot_s && probe_parse_rotation(rot_s, R) != 0)
-        return cli_error(k_cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", rot_s);
+    if (cli_rotation(k_cmd, rot_s, R)) return 2;
 
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
     if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     prt_camera cam;
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&d.scene, fb0, fb1);
-    camera_default(fb0, fb1, (float)w / h, &cam);
-    if (cam_s && camera_parse(cam_s, &cam) != 0) {
-        prt_data_free(&d);
-        return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
-    }
+    if (cli_camera(k_cmd, &d.scene, (float)w / h, cam_s, &cam)) { prt_data_free(&d); return 1; }
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }

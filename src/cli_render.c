@@ -83,13 +83,9 @@ int cli_render(int argc, char **argv) {
     if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
-    char ext[16];
-    prt_path_ext(out, ext);
-    if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif") && strcmp(ext, "hdr"))
-        return cli_error(k_cmd, "%s: unsupported output format '.%s' (use .png or .exr)", out, ext);
+    if (cli_check_image_path(k_cmd, out)) return 1;
     float R[9];
-    if (rot_s && probe_parse_rotation(rot_s, R) != 0)
-        return cli_error(k_cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", rot_s);
+    if (cli_rotation(k_cmd, rot_s, R)) return 2;
 
     prt_error err = { { 0 } };
     prt_data d;
@@ -102,13 +98,7 @@ int cli_render(int argc, char **argv) {
         return cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", in);
     }
     prt_camera cam;
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&d.scene, fb0, fb1);
-    camera_default(fb0, fb1, (float)w / h, &cam);
-    if (cam_s && camera_parse(cam_s, &cam) != 0) {
-        prt_data_free(&d);
-        return cli_error(k_cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
-    }
+    if (cli_camera(k_cmd, &d.scene, (float)w / h, cam_s, &cam)) { prt_data_free(&d); return 1; }
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }

@@ -607,11 +607,7 @@ int cli_view(int argc, char **argv) {
     prt_error err = { { 0 } };
     int rc = 1;
     if (prtfile_read(v->file, &v->d, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&v->d.scene, fb0, fb1);
-    camera_default(fb0, fb1, (float)w / h, &v->cam);
-    if (cam_s && camera_parse(cam_s, &v->cam) != 0) {
-        cli_error(k_view, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    if (cli_camera(k_view, &v->d.scene, (float)w / h, cam_s, &v->cam)) {
         rc = 2;
         goto done;
     }
@@ -777,9 +773,7 @@ int cli_glbench(int argc, char **argv) {
     rgb = malloc(sizeof(float) * 3 * (size_t)(d.scene.mesh.nverts > 0 ? d.scene.mesh.nverts : 1));
     if (!L || !rgb || !t) { cli_error(k_cmd, "out of memory"); goto done; }
     prt_camera cam;
-    float fb0[3], fb1[3];
-    scene_focus_bounds(&d.scene, fb0, fb1);
-    camera_default(fb0, fb1, (float)w / h, &cam);
+    cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
     int kfile = 0;
     for (int m = 0; m < d.scene.nmaterials; m++)
         if (d.factors[m].K > kfile) kfile = d.factors[m].K;
