@@ -23,7 +23,9 @@ DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopene
             liblapacke-dev libopenblas-dev libosmesa6-dev libglfw3-dev libgl-dev libegl-dev \
             zlib1g-dev libcjson-dev xvfb xauth
 
-INCS    := -Isrc -Ibrdf -Igpu
+# Library folders by pipeline stage (README "Architecture"); headers are included by name.
+SRC_DIRS := src/core src/scene src/image src/transfer src/precompute src/file src/runtime src/reference
+INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf -Igpu
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
@@ -31,11 +33,11 @@ LDLIBS  := -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSM
            -lcjson -lz -lm -lpthread -lstdc++
 LDFLAGS += -pthread $(SANFLAGS)
 
-# Library: every source in src/, brdf/, gpu/ except the command-line front end (src/cli_*.c, src/main.c).
-LIB_C   := $(filter-out src/main.c src/cli_%.c,$(wildcard src/*.c brdf/*.c gpu/*.c))
-LIB_CXX := $(wildcard src/*.cpp)
+# Library: every source of the stage folders, brdf/ and gpu/; the command-line front end is src/cli/.
+LIB_C   := $(wildcard $(addsuffix /*.c,$(SRC_DIRS)) brdf/*.c gpu/*.c)
+LIB_CXX := $(wildcard $(addsuffix /*.cpp,$(SRC_DIRS)))
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
-CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/main.c src/cli_*.c))
+CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 

@@ -127,7 +127,4 @@ const char *glrt_light_method_name(glrt_light_method m);
  * light L, renders rd (size, camera, background), returns the image. */
 int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc *rd, int kmax, prt_image *out,
                       prt_error *err);
-
-/* `prt glbench FILE.prt --probe P`: GL vs CPU light-change and view-change rates (src/cli_view.c). */
-int cli_glbench(int argc, char **argv);
 #endif

@@ -1,7 +1,6 @@
-/* main.c - the prt command: dispatches to one subcommand (src/cli_*.c). */
+/* main.c - the prt command: dispatches to one subcommand (src/cli/cli_*.c). */
 #include "cli.h"
 #include "common.h"
-#include "glrt.h"
 #include <stdio.h>
 #include <string.h>
 

@@ -43,7 +43,7 @@
 #include "common.h"
 #include "scene.h"
 #include "probe.h"
-#include "render.h"
+#include "camera.h"
 
 typedef enum ref_strategy {
     REF_MIS = 0,      /* environment + BRDF sampling, power heuristic (default) */

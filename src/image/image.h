@@ -1,6 +1,6 @@
 /* image.h - float RGB(A) images read and written through OpenImageIO.
  *
- * OpenImageIO speaks C++ only; src/image_oiio.cpp wraps it behind this C
+ * OpenImageIO speaks C++ only; src/image/image_oiio.cpp wraps it behind this C
  * header and is the only C++ in prt.
  *
  * Usage:

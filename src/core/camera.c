@@ -1,0 +1,124 @@
+/* camera.c - the pinhole camera every image of prt is made through (camera.h):
+ * look-at frames, framing of bounds, parsing, GL matrices and per-pixel rays.
+ * The camera math here is the single source of truth: the rasterizer, the
+ * background shader and the reference path tracer build rays exactly as
+ * camera_ray does. */
+#include "camera.h"
+#include "vec3.h"
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Orthonormal forward/right/up of cam (see camera.h). */
+void camera_basis(const prt_camera *cam, float fwd[3], float right[3], float up[3]) {
+    v3_sub(fwd, cam->target, cam->eye);
+    if (v3_normalize(fwd) == 0.0f) v3_set(fwd, 0, 0, -1);
+    float u[3];
+    v3_copy(u, cam->up);
+    if (v3_len(u) == 0.0f) v3_set(u, 0, 1, 0);
+    v3_cross(right, fwd, u);
+    if (v3_len(right) < 1e-6f * v3_len(u)) {
+        /* up parallel to the view: fall back to world y, or z when looking along y. */
+        v3_set(u, 0, 1, 0);
+        if (fabsf(fwd[1]) > 0.999f) v3_set(u, 0, 0, -1);
+        v3_cross(right, fwd, u);
+    }
+    v3_normalize(right);
+    v3_cross(up, right, fwd);
+    v3_normalize(up);
+}
+
+/* Frames the box: its bounding sphere fits the narrower half field of view. */
+void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_camera *out) {
+    float c[3], r = 0;
+    for (int i = 0; i < 3; i++) {
+        float lo = bmin[i], hi = bmax[i];
+        if (!isfinite(lo) || !isfinite(hi) || hi < lo) lo = hi = 0;
+        c[i] = 0.5f * (lo + hi);
+        r += 0.25f * (hi - lo) * (hi - lo);
+    }
+    r = sqrtf(r);                    /* the bounding sphere holds every corner of the box */
+    if (!(r > 0)) r = 1;
+    if (!(aspect > 0) || !isfinite(aspect)) aspect = 4.0f / 3;
+    out->fov_deg = 40;
+    float half_v = 20.0f * (float)M_PI / 180.0f;
+    float half_h = atanf(tanf(half_v) * aspect);
+    float half = half_v < half_h ? half_v : half_h;
+    float dist = r / sinf(half) * 1.02f; /* the sphere's cone fits inside the narrower half angle */
+    /* Three-quarter view from above: 35 degrees around from +z toward +x, 25 degrees up. */
+    float az = 35.0f * (float)M_PI / 180.0f, el = 25.0f * (float)M_PI / 180.0f;
+    float dir[3] = { sinf(az) * cosf(el), sinf(el), cosf(az) * cosf(el) };
+    v3_copy(out->target, c);
+    v3_madd(out->eye, c, dir, dist);
+    v3_set(out->up, 0, 1, 0);
+}
+
+/* Parses 3, 6 or 7 comma-separated finite numbers into cam; -1 leaves cam unchanged. */
+int camera_parse(const char *s, prt_camera *cam) {
+    if (!s) return -1;
+    float v[7];
+    int n = 0;
+    const char *p = s;
+    for (;;) {
+        char *end;
+        while (*p == ' ' || *p == '\t') p++;
+        float x = strtof(p, &end);
+        if (end == p || !isfinite(x) || n == 7) return -1;
+        v[n++] = x;
+        p = end;
+        while (*p == ' ' || *p == '\t') p++;
+        if (*p == 0) break;
+        if (*p != ',') return -1;
+        p++;
+    }
+    if (n != 3 && n != 6 && n != 7) return -1;
+    prt_camera c = *cam;
+    v3_set(c.eye, v[0], v[1], v[2]);
+    if (n >= 6) v3_set(c.target, v[3], v[4], v[5]);
+    if (n == 7) {
+        if (!(v[6] > 0 && v[6] < 180)) return -1;
+        c.fov_deg = v[6];
+    }
+    float d[3];
+    v3_sub(d, c.target, c.eye);
+    if (v3_len(d) == 0.0f) return -1;
+    if (v3_len(c.up) == 0.0f) v3_set(c.up, 0, 1, 0);
+    *cam = c;
+    return 0;
+}
+
+/* gluLookAt / gluPerspective equivalents, column-major. */
+void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfar, float view[16], float proj[16]) {
+    float f[3], r[3], u[3];
+    camera_basis(cam, f, r, u);
+    memset(view, 0, 16 * sizeof(float));
+    for (int i = 0; i < 3; i++) {
+        view[i * 4 + 0] = r[i];
+        view[i * 4 + 1] = u[i];
+        view[i * 4 + 2] = -f[i];
+    }
+    view[12] = -v3_dot(r, cam->eye);
+    view[13] = -v3_dot(u, cam->eye);
+    view[14] = v3_dot(f, cam->eye);
+    view[15] = 1;
+    float fov = cam->fov_deg > 0 ? cam->fov_deg : 40.0f;
+    float t = 1.0f / tanf(fov * (float)M_PI / 360.0f);
+    memset(proj, 0, 16 * sizeof(float));
+    proj[0] = t / aspect;
+    proj[5] = t;
+    proj[10] = (zfar + znear) / (znear - zfar);
+    proj[11] = -1;
+    proj[14] = 2 * zfar * znear / (znear - zfar);
+}
+
+/* Unit ray through continuous image point (px, py), top-left origin. */
+void camera_ray(const prt_camera *cam, int w, int h, float px, float py, float dir[3]) {
+    float f[3], r[3], u[3];
+    camera_basis(cam, f, r, u);
+    float fov = cam->fov_deg > 0 ? cam->fov_deg : 40.0f;
+    float ty = tanf(fov * (float)M_PI / 360.0f), tx = ty * (float)w / (float)h;
+    float sx = (2.0f * px / (float)w - 1.0f) * tx, sy = (1.0f - 2.0f * py / (float)h) * ty;
+    for (int i = 0; i < 3; i++) dir[i] = f[i] + sx * r[i] + sy * u[i];
+    v3_normalize(dir);
+}
