@@ -1,6 +1,6 @@
 # prt: all-frequency precomputed radiance transfer.
 #   make            build build/prt (installs missing Debian packages first)
-#   make test       build and run the test suite (SAN=1 for ASan + UBSan)
+#   make test       build and run the test suite (SAN=1 for ASan + UBSan; T=haar: only matching cases)
 #   make demo       build and run `prt demo` (writes demo.png)
 #   make bench      benchmarks on ../shared/data (not tests)
 #   make study      accuracy-versus-time study (docs/study/)
@@ -74,8 +74,9 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $< $(TEST_SUPPORT) $(BUILD)/libprt.a $(LDLIBS) -o $@
 
+# T=FILTER runs only the cases whose "domain/case" name contains FILTER (tests/harness.h).
 test: all $(TESTS)
-	@PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS)
+	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS)
 
 demo: all
 	$(BUILD)/prt demo -o demo.png

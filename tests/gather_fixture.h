@@ -7,7 +7,7 @@
  * so the tests do not depend on the precompute pipeline. */
 #ifndef GATHER_FIXTURE_H
 #define GATHER_FIXTURE_H
-#include "check.h"
+#include "harness.h"
 #include "cubemap.h"
 #include "factor.h"
 #include "gather.h"

@@ -7,7 +7,7 @@
  * integrates over the hemisphere to the fraction of accepted samples, sample's pdf
  * equals brdf_pdf, and a chi-square histogram of samples matches the pdf), and
  * Eq. 10's frame (orthonormal, equal to the formula, safe at n = (0,-1,0)). */
-#include "check.h"
+#include "harness.h"
 #include "brdf.h"
 #include <float.h>
 #include <math.h>

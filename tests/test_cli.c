@@ -8,7 +8,7 @@
  * radiance; a Lambert square under a smaller square, lit by a constant probe, renders
  * a*L*(1 - F) per vertex, F the blocker's form factor from brute-force integration
  * (checked through --vertices, uncompressed float transport). */
-#include "check.h"
+#include "harness.h"
 #include "image.h"
 #include <dirent.h>
 #include <math.h>

@@ -1,6 +1,6 @@
 /* test_compare.c - prt compare's metrics on arrays with hand-computed answers,
  * per-vertex CSV and EXR inputs, the error image, and clean failures on bad input. */
-#include "check.h"
+#include "harness.h"
 #include "compare.h"
 #include "image.h"
 #include <math.h>

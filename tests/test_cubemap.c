@@ -1,5 +1,5 @@
 /* test_cubemap.c - cube-map convention, texel round trips and exact solid angles. */
-#include "check.h"
+#include "harness.h"
 #include "cubemap.h"
 #include <math.h>
 #include <stdlib.h>

@@ -9,7 +9,7 @@
  * smallest K, the polar parameterization wraps, copies are deep, and bad
  * descriptors fail with a message. Prints the factorization times and the
  * paper's Fig. 5 analogue (rel. cosine-weighted RMS error for K = 1..16). */
-#include "check.h"
+#include "harness.h"
 #include "factor.h"
 #include <math.h>
 #include <stdlib.h>

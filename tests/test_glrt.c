@@ -10,7 +10,7 @@
  *    glrt in per-vertex view mode against the CPU runtime (relight_view +
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
  *    mode's difference from it is reported (it is a different, finer model). */
-#include "check.h"
+#include "harness.h"
 #include "brdf.h"
 #include "factor.h"
 #include "glrt.h"

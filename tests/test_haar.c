@@ -1,6 +1,6 @@
 /* test_haar.c - orthonormal 2D Haar: hand-computed coefficients, brute-force basis
  * inner products, perfect reconstruction, Parseval, Morton order, speed. */
-#include "check.h"
+#include "harness.h"
 #include "haar.h"
 #include "cubemap.h"
 #include <math.h>
@@ -25,8 +25,8 @@ static double basis(int res, int p, int q, int x, int y) {
     return v * sx * sy;                    /* dd */
 }
 
-int main(void) {
-    float tmp[2 * 128 * 128];
+static void hand_2x2(void) {
+    static float tmp[2 * 128 * 128];
     /* 1. 2x2 by hand: [1 2; 3 4] -> s = 10/2, dx = (1-2+3-4)/2, dy = (1+2-3-4)/2, dd = 0. */
     {
         float f[4] = { 1, 2, 3, 4 };
@@ -36,6 +36,10 @@ int main(void) {
         CHECK_NEAR(f[2], -2, 1e-6, "dy");
         CHECK_NEAR(f[3], 0, 1e-6, "dd");
     }
+}
+
+static void hand_4x4(void) {
+    static float tmp[2 * 128 * 128];
     /* 2. 4x4 by hand: a constant has only the scaling coefficient sum/res; a left/right
      * step has one detail (4 at (1,0)); a spike at (0,0) gives 1/4 and 1/2 coefficients. */
     {
@@ -55,6 +59,10 @@ int main(void) {
         const float want[16] = { .25f, .25f, .5f, 0, .25f, .25f, 0, 0, .5f, 0, .5f, 0, 0, 0, 0, 0 };
         for (int k = 0; k < 16; k++) CHECK_NEAR(f[k], want[k], 1e-6, "spike coefficient %d", k);
     }
+}
+
+static void brute_force_basis(void) {
+    static float tmp[2 * 128 * 128];
     /* 3. Every coefficient of a random 16x16 face equals the brute-force inner product
      * with the explicitly built orthonormal basis function; the basis is orthonormal. */
     {
@@ -80,6 +88,10 @@ int main(void) {
         CHECK_LE(maxerr, 1e-5, "coefficients vs brute-force basis inner products");
         CHECK_LE(maxortho, 1e-12, "reference basis orthonormal");
     }
+}
+
+static void reconstruction_parseval(void) {
+    static float tmp[2 * 128 * 128];
     /* 4. Perfect reconstruction, Parseval (energy and inner products) at 64 and 128. */
     for (int res = 64; res <= 128; res *= 2) {
         int n = res * res;
@@ -104,6 +116,9 @@ int main(void) {
         CHECK_LE(me, 1e-5, "perfect reconstruction res %d", res);
         free(a); free(b); free(a0); free(b0);
     }
+}
+
+static void morton(void) {
     /* 5. Morton: round trip, known values, coarse levels first. */
     {
         CHECK(haar_morton(1, 0) == 1 && haar_morton(0, 1) == 2 && haar_morton(1, 1) == 3 && haar_morton(2, 0) == 4 &&
@@ -124,6 +139,10 @@ int main(void) {
         haar_unmorton(CUBE_RES * CUBE_RES - 1, &ii, &jj);
         CHECK(ii == CUBE_RES - 1 && jj == CUBE_RES - 1, "last index of a face");
     }
+}
+
+static void whole_cube_and_speed(void) {
+    static float tmp[2 * 128 * 128];
     /* 6. Whole cube: Morton placement, per-face scaling coefficient, round trip. */
     {
         int res = CUBE_RES, nn = res * res;
@@ -164,6 +183,10 @@ int main(void) {
                1e6 * (t1 - t0) / reps, 1e6 * (t2 - t1) / (reps / 6), face[0] + w[0]);
         free(t); free(w); free(back);
     }
+}
+
+static void small_resolutions(void) {
+    static float tmp[2 * 128 * 128];
     /* 8. Small and mid resolutions (generic and tiled scatter paths) round-trip and match Morton placement. */
     for (int res = 1; res <= 32; res *= 2) {
         int nn = res * res, bad = 0;
@@ -184,5 +207,16 @@ int main(void) {
         CHECK(bad == 0, "res %d: %d misplaced", res, bad);
         CHECK_LE(me, 1e-5, "res %d round trip", res);
     }
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(hand_2x2);
+    CHECK_CASE(hand_4x4);
+    CHECK_CASE(brute_force_basis);
+    CHECK_CASE(reconstruction_parseval);
+    CHECK_CASE(morton);
+    CHECK_CASE(whole_cube_and_speed);
+    CHECK_CASE(small_resolutions);
     return check_summary();
 }

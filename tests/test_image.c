@@ -2,7 +2,7 @@
  * exposure and tone maps, grey replication, non-finite handling, and errors
  * (missing file, not an image, directory, empty file, unwritable path) that
  * must come back as -1 with one line naming the file and leave no temporary. */
-#include "check.h"
+#include "harness.h"
 #include "image.h"
 #include <dirent.h>
 #include <math.h>

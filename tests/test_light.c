@@ -1,6 +1,6 @@
 /* test_light.c - the light vector: constant radiance, Eq. 4's texel-domain sum vs the
  * wavelet-domain product within the 16-bit step bound, thresholding, robustness. */
-#include "check.h"
+#include "harness.h"
 #include "light.h"
 #include "haar.h"
 #include <math.h>

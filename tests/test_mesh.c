@@ -4,7 +4,7 @@
  * analytic area and enclosed volume (divergence theorem, which also checks the
  * winding) of spheres, boxes, planes and tori; exact radial/axis normals;
  * Euler's formula V - E + F = 2 for closed genus-0 shapes. */
-#include "check.h"
+#include "harness.h"
 #include "mesh.h"
 #include "vec3.h"
 #include <stdlib.h>

@@ -5,7 +5,7 @@
  * vertex; a box open at the top (surfaces facing each other) gets bounce passes
  * that brighten its inside; force_bounces and max_terms / term_error override
  * the plan; a progress callback can cancel; bad settings fail with a message. */
-#include "check.h"
+#include "harness.h"
 #include "light.h"
 #include "mesh.h"
 #include "precompute.h"

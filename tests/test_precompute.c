@@ -10,7 +10,7 @@
  *     float (uncompressed), relit under the procedural sky, against a brute-force
  *     Eq. 2 integral of the same probe with the factorized BRDF and vis_occluded
  *     rays over a fine direction grid; then the 8-bit N = 128 default the same way. */
-#include "check.h"
+#include "harness.h"
 #include "cubemap.h"
 #include "light.h"
 #include "mesh.h"

@@ -4,7 +4,7 @@
  * back), pixel directions and solid angles, resampling to the cube (constant
  * stays constant, power is preserved, the sun survives and rotates), the sky's
  * sun power at any disc size, and rotation parsing. */
-#include "check.h"
+#include "harness.h"
 #include "cubemap.h"
 #include "probe.h"
 #include <math.h>

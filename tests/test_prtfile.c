@@ -4,7 +4,7 @@
  * flipped bytes, wrong magic, wrong version, empty, missing, a directory) and crafted
  * files with a valid checksum but out-of-range indices each fail with one line naming
  * the file; failed writes leave no file behind. */
-#include "check.h"
+#include "harness.h"
 #include "prtfile.h"
 #include <dirent.h>
 #include <stdlib.h>

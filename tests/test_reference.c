@@ -11,7 +11,7 @@
  *     sun, and MIS has far lower variance than BRDF sampling;
  *   - images: camera framing, background, determinism per seed across thread counts;
  *   - clean errors (empty scene, vertex out of range, cancellation). */
-#include "check.h"
+#include "harness.h"
 #include "brdf.h"
 #include "image.h"
 #include "mesh.h"

@@ -1,7 +1,7 @@
 /* test_relight.c - Eq. 5 end to end on a hand-built prt_data: a Lambert factor under a
  * constant environment gives albedo x radiance; a two-term factor with a linear view map
  * gives the analytic h . g in the Eq. 10 frame; occlusion, kmax, clamping, errors, speed. */
-#include "check.h"
+#include "harness.h"
 #include "relight.h"
 #include "light.h"
 #include "haar.h"

@@ -5,7 +5,7 @@
  * camera_ray with the triangles on the CPU, the background with an analytic
  * function of the ray direction that the probe texels sample, and the camera
  * matrices with the pixel coordinates camera_ray was built from. */
-#include "check.h"
+#include "harness.h"
 #include "glctx.h"
 #include "render.h"
 #include "vec3.h"

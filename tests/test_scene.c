@@ -3,7 +3,7 @@
  * Truths: vertex counts of the procedural shapes (closed-form), the OBJ we
  * write ourselves, the floor's placement rule from scene.h computed here
  * independently from the models' bounds, and hand-transformed positions. */
-#include "check.h"
+#include "harness.h"
 #include "scene.h"
 #include "vec3.h"
 #include <stdlib.h>

@@ -3,7 +3,7 @@
  * quadrature to order 16, cube quadrature at res 64 to order 10), projection of
  * band-limited functions, the clamped cosine's Funk-Hecke coefficients
  * (pi, 2pi/3, pi/4, 0, -pi/24 times Y_lm(n)), and the light/transport inner product. */
-#include "check.h"
+#include "harness.h"
 #include "shbasis.h"
 #include "cubemap.h"
 #include <math.h>

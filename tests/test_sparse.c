@@ -1,6 +1,6 @@
 /* test_sparse.c - selection of the N largest (against brute-force sorting), L2
  * optimality of the non-linear approximation, quantization bounds, 8-bit packing. */
-#include "check.h"
+#include "harness.h"
 #include "sparse.h"
 #include "haar.h"
 #include <math.h>

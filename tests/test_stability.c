@@ -13,7 +13,7 @@
  *   Geometry:  zero-area and degenerate triangles, duplicate vertices, a model at scale
  *              1e-4 and 1e5 and offset 1e6, a vertex touching the floor: PRT and the
  *              reference give a convex Lambert sphere its analytic radiance at every scale. */
-#include "check.h"
+#include "harness.h"
 #include "brdf.h"
 #include "cubemap.h"
 #include "factor.h"

@@ -1,7 +1,7 @@
 /* test_transport.c - staging, compaction, run coding, quantization bounds, decode,
  * T x L against a dense double-precision inner product, concurrency, and a
  * benchmark of the runtime kernel on a synthetic set of the paper's size. */
-#include "check.h"
+#include "harness.h"
 #include "transport.h"
 #include "haar.h"
 #include <math.h>

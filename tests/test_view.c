@@ -10,7 +10,7 @@
  * pixel (tolerance for rasterization through GLX vs OSMesa; the same float
  * image gives identical codes). A render from another camera must differ by far
  * more, so the comparison can fail. Xvfb missing is a failure, not a skip. */
-#include "check.h"
+#include "harness.h"
 #include "image.h"
 #include "probe.h"
 #include <stdlib.h>

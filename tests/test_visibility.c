@@ -1,7 +1,7 @@
 /* test_visibility.c - Embree ray casting: cube-map texel convention, the occluded
  * solid angle of a sphere against the analytic cap, self-intersection robustness
  * at extreme scales and offsets, closest-hit queries and thread safety. */
-#include "check.h"
+#include "harness.h"
 #include "cubemap.h"
 #include "mesh.h"
 #include "visibility.h"

@@ -23,6 +23,18 @@ int prt_fail(prt_error *err, const char *fmt, ...) {
     return -1;
 }
 
+void prt_check_fail(const char *file, int line, const char *expr, const char *values) {
+    fprintf(stderr, "prt: bug: %s:%d: check failed: %s%s%s\n", file, line, expr, values ? ": " : "", values ? values : "");
+    fflush(stderr);
+    abort();
+}
+
+void prt_check_fail2(const char *file, int line, const char *expr, double a, double b) {
+    char v[128];
+    snprintf(v, sizeof v, "%.17g vs %.17g", a, b);
+    prt_check_fail(file, line, expr, v);
+}
+
 double prt_now(void) {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);

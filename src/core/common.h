@@ -1,9 +1,7 @@
 /* common.h - errors, threads, timing, progress and atomic file output for prt.
  *
- * Errors: a function that can fail on user input returns 0 on success and -1
- * on failure, having written one line (no trailing newline) into a caller's
- * prt_error that names the file and the problem. Callers print err.msg. Bugs
- * (broken invariants) are assert()s, never error codes.
+ * Errors (error.h) are user input gone wrong: one line in a caller's prt_error.
+ * Bugs (broken invariants) are PRT_CHECK (check.h): they abort, never return.
  *
  * Threads: prt_parallel_for runs fn over [0,n) in chunks of `grain` on
  * prt_thread_count() threads with dynamic scheduling (atomic counter), so
@@ -24,13 +22,10 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include "error.h"
+#include "check.h"
 
 #define PRT_VERSION_STRING "0.1.0"
-
-typedef struct prt_error { char msg[1024]; } prt_error;
-
-/* Writes a printf-style message into err (if non-NULL). Returns -1. */
-int prt_fail(prt_error *err, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* Monotonic wall-clock seconds. */
 double prt_now(void);

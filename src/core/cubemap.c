@@ -8,7 +8,6 @@
  *     Omega = F(x1,y1) - F(x0,y1) - F(x1,y0) + F(x0,y0),  F(x,y) = atan2(xy, sqrt(x^2+y^2+1)),
  * which is exact, so the 6 res^2 texels sum to 4 pi up to rounding. */
 #include "cubemap.h"
-#include <assert.h>
 #include <math.h>
 
 /* Writes the unnormalized direction of face coordinates sc, tc in [-1,1]. */
@@ -25,7 +24,7 @@ static void face_vec(int face, float sc, float tc, float d[3]) {
 
 /* Unit direction at continuous texel coordinates (x, y) of face. */
 void cube_dir(int res, int face, float x, float y, float dir[3]) {
-    assert(res > 0 && face >= 0 && face < 6);
+    PRT_CHECK(res > 0 && face >= 0 && face < 6);
     float sc = 2.f * x / (float)res - 1.f, tc = 2.f * y / (float)res - 1.f;
     face_vec(face, sc, tc, dir);
     float inv = 1.f / sqrtf(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);

@@ -18,7 +18,6 @@
  * a 64x64 face is 1,365 block operations (about 2 us; the Morton scatter of a
  * whole cube adds a few more). */
 #include "haar.h"
-#include <assert.h>
 #include <string.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -63,13 +62,13 @@ static void inverse_level(float *restrict face, int res, int n, float *restrict 
 
 /* In-place forward transform into quadrant layout; tmp[res*res] is scratch. */
 void haar_forward(float *face, int res, float *tmp) {
-    assert(res > 0 && (res & (res - 1)) == 0);
+    PRT_CHECK(res > 0 && (res & (res - 1)) == 0);
     for (int n = res; n >= 2; n /= 2) forward_level(face, res, n, tmp);
 }
 
 /* In-place inverse of haar_forward; tmp[res*res] is scratch. */
 void haar_inverse(float *face, int res, float *tmp) {
-    assert(res > 0 && (res & (res - 1)) == 0);
+    PRT_CHECK(res > 0 && (res & (res - 1)) == 0);
     for (int n = 2; n <= res; n *= 2) inverse_level(face, res, n, tmp);
 }
 

@@ -11,7 +11,6 @@
  * Zero (and non-finite) coefficients never become candidates, so an occluded
  * vertex stores nothing. */
 #include "sparse.h"
-#include <assert.h>
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -103,7 +102,7 @@ int sparse_select(const float *r, const float *g, const float *b, int len, int n
     level_hist(E, len, T, 0, 10, hist[0]);
     T = (T << 10) | boundary_bin(hist[0], 10, n, &above);
     uint32_t need_eq = (uint32_t)n - above;
-    assert(T != 0 && need_eq >= 1);
+    PRT_CHECK(T != 0 && need_eq >= 1);
     int k = 0;
     for (i = 0; i < len; i++) {
         uint32_t e = E[i];
@@ -112,7 +111,7 @@ int sparse_select(const float *r, const float *g, const float *b, int len, int n
             need_eq -= e == T;
         }
     }
-    assert(k == n);
+    PRT_CHECK_EQ(k, n);
     return k;
 }
 

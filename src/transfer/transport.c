@@ -19,7 +19,6 @@
  * scale is applied once per vector at the end. Vectors are split across both
  * cores in chunks of a few thousand. */
 #include "transport.h"
-#include <assert.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -70,7 +69,7 @@ static double sq(double x) { return x * x; }
 
 /* Selects, quantizes and stages vector i; returns the squared L2 error of what is kept. */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
-    assert(t->stage_count && i >= 0 && i < t->nvecs);
+    PRT_CHECK(t->stage_count && i >= 0 && i < t->nvecs);
     float *keys = scratch;
     uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
     int n = sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
@@ -165,7 +164,7 @@ static void pack_vectors(void *p, int begin, int end, int thread) {
                 memcpy(t->f32 + 3 * c, val + 3 * k, 3 * sizeof(float));
             }
         }
-        assert(nr + 1 == (int)(t->run_first[i + 1] - t->run_first[i]));
+        PRT_CHECK_EQ(nr + 1, (int)(t->run_first[i + 1] - t->run_first[i]));
     }
 }
 
@@ -210,7 +209,7 @@ oom:
 
 /* Calls fn for every stored coefficient of vector i (after finish), in index order. */
 void transport_foreach(const prt_transport *t, int i, void (*fn)(void *ctx, uint32_t index, float r, float g, float b), void *ctx) {
-    assert(t->coef_first && i >= 0 && i < t->nvecs);
+    PRT_CHECK(t->coef_first && i >= 0 && i < t->nvecs);
     const float *sc = t->scale + 3 * (size_t)i;
     size_t c = t->coef_first[i];
     for (uint32_t r = t->run_first[i]; r < t->run_first[i + 1]; r++) {
@@ -359,7 +358,7 @@ static void light_range_wide(const prt_transport *t, const float (*L)[4], float 
 
 /* g[3i + ch] for vectors [first, last) (after finish). */
 void transport_light_range(const prt_transport *t, const float (*L)[4], float *g, int first, int last) {
-    assert(t->coef_first && first >= 0 && last <= t->nvecs);
+    PRT_CHECK(t->coef_first && first >= 0 && last <= t->nvecs);
     if (t->qbits == 8) light_range8(t, L, g, first, last);
     else light_range_wide(t, L, g, first, last);
 }
