@@ -1,7 +1,8 @@
 /* cli_demo.c - `prt demo`: the whole pipeline on built-in data, no download.
  *
  * A procedural scene (a glossy sphere, a diffuse torus and a glossy box over a
- * Lambert floor) is precomputed with the default settings and relit under a
+ * Lambert floor; data/demo.json, built in as scene_demo_json() so that the demo
+ * needs no file) is precomputed with the default settings and relit under a
  * procedural HDR sky with a small bright sun: the sun casts sharp shadows,
  * the sky soft ones. Writes demo.png (or -o) and, with --prt, keeps the file. */
 #include "cli.h"

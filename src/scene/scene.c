@@ -2,8 +2,9 @@
  *
  * A scene is the one merged mesh that precomputation samples (one transport
  * vector per vertex, Wang, Tran & Luebke 2006 Sec. 3) with a material index per
- * vertex. It comes from an OBJ alone, from a small JSON file (parsed with
- * cJSON) listing OBJ and procedural models, or from the built-in demo.
+ * vertex. It comes from an OBJ alone, or from a small JSON file (parsed with
+ * cJSON) listing OBJ and procedural models; the built-in demo is such JSON text
+ * (the same as data/demo.json).
  *
  * The floor matters for the paper's look: the shadows a model casts on it are
  * the visibility term the precomputation captures, so it is a finely
@@ -285,18 +286,58 @@ static void rot_y(float R[9], double deg) {
     memcpy(R, M, sizeof M);
 }
 
+/* Rotation by deg degrees about +x (right-handed: +y turns towards +z). A multiple of
+ * 90 degrees is exact (cos 90 is 0, not 6e-17), so a model stood up with "rotate_x": 90
+ * gets exactly the coordinates a hand-written permutation would give (the demo's torus).
+ * rot_y keeps its cos/sin so that existing scenes load bit for bit as before. */
+static void rot_x(float R[9], double deg) {
+    double q = deg / 90.0;
+    float cs, sn;
+    if (q == floor(q) && fabs(q) < 1e9) {
+        static const float c4[4] = { 1, 0, -1, 0 }, s4[4] = { 0, 1, 0, -1 };
+        int k = (int)fmod(fmod(q, 4.0) + 4.0, 4.0);
+        cs = c4[k], sn = s4[k];
+    } else {
+        double a = deg * M_PI / 180.0;
+        cs = (float)cos(a), sn = (float)sin(a);
+    }
+    const float M[9] = { 1, 0, 0, 0, cs, -sn, 0, sn, cs };
+    memcpy(R, M, sizeof M);
+}
+
+/* C = A B for row-major 3x3 matrices (C must not alias A or B). */
+static void mat3_mul(float C[9], const float A[9], const float B[9]) {
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++) C[3 * i + j] = A[3 * i] * B[j] + A[3 * i + 1] * B[3 + j] + A[3 * i + 2] * B[6 + j];
+}
+
+/* The model transform of "scale", "rotate_x", "rotate_y" and "translate":
+ * p' = scale * Ry * Rx * p + t. Only rotate_y: Ry itself (bit for bit as before rotate_x). */
+static void model_transform(prt_mesh *m, float scale, double rx, double ry, const float t[3]) {
+    if (scale == 1 && rx == 0 && ry == 0 && t[0] == 0 && t[1] == 0 && t[2] == 0) return;
+    float R[9], Ry[9], Rx[9];
+    rot_y(Ry, ry);
+    if (rx == 0) memcpy(R, Ry, sizeof R);
+    else {
+        rot_x(Rx, rx);
+        mat3_mul(R, Ry, Rx);
+    }
+    mesh_transform(m, R, scale, t);
+}
+
 static int json_model(json_ctx *c, const cJSON *model, int index, const scene_desc *desc, prt_scene *s) {
     snprintf(c->where, sizeof c->where, "models[%d]", index);
     if (!cJSON_IsObject(model)) return prt_fail(c->err, "%s: %s: expected an object", c->path, c->where);
     static const char *const keys[] = { "obj", "sphere", "box", "torus", "plane", "material", "scale", "translate",
-                                        "rotate_y", "name", NULL };
+                                        "rotate_x", "rotate_y", "name", NULL };
     if (jkeys(c, model, keys)) return -1;
     const cJSON *mat = cJSON_GetObjectItemCaseSensitive(model, "material");
     const cJSON *name = cJSON_GetObjectItemCaseSensitive(model, "name");
     if (mat && !cJSON_IsString(mat)) return jfail_type(c, "material", "a BRDF spec string");
     if (name && !cJSON_IsString(name)) return jfail_type(c, "name", "a string");
-    float scale = 1, t[3] = { 0, 0, 0 }, ry = 0;
-    if (jfloat(c, model, "scale", &scale) || jvec(c, model, "translate", 3, t) || jfloat(c, model, "rotate_y", &ry)) return -1;
+    float scale = 1, t[3] = { 0, 0, 0 }, rx = 0, ry = 0;
+    if (jfloat(c, model, "scale", &scale) || jvec(c, model, "translate", 3, t) || jfloat(c, model, "rotate_x", &rx) ||
+        jfloat(c, model, "rotate_y", &ry)) return -1;
     if (!(scale > 0)) return jfail_type(c, "scale", "a positive number");
     const char *spec = mat ? mat->valuestring : desc && desc->material ? desc->material : SCENE_DEFAULT_MATERIAL;
     prt_error e2;
@@ -304,11 +345,7 @@ static int json_model(json_ctx *c, const cJSON *model, int index, const scene_de
     if (mi < 0) return prt_fail(c->err, "%s: %s.material: %s", c->path, c->where, e2.msg);
     prt_mesh m;
     if (json_geometry(c, model, &m, s)) return -1;
-    if (scale != 1 || ry != 0 || t[0] != 0 || t[1] != 0 || t[2] != 0) {
-        float R[9];
-        rot_y(R, ry);
-        mesh_transform(&m, R, scale, t);
-    }
+    model_transform(&m, scale, rx, ry, t);
     set_material(&m, mi);
     int rc = mesh_append(&s->mesh, &m, c->err);
     mesh_free(&m);
@@ -332,10 +369,9 @@ static char *read_text(const char *path, size_t *len, prt_error *err) {
     return buf;
 }
 
-static int json_scene(const char *path, const scene_desc *desc, prt_scene *s, prt_error *err) {
-    size_t len = 0;
-    char *text = read_text(path, &len, err);
-    if (!text) return -1;
+/* Parses JSON text (path names it in errors and anchors its relative OBJ paths). */
+static int json_scene(const char *path, const char *text, size_t len, const scene_desc *desc, prt_scene *s,
+                      prt_error *err) {
     const char *end = NULL;
     cJSON *root = cJSON_ParseWithLengthOpts(text, len, &end, 0);
     if (!root) {
@@ -345,12 +381,9 @@ static int json_scene(const char *path, const scene_desc *desc, prt_scene *s, pr
         for (const char *p = text; p < end; p++) {
             if (*p == '\n') { line++; col = 1; } else col++;
         }
-        int rc = len == 0 ? prt_fail(err, "%s: empty file (expected a JSON scene)", path)
-                          : prt_fail(err, "%s:%d:%d: JSON syntax error", path, line, col);
-        free(text);
-        return rc;
+        return len == 0 ? prt_fail(err, "%s: empty file (expected a JSON scene)", path)
+                        : prt_fail(err, "%s:%d:%d: JSON syntax error", path, line, col);
     }
-    free(text);
     json_ctx c = { .path = path, .err = err };
     int rc = -1;
     static const char *const top[] = { "models", "floor", "comment", NULL };
@@ -420,57 +453,58 @@ int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_err
         return 0;
     }
     if (strcmp(ext, "json") == 0) {
-        if (json_scene(path, desc, out, err) != 0) { scene_free(out); return -1; }
-        scene_update_bounds(out);
-        return 0;
+        size_t len = 0;
+        char *text = read_text(path, &len, err);
+        if (!text) return -1;
+        int rc = scene_parse_json(path, text, len, desc, out, err);
+        free(text);
+        return rc;
     }
     return prt_fail(err, "%s: unknown scene format '%s' (expected .obj or .json)", path, ext[0] ? ext : "no extension");
 }
 
+int scene_parse_json(const char *name, const char *text, size_t len, const scene_desc *desc, prt_scene *out,
+                     prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->floor_first_vertex = -1;
+    if (json_scene(name, text, len, desc, out, err) != 0) { scene_free(out); return -1; }
+    scene_update_bounds(out);
+    return 0;
+}
+
 /* ---------------------------------------------------------------- the demo */
 
-/* Adds a procedural shape with a material and a rotation about y then a translation. */
-static int demo_add(prt_scene *s, prt_mesh *m, const char *spec, const float R[9], const float t[3], prt_error *err) {
-    int mi = scene_material(s, spec, err);
-    if (mi < 0) { mesh_free(m); return -1; }
-    if (R) mesh_transform(m, R, 1.f, t);
-    set_material(m, mi);
-    int rc = mesh_append(&s->mesh, m, err);
-    mesh_free(m);
-    return rc;
-}
+/* The demo scene is data: this text is byte for byte data/demo.json (tests/test_data.c
+ * checks it), built in so that `prt demo` needs no file and runs from any directory.
+ * Unit-ish composition on y = 0, about 2.3 wide: a sun 45 degrees up casts shadows as
+ * long as each object is tall, all landing on the 3x floor. The torus stands on its rim
+ * (rotate_x 90), turned 30 degrees; the box is turned -25 degrees. */
+static const char k_demo_json[] =
+    "{ \"comment\": \"prt demo: a glossy Phong sphere, a diffuse torus on its rim and a glossy GGX box over a Lambert floor. Built into prt (src/scene/scene.c: scene_make_demo); keep the two identical (tests/test_data.c checks).\",\n"
+    "  \"models\": [\n"
+    "    { \"name\": \"red sphere, left\",\n"
+    "      \"sphere\": { \"center\": [-0.75, 0.45, 0.2], \"radius\": 0.45, \"rings\": 40, \"segments\": 80 },\n"
+    "      \"material\": \"phong:kd=0.55,0.07,0.05;ks=0.25;n=12\" },\n"
+    "    { \"name\": \"blue torus, behind, standing on its rim\",\n"
+    "      \"torus\": { \"center\": [0, 0, 0], \"major\": 0.35, \"minor\": 0.12, \"nu\": 64, \"nv\": 32 },\n"
+    "      \"rotate_x\": 90, \"rotate_y\": 30, \"translate\": [0.1, 0.47, -0.55],\n"
+    "      \"material\": \"lambert:kd=0.15,0.35,0.65\" },\n"
+    "    { \"name\": \"gold box, right\",\n"
+    "      \"box\": { \"min\": [-0.3, 0, -0.3], \"max\": [0.3, 0.6, 0.3], \"n\": 12 },\n"
+    "      \"rotate_y\": -25, \"translate\": [0.7, 0, 0.3],\n"
+    "      \"material\": \"ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35\" }\n"
+    "  ],\n"
+    "  \"floor\": { \"vertices\": 12000, \"size\": 3, \"material\": \"lambert:kd=0.7\" }\n"
+    "}\n";
+
+const char *scene_demo_json(void) { return k_demo_json; }
 
 int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->floor_first_vertex = -1;
     if (floor_verts <= 0) return prt_fail(err, "demo: floor vertex count must be positive (got %d)", floor_verts);
-    /* Unit-ish composition on y = 0, about 2.3 wide: a sun 45 degrees up casts
-     * shadows as long as each object is tall, all landing on the 3x floor. */
-    prt_mesh m;
-    const float origin[3] = { 0, 0, 0 };
-    /* A glossy red sphere resting on the floor, left. */
-    const float sc[3] = { -0.75f, 0.45f, 0.2f };
-    if (mesh_make_sphere(&m, sc, 0.45f, 40, 80, err) ||
-        demo_add(out, &m, "phong:kd=0.55,0.07,0.05;ks=0.25;n=12", NULL, NULL, err)) goto fail;
-    /* A diffuse blue torus standing on its rim, behind, turned 30 degrees. */
-    float R[9], Rx[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 }, Ry[9];
-    rot_y(Ry, 30.0);
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            R[3 * i + j] = Ry[3 * i] * Rx[j] + Ry[3 * i + 1] * Rx[3 + j] + Ry[3 * i + 2] * Rx[6 + j];
-    const float tt[3] = { 0.1f, 0.47f, -0.55f };
-    if (mesh_make_torus(&m, origin, 0.35f, 0.12f, 64, 32, err) ||
-        demo_add(out, &m, "lambert:kd=0.15,0.35,0.65", R, tt, err)) goto fail;
-    /* A glossy gold-ish GGX box, right, turned -25 degrees. */
-    const float lo[3] = { -0.3f, 0.f, -0.3f }, hi[3] = { 0.3f, 0.6f, 0.3f }, bt[3] = { 0.7f, 0.f, 0.3f };
-    rot_y(R, -25.0);
-    if (mesh_make_box(&m, lo, hi, 12, false, err) ||
-        demo_add(out, &m, "ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35", R, bt, err)) goto fail;
-    if (scene_add_floor(out, floor_verts, SCENE_DEFAULT_FLOOR_SIZE, SCENE_DEFAULT_FLOOR_MATERIAL, err)) goto fail;
-    return 0;
-fail:
-    scene_free(out);
-    return -1;
+    scene_desc d = { .floor = -1, .floor_verts = floor_verts };
+    return scene_parse_json("demo.json (built in)", k_demo_json, sizeof k_demo_json - 1, &d, out, err);
 }
 
 /* Bounds of vertices [0, floor_first_vertex): the models a default camera frames. */

@@ -15,9 +15,11 @@
  *     "torus":  {"center":[0,0,0], "major":1, "minor":0.25, "nu":64, "nv":32}
  *     "plane":  {"x":[-1,1], "z":[-1,1], "height":0, "nx":32, "nz":32}
  * A model has exactly one shape key, plus optional "material" (default
- * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_y"
- * (degrees; p' = scale * Ry * p + translate) and "name" (ignored). "floor" may also
- * be true/false; a top-level "comment" is ignored. Any other key is an error. The floor is a tessellated plane just below the models
+ * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_x" and
+ * "rotate_y" (degrees, right-handed; p' = scale * Ry * Rx * p + translate) and "name"
+ * (ignored). Paths of OBJ models are relative to the JSON file (absolute ones are kept).
+ * "floor" may also be true/false; a top-level "comment" is ignored. Any other key is
+ * an error. Example scenes: data/ (data/README.md). The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
  * (default 3), with about `vertices` vertices (default 31,000).
@@ -55,6 +57,11 @@ typedef struct scene_desc {
 /* Loads an OBJ (one model) or a .json scene. desc may be NULL. */
 int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err);
 
+/* Builds a scene from JSON text held in memory (len bytes); name stands for the file in
+ * errors and is the base of relative OBJ paths. desc may be NULL. */
+int scene_parse_json(const char *name, const char *text, size_t len, const scene_desc *desc, prt_scene *out,
+                     prt_error *err);
+
 /* Builds a scene from a mesh already in memory (takes ownership of *mesh, zeroing it). */
 int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_error *err);
 
@@ -74,8 +81,13 @@ void scene_update_bounds(prt_scene *s);
  * there is no floor or nothing but the floor). */
 void scene_focus_bounds(const prt_scene *s, float bmin[3], float bmax[3]);
 
-/* The built-in demo scene: a glossy sphere, a diffuse torus and a glossy box over a floor. */
+/* The built-in demo scene: a glossy sphere, a diffuse torus and a glossy box over a floor
+ * of about floor_verts (> 0) vertices. It is JSON (scene_demo_json), the same text as
+ * data/demo.json, so that `prt demo` needs no file. */
 int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err);
+
+/* The demo scene's JSON text (static; byte for byte data/demo.json). */
+const char *scene_demo_json(void);
 
 void scene_free(prt_scene *s);
 #endif
