@@ -33,7 +33,11 @@ static void table(void) {
     CHECK(transfer_by_tag(transfer_haar.tag) == &transfer_haar && transfer_by_tag(transfer_sh.tag) == &transfer_sh, "by tag");
     CHECK(transfer_by_tag(0) == NULL && transfer_by_tag(TRANSFER_TAG('M', 'E', 'S', 'H')) == NULL, "no section tags");
     CHECK(transfer_haar.tag != transfer_sh.tag, "distinct tags");
-    CHECK(!strcmp(transfer_names(), "haar, sh"), "names: %s", transfer_names());
+    char names[64];
+    transfer_names(names, sizeof names);
+    CHECK(!strcmp(names, "haar, sh"), "names: %s", names);
+    transfer_names(names, 6);
+    CHECK(!strcmp(names, "haar,"), "truncated: %s", names);
     for (int i = 0; i < transfer_count(); i++) {
         const transfer_ops *o = transfer_at(i);
         CHECK(o->name && o->title && o->configure && o->describe && o->project_transport && o->compress &&

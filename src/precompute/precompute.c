@@ -412,8 +412,11 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->vis_res == 0) d->vis_res = 128;
     if (d->vis_res != 64 && d->vis_res != 128 && d->vis_res != 256)
         return prt_fail(err, "precompute: vis_res = %d (must be 64, 128 or 256)", d->vis_res);
-    if (d->basis && !transfer_find(d->basis))
-        return prt_fail(err, "precompute: unknown basis '%s' (%s)", d->basis, transfer_names());
+    if (d->basis && !transfer_find(d->basis)) {
+        char names[128];
+        transfer_names(names, sizeof names);
+        return prt_fail(err, "precompute: unknown basis '%s' (one of %s)", d->basis, names);
+    }
     if (d->bounces < 0 || d->bounces > PRT_MAX_BOUNCES)
         return prt_fail(err, "precompute: bounces = %d is out of range 0..%d", d->bounces, PRT_MAX_BOUNCES);
     if (d->gather_res == 0) d->gather_res = 32;

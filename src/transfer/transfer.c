@@ -5,6 +5,7 @@
 #include "check.h"
 #include "light.h"
 #include "prtfile.h"
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -36,7 +37,12 @@ const transfer_ops *transfer_by_tag(uint32_t tag) {
     return NULL;
 }
 
-const char *transfer_names(void) { return "haar, sh"; }
+void transfer_names(char *buf, size_t cap) {
+    size_t len = 0;
+    if (cap) buf[0] = 0;
+    for (int i = 0; i < NTRANSFERS && len < cap; i++)
+        len += (size_t)snprintf(buf + len, cap - len, "%s%s", i ? ", " : "", k_transfers[i]->name);
+}
 
 float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[4] {
     const prt_transfer *tr = prt_data_transfer(d);

@@ -141,8 +141,8 @@ const transfer_ops *transfer_at(int i);
 /* By name ("haar", "sh") or section tag; NULL when there is none. */
 const transfer_ops *transfer_find(const char *name);
 const transfer_ops *transfer_by_tag(uint32_t tag);
-/* "haar, sh": the names, for error messages. */
-const char *transfer_names(void);
+/* "haar, sh": every name in table order, for error messages (truncated to cap). */
+void transfer_names(char *buf, size_t cap);
 
 /* The light vector for d's transfer representation from the probe resampled to the
  * 6x64x64 cube (cube_rgb: [CUBE_TEXELS][3] radiance): its project_light (Haar wavelets
