@@ -28,6 +28,7 @@ struct glrt {
     bool own_ctx;
     const gl_api *gl;
     const prt_data *d;
+    const prt_transfer *tr;     /* the file's one transfer: its transport and light kernels */
     gldraw draw;
     int nverts, nvecs, kmax_all, nmat, qbits;
     size_t ncoefs, transport_bytes, other_bytes;
@@ -60,95 +61,8 @@ const char *glrt_light_method_name(glrt_light_method m) {
 
 /* ---------------------------------------------------------------- shaders */
 
-/* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel. */
-static const char *k_decode =
-    "#if QBITS == 8\n"
-    "vec3 coef(uint c, out uint idx) {\n"
-    "    uint w = WORD(c);\n"
-    "    idx = BLOCK(c) * 256u + (w & 255u);\n"
-    "    return vec3(float(int(w << 16) >> 24), float(int(w << 8) >> 24), float(int(w) >> 24));\n"
-    "}\n"
-    "#elif QBITS == 16\n"
-    "vec3 coef(uint c, out uint idx) {\n"
-    "    uint w0 = WORD(2u * c), w1 = WORD(2u * c + 1u);\n"
-    "    idx = w0 & 65535u;\n"
-    "    return vec3(float(int(w0) >> 16), float(int(w1 << 16) >> 16), float(int(w1) >> 16));\n"
-    "}\n"
-    "#else\n"
-    "vec3 coef(uint c, out uint idx) {\n"
-    "    idx = WORD(4u * c);\n"
-    "    return vec3(uintBitsToFloat(WORD(4u * c + 1u)), uintBitsToFloat(WORD(4u * c + 2u)),\n"
-    "                uintBitsToFloat(WORD(4u * c + 3u)));\n"
-    "}\n"
-    "#endif\n";
-
-/* Fragment kernel: one fragment per vector (GL 3.3, buffer textures). */
-static const char *k_light_frag =
-    "uniform usamplerBuffer t_first, t_words, t_blocks;\n"
-    "uniform samplerBuffer t_scale, t_L;\n"
-    "uniform int u_width, u_nvecs;\n"
-    "out vec4 o_g;\n"
-    "#define WORD(c) texelFetch(t_words, int(c)).r\n"
-    "#define BLOCK(c) texelFetch(t_blocks, int(c)).r\n"
-    "DECODE\n"
-    "void main() {\n"
-    "    int i = int(gl_FragCoord.y) * u_width + int(gl_FragCoord.x);\n"
-    "    if (i >= u_nvecs) { o_g = vec4(0.0); return; }\n"
-    "    uint c0 = texelFetch(t_first, i).r, c1 = texelFetch(t_first, i + 1).r;\n"
-    "    vec3 acc = vec3(0.0);\n"
-    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * texelFetch(t_L, int(idx)).rgb; }\n"
-    "    vec3 s = vec3(texelFetch(t_scale, 3 * i).r, texelFetch(t_scale, 3 * i + 1).r, texelFetch(t_scale, 3 * i + 2).r);\n"
-    "    o_g = vec4(acc * s, 0.0);\n"
-    "}\n";
-
-static const char *k_light_buffers =
-    "layout(std430, binding = 0) readonly buffer B0 { uint first[]; };\n"
-    "layout(std430, binding = 1) readonly buffer B1 { uint words[]; };\n"
-    "layout(std430, binding = 2) readonly buffer B2 { uint blocks[]; };\n"
-    "layout(std430, binding = 3) readonly buffer B3 { float scale[]; };\n"
-    "layout(std430, binding = 4) readonly buffer B4 { vec4 L[]; };\n"
-    "layout(std430, binding = 5) writeonly buffer B5 { vec4 g[]; };\n"
-    "uniform uint u_nvecs;\n"
-    "#define WORD(c) words[c]\n"
-    "#define BLOCK(c) ((blocks[(c) >> 2] >> (((c) & 3u) * 8u)) & 255u)\n";
-
-/* Compute kernel, one invocation per vector. */
-static const char *k_light_thread =
-    "layout(local_size_x = 64) in;\n"
-    "BUFFERS\n"
-    "DECODE\n"
-    "void main() {\n"
-    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationID.x;\n"
-    "    if (i >= u_nvecs) return;\n"
-    "    uint c0 = first[i], c1 = first[i + 1u];\n"
-    "    vec3 acc = vec3(0.0);\n"
-    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
-    "    g[i] = vec4(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
-    "}\n";
-
-/* Compute kernel, 32 invocations per vector (8 vectors per group of 256) and a tree sum in shared memory. */
-static const char *k_light_warp =
-    "layout(local_size_x = 256) in;\n"
-    "BUFFERS\n"
-    "DECODE\n"
-    "shared vec3 part[256];\n"
-    "void main() {\n"
-    "    uint lid = gl_LocalInvocationID.x, lane = lid & 31u;\n"
-    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 8u + (lid >> 5);\n"
-    "    vec3 acc = vec3(0.0);\n"
-    "    if (i < u_nvecs) {\n"
-    "        uint c1 = first[i + 1u];\n"
-    "        for (uint c = first[i] + lane; c < c1; c += 32u) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
-    "    }\n"
-    "    part[lid] = acc;\n"
-    "    memoryBarrierShared(); barrier();\n"
-    "    for (uint s = 16u; s > 0u; s >>= 1) {\n"
-    "        if (lane < s) part[lid] += part[lid + s];\n"
-    "        memoryBarrierShared(); barrier();\n"
-    "    }\n"
-    "    if (lane == 0u && i < u_nvecs)\n"
-    "        g[i] = vec4(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
-    "}\n";
+/* The light kernels (coefficient decoding, fragment, thread and warp) are the transfer
+ * representation's (transfer.h: ops->glsl; the sparse family's live in transfer_sparse.c). */
 
 /* View-map lookups, mirroring brdf_factor_uv / brdf_factor_view (bilinear on texel centres; the
  * grid clamps at its edge, the polar angle wraps) and Eq. 10's frame (brdf_frame). */
@@ -425,7 +339,7 @@ static int upload_view_maps(glrt *rt, prt_error *err) {
 static int upload_mesh(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     const prt_mesh *m = &rt->d->scene.mesh;
-    const prt_transport *t = &rt->d->transport;
+    const prt_transport *t = &rt->tr->transport;
     uint32_t *vec = prt_calloc(2 * (size_t)m->nverts + 2, sizeof(uint32_t), err);
     uint32_t *mat = prt_calloc((size_t)m->nverts + 1, sizeof(uint32_t), err);
     if (!vec || !mat) { free(vec); free(mat); return -1; }
@@ -474,18 +388,19 @@ static int build_light_programs(glrt *rt, prt_error *err) {
             gl->DeleteProgram(rt->prog_light[i]);
             rt->prog_light[i] = 0;
         }
-    snprintf(decode, sizeof decode, "#define QBITS %d\n%s", rt->qbits, k_decode);
+    const transfer_glsl *k = rt->tr->ops->glsl;
+    snprintf(decode, sizeof decode, "#define QBITS %d\n%s", rt->qbits, k->decode);
     snprintf(head, sizeof head, "#version 330 core\n");
-    char *fs = build_src(head, k_light_frag, decode, "");
+    char *fs = build_src(head, k->fragment, decode, "");
     if (!fs) return prt_fail(err, "out of memory");
     rt->prog_light[GLRT_LIGHT_FRAGMENT] = glctx_program(gl, k_fullscreen_vs, fs, "light (fragment)", err);
     free(fs);
     if (!rt->prog_light[GLRT_LIGHT_FRAGMENT]) return -1;
     if (rt->ctx->has_compute) {
         snprintf(head, sizeof head, "#version 430 core\n");
-        const char *bodies[2] = { k_light_thread, k_light_warp };
+        const char *bodies[2] = { k->thread, k->warp };
         for (int b = 0; b < 2; b++) {
-            char *cs = build_src(head, bodies[b], decode, k_light_buffers);
+            char *cs = build_src(head, bodies[b], decode, k->buffers);
             if (!cs) return prt_fail(err, "out of memory");
             GLuint p = glctx_compute_program(gl, cs, b ? "light (warp)" : "light (thread)", err);
             free(cs);
@@ -635,7 +550,12 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
 /* See glrt.h. The caller owns the runtime (glrt_destroy); d must outlive it. */
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
-    const prt_transport *t = &d->transport;
+    if (d->ntransfers != 1 || !d->transfers[0].ops)
+        return prt_fail(err, "GL runtime: the data has %d transfers (one expected)", d->ntransfers), NULL;
+    const prt_transfer *tr = prt_data_transfer(d);
+    if (!tr->ops->glsl)
+        return prt_fail(err, "GL runtime: the %s transfer has no GL kernel (use the CPU backend)", tr->ops->name), NULL;
+    const prt_transport *t = &tr->transport;
     const prt_mesh *m = &d->scene.mesh;
     if (t->nverts != m->nverts || !t->vec_first || !t->coef_first)
         return prt_fail(err, "GL runtime: transport (%d vertices) does not match the mesh (%d)", t->nverts, m->nverts), NULL;
@@ -655,6 +575,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt *rt = prt_calloc(1, sizeof *rt, err);
     if (!rt) return NULL;
     rt->d = d;
+    rt->tr = tr;
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
     rt->ncoefs = t->coef_first[t->nvecs];
@@ -847,10 +768,9 @@ void glrt_set_view_mode(glrt *rt, glrt_view_mode mode) { rt->view_mode = mode; }
 
 /* Uploads the direct-only set (or direct + bounces) in place of the current one; see glrt.h. */
 int glrt_use_direct(glrt *rt, bool direct, prt_error *err) {
-    const prt_data *d = rt->d;
     if (direct == rt->direct) return 0;
-    if (direct && d->direct.nvecs == 0) return prt_fail(err, "the file keeps no separate direct transport");
-    const prt_transport *t = direct ? &d->direct : &d->transport;
+    if (direct && rt->tr->direct.nvecs == 0) return prt_fail(err, "the file keeps no separate direct transport");
+    const prt_transport *t = direct ? &rt->tr->direct : &rt->tr->transport;
     if (t->nvecs != rt->nvecs || t->nverts != rt->nverts)
         return prt_fail(err, "direct transport (%d vectors) does not match the full one (%d)", t->nvecs, rt->nvecs);
     if (current(rt, err) || check_limits(rt, t, err)) return -1;
@@ -880,7 +800,7 @@ int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc 
     glrt *rt = glrt_create(d, &desc, err);
     if (!rt) return -1;
     int rc = -1;
-    if ((!rd->direct_only || !d->direct.nvecs || glrt_use_direct(rt, true, err) == 0) && glrt_set_light(rt, L, err) == 0 &&
+    if ((!rd->direct_only || !rt->tr->direct.nvecs || glrt_use_direct(rt, true, err) == 0) && glrt_set_light(rt, L, err) == 0 &&
         glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0)
         rc = glrt_render(rt, &rd->camera, w, h, kmax, out, err);
     glrt_destroy(rt);

@@ -18,7 +18,8 @@
  * Light change (glrt_set_light): the light vector (CUBE_TEXELS x RGBA float,
  * the 16-bit dequantized values light.h makes, so CPU and GPU use identical
  * numbers) is uploaded, then one GPU pass computes every light-dependent
- * K-vector g_i = scale_i * sum_c q_c L[index_c] (Eq. 5's T x L) into a buffer.
+ * K-vector g_i = scale_i * sum_c q_c L[index_c] (Eq. 5's T x L) into a buffer;
+ * the kernels' GLSL is the transfer representation's (transfer.h, ops->glsl).
  * Three kernels exist; GLRT_LIGHT_AUTO times each once at create and keeps the
  * fastest (the paper chose its layout by measurement too):
  *   fragment  one fragment per vector looping over its coefficients, written to
@@ -94,7 +95,7 @@ typedef struct glrt glrt;
 
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err);
 void glrt_destroy(glrt *rt);
-/* Light change. L: [CUBE_TEXELS][4] (light.h, or sh_light_from_cube for SH files). */
+/* Light change. L: [CUBE_TEXELS][4] in the file's transfer representation (transfer_light_vector). */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
 /* Probe shown behind the scene (NULL: black); R as render_desc.background_rotation (may be NULL). */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err);
@@ -113,7 +114,7 @@ int glrt_render(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_ima
 void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops);
 /* Copies the light-dependent K-vectors back: g[3*i + ch] for every vector (as relight_gvec). */
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err);
-/* Direct-only lighting (true; the file's d->direct set, kept by `precompute --keep-direct`) or
+/* Direct-only lighting (true; the file's direct-only set, kept by `precompute --keep-direct`) or
  * direct + bounces (false, the default): re-uploads that transport set. Call glrt_set_light again
  * to see the change. -1 with err when the file keeps no direct set. */
 int glrt_use_direct(glrt *rt, bool direct, prt_error *err);

@@ -3,8 +3,10 @@
  * static functions; no /work/shared.
  *
  * The direct builder is deliberately simple (one visibility ray per 64-res
- * lighting texel, Eq. 3 at the texel centre, Haar per face, transport_store),
- * so the tests do not depend on the precompute pipeline. */
+ * lighting texel, Eq. 3 at the texel centre), then goes through the transfer
+ * representation interface (transfer.h: ops->project_transport per channel,
+ * ops->compress), so the tests do not depend on the precompute pipeline but do
+ * exercise the same seam it uses (fx_direct: Haar; fx_direct_ops: any). */
 #ifndef GATHER_FIXTURE_H
 #define GATHER_FIXTURE_H
 #include "harness.h"
@@ -12,6 +14,7 @@
 #include "factor.h"
 #include "gather.h"
 #include "haar.h"
+#include "transfer.h"
 #include "mesh.h"
 #include "scene.h"
 #include "transport.h"
@@ -52,7 +55,7 @@ FX_FN int fx_factor_all(prt_data *d, int max_terms) {
 
 FX_FN void fx_free(prt_data *d) {
     for (int i = 0; i < d->scene.nmaterials; i++) brdf_factor_free(&d->factors[i]);
-    transport_free(&d->transport);
+    for (int i = 0; i < d->ntransfers; i++) d->transfers[i].ops->release(&d->transfers[i]);
     scene_free(&d->scene);
     memset(d, 0, sizeof *d);
 }
@@ -63,6 +66,8 @@ typedef struct fx_direct_ctx {
     const prt_data *d;
     const vis_scene *vs;
     prt_transport *t;
+    const transfer_ops *ops;
+    const transfer_config *cfg;
     const float *dir, *dw;      /* 64-res texel directions and solid angles */
 } fx_direct_ctx;
 
@@ -72,7 +77,7 @@ FX_FN void fx_direct_range(void *ctx, int begin, int end, int thread) {
     const prt_mesh *m = &c->d->scene.mesh;
     uint8_t *vis = malloc(CUBE_TEXELS);
     float *pix = malloc(sizeof(float) * CUBE_TEXELS * 3), *wav = malloc(sizeof(float) * CUBE_TEXELS * 3);
-    float *tmp = malloc(sizeof(float) * 2 * CUBE_RES * CUBE_RES);
+    float *tmp = malloc(sizeof(float) * TRANSFER_SCRATCH_FLOATS);
     void *scratch = malloc(transport_scratch_size());
     for (int v = begin; v < end; v++) {
         const float *p = m->pos + 3 * v, *n = m->nrm + 3 * v;
@@ -91,17 +96,21 @@ FX_FN void fx_direct_range(void *ctx, int begin, int end, int thread) {
                 brdf_factor_light(f, wl, g);
                 for (int ch = 0; ch < 3; ch++) pix[ch * CUBE_TEXELS + j] = g[3 * k + ch] * cw * c->dw[j];
             }
-            for (int ch = 0; ch < 3; ch++) haar_cube_forward(pix + ch * CUBE_TEXELS, CUBE_RES, wav + ch * CUBE_TEXELS, tmp);
-            transport_store(c->t, (int)c->t->vec_first[v] + k, wav, wav + CUBE_TEXELS, wav + 2 * CUBE_TEXELS, scratch);
+            for (int ch = 0; ch < 3; ch++) c->ops->project_transport(c->cfg, pix + ch * CUBE_TEXELS, wav + ch * CUBE_TEXELS, tmp);
+            c->ops->compress(c->t, (int)c->t->vec_first[v] + k, wav, wav + CUBE_TEXELS, wav + 2 * CUBE_TEXELS, scratch);
         }
     }
     free(vis); free(pix); free(wav); free(tmp); free(scratch);
 }
 
-/* Builds the direct transport of d's scene (K of each vertex's material) into out. Returns 0 or -1. */
-FX_FN int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, prt_transport *out) {
+/* Builds the direct transport of d's scene (K of each vertex's material) into out through representation
+ * ops (configured from N, qbits, order). Returns 0 or -1. */
+FX_FN int fx_direct_ops(const prt_data *d, const vis_scene *vs, const transfer_ops *ops, int N, int qbits, int order,
+                        prt_transport *out) {
     const prt_mesh *m = &d->scene.mesh;
     prt_error err;
+    transfer_config cfg = { .N = N, .qbits = qbits, .order = order };
+    if (ops->configure(&cfg, &err)) { fprintf(stderr, "configure: %s\n", err.msg); return -1; }
     int *cnt = malloc(sizeof(int) * (size_t)m->nverts);
     for (int v = 0; v < m->nverts; v++) cnt[v] = d->factors[m->mat[v]].K;
     int rc = transport_init(out, m->nverts, cnt, N, qbits, &err);
@@ -113,11 +122,16 @@ FX_FN int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, pr
         int ij = j % (CUBE_RES * CUBE_RES);
         dw[j] = (float)cube_texel_solid_angle(CUBE_RES, ij % CUBE_RES, ij / CUBE_RES);
     }
-    fx_direct_ctx c = { d, vs, out, dir, dw };
+    fx_direct_ctx c = { d, vs, out, ops, &cfg, dir, dw };
     prt_parallel_for(m->nverts, 4, 0, fx_direct_range, &c);
     free(dir); free(dw);
     if (transport_finish(out, &err)) { fprintf(stderr, "transport_finish: %s\n", err.msg); return -1; }
     return 0;
+}
+
+/* The Haar direct transport (the paper's representation) of d's scene into out. Returns 0 or -1. */
+FX_FN int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, prt_transport *out) {
+    return fx_direct_ops(d, vs, transfer_find("haar"), N, qbits, 0, out);
 }
 
 /* A probe set: every vector i holds the single coefficient (index idx_of[i] or 0) with per-channel
@@ -134,7 +148,7 @@ FX_FN int fx_probe_set(const prt_transport *layout, const uint32_t *idx_of, cons
     for (int i = 0; i < layout->nvecs; i++) {
         uint32_t idx = idx_of ? idx_of[i] : 0;
         for (int ch = 0; ch < 3; ch++) pl[ch * CUBE_TEXELS + idx] = val[3 * i + ch];
-        transport_store(out, i, pl, pl + CUBE_TEXELS, pl + 2 * CUBE_TEXELS, scratch);
+        transfer_haar.compress(out, i, pl, pl + CUBE_TEXELS, pl + 2 * CUBE_TEXELS, scratch);
         for (int ch = 0; ch < 3; ch++) pl[ch * CUBE_TEXELS + idx] = 0.f;
     }
     free(pl); free(scratch);

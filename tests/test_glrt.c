@@ -91,7 +91,7 @@ static void synth_make(synth *s, int n, int N, int qbits, uint64_t seed) {
     }
     /* Transport: vertex v has K of its material vectors; each vector a random number of coefficients
      * (0 included: an occluded vertex) at sorted random indices clustered into a few blocks. */
-    prt_transport *tr = &d->transport;
+    prt_transport *tr = &prt_data_add_transfer(d, &transfer_haar, &(transfer_config){ .N = N, .qbits = qbits }, 3)->transport;
     tr->nverts = m->nverts;
     tr->N = N;
     tr->qbits = qbits;
@@ -181,7 +181,7 @@ static void synth_free(synth *s) {
     prt_mesh *m = &d->scene.mesh;
     free(m->pos); free(m->nrm); free(m->tris); free(m->mat);
     for (int i = 0; i < 2; i++) { free(d->factors[i].view); free(d->factors[i].light); }
-    prt_transport *t = &d->transport;
+    prt_transport *t = &d->transfers[0].transport;
     free(t->vec_first); free(t->coef_first); free(t->run_first); free(t->runs); free(t->scale);
     free(t->packed); free(t->offs); free(t->q16); free(t->f32);
     free(s->gtrue); free(s->gabs); free(s->L);
@@ -192,7 +192,7 @@ static void synth_colors(const synth *s, float *rgb, int kmax) {
     const prt_data *d = &s->d;
     for (int v = 0; v < d->scene.mesh.nverts; v++) {
         int mi = d->scene.mesh.mat[v];
-        uint32_t f = d->transport.vec_first[v], n = d->transport.vec_first[v + 1] - f;
+        uint32_t f = d->transfers[0].transport.vec_first[v], n = d->transfers[0].transport.vec_first[v + 1] - f;
         for (int ch = 0; ch < 3; ch++) {
             double acc = 0;
             for (uint32_t k = 0; k < n && (kmax == 0 || (int)k < kmax); k++) acc += s->hconst[mi][k][ch] * s->gtrue[3 * (f + k) + ch];
@@ -220,7 +220,7 @@ static void test_synthetic(void) {
         glrt_timing tm;
         glrt_get_timing(rt, &tm);
         CHECK(tm.light_method > GLRT_LIGHT_AUTO && tm.light_method < GLRT_LIGHT_COUNT, "no kernel chosen");
-        int nv = s.d.transport.nvecs;
+        int nv = s.d.transfers[0].transport.nvecs;
         float *g = calloc(3 * (size_t)nv, sizeof(float));
         for (int m = GLRT_LIGHT_FRAGMENT; m < GLRT_LIGHT_COUNT; m++) {
             int rc = glrt_set_light_method(rt, (glrt_light_method)m, &err);
@@ -289,11 +289,11 @@ static void test_direct_switch(void) {
     synth full, dir;
     synth_make(&full, 14, 40, 8, 31);
     synth_make(&dir, 14, 40, 16, 32);
-    full.d.direct = dir.d.transport;
+    full.d.transfers[0].direct = dir.d.transfers[0].transport;
     prt_error err = { { 0 } };
     glrt *rt = glrt_create(&full.d, NULL, &err);
     CHECK(rt != NULL, "%s", err.msg);
-    int nv = full.d.transport.nvecs;
+    int nv = full.d.transfers[0].transport.nvecs;
     float *g = calloc(3 * (size_t)nv, sizeof(float));
     for (int step = 0; rt && step < 3; step++) {
         bool direct = step == 1;
@@ -307,7 +307,7 @@ static void test_direct_switch(void) {
     }
     free(g);
     glrt_destroy(rt);
-    memset(&full.d.direct, 0, sizeof full.d.direct);
+    memset(&full.d.transfers[0].direct, 0, sizeof full.d.transfers[0].direct);
     /* No direct set: the switch is refused with a message. */
     rt = glrt_create(&full.d, NULL, &err);
     CHECK(rt && glrt_use_direct(rt, true, &err) == -1 && strstr(err.msg, "direct"), "%s", err.msg);
@@ -352,7 +352,7 @@ static void test_viewmaps(void) {
                 brdf_factor_view(fv, up, h);
             } else brdf_factor_view(fv, wl, h);
             below += wl[2] <= 0;
-            uint32_t first = s.d.transport.vec_first[v];
+            uint32_t first = s.d.transfers[0].transport.vec_first[v];
             for (int ch = 0; ch < 3; ch++) {
                 double acc = 0;
                 for (int k = 0; k < fv->K; k++) acc += h[3 * k + ch] * s.gtrue[3 * (first + k) + ch];
@@ -450,14 +450,14 @@ static void test_scene(void) {
     CHECK(glrt_set_light(rt, (const float (*)[4])L, &err) == 0, "%s", err.msg);
 
     /* K-vectors: GPU against CPU, to float rounding of the same sums. */
-    int nv = d.transport.nvecs;
+    int nv = d.transfers[0].transport.nvecs;
     float *g = calloc(3 * (size_t)nv, sizeof(float));
     CHECK(glrt_read_gvec(rt, g, &err) == 0, "%s", err.msg);
     const float *gc = relight_gvec(rcx);
     double worst = 0;
     for (int i = 0; i < nv; i++) {
         abs_ctx a = { (const float (*)[4])L, { 0, 0, 0 } };
-        transport_foreach(&d.transport, i, abs_fn, &a);
+        transport_foreach(&d.transfers[0].transport, i, abs_fn, &a);
         for (int ch = 0; ch < 3; ch++) worst = fmax(worst, fabs(g[3 * i + ch] - gc[3 * i + ch]) / (a.acc[ch] + 1e-30));
     }
     CHECK_LE(worst, 2e-6, "GPU K-vectors differ from relight_gvec");
@@ -536,7 +536,7 @@ static void test_egl(void) {
         glrt_timing t;
         glrt_get_timing(rt, &t);
         CHECK(!strcmp(t.context, "egl"), "context %s", t.context);
-        int nv = s.d.transport.nvecs;
+        int nv = s.d.transfers[0].transport.nvecs;
         float *g = calloc(3 * (size_t)nv, sizeof(float));
         CHECK(glrt_set_light(rt, (const float (*)[4])s.L, &err) == 0 && glrt_read_gvec(rt, g, &err) == 0, "%s", err.msg);
         double worst = 0;

@@ -67,13 +67,13 @@ static bool cancel_at_half(void *user, const char *stage, double f) {
     return f < 0.5;
 }
 
-int main(void) {
+static const precompute_desc base = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2 };
+
+/* A lone convex sphere: no bounce pass, and the plan says why. */
+static void lone_sphere(void) {
     prt_error err;
     prt_scene sc;
     prt_data out;
-    precompute_desc base = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2 };
-
-    /* A lone convex sphere: no bounce pass, and the plan says why. */
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
     precompute_desc d = base;
     d.bounces = 2;
@@ -87,8 +87,14 @@ int main(void) {
     CHECK(sc.mesh.nverts == 0 && sc.mesh.pos == NULL, "scene moved into out");
     printf("--- plan for a lone sphere ---\n%s", out.plan);
     prt_data_free(&out);
+}
 
-    /* Forced on: the sphere gets the passes anyway (carrying next to nothing). */
+/* Forced on: the sphere gets the passes anyway (carrying next to nothing). */
+static void forced_bounces(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
     CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
     d = base;
     d.bounces = 2;
@@ -98,8 +104,14 @@ int main(void) {
     CHECK_LE(out.stats.bounce_energy[0], 1e-4, "a convex sphere reflects nothing onto itself");
     CHECK(strstr(out.plan, "forced") != NULL, "plan: %s", out.plan);
     prt_data_free(&out);
+}
 
-    /* Lambert only: K = 1 everywhere, one vector per vertex. */
+/* Lambert only: K = 1 everywhere, one vector per vertex. */
+static void lambert_only(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
     {
         prt_mesh pl = { 0 }, sp = { 0 };
         float c[3] = { 0, 1, 0 };
@@ -114,13 +126,19 @@ int main(void) {
         d = base;
         CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
         CHECK(out.factors[0].K == 1 && out.factors[1].K == 1, "Lambert K = %d, %d", out.factors[0].K, out.factors[1].K);
-        CHECK(out.transport.nvecs == out.scene.mesh.nverts, "one vector per vertex");
+        CHECK(out.transfers[0].transport.nvecs == out.scene.mesh.nverts, "one vector per vertex");
         CHECK(strstr(out.plan, "material 1 lambert: K=1") != NULL, "plan: %s", out.plan);
         CHECK(strstr(out.plan, "bounces 0") != NULL, "plan notes that bounces were not asked for: %s", out.plan);
         prt_data_free(&out);
     }
+}
 
-    /* A box open at the top: concave, so bounces are planned and brighten the inside. */
+/* A box open at the top: concave, so bounces are planned and brighten the inside. */
+static void open_box(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
     CHECK(make_box_scene(&sc, &err) == 0, "%s", err.msg);
     d = base;
     d.force_bounces = -1;
@@ -166,14 +184,20 @@ int main(void) {
     printf("--- plan for an open box ---\n%s", out.plan);
     printf("box floor centre: direct %.4f, with %d bounce(s) %.4f\n", direct, out.stats.bounces, bounced);
     prt_data_free(&out);
+}
 
-    /* Forced K: max_terms caps a glossy material; term_error picks the smallest K meeting it. */
+/* Forced K: max_terms caps a glossy material; term_error picks the smallest K meeting it. */
+static void terms(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
     d = base;
     d.max_terms = 2;
     CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
     CHECK(out.factors[0].K == 2, "max_terms 2: K = %d", out.factors[0].K);
-    CHECK(out.transport.nvecs == 2 * out.scene.mesh.nverts, "two vectors per vertex");
+    CHECK(out.transfers[0].transport.nvecs == 2 * out.scene.mesh.nverts, "two vectors per vertex");
     prt_data_free(&out);
 
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
@@ -189,8 +213,14 @@ int main(void) {
         CHECK(strstr(out.plan, "target") != NULL, "plan: %s", out.plan);
     }
     prt_data_free(&out);
+}
 
-    /* Cancel through the progress callback. */
+/* Cancel through the progress callback. */
+static void cancel(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
     CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
     int calls = 0;
     d = base;
@@ -200,19 +230,61 @@ int main(void) {
     CHECK(strcmp(err.msg, "cancelled") == 0, "message: %s", err.msg);
     CHECK(calls > 0, "progress called");
     CHECK(sc.mesh.pos == NULL, "scene taken even on failure");
+}
 
-    /* Bad settings. */
-    int bad[5][3] = { { -1, 8, 64 }, { 64, 12, 64 }, { 64, 8, 100 }, { CUBE_TEXELS + 1, 8, 64 }, { 64, 8, 64 } };
-    for (int q = 0; q < 5; q++) {
+/* Bad settings: each fails with a "precompute: " message (the last two: SH order 2, an unknown basis). */
+static void bad_settings(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    precompute_desc d;
+    int bad[6][3] = { { -1, 8, 64 }, { 64, 12, 64 }, { 64, 8, 100 }, { CUBE_TEXELS + 1, 8, 64 }, { 64, 8, 64 }, { 64, 8, 64 } };
+    for (int q = 0; q < 6; q++) {
         CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
         d = base;
         d.N = bad[q][0];
         d.qbits = bad[q][1];
         d.vis_res = bad[q][2];
-        if (q == 4) d.sh_order = 2;
+        if (q == 4) { d.basis = "sh"; d.basis_order = 2; }
+        if (q == 5) d.basis = "vmf";
         err.msg[0] = 0;
         CHECK(precompute_run(&sc, &d, &out, &err) == -1, "bad setting %d accepted", q);
         CHECK(strncmp(err.msg, "precompute: ", 12) == 0, "message: %s", err.msg);
+        if (q == 4) CHECK(strstr(err.msg, "order = 2") != NULL, "message: %s", err.msg);
+        if (q == 5) CHECK(strstr(err.msg, "unknown basis 'vmf'") != NULL, "message: %s", err.msg);
     }
+}
+
+/* The plan names the representation chosen for the materials, with the reason: Haar by default,
+ * SH when asked for; the data holds one transfer of it covering every material. */
+static void basis_choice(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    for (int q = 0; q < 2; q++) {
+        CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
+        precompute_desc d = base;
+        if (q) { d.basis = "sh"; d.basis_order = 4; }
+        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+        CHECK(out.ntransfers == 1 && out.transfers[0].ops == (q ? &transfer_sh : &transfer_haar), "one transfer");
+        CHECK(out.transfers[0].materials == 1 && out.transfers[0].cfg.N == 64 && out.transfers[0].cfg.qbits == 8,
+              "mask and config");
+        const char *want = q ? "basis: spherical harmonics of order 4 (16 coefficients; N=64); the material: asked for\n"
+                             : "basis: Haar wavelets, N=64 of 24576 coefficients per vector, 8-bit; the material: the default (all-frequency)\n";
+        CHECK(strstr(out.plan, want) != NULL, "plan: %s", out.plan);
+        prt_data_free(&out);
+    }
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(lone_sphere);
+    CHECK_CASE(forced_bounces);
+    CHECK_CASE(lambert_only);
+    CHECK_CASE(open_box);
+    CHECK_CASE(terms);
+    CHECK_CASE(cancel);
+    CHECK_CASE(bad_settings);
+    CHECK_CASE(basis_choice);
     return check_summary();
 }

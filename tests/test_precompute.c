@@ -24,13 +24,13 @@
 #include <string.h>
 
 /* Light vector of a probe: cube resample, then Haar (light.h) or SH (shbasis.h). */
-static float (*make_light(const prt_probe *pr, int qbits, int sh_order, light_stats *st))[4] {
+static float (*make_light(const prt_probe *pr, int qbits, int sh_bands, light_stats *st))[4] {
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     float (*L)[4] = light_alloc();
     probe_to_cube(pr, CUBE_RES, NULL, 0, cube);
     memset(st, 0, sizeof *st);
-    if (sh_order > 0) {
-        sh_light_from_cube(cube, CUBE_RES, sh_order, L);
+    if (sh_bands > 0) {
+        sh_light_from_cube(cube, CUBE_RES, sh_bands, L);
     } else {
         light_desc ld = { .threshold = 0, .qbits = qbits };
         light_from_cube(cube, &ld, L, st);
@@ -56,26 +56,30 @@ static double cube_cosine_sum(int res, bool half) {
 
 /* Precomputes `mesh` with one Lambert material of albedo a, relights it under a constant L and
  * checks vertex v (normal +y) against a L frac within the quantization bound. */
-static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, float Lc, bool half, int sh_order, int vis_res) {
+static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, float Lc, bool half, int sh_bands, int vis_res) {
     prt_error err;
     prt_scene sc;
     char spec[64];
     snprintf(spec, sizeof spec, "lambert:kd=%g", a);
     CHECK(scene_from_mesh(mesh, spec, &sc, &err) == 0, "%s", err.msg);
-    precompute_desc d = { .N = 128, .vis_res = vis_res, .quiet = true, .sh_order = sh_order, .nthreads = 2 };
+    precompute_desc d = { .N = 128, .vis_res = vis_res, .quiet = true, .basis = sh_bands ? "sh" : NULL,
+                          .basis_order = sh_bands, .nthreads = 2 };
     prt_data out;
     int rc = precompute_run(&sc, &d, &out, &err);
     CHECK(rc == 0, "%s: %s", label, err.msg);
     if (rc) return;
     CHECK(out.factors[0].K == 1 && out.factors[0].lambertian, "%s: Lambert factor K = %d", label, out.factors[0].K);
-    CHECK(out.transport.nvecs == out.scene.mesh.nverts, "%s: one vector per vertex", label);
+    CHECK(out.ntransfers == 1 && out.transfers[0].ops == (sh_bands ? &transfer_sh : &transfer_haar) &&
+          out.transfers[0].cfg.order == sh_bands && out.transfers[0].materials == 1, "%s: one %s transfer", label,
+          sh_bands ? "sh" : "haar");
+    CHECK(out.transfers[0].transport.nvecs == out.scene.mesh.nverts, "%s: one vector per vertex", label);
     CHECK_NEAR(out.scene.mesh.nrm[3 * v + 1], 1.0, 1e-6, "%s: vertex normal is +y", label);
 
     prt_probe pr;
     float rgb[3] = { Lc, 0.5f * Lc, 2 * Lc };
     CHECK(probe_make_constant(rgb, &pr, &err) == 0, "%s", err.msg);
     light_stats ls;
-    float (*L)[4] = make_light(&pr, 16, sh_order, &ls);
+    float (*L)[4] = make_light(&pr, 16, sh_bands, &ls);
     relight_ctx *rc2 = relight_create(&out, 2, &err);
     CHECK(rc2 != NULL, "%s", err.msg);
     if (!rc2) { free(L); probe_free(&pr); prt_data_free(&out); return; }
@@ -86,15 +90,15 @@ static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, floa
     /* Bound: |h| (sum_i |L_i| dT/2 + sum_i |T_i| dL/2) with dT the transport's 8-bit step and dL
      * the light's 16-bit step (section 4.1.2 and 4.3), plus the cube quadrature of the cosine
      * (texel centres with exact solid angles) and 1e-4 for float arithmetic. */
-    int vec = (int)out.transport.vec_first[v];
+    int vec = (int)out.transfers[0].transport.vec_first[v];
     float *T = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    transport_decode(&out.transport, vec, T, T + CUBE_TEXELS, T + 2 * CUBE_TEXELS);
+    transport_decode(&out.transfers[0].transport, vec, T, T + CUBE_TEXELS, T + 2 * CUBE_TEXELS);
     float hv[3], wl[3] = { 0, 0, 1 };
     brdf_factor_view(&out.factors[0], wl, hv);
     double frac = half ? 0.5 : 1.0;
     double quad = cube_cosine_sum(vis_res, half) / M_PI - frac;
     for (int ch = 0; ch < 3; ch++) {
-        double dT = out.transport.scale[3 * vec + ch], dL = sh_order > 0 ? 0 : ls.step[ch];
+        double dT = out.transfers[0].transport.scale[3 * vec + ch], dL = sh_bands > 0 ? 0 : ls.step[ch];
         double sL = 0, sT = 0;
         for (int i = 0; i < CUBE_TEXELS; i++) {
             sL += fabs(L[i][ch]);
@@ -117,9 +121,9 @@ static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, floa
     prt_data_free(&out);
 }
 
-static void test_lambert_open_and_half(void) {
+/* (1) a small plane alone: its centre vertex sees the whole upper hemisphere */
+static void lambert_open(void) {
     prt_error err;
-    /* (1) a small plane alone: its centre vertex sees the whole upper hemisphere */
     for (int q = 0; q < 3; q++) {
         prt_mesh m = { 0 };
         CHECK(mesh_make_plane(&m, -0.1f, 0.1f, -0.1f, 0.1f, 0, 3, 3, &err) == 0, "%s", err.msg);
@@ -127,9 +131,13 @@ static void test_lambert_open_and_half(void) {
         lambert_case(q == 0 ? "open, Haar, vis 128" : q == 1 ? "open, Haar, vis 64" : "open, SH order 3", &m, 4, 0.7f,
                      2.0f, false, sh, vr);
     }
-    /* (2) the same vertex under a plane y = 1 covering x in [0, 1000], z in [-1000, 1000]: every
-     * direction with x > 0 above the horizon hits it except those below 1/1000 rad of elevation,
-     * which carry sin^2 of that (1e-6) of the cosine-weighted integral. */
+}
+
+/* (2) the same vertex under a plane y = 1 covering x in [0, 1000], z in [-1000, 1000]: every
+ * direction with x > 0 above the horizon hits it except those below 1/1000 rad of elevation,
+ * which carry sin^2 of that (1e-6) of the cosine-weighted integral. */
+static void lambert_half(void) {
+    prt_error err;
     for (int q = 0; q < 2; q++) {
         prt_mesh m = { 0 }, cover = { 0 };
         CHECK(mesh_make_plane(&m, -0.1f, 0.1f, -0.1f, 0.1f, 0, 3, 3, &err) == 0, "%s", err.msg);
@@ -208,7 +216,8 @@ static int make_sphere_plane(prt_scene *sc, prt_error *err) {
     return 0;
 }
 
-static void test_end_to_end(void) {
+/* pass 0: uncompressed (N = all, float): the discretization alone; pass 1: the 8-bit default */
+static void end_to_end(int pass) {
     prt_error err;
     prt_probe sky;
     sky_desc sd = { 0 };
@@ -223,19 +232,18 @@ static void test_end_to_end(void) {
     cube_face_solid_angles(res, sa);
     const float eye[3] = { 2.5f, 3.0f, 3.5f };
 
-    for (int pass = 0; pass < 2; pass++) {
+    {
         prt_scene sc;
         CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
-        /* pass 0: uncompressed (N = all, float): the discretization alone; pass 1: the 8-bit default */
         precompute_desc d = { .N = pass == 0 ? CUBE_TEXELS : 128, .qbits = pass == 0 ? 32 : 8, .vis_res = 128,
                               .quiet = true, .nthreads = 2 };
         prt_data out;
         int rc = precompute_run(&sc, &d, &out, &err);
         CHECK(rc == 0, "%s", err.msg);
-        if (rc) continue;
+        if (rc) goto done;
         const prt_mesh *m = &out.scene.mesh;
         CHECK(out.factors[1].K == 4 && !out.factors[1].lambertian, "glossy K = %d", out.factors[1].K);
-        CHECK(out.transport.nvecs == 441 + 4 * (m->nverts - 441), "vectors: %d", out.transport.nvecs);
+        CHECK(out.transfers[0].transport.nvecs == 441 + 4 * (m->nverts - 441), "vectors: %d", out.transfers[0].transport.nvecs);
         /* Every vertex traces exactly half of the cube: texel centres come in antipodal pairs. */
         CHECK_NEAR((double)out.stats.rays_traced, (double)m->nverts * 3 * 128 * 128, m->nverts * 8.0, "rays traced");
         CHECK(out.stats.hit_fraction > 0.01 && out.stats.hit_fraction < 0.5, "hit fraction %g", out.stats.hit_fraction);
@@ -244,7 +252,7 @@ static void test_end_to_end(void) {
         float (*L)[4] = make_light(&sky, pass == 0 ? 32 : 16, 0, &ls);
         relight_ctx *rl = relight_create(&out, 2, &err);
         CHECK(rl != NULL, "%s", err.msg);
-        if (!rl) { free(L); prt_data_free(&out); continue; }
+        if (!rl) { free(L); prt_data_free(&out); goto done; }
         relight_set_light(rl, (const float (*)[4])L);
         vis_scene *vs = vis_create(m, &err);
         CHECK(vs != NULL, "%s", err.msg);
@@ -294,12 +302,19 @@ static void test_end_to_end(void) {
         free(L);
         prt_data_free(&out);
     }
+done:
     free(dirs); free(sa); free(Lp);
     probe_free(&sky);
 }
 
-int main(void) {
-    test_lambert_open_and_half();
-    test_end_to_end();
+static void end_to_end_float(void) { end_to_end(0); }
+static void end_to_end_8bit(void) { end_to_end(1); }
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(lambert_open);
+    CHECK_CASE(lambert_half);
+    CHECK_CASE(end_to_end_float);
+    CHECK_CASE(end_to_end_8bit);
     return check_summary();
 }

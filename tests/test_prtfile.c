@@ -3,7 +3,8 @@
  * field and re-writes to identical bytes; damaged files (truncated at many lengths,
  * flipped bytes, wrong magic, wrong version, empty, missing, a directory) and crafted
  * files with a valid checksum but out-of-range indices each fail with one line naming
- * the file; failed writes leave no file behind. */
+ * the file; failed writes leave no file behind. The transport lives in a Haar
+ * transfer section (transfer.h), written and validated by that module. */
 #include "harness.h"
 #include "prtfile.h"
 #include <dirent.h>
@@ -64,7 +65,8 @@ static void make_data(prt_data *d, int qbits) {
         F->seconds = 0.125 + f;
     }
 
-    prt_transport *t = &d->transport;
+    /* One Haar transfer covering both materials (bits 0 and 1). */
+    prt_transport *t = &prt_data_add_transfer(d, &transfer_haar, &(transfer_config){ .N = 8, .qbits = qbits }, 3)->transport;
     t->nverts = nv;
     t->nvecs = 9;
     t->N = 8;
@@ -108,7 +110,6 @@ static void make_data(prt_data *d, int qbits) {
     }
     d->vis_res = 128;
     d->gather_res = 32;
-    d->sh_order = 0;
     prt_stats *s = &d->stats;
     s->t_brdf = 1.5; s->t_visibility = 2.5; s->t_transport = 3.5;
     for (int b = 0; b < PRT_MAX_BOUNCES; b++) { s->t_bounce[b] = 0.1 * b; s->bounce_energy[b] = 0.01 * b; }
@@ -145,10 +146,16 @@ static void check_equal(const prt_data *a, const prt_data *b, int qbits) {
         size_t cnt = (size_t)f->res * f->res * f->K * 3;
         CHECK(SAME_ARR(f->light, g->light, cnt) && SAME_ARR(f->view, g->view, cnt), "factor %d maps", i);
     }
-    check_same_transport(&a->transport, &b->transport, qbits);
-    CHECK(a->direct.nvecs == b->direct.nvecs, "direct set present in both or neither");
-    if (a->direct.nvecs && b->direct.nvecs) check_same_transport(&a->direct, &b->direct, qbits);
-    CHECK(a->vis_res == b->vis_res && a->gather_res == b->gather_res && a->sh_order == b->sh_order);
+    CHECK(a->ntransfers == b->ntransfers, "transfer count %d vs %d", a->ntransfers, b->ntransfers);
+    for (int i = 0; i < a->ntransfers && i < b->ntransfers; i++) {
+        const prt_transfer *x = &a->transfers[i], *y = &b->transfers[i];
+        CHECK(x->ops == y->ops && x->materials == y->materials && memcmp(&x->cfg, &y->cfg, sizeof x->cfg) == 0,
+              "transfer %d representation, mask and config", i);
+        check_same_transport(&x->transport, &y->transport, qbits);
+        CHECK(x->direct.nvecs == y->direct.nvecs, "direct set present in both or neither");
+        if (x->direct.nvecs && y->direct.nvecs) check_same_transport(&x->direct, &y->direct, qbits);
+    }
+    CHECK(a->vis_res == b->vis_res && a->gather_res == b->gather_res);
     CHECK(memcmp(&a->stats, &b->stats, sizeof a->stats) == 0, "stats");
     CHECK(strcmp(a->plan, b->plan) == 0, "plan");
 }
@@ -202,7 +209,7 @@ static void expect_fail(const char *path, const char *name, const char *want, co
     CHECK(strstr(err.msg, name) != NULL, "%s: message '%s' names the file", what, err.msg);
     CHECK(strchr(err.msg, '\n') == NULL, "%s: one line", what);
     if (want) CHECK(strstr(err.msg, want) != NULL, "%s: message '%s' should say '%s'", what, err.msg, want);
-    CHECK(d.scene.mesh.pos == NULL && d.transport.vec_first == NULL, "%s: nothing left allocated", what);
+    CHECK(d.scene.mesh.pos == NULL && d.ntransfers == 0, "%s: nothing left allocated", what);
 }
 
 /* Offset of section tag's contents in a file image (walking the section headers). */
@@ -228,12 +235,27 @@ static void patch32(const char *path, const unsigned char *b, size_t n, size_t o
     free(c);
 }
 
-int main(void) {
-    const char *dir = check_tmpdir();
-    char path[512], path2[512], bad[512];
-    prt_error err;
+/* Writes the q-bit test data to DIR/rtQ.prt (if not there yet) and returns its path. */
+static const char *written(int q) {
+    static char path[4][512];
+    char *p = path[q / 8 - 1 < 3 ? q / 8 - 1 : 3];
+    snprintf(p, 512, "%s/rt%d.prt", check_tmpdir(), q);
+    struct stat st;
+    if (stat(p, &st) != 0) {
+        prt_data a;
+        prt_error err;
+        make_data(&a, q);
+        CHECK(prtfile_write(p, &a, &err) == 0, "%s", err.msg);
+        prt_data_free(&a);
+    }
+    return p;
+}
 
-    /* Round trips. */
+/* Round trips at 8, 16 and 32 bits: field by field, and re-written bytes identical. */
+static void round_trip(void) {
+    const char *dir = check_tmpdir();
+    char path[512], path2[512];
+    prt_error err;
     for (int q = 8; q <= 32; q *= 2) {
         prt_data a, b;
         make_data(&a, q);
@@ -251,37 +273,41 @@ int main(void) {
         free(b2);
         prt_data_free(&a);
         prt_data_free(&b);
-        CHECK(b.scene.mesh.pos == NULL && b.transport.packed == NULL && b.factors[1].light == NULL, "freed and zeroed");
+        CHECK(b.scene.mesh.pos == NULL && b.ntransfers == 0 && b.factors[1].light == NULL, "freed and zeroed");
     }
     CHECK(count_files(dir, ".tmp.") == 0, "no temporaries after writes");
+}
 
-    /* The optional direct-only set (DIRT section) round-trips beside the total transport,
-     * and a file without it reads with an empty direct set. */
-    {
-        prt_data a, b, c;
-        make_data(&a, 8);
-        make_data(&c, 8);
-        a.direct = c.transport;              /* same layout, moved in */
-        memset(&c.transport, 0, sizeof c.transport);
-        prt_data_free(&c);
-        snprintf(path, sizeof path, "%s/dirt.prt", dir);
-        CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
-        CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
-        if (b.scene.mesh.pos) check_equal(&a, &b, 8);
-        CHECK(b.direct.nvecs == a.transport.nvecs, "direct set read back");
-        prt_data_free(&b);
-        snprintf(path2, sizeof path2, "%s/rt8.prt", dir);
-        CHECK(prtfile_read(path2, &b, &err) == 0 && b.direct.nvecs == 0 && b.direct.packed == NULL, "no DIRT: empty set");
-        prt_data_free(&b);
-        prt_data_free(&a);
-    }
+/* The optional direct-only set (inside the transfer section) round-trips beside the total
+ * transport, and a file without it reads with an empty direct set. */
+static void direct_set(void) {
+    char path[512];
+    prt_error err;
+    prt_data a, b, c;
+    make_data(&a, 8);
+    make_data(&c, 8);
+    a.transfers[0].direct = c.transfers[0].transport;    /* same layout, moved in */
+    memset(&c.transfers[0].transport, 0, sizeof c.transfers[0].transport);
+    prt_data_free(&c);
+    snprintf(path, sizeof path, "%s/dirt.prt", check_tmpdir());
+    CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
+    CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
+    if (b.scene.mesh.pos) check_equal(&a, &b, 8);
+    CHECK(b.ntransfers == 1 && b.transfers[0].direct.nvecs == a.transfers[0].transport.nvecs, "direct set read back");
+    prt_data_free(&b);
+    CHECK(prtfile_read(written(8), &b, &err) == 0 && b.transfers[0].direct.nvecs == 0 && b.transfers[0].direct.packed == NULL,
+          "no direct set: empty set");
+    prt_data_free(&b);
+    prt_data_free(&a);
+}
 
-    /* Damaged files, from the 16-bit one. */
-    snprintf(path, sizeof path, "%s/rt16.prt", dir);
+/* Truncated at many lengths, then single flipped bytes: one line each. */
+static void truncated_and_flipped(void) {
+    char bad[512];
     size_t n = 0;
-    unsigned char *img = slurp(path, &n);
+    unsigned char *img = slurp(written(16), &n);
     CHECK(n > 200, "file size %zu", n);
-    snprintf(bad, sizeof bad, "%s/bad.prt", dir);
+    snprintf(bad, sizeof bad, "%s/bad.prt", check_tmpdir());
     size_t cuts[] = { 0, 1, 3, 4, 10, 16, 19, 20, 27, 100, n / 2, n - 5, n - 4, n - 1 };
     for (size_t i = 0; i < sizeof cuts / sizeof cuts[0]; i++) {
         spit(bad, img, cuts[i]);
@@ -299,14 +325,28 @@ int main(void) {
         /* Past the header every flip is caught by the checksum. */
         expect_fail(bad, "bad.prt", flips[i] >= 16 ? "corrupt (checksum mismatch)" : NULL, what);
     }
+    free(img);
+}
+
+/* Wrong magic, a newer version, trailing bytes, a missing file, a directory. */
+static void header(void) {
+    const char *dir = check_tmpdir();
+    char bad[512];
+    size_t n = 0;
+    unsigned char *img = slurp(written(16), &n);
+    snprintf(bad, sizeof bad, "%s/bad.prt", dir);
     memcpy(img, "PRTX", 4);
     spit(bad, img, n);
     memcpy(img, "PRTF", 4);
     expect_fail(bad, "bad.prt", "not a prt file", "wrong magic");
     img[4] = 7;
     spit(bad, img, n);
+    img[4] = PRTFILE_VERSION;
+    expect_fail(bad, "bad.prt", "bad.prt: version 7 not supported (expected 2)", "wrong version");
     img[4] = 1;
-    expect_fail(bad, "bad.prt", "bad.prt: version 7 not supported (expected 1)", "wrong version");
+    spit(bad, img, n);
+    img[4] = PRTFILE_VERSION;
+    expect_fail(bad, "bad.prt", "bad.prt: written by an older prt (file version 1); precompute it again", "version 1");
     unsigned char *longer = malloc(n + 3);
     memcpy(longer, img, n);
     memset(longer + n, 0, 3);
@@ -318,11 +358,21 @@ int main(void) {
     snprintf(bad, sizeof bad, "%s/adir.prt", dir);
     mkdir(bad, 0755);
     expect_fail(bad, "adir.prt", NULL, "a directory");
+    free(img);
+}
 
-    /* Crafted files: valid checksum, contents out of range. */
-    snprintf(bad, sizeof bad, "%s/crafted.prt", dir);
-    size_t mesh = section(img, n, "MESH"), matl = section(img, n, "MATL"), tran = section(img, n, "TRAN");
-    CHECK(mesh && matl && tran, "sections found");
+/* Bytes of the Haar section before its transport: N, qbits, order, material mask, direct flag. */
+#define TRANSFER_HEAD (12 + 8 + 1)
+
+/* Crafted files: valid checksum, contents out of range. */
+static void crafted(void) {
+    char bad[512];
+    size_t n = 0;
+    unsigned char *img = slurp(written(16), &n);
+    snprintf(bad, sizeof bad, "%s/crafted.prt", check_tmpdir());
+    size_t mesh = section(img, n, "MESH"), matl = section(img, n, "MATL"), haar = section(img, n, "HAAR");
+    CHECK(mesh && matl && haar, "sections found");
+    size_t tran = haar + TRANSFER_HEAD;
     int nv = 5, nvec = 9;
     size_t tris = mesh + 8 + 24 * (size_t)nv, mats = tris + 36;
     size_t k0 = matl + 4 + 4 + 24 + 16 + 4 + 64 + 4 + strlen("lambert:kd=0.8,0.7,0.6");   /* material 0's K */
@@ -345,6 +395,10 @@ int main(void) {
         { tran + 12, 12, "quantization", "qbits 12" },
         { tran + 8, 0, "N = 0", "N = 0" },
         { tran, 4, NULL, "transport vertex count differs from the mesh" },
+        { haar, 9, "disagree", "config N differs from the transport's (was META vs TRAN)" },
+        { haar + 8, 3, "order", "Haar transfer with an order" },
+        { haar + 12, 1, "material 1 has no transfer", "mask without material 1" },
+        { haar + 12, 7, "beyond", "mask naming material 2 of 2" },
     };
     for (size_t i = 0; i < sizeof crafts / sizeof crafts[0]; i++) {
         /* Keep the other bytes of a 4-byte window when patching a smaller field. */
@@ -352,30 +406,34 @@ int main(void) {
         if (crafts[i].off == mats) { uint16_t hi; memcpy(&hi, img + mats + 2, 2); v = (v & 0xffff) | (uint32_t)hi << 16; }
         if (crafts[i].off == runs) v = (v & 0xff) | (uint32_t)img[runs + 1] << 8 | (uint32_t)img[runs + 2] << 16 | (uint32_t)img[runs + 3] << 24;
         patch32(bad, img, n, crafts[i].off, v);
-        char what[128];
+        char what[160];
         snprintf(what, sizeof what, "crafted: %s", crafts[i].what);
         expect_fail(bad, "crafted.prt", crafts[i].want, what);
     }
     /* A run claiming one more coefficient than the vector has. */
-    {
-        prt_data a;
-        make_data(&a, 16);
-        size_t r = 0;
-        for (int i = 0; i < nvec; i++)
-            if (a.transport.run_first[i + 1] > a.transport.run_first[i]) { r = a.transport.run_first[i]; break; }
-        unsigned char *c = malloc(n);
-        memcpy(c, img, n);
-        c[runs + 2 * r + 1] += 1;
-        uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), c, (uInt)(n - 4));
-        memcpy(c + n - 4, &crc, 4);
-        spit(bad, c, n);
-        free(c);
-        expect_fail(bad, "crafted.prt", "runs cover", "crafted: run longer than its vector");
-        prt_data_free(&a);
-    }
+    prt_data a;
+    make_data(&a, 16);
+    const prt_transport *t = &a.transfers[0].transport;
+    size_t r = 0;
+    for (int i = 0; i < nvec; i++)
+        if (t->run_first[i + 1] > t->run_first[i]) { r = t->run_first[i]; break; }
+    unsigned char *c = malloc(n);
+    memcpy(c, img, n);
+    c[runs + 2 * r + 1] += 1;
+    uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), c, (uInt)(n - 4));
+    memcpy(c + n - 4, &crc, 4);
+    spit(bad, c, n);
+    free(c);
+    expect_fail(bad, "crafted.prt", "runs cover", "crafted: run longer than its vector");
+    prt_data_free(&a);
     free(img);
+}
 
-    /* Failed writes leave nothing behind. */
+/* Failed writes leave nothing behind. */
+static void failed_writes(void) {
+    const char *dir = check_tmpdir();
+    char path[512];
+    prt_error err;
     prt_data a;
     make_data(&a, 8);
     snprintf(path, sizeof path, "%s/nodir/x.prt", dir);
@@ -390,9 +448,20 @@ int main(void) {
     CHECK(stat(path, &st) != 0, "no file after a refused write");
     CHECK(count_files(dir, ".tmp.") == 0 && count_files(dir, "refused") == 0, "no temporaries after failed writes");
     snprintf(path, sizeof path, "%s/adir.prt", dir);   /* a directory in the way: rename fails */
+    mkdir(path, 0755);
     a.factors[1].view[2] = 0;
     CHECK(prtfile_write(path, &a, &err) == -1 && strstr(err.msg, "adir.prt"), "%s", err.msg);
     CHECK(count_files(dir, ".tmp.") == 0, "no temporary after a failed rename");
     prt_data_free(&a);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(round_trip);
+    CHECK_CASE(direct_set);
+    CHECK_CASE(truncated_and_flipped);
+    CHECK_CASE(header);
+    CHECK_CASE(crafted);
+    CHECK_CASE(failed_writes);
     return check_summary();
 }

@@ -90,9 +90,10 @@ int main(void) {
         int nv[6];
         for (int v = 0; v < 6; v++) nv[v] = pd.factors[vmat[v]].K;
         prt_error err = { "" };
+        prt_data_add_transfer(&pd, &transfer_haar, NULL, 3);
         prt_data bad = pd;
         CHECK(relight_create(&bad, 2, &err) == NULL && strstr(err.msg, "not finished"), "unfinished transport: %s", err.msg);
-        CHECK(transport_init(&pd.transport, 6, nv, T, qbits[qi], &err) == 0, "init: %s", err.msg);
+        CHECK(transport_init(&pd.transfers[0].transport, 6, nv, T, qbits[qi], &err) == 0, "init: %s", err.msg);
         float *tex = malloc(sizeof(float) * 3 * T), *w = malloc(sizeof(float) * 3 * T), tmp[2 * 64 * 64];
         void *scratch = malloc(transport_scratch_size());
         for (int v = 0; v < 6; v++) {
@@ -106,10 +107,10 @@ int main(void) {
                     for (int ch = 0; ch < 3; ch++) tex[ch * T + j] = f->light[k * 3 + ch] * base;
                 }
                 for (int ch = 0; ch < 3; ch++) haar_cube_forward(tex + ch * T, CUBE_RES, w + ch * T, tmp);
-                transport_store(&pd.transport, (int)pd.transport.vec_first[v] + k, w, w + T, w + 2 * T, scratch);
+                transport_store(&pd.transfers[0].transport, (int)pd.transfers[0].transport.vec_first[v] + k, w, w + T, w + 2 * T, scratch);
             }
         }
-        CHECK(transport_finish(&pd.transport, &err) == 0, "finish: %s", err.msg);
+        CHECK(transport_finish(&pd.transfers[0].transport, &err) == 0, "finish: %s", err.msg);
         relight_ctx *rc = relight_create(&pd, 2, &err);
         CHECK(rc != NULL, "create: %s", err.msg);
         if (!rc) return check_summary();
@@ -126,10 +127,10 @@ int main(void) {
         for (int v = 0; v < 6; v++) {
             const brdf_factor *f = &pd.factors[vmat[v]];
             for (int k = 0; k < f->K; k++) {
-                int i = (int)pd.transport.vec_first[v] + k;
+                int i = (int)pd.transfers[0].transport.vec_first[v] + k;
                 for (int ch = 0; ch < 3; ch++) {
                     double want = f->light[k * 3 + ch] * c[ch] * S[v];
-                    double tol = qbits[qi] == 32 ? 1e-5 * fabs(want) + 1e-7 : 6 * 64 * c[ch] * 0.5 * pd.transport.scale[3 * i + ch] + 1e-6;
+                    double tol = qbits[qi] == 32 ? 1e-5 * fabs(want) + 1e-7 : 6 * 64 * c[ch] * 0.5 * pd.transfers[0].transport.scale[3 * i + ch] + 1e-6;
                     if (!(fabs(g[3 * i + ch] - want) <= tol)) {
                         gbad++;
                         fprintf(stderr, "  v %d k %d ch %d: g %.8g want %.8g tol %.3g\n", v, k, ch, g[3 * i + ch], want, tol);
@@ -189,7 +190,7 @@ int main(void) {
         CHECK(relight_create(&bad2, 1, &err) == NULL && strstr(err.msg, "vertices"), "mismatch: %s", err.msg);
         relight_destroy(rc);
         free(tex); free(w); free(scratch); free(cube); free(L);
-        transport_free(&pd.transport);
+        transport_free(&pd.transfers[0].transport);
         for (int k = 0; k < 2; k++) { free(pd.factors[k].light); free(pd.factors[k].view); }
         free(m->pos); free(m->nrm); free(m->mat);
     }
@@ -223,8 +224,9 @@ int main(void) {
         f->view = malloc(sizeof(float) * 48 * 48 * 12);
         for (int k = 0; k < 48 * 48 * 12; k++) { f->light[k] = g4[(k / 3) % 4][k % 3]; f->view[k] = (float)(k % 97) / 97.f - 0.3f; }
         prt_error err;
-        transport_init(&pd.transport, n, nv, 128, 8, &err);
-        transport_finish(&pd.transport, &err);
+        prt_data_add_transfer(&pd, &transfer_haar, NULL, 3);
+        transport_init(&pd.transfers[0].transport, n, nv, 128, 8, &err);
+        transport_finish(&pd.transfers[0].transport, &err);
         relight_ctx *rc = relight_create(&pd, 2, &err);
         CHECK(rc != NULL, "create: %s", err.msg);
         float *rgb = malloc(sizeof(float) * 3 * n);
@@ -250,7 +252,7 @@ int main(void) {
         printf("relight_view: %d vertices (%d with K=4): %.2f ms wall on 2 threads, %.2f ms CPU on 1 thread\n", n, nv4, 1e3 * best, 1e3 * cpu);
         relight_destroy(rc);
         free(rgb); free(nv);
-        transport_free(&pd.transport);
+        transport_free(&pd.transfers[0].transport);
         for (int k = 0; k < 2; k++) { free(pd.factors[k].light); free(pd.factors[k].view); }
         free(m->pos); free(m->nrm); free(m->mat);
     }

@@ -60,7 +60,7 @@ static void gauss_legendre(int n, double *x, double *w) {
     }
 }
 
-static void test_closed_form(void) {
+static void closed_form(void) {
     unsigned s = 1;
     double maxerr = 0;
     for (int k = 0; k < 200; k++) {
@@ -80,7 +80,7 @@ static void test_closed_form(void) {
     CHECK_NEAR(y2[1], sqrt(3 / (4 * PI)), 1e-6, "non-unit direction normalized");
 }
 
-static void test_poles_order16(void) {
+static void poles_order16(void) {
     float y[256];
     int bad = 0;
     for (int sgn = -1; sgn <= 1; sgn += 2) {
@@ -96,7 +96,7 @@ static void test_poles_order16(void) {
 }
 
 /* Exact quadrature: Gauss-Legendre in z (24 nodes: exact for degree 47) x 48 uniform phi. */
-static void test_orthonormal_exact(void) {
+static void orthonormal_exact(void) {
     enum { NZ = 24, NP = 48, ORD = 16, N2 = ORD * ORD };
     double zx[NZ], zw[NZ];
     gauss_legendre(NZ, zx, zw);
@@ -119,7 +119,7 @@ static void test_orthonormal_exact(void) {
 }
 
 /* Cube quadrature at res 64 (texel centres, exact solid angles), order 10, through the table. */
-static void test_orthonormal_cube(void) {
+static void orthonormal_cube(void) {
     sh_table t;
     prt_error err;
     CHECK(sh_table_init(&t, 64, 10, &err) == 0, "%s", err.msg);
@@ -139,7 +139,7 @@ static void test_orthonormal_cube(void) {
 }
 
 /* A band-limited function's coefficients come back from its cube samples. */
-static void test_bandlimited(void) {
+static void bandlimited(void) {
     enum { RES = 64, NT = 6 * RES * RES, ORD = 6, N2 = ORD * ORD };
     unsigned s = 7;
     float coef[N2];
@@ -184,7 +184,7 @@ static void test_bandlimited(void) {
 
 /* Funk-Hecke: clamped cosine about n has coefficients lambda_l Y_lm(n),
  * lambda = (pi, 2pi/3, pi/4, 0, -pi/24). Also the light x transport inner product. */
-static void test_clamped_cosine(void) {
+static void clamped_cosine(void) {
     enum { RES = 64, NT = 6 * RES * RES, ORD = 5, N2 = ORD * ORD };
     const double lambda[ORD] = { PI, 2 * PI / 3, PI / 4, 0, -PI / 24 };
     const float normals[3][3] = { { 0, 0, 1 }, { 0, 1, 0 }, { 0.48f, -0.6f, 0.64f } };
@@ -233,7 +233,7 @@ static void test_clamped_cosine(void) {
 }
 
 /* The table path and the direct path agree. */
-static void test_table_matches(void) {
+static void table_matches(void) {
     enum { RES = 32, NT = 6 * RES * RES, ORD = 8, N2 = ORD * ORD };
     unsigned s = 3;
     float *f = malloc(sizeof(float) * NT);
@@ -253,13 +253,14 @@ static void test_table_matches(void) {
     free(f);
 }
 
-int main(void) {
-    test_closed_form();
-    test_poles_order16();
-    test_orthonormal_exact();
-    test_orthonormal_cube();
-    test_bandlimited();
-    test_clamped_cosine();
-    test_table_matches();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(closed_form);
+    CHECK_CASE(poles_order16);
+    CHECK_CASE(orthonormal_exact);
+    CHECK_CASE(orthonormal_cube);
+    CHECK_CASE(bandlimited);
+    CHECK_CASE(clamped_cosine);
+    CHECK_CASE(table_matches);
     return check_summary();
 }

@@ -107,8 +107,6 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, co
 }
 
 #include "cubemap.h"
-#include "light.h"
-#include "shbasis.h"
 
 int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out) {
     probe_layout lay = PROBE_AUTO;
@@ -121,17 +119,6 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
     if (out->clamped_nonfinite)
         fprintf(stderr, "warning: %s: %ld texel(s) with NaN or Inf clamped to 0\n", path, out->clamped_nonfinite);
     return 0;
-}
-
-float (*cli_light_vector(const prt_probe *p, const float *R, int sh_order))[4] {
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
-    if (!cube || !L) { free(cube); free(L); return NULL; }
-    probe_to_cube(p, CUBE_RES, R, 0, cube);
-    if (sh_order > 0) sh_light_from_cube(cube, CUBE_RES, sh_order, L);
-    else light_from_cube(cube, NULL, L, NULL);
-    free(cube);
-    return L;
 }
 
 int cli_check_image_path(const char *cmd, const char *path) {

@@ -69,6 +69,3 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
 #include "scene.h"
 int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
 
-/* Light vector (CUBE_TEXELS x 4, aligned; free()) for probe p rotated by R (NULL: none), in the
- * basis of the file (sh_order 0: Haar wavelets, 16-bit; else SH). Returns NULL on OOM. */
-float (*cli_light_vector(const prt_probe *p, const float *R, int sh_order))[4];

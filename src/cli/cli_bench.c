@@ -11,6 +11,7 @@
 #include "prtfile.h"
 #include "relight.h"
 #include "render.h"
+#include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,7 +57,9 @@ int cli_bench(int argc, char **argv) {
         char rot[32];
         snprintf(rot, sizeof rot, "%d", 90 * i);
         probe_parse_rotation(rot, R);
-        Ls[i] = cli_light_vector(&probe, R, d.sh_order);
+        float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+        if (cube) { probe_to_cube(&probe, CUBE_RES, R, 0, cube); Ls[i] = transfer_light_vector(&d, cube); }
+        free(cube);
     }
     t_lv = (prt_now() - t_lv) / nL;
     relight_ctx *rc = relight_create(&d, nthreads, &err);
@@ -88,7 +91,7 @@ int cli_bench(int argc, char **argv) {
     int K = 0;
     for (int m = 0; m < d.scene.nmaterials; m++) K = d.factors[m].K > K ? d.factors[m].K : K;
     printf("file %s: %d vertices, %d vectors (max K = %d), N = %d, %d-bit, threads %d\n", in, d.scene.mesh.nverts,
-           d.transport.nvecs, kmax ? kmax : K, d.transport.N, d.transport.qbits, prt_thread_count(nthreads));
+           d.transfers[0].transport.nvecs, kmax ? kmax : K, d.transfers[0].transport.N, d.transfers[0].transport.qbits, prt_thread_count(nthreads));
     printf("light vector (probe -> cube -> Haar): %.1f ms\n", 1e3 * t_lv);
     printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", 1e3 * ml, 1 / ml, 1e3 * tl[0]);
     printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", 1e3 * mv, 1 / mv, 1e3 * tv[0]);

@@ -12,6 +12,7 @@
 #include "prtfile.h"
 #include "relight.h"
 #include "render.h"
+#include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -67,7 +68,9 @@ int cli_demo(int argc, char **argv) {
     relight_ctx *rc_ctx = NULL;
     prt_image img = { 0 };
     if (probe_make_sky(&sd, &sky, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    L = cli_light_vector(&sky, NULL, d.sh_order);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (cube) { probe_to_cube(&sky, CUBE_RES, NULL, 0, cube); L = transfer_light_vector(&d, cube); }
+    free(cube);
     rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
     rc_ctx = relight_create(&d, 0, &err);
     if (!L || !rgb || !rc_ctx) { cli_error(k_cmd, "%s", rc_ctx ? "out of memory" : err.msg); goto done; }

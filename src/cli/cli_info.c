@@ -27,7 +27,8 @@ int cli_info(int argc, char **argv) {
     struct stat st;
     double mb = stat(in, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_scene *s = &d.scene;
-    const prt_transport *t = &d.transport;
+    const prt_transfer *tr = prt_data_transfer(&d);
+    const prt_transport *t = &tr->transport;
     const prt_stats *ps = &d.stats;
     printf("file          %s (%.2f MB, format version %d)\n", in, mb, PRTFILE_VERSION);
     printf("geometry      %d vertices, %d triangles%s\n", s->mesh.nverts, s->mesh.ntris,
@@ -37,8 +38,9 @@ int cli_info(int argc, char **argv) {
                s->floor_first_vertex);
     printf("bounds        [%g %g %g] - [%g %g %g]\n", s->bmin[0], s->bmin[1], s->bmin[2], s->bmax[0], s->bmax[1],
            s->bmax[2]);
-    printf("basis         %s\n", d.sh_order ? "spherical harmonics" : "Haar wavelets, 6x64x64 cube (24,576)");
-    if (d.sh_order) printf("              order %d (%d coefficients)\n", d.sh_order, d.sh_order * d.sh_order);
+    char basis[256];
+    tr->ops->describe(&tr->cfg, basis, sizeof basis);
+    printf("basis         %s\n", basis);
     printf("transport     %d vectors, N = %d kept per vector, %s, %zu coefficients, %zu block runs, %.2f MB\n",
            t->nvecs, t->N, t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t),
            transport_nruns(t), transport_bytes(t) / 1e6);
@@ -61,7 +63,7 @@ int cli_info(int argc, char **argv) {
         printf("\n");
     }
     printf("interreflect  %d pass(es), gather cube %dx%dx6%s\n", ps->bounces, d.gather_res, d.gather_res,
-           d.direct.nvecs ? "; direct-only transport kept too" : "");
+           tr->direct.nvecs ? "; direct-only transport kept too" : "");
     for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++)
         printf("              pass %d: %.3f%% of the direct energy, %.1fs\n", b + 1, 100 * ps->bounce_energy[b],
                ps->t_bounce[b]);

@@ -41,12 +41,72 @@ static void help(void) {
          "  --quiet                no progress output\n");
 }
 
+/* The per-stage timing summary and the closing line (stderr). */
+static void summary(const char *out, const prt_data *data, double t_load, double t0) {
+    struct stat st;
+    double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
+    const prt_stats *s = &data->stats;
+    fprintf(stderr, "\ntiming summary\n");
+    fprintf(stderr, "  %-28s %9.2fs\n", "scene load", t_load);
+    fprintf(stderr, "  %-28s %9.2fs\n", "BRDF factorization", s->t_brdf);
+    fprintf(stderr, "  %-28s %9.2fs\n", "visibility (ray casting)", s->t_visibility);
+    fprintf(stderr, "  %-28s %9.2fs\n", "transport+wavelet+quant.", s->t_transport);
+    for (int b = 0; b < s->bounces && b < PRT_MAX_BOUNCES; b++) {
+        char name[64];
+        snprintf(name, sizeof name, "bounce %d (%.2f%% energy)", b + 1, 100 * s->bounce_energy[b]);
+        fprintf(stderr, "  %-28s %9.2fs\n", name, s->t_bounce[b]);
+    }
+    fprintf(stderr, "  %-28s %9.2fs\n", "writing", s->t_write);
+    fprintf(stderr, "  %-28s %9.2fs\n", "total", prt_now() - t0);
+    const prt_transport *t = &prt_data_transfer(data)->transport;
+    fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit\n", out, mb, t->nverts,
+            t->nvecs, t->N, t->qbits);
+}
+
+/* Loads the scene, runs the pipeline with a progress bar, writes the file. Returns the exit status. */
+static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet) {
+    prt_error err = { { 0 } };
+    double t0 = prt_now();
+    prt_scene scene = { 0 };
+    if (scene_load(in, sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
+    double t_load = prt_now() - t0;
+    if (!quiet)
+        fprintf(stderr, "scene: %d vertices, %d triangles, %d material(s)%s (loaded in %.2fs)\n", scene.mesh.nverts,
+                scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
+    if (!quiet && scene.load_stats.degenerate)
+        fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
+
+    prt_bar bar;
+    prt_bar_init(&bar, stderr, quiet);
+    pd->progress = prt_bar_report;
+    pd->progress_user = &bar;
+    pd->quiet = quiet;
+    prt_data data;
+    memset(&data, 0, sizeof data);
+    if (precompute_run(&scene, pd, &data, &err)) {
+        prt_bar_done(&bar);
+        scene_free(&scene);
+        return cli_error(k_cmd, "%s", err.msg);
+    }
+    prt_bar_done(&bar);
+    double tw = prt_now();
+    data.stats.t_write = 0;
+    if (prtfile_write(out, &data, &err)) {
+        prt_data_free(&data);
+        return cli_error(k_cmd, "%s", err.msg);
+    }
+    data.stats.t_write = prt_now() - tw;
+    if (!quiet) summary(out, &data, t_load, t0);
+    prt_data_free(&data);
+    return 0;
+}
+
 int cli_precompute(int argc, char **argv) {
     const char *in = NULL, *out = NULL;
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
-    int param = BRDF_PARAM_GRID;
+    int param = BRDF_PARAM_GRID, sh_bands = 0;
     const cli_option opts[] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
@@ -63,7 +123,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--coeffs", &pd.N, 1, 24576),
         CLI_I("--quant", &pd.qbits, 8, 32),
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
-        CLI_I("--sh", &pd.sh_order, 3, 10),
+        CLI_I("--sh", &sh_bands, 3, 10),
         CLI_I("--bounces", &pd.bounces, 0, PRT_MAX_BOUNCES),
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
@@ -74,62 +134,14 @@ int cli_precompute(int argc, char **argv) {
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
     pd.param = (brdf_param)param;
+    if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
+        pd.basis = "sh";
+        pd.basis_order = sh_bands;
+    }
     if (pd.qbits && pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
     if (pd.vis_res && pd.vis_res != 64 && pd.vis_res != 128 && pd.vis_res != 256)
         return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
-
-    prt_error err = { { 0 } };
-    double t0 = prt_now();
-    prt_scene scene = { 0 };
-    if (scene_load(in, &sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
-    double t_load = prt_now() - t0;
-    if (!quiet)
-        fprintf(stderr, "scene: %d vertices, %d triangles, %d material(s)%s (loaded in %.2fs)\n", scene.mesh.nverts,
-                scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
-    if (!quiet && scene.load_stats.degenerate)
-        fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
-
-    prt_bar bar;
-    prt_bar_init(&bar, stderr, quiet);
-    pd.progress = prt_bar_report;
-    pd.progress_user = &bar;
-    pd.quiet = quiet;
-    prt_data data;
-    memset(&data, 0, sizeof data);
-    if (precompute_run(&scene, &pd, &data, &err)) {
-        prt_bar_done(&bar);
-        scene_free(&scene);
-        return cli_error(k_cmd, "%s", err.msg);
-    }
-    prt_bar_done(&bar);
-    double tw = prt_now();
-    data.stats.t_write = 0;
-    if (prtfile_write(out, &data, &err)) {
-        prt_data_free(&data);
-        return cli_error(k_cmd, "%s", err.msg);
-    }
-    data.stats.t_write = prt_now() - tw;
-    struct stat st;
-    double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
-    if (!quiet) {
-        const prt_stats *s = &data.stats;
-        fprintf(stderr, "\ntiming summary\n");
-        fprintf(stderr, "  %-28s %9.2fs\n", "scene load", t_load);
-        fprintf(stderr, "  %-28s %9.2fs\n", "BRDF factorization", s->t_brdf);
-        fprintf(stderr, "  %-28s %9.2fs\n", "visibility (ray casting)", s->t_visibility);
-        fprintf(stderr, "  %-28s %9.2fs\n", "transport+wavelet+quant.", s->t_transport);
-        for (int b = 0; b < s->bounces && b < PRT_MAX_BOUNCES; b++) {
-            char name[64];
-            snprintf(name, sizeof name, "bounce %d (%.2f%% energy)", b + 1, 100 * s->bounce_energy[b]);
-            fprintf(stderr, "  %-28s %9.2fs\n", name, s->t_bounce[b]);
-        }
-        fprintf(stderr, "  %-28s %9.2fs\n", "writing", data.stats.t_write);
-        fprintf(stderr, "  %-28s %9.2fs\n", "total", prt_now() - t0);
-        fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit\n", out, mb,
-                data.transport.nverts, data.transport.nvecs, data.transport.N, data.transport.qbits);
-    }
-    prt_data_free(&data);
-    return 0;
+    return run(in, out, &sd, &pd, quiet);
 }

@@ -12,6 +12,7 @@
 #include "prtfile.h"
 #include "relight.h"
 #include "render.h"
+#include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -93,7 +94,7 @@ int cli_render(int argc, char **argv) {
     double t0 = prt_now();
     if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_read = prt_now() - t0;
-    if (direct_only && d.stats.bounces > 0 && d.direct.nvecs == 0) {
+    if (direct_only && d.stats.bounces > 0 && d.transfers[0].direct.nvecs == 0) {
         prt_data_free(&d);
         return cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", in);
     }
@@ -104,7 +105,9 @@ int cli_render(int argc, char **argv) {
     if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }
 
     double t1 = prt_now();
-    float (*L)[4] = cli_light_vector(&probe, rot_s ? R : NULL, d.sh_order);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), (*L)[4] = NULL;
+    if (cube) { probe_to_cube(&probe, CUBE_RES, rot_s ? R : NULL, 0, cube); L = transfer_light_vector(&d, cube); }
+    free(cube);
     double t_light = prt_now() - t1;
     int rc = 1;
     float *rgb = NULL;
@@ -122,7 +125,7 @@ int cli_render(int argc, char **argv) {
         rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
         rcx = relight_create(&d, nthreads, &err);
         if (!rgb || !rcx) { cli_error(k_cmd, "%s", rcx ? "out of memory" : err.msg); goto done; }
-        if (direct_only) relight_use_direct(rcx, d.direct.nvecs > 0);
+        if (direct_only) relight_use_direct(rcx, d.transfers[0].direct.nvecs > 0);
         double t2 = prt_now();
         relight_set_light(rcx, L);
         double t3 = prt_now();

@@ -23,6 +23,7 @@
 #include "prtfile.h"
 #include "relight.h"
 #include "render.h"
+#include "transfer.h"
 #include "vec3.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -136,7 +137,10 @@ static int light_change(viewer *v, prt_error *err) {
     if (v->light_dirty) {
         double t0 = prt_now();
         free(v->L);
-        v->L = cli_light_vector(&v->probes[v->probe], rotated(v) ? v->R : NULL, v->d.sh_order);
+        v->L = NULL;
+        float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+        if (cube) { probe_to_cube(&v->probes[v->probe], CUBE_RES, rotated(v) ? v->R : NULL, 0, cube); v->L = transfer_light_vector(&v->d, cube); }
+        free(cube);
         if (!v->L) return prt_fail(err, "out of memory");
         v->lightvec_ms = 1e3 * (prt_now() - t0);
         v->light_dirty = false;
@@ -193,7 +197,7 @@ static void overlay(viewer *v) {
                      t.renderer, t.context,
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure,
-                     v->d.direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
+                     v->d.transfers[0].direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
@@ -386,7 +390,7 @@ static void toggle_direct(viewer *v) {
         set_status(v, "the file has no interreflection passes: it is direct lighting only");
         return;
     }
-    if (v->d.direct.nvecs == 0) {
+    if (v->d.transfers[0].direct.nvecs == 0) {
         set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
         return;
     }
@@ -649,7 +653,7 @@ int cli_view(int argc, char **argv) {
     glrt_timing tm;
     glrt_get_timing(v->rt, &tm);
     fprintf(stderr, "prt view: %s (%d vertices, %d vectors), GL %s on %s (%s), light kernel %s; press h for help\n",
-            v->file, v->d.scene.mesh.nverts, v->d.transport.nvecs, tm.version, tm.renderer, tm.context,
+            v->file, v->d.scene.mesh.nverts, v->d.transfers[0].transport.nvecs, tm.version, tm.renderer, tm.context,
             tm.light_method_name);
     v->light_dirty = v->probe_dirty = v->view_dirty = true;
     if (frames) {
@@ -769,7 +773,9 @@ int cli_glbench(int argc, char **argv) {
     float(*L)[4] = NULL;
     double *t = calloc((size_t)runs, sizeof(double));
     if (cli_load_probe(k_cmd, probe_path, NULL, &probe)) goto done;
-    L = cli_light_vector(&probe, NULL, d.sh_order);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (cube) { probe_to_cube(&probe, CUBE_RES, NULL, 0, cube); L = transfer_light_vector(&d, cube); }
+    free(cube);
     rgb = malloc(sizeof(float) * 3 * (size_t)(d.scene.mesh.nverts > 0 ? d.scene.mesh.nverts : 1));
     if (!L || !rgb || !t) { cli_error(k_cmd, "out of memory"); goto done; }
     prt_camera cam;
@@ -789,8 +795,8 @@ int cli_glbench(int argc, char **argv) {
     glrt_get_timing(rt, &tm);
     printf("prt glbench: %s: %d vertices, %d triangles, %d vectors, %zu coefficients (%d-bit), K %d (using %d), "
            "%dx%d frames\n",
-           in, d.scene.mesh.nverts, d.scene.mesh.ntris, d.transport.nvecs, (size_t)d.transport.coef_first[d.transport.nvecs],
-           d.transport.qbits, kfile, kuse, w, h);
+           in, d.scene.mesh.nverts, d.scene.mesh.ntris, d.transfers[0].transport.nvecs, (size_t)d.transfers[0].transport.coef_first[d.transfers[0].transport.nvecs],
+           d.transfers[0].transport.qbits, kfile, kuse, w, h);
     printf("GL: %s, %s (%s context); light kernel %s", tm.renderer, tm.version, tm.context, tm.light_method_name);
     if (method == GLRT_LIGHT_AUTO) {
         printf(" (measured:");

@@ -2,23 +2,29 @@
  *
  * File layout (little-endian), version PRTFILE_VERSION:
  *   "PRTF" magic, u32 version, u64 payload bytes, then tagged sections
- *   (u32 tag, u64 length, bytes): META (N, qbits, resolutions, timings, plan text),
- *   MESH, MATL (params, spec strings, factor maps and singular values), TRAN
- *   (transport arrays), optionally DIRT (the direct-only transport, same layout), and finally a CRC-32 (zlib) of everything before it.
+ *   (u32 tag, u64 length, bytes): META (resolutions, timings, plan text),
+ *   MESH, MATL (params, spec strings, factor maps and singular values), then one
+ *   section per transfer representation used, under that representation's own tag
+ *   and written, read and validated by its module (transfer.h: config, material
+ *   mask, transport, the direct-only set inside it when kept), and finally a
+ *   CRC-32 (zlib) of everything before it.
  * prtfile_read checks magic, version, every length against the file size, the
  * CRC and every index (vertex, material, block, run and coefficient counts),
- * so a corrupt, truncated or wrong-version file fails with one line, never a crash.
+ * so a corrupt, truncated or wrong-version file fails with one line, never a crash;
+ * a file of an older version says to precompute it again.
  * prtfile_write writes to a temporary file and renames it.
  *
- * Ownership: prt_data owns everything in it; prt_data_free frees it. */
+ * Ownership: prt_data owns everything in it; prt_data_free frees it (each transfer
+ * through its ops->release). */
 #ifndef PRT_PRTFILE_H
 #define PRT_PRTFILE_H
 #include "common.h"
 #include "scene.h"
 #include "factor.h"
-#include "transport.h"
+#include "transfer.h"
 
-#define PRTFILE_VERSION 1
+/* 2: one section per transfer representation (1: META basis + TRAN/DIRT). */
+#define PRTFILE_VERSION 2
 #define PRT_MAX_BOUNCES 8
 
 typedef struct prt_stats {
@@ -39,12 +45,11 @@ typedef struct prt_stats {
 typedef struct prt_data {
     prt_scene scene;
     brdf_factor factors[PRT_MAX_MATERIALS];   /* one per scene material */
-    prt_transport transport;  /* direct + every interreflection pass (what the runtime uses) */
-    prt_transport direct;     /* optional (nvecs 0 when absent): the direct pass alone, kept by
-                               * `precompute --keep-direct` for the viewer's direct/bounces toggle */
+    prt_transfer transfers[PRT_MAX_TRANSFERS]; /* one per representation used (transfer.h); a vertex's
+                                                * radiance is the sum over those whose mask holds its material */
+    int ntransfers;
     int vis_res;        /* visibility cube resolution (128) */
     int gather_res;     /* gathering cube resolution (32) */
-    int sh_order;       /* 0: Haar wavelet basis; else spherical harmonics of this order */
     prt_stats stats;
     char plan[4096];    /* the effects plan, as printed */
 } prt_data;
@@ -52,4 +57,10 @@ typedef struct prt_data {
 int prtfile_write(const char *path, const prt_data *d, prt_error *err);
 int prtfile_read(const char *path, prt_data *out, prt_error *err);
 void prt_data_free(prt_data *d);
+/* The one transfer today's runtimes shade with: precompute makes exactly one, covering every
+ * material (PRT_CHECKed; a later runtime that sums several iterates d->transfers instead). */
+const prt_transfer *prt_data_transfer(const prt_data *d);
+/* Appends a transfer of ops with cfg (NULL: defaults unfilled, zero) for materials (bit i:
+ * material i) and returns it, its transport sets empty; the caller fills them. PRT_CHECKs room. */
+prt_transfer *prt_data_add_transfer(prt_data *d, const transfer_ops *ops, const transfer_config *cfg, uint64_t materials);
 #endif

@@ -30,18 +30,25 @@
  *     T_k(j) = g_k(w_j) a_j,
  * g_k being the light map at the texel centre's local direction (it is smooth
  * at the 48x48 map resolution). A Lambertian factor is constant, so its value
- * is looked up once per material. Each of the K x 3 cubes is Haar transformed
- * per face (or projected onto SH when sh_order > 0) and handed to
- * transport_store, which keeps the N largest coefficients and quantizes them.
+ * is looked up once per material. Each of the K x 3 cubes is projected by the
+ * transfer representation the plan chose (transfer.h: Haar per face, or SH) and
+ * handed to its compress op, which keeps the N largest coefficients and
+ * quantizes them. The ops are called once per vector channel, never per texel.
+ *
+ * Stages (precompute_run): factor (BRDF factorization, the plan's BRDF lines),
+ * choose (the representation per material), setup (tables, visibility scene,
+ * scratch), plan (the sample, the rest of the plan, printed), direct (the rest of
+ * the pass), bounces (interreflections), finish (the transfer into out).
  *
  * Timing: each thread measures its time inside vis_cube and its total busy
  * time; the pass's wall time is split between "visibility" and "transport" in
  * that ratio. */
 #include "precompute.h"
+#include "check.h"
 #include "cubemap.h"
 #include "gather.h"
 #include "haar.h"
-#include "shbasis.h"
+#include "transfer.h"
 #include "visibility.h"
 #include <math.h>
 #include <pthread.h>
@@ -75,8 +82,7 @@ typedef struct pc_scratch {
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
     float *T;           /* [Kmax * 3][PC_TSTRIDE] planar transport cubes */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
-    float *tmp;         /* [2 * CUBE_RES^2] Haar scratch */
-    float *sh;          /* [SH_MAX_ORDER^2] */
+    float *tmp;         /* [TRANSFER_SCRATCH_FLOATS] projection scratch */
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
     double t_cpu;           /* CPU seconds of the thread in pc_range (t_cpu / t_busy: share of a core it got) */
@@ -92,7 +98,10 @@ typedef struct pc_ctx {
     const brdf_factor *factors;
     float lambert_g[PRT_MAX_MATERIALS][3];   /* constant light map of a Lambertian factor */
     prt_transport *t;
-    int vres, ss, sh_order;
+    const transfer_ops *ops;        /* the representation (transfer.h) */
+    const transfer_config *cfg;
+    uint64_t materials;             /* materials it shades (the others get no vectors) */
+    int vres, ss;
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
@@ -109,7 +118,7 @@ typedef struct pc_ctx {
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
-    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->sh); free(s->tscratch);
+    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->tscratch);
     memset(s, 0, sizeof *s);
 }
 
@@ -122,9 +131,8 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
     s->T = s->acc ? prt_calloc((size_t)kmax * 3 * PC_TSTRIDE, sizeof(float), err) : NULL;
     s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
-    s->tmp = s->wav ? prt_calloc(2 * CUBE_RES * CUBE_RES, sizeof(float), err) : NULL;
-    s->sh = s->tmp ? prt_calloc(SH_MAX_ORDER * SH_MAX_ORDER, sizeof(float), err) : NULL;
-    s->tscratch = s->sh ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
+    s->tmp = s->wav ? prt_calloc(TRANSFER_SCRATCH_FLOATS, sizeof(float), err) : NULL;
+    s->tscratch = s->tmp ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
     if (!s->tscratch) { pc_scratch_free(s); return -1; }
     return 0;
 }
@@ -174,74 +182,54 @@ static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
     }
 }
 
-/* The full direct computation of vertex v: visibility, Eq. 3, basis projection, storage. */
-static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
-    const prt_mesh *m = c->mesh;
-    const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
-    int mat = m->mat ? m->mat[v] : 0;
+/* T_k(j) = g_k(w_j) a_j (Eq. 3) for the K terms of material mat into the planar cubes s->T. */
+static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3], int mat) {
     const brdf_factor *fac = &c->factors[mat];
-    const int K = fac->K;
     const size_t ct = CUBE_TEXELS;
-
-    double t0 = prt_now();
-    long tr = 0, hi = 0;
-    vis_cube(c->vs, p, n, c->vres, s->vis, &tr, &hi);
-    double t1 = prt_now();
-    s->traced += tr;
-    s->hits += hi;
-    pc_box_filter(c, s, n);
-
-    /* T_k(j) = g_k(w_j) a_j (Eq. 3). */
     if (fac->lambertian) {
         const float *g = c->lambert_g[mat];
         for (int ch = 0; ch < 3; ch++) {
             float *T = s->T + (size_t)ch * PC_TSTRIDE;
             for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
-    } else {
-        /* Face by face: the K x 3 face slices are zeroed in bulk, then g_k is looked up at each
-         * lit texel's centre and written to the slices in step (12 store streams, padded apart). */
-        float sv[3], tv[3], g[BRDF_MAX_SIGMA * 3];
-        brdf_frame(n, sv, tv);
-        const int K3 = 3 * K, F = CUBE_RES * CUBE_RES;
-        for (int f = 0; f < 6; f++) {
-            const float *acc = s->acc + (size_t)f * F;
-            float *T = s->T + (size_t)f * F;
-            for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * PC_TSTRIDE, 0, sizeof(float) * F);
-            for (int i = 0; i < F; i++) {
-                const float a = acc[i];
-                if (a == 0) continue;
-                float wl[3];
-                brdf_to_local(sv, tv, n, c->ldir + 3 * ((size_t)f * F + i), wl);
-                /* A straddling texel's centre may be just below the horizon while some of its
-                 * sub-texels are above: evaluate g at the horizon then (the maps are extended
-                 * outward from the disk, so this is their boundary value). */
-                if (wl[2] < 1e-4f) {
-                    float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
-                    float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
-                    wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
-                }
-                brdf_factor_light(fac, wl, g);
-                for (int kc = 0; kc < K3; kc++) T[(size_t)kc * PC_TSTRIDE + i] = g[kc] * a;
+        return;
+    }
+    /* Face by face: the K x 3 face slices are zeroed in bulk, then g_k is looked up at each
+     * lit texel's centre and written to the slices in step (12 store streams, padded apart). */
+    float sv[3], tv[3], g[BRDF_MAX_SIGMA * 3];
+    brdf_frame(n, sv, tv);
+    const int K3 = 3 * fac->K, F = CUBE_RES * CUBE_RES;
+    for (int f = 0; f < 6; f++) {
+        const float *acc = s->acc + (size_t)f * F;
+        float *T = s->T + (size_t)f * F;
+        for (int kc = 0; kc < K3; kc++) memset(T + (size_t)kc * PC_TSTRIDE, 0, sizeof(float) * F);
+        for (int i = 0; i < F; i++) {
+            const float a = acc[i];
+            if (a == 0) continue;
+            float wl[3];
+            brdf_to_local(sv, tv, n, c->ldir + 3 * ((size_t)f * F + i), wl);
+            /* A straddling texel's centre may be just below the horizon while some of its
+             * sub-texels are above: evaluate g at the horizon then (the maps are extended
+             * outward from the disk, so this is their boundary value). */
+            if (wl[2] < 1e-4f) {
+                float r = sqrtf(wl[0] * wl[0] + wl[1] * wl[1]);
+                float sc = r > 0 ? sqrtf(1.f - 1e-8f) / r : 0;
+                wl[0] *= sc; wl[1] *= sc; wl[2] = 1e-4f;
             }
+            brdf_factor_light(fac, wl, g);
+            for (int kc = 0; kc < K3; kc++) T[(size_t)kc * PC_TSTRIDE + i] = g[kc] * a;
         }
     }
+}
 
-    /* Basis projection and storage of each of the K vectors. */
+/* Projection (the representation's op, once per vector channel) and compression of vertex v's
+ * K vectors, with the truncation + quantization error statistics. */
+static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K) {
+    const size_t ct = CUBE_TEXELS;
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
-        for (int ch = 0; ch < 3; ch++) {
-            const float *T = s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE;
-            float *out = s->wav + (size_t)ch * ct;
-            if (c->sh_order > 0) {
-                int nc = c->sh_order * c->sh_order;
-                sh_project_cube(T, CUBE_RES, c->sh_order, false, s->sh);
-                memset(out, 0, sizeof(float) * ct);
-                memcpy(out, s->sh, sizeof(float) * (size_t)nc);
-            } else {
-                haar_cube_forward(T, CUBE_RES, out, s->tmp);
-            }
-        }
+        for (int ch = 0; ch < 3; ch++)
+            c->ops->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
         /* |vector|^2 for the error statistics: 8 independent float accumulators (no dependency
          * chain; the vector length is a multiple of 8), summed in double */
         float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
@@ -252,12 +240,30 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
         }
         double norm2 = 0;
         for (int q = 0; q < 8; q++) norm2 += p8[q];
-        double e2 = transport_store(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
+        double e2 = c->ops->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         if (norm2 > 0) {
             s->err_sum += e2 / norm2;
             s->err_count++;
         }
     }
+}
+
+/* The full direct computation of vertex v: visibility, Eq. 3, projection, storage. A vertex whose
+ * material the transfer does not shade has no vectors (and no rays cast). */
+static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
+    const prt_mesh *m = c->mesh;
+    const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
+    int mat = m->mat ? m->mat[v] : 0;
+    if (!((c->materials >> mat) & 1)) return;
+    double t0 = prt_now();
+    long tr = 0, hi = 0;
+    vis_cube(c->vs, p, n, c->vres, s->vis, &tr, &hi);
+    double t1 = prt_now();
+    s->traced += tr;
+    s->hits += hi;
+    pc_box_filter(c, s, n);
+    pc_transport_cubes(c, s, n, mat);
+    pc_store(c, s, v, c->factors[mat].K);
     double t2 = prt_now();
     s->t_vis += t1 - t0;
     s->t_busy += t2 - t0;
@@ -406,8 +412,11 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->vis_res == 0) d->vis_res = 128;
     if (d->vis_res != 64 && d->vis_res != 128 && d->vis_res != 256)
         return prt_fail(err, "precompute: vis_res = %d (must be 64, 128 or 256)", d->vis_res);
-    if (d->sh_order != 0 && (d->sh_order < 3 || d->sh_order > 10))
-        return prt_fail(err, "precompute: sh_order = %d (must be 0 for wavelets or 3..10)", d->sh_order);
+    if (d->basis && !transfer_find(d->basis)) {
+        char names[128];
+        transfer_names(names, sizeof names);
+        return prt_fail(err, "precompute: unknown basis '%s' (one of %s)", d->basis, names);
+    }
     if (d->bounces < 0 || d->bounces > PRT_MAX_BOUNCES)
         return prt_fail(err, "precompute: bounces = %d is out of range 0..%d", d->bounces, PRT_MAX_BOUNCES);
     if (d->gather_res == 0) d->gather_res = 32;
@@ -443,252 +452,315 @@ static int pc_check_scene(const prt_scene *s, prt_error *err) {
     return 0;
 }
 
+/* Everything one run holds between its stages (precompute_run). */
+typedef struct pc_run {
+    precompute_desc d;
+    prt_data *out;
+    char *plan;
+    size_t pcap;
+    int nthreads, kmax;
+    prt_transfer *tr;           /* the one transfer this run makes (in out, filled by finish) */
+    vis_scene *vs;
+    float *vdir, *vdw, *ldir;   /* texel direction tables (pc_ctx) */
+    int *order, *nvec;
+    pc_scratch scratch[PC_MAX_THREADS];
+    prt_transport direct, total, last;
+    pc_ctx c;
+    bool have_lock;
+    int nsample, max_b;
+    double t_sample, hit_sample;
+    bool plan_bounces;
+} pc_run;
+
+/* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,
+ * and the plan's scene and BRDF lines. Returns 0 or -1. */
+static int pc_factor(pc_run *r, prt_error *err) {
+    prt_data *out = r->out;
+    double t0 = prt_now();
+    r->kmax = 1;
+    for (int i = 0; i < out->scene.nmaterials; i++) {
+        brdf_factor_desc fd = { .max_terms = r->d.max_terms, .error_target = r->d.term_error, .res = 0, .param = r->d.param };
+        if (brdf_factorize(&out->scene.materials[i], &fd, &out->factors[i], err)) return -1;
+        brdf_factor *f = &out->factors[i];
+        if (f->K < 1 || f->K > BRDF_MAX_SIGMA) return prt_fail(err, "precompute: material %d factored into %d terms", i, f->K);
+        if (f->K > r->kmax) r->kmax = f->K;
+        if (f->lambertian) {
+            float up[3] = { 0, 0, 1 }, g[BRDF_MAX_SIGMA * 3];
+            brdf_factor_light(f, up, g);
+            memcpy(r->c.lambert_g[i], g, sizeof(float) * 3);
+        }
+    }
+    out->stats.t_brdf = prt_now() - t0;
+    const prt_mesh *m = &out->scene.mesh;
+    plan_add(r->plan, r->pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
+             out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", r->nthreads, r->nthreads == 1 ? "" : "s");
+    plan_add(r->plan, r->pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
+    for (int i = 0; i < out->scene.nmaterials; i++)
+        plan_material(r->plan, r->pcap, i, &out->scene.materials[i], &out->factors[i], r->d.max_terms, r->d.term_error);
+    return 0;
+}
+
+/* Stage choose: the transfer representation of every material and the plan's basis line with the
+ * reason. Today one representation serves every material: the one asked for (desc.basis), else
+ * Haar wavelets, the paper's all-frequency basis (SH is the low-frequency baseline). Returns 0 or -1. */
+static int pc_choose(pc_run *r, prt_error *err) {
+    const transfer_ops *ops = transfer_find(r->d.basis ? r->d.basis : "haar");
+    PRT_CHECK(ops != NULL);   /* pc_check_desc refused unknown names */
+    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order };
+    prt_error e2;
+    if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
+    int nm = r->out->scene.nmaterials;
+    uint64_t all = nm >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << nm) - 1;
+    r->tr = prt_data_add_transfer(r->out, ops, &cfg, all);
+    char line[256];
+    ops->describe(&cfg, line, sizeof line);
+    plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
+             r->d.basis ? "asked for" : "the default (all-frequency)");
+    return 0;
+}
+
+/* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
+ * scratch and the direct pass's shared context. Returns 0 or -1. */
+static int pc_setup(pc_run *r, prt_error *err) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    const int R = r->d.vis_res;
+    r->vdir = prt_calloc((size_t)6 * R * R * 3, sizeof(float), err);
+    r->vdw = r->vdir ? prt_calloc((size_t)R * R, sizeof(float), err) : NULL;
+    r->ldir = r->vdw ? prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err) : NULL;
+    r->nvec = r->ldir ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
+    r->order = r->nvec ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
+    if (!r->order) return -1;
+    for (int i = 0; i < 6 * R * R; i++) {
+        float dd[3];
+        cube_texel_dir(R, i, dd);
+        for (int k = 0; k < 3; k++) r->vdir[(size_t)k * 6 * R * R + i] = dd[k];
+    }
+    cube_face_solid_angles(R, r->vdw);
+    for (int i = 0; i < CUBE_TEXELS; i++) cube_texel_dir(CUBE_RES, i, r->ldir + 3 * i);
+    for (int v = 0; v < m->nverts; v++) {
+        int mat = m->mat ? m->mat[v] : 0;
+        r->nvec[v] = (r->tr->materials >> mat) & 1 ? r->out->factors[mat].K : 0;
+    }
+    if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
+    r->vs = vis_create(m, err);
+    if (!r->vs) return -1;
+    for (int t = 0; t < r->nthreads; t++)
+        if (pc_scratch_init(&r->scratch[t], R, r->kmax, err)) return -1;
+    pc_ctx *c = &r->c;   /* lambert_g was filled by pc_factor */
+    c->mesh = m;
+    c->vs = r->vs;
+    c->factors = r->out->factors;
+    c->t = &r->direct;
+    c->ops = r->tr->ops;
+    c->cfg = &r->tr->cfg;
+    c->materials = r->tr->materials;
+    c->vres = R;
+    c->ss = R / CUBE_RES;
+    c->vdir = r->vdir;
+    c->vdw = r->vdw;
+    c->ldir = r->ldir;
+    c->order = r->order;
+    c->scratch = r->scratch;
+    c->total = m->nverts;
+    c->progress = r->d.progress;
+    c->progress_user = r->d.progress_user;
+    return 0;
+}
+
+/* The plan's interreflection line: what the scene calls for and why. */
+static void plan_bounce_line(pc_run *r) {
+    const precompute_desc *d = &r->d;
+    double hit = r->hit_sample;
+    r->max_b = d->force_bounces == 1 && d->bounces == 0 ? 1 : d->bounces;
+    if (d->force_bounces == -1) {
+        plan_add(r->plan, r->pcap, "  interreflections: none (forced off)\n");
+    } else if (d->force_bounces == 1) {
+        plan_add(r->plan, r->pcap, "  interreflections: %d pass%s (forced, no adaptive stop)\n", r->max_b, r->max_b == 1 ? "" : "es");
+    } else if (hit < PC_HIT_MIN) {
+        plan_add(r->plan, r->pcap, "  interreflections: none: only %.2f%% of visibility rays hit geometry (< %.1f%%: surfaces do not see each other)\n",
+                 100 * hit, 100 * PC_HIT_MIN);
+    } else if (d->bounces == 0) {
+        plan_add(r->plan, r->pcap, "  interreflections: none (bounces 0); %.1f%% of rays hit geometry, so bounces would add interreflections\n",
+                 100 * hit);
+    } else {
+        plan_add(r->plan, r->pcap, "  interreflections: up to %d pass%s while a pass carries >= %.1f%% of the direct energy (%.1f%% of rays hit geometry)\n",
+                 d->bounces, d->bounces == 1 ? "" : "es", 100 * d->bounce_threshold, 100 * hit);
+    }
+    r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && d->bounces > 0 && hit >= PC_HIT_MIN);
+}
+
+/* Stage plan: the planning sample (a strided set of vertices computed first and kept), the
+ * visibility, interreflection and estimate lines, and the plan printed. Returns 0 or -1. */
+static int pc_plan(pc_run *r, prt_error *err) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    r->nsample = m->nverts < PC_SAMPLE ? m->nverts : PC_SAMPLE;
+    for (int i = 0; i < r->nsample; i++) r->order[i] = (int)((long)i * m->nverts / r->nsample);
+    double ts = prt_now();
+    prt_parallel_for(r->nsample, 4, r->nthreads, pc_range, &r->c);
+    r->t_sample = prt_now() - ts;
+    if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
+    long s_traced = 0, s_hits = 0;
+    for (int t = 0; t < r->nthreads; t++) { s_traced += r->scratch[t].traced; s_hits += r->scratch[t].hits; }
+    r->hit_sample = s_traced ? (double)s_hits / (double)s_traced : 0;
+    double est_direct = r->nsample ? r->t_sample / r->nsample * (m->nverts - r->nsample) : 0;
+    plan_add(r->plan, r->pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
+             r->d.vis_res, r->c.ss, r->c.ss, r->nsample, 100 * r->hit_sample);
+    plan_bounce_line(r);
+    char e1[32], e2[32];
+    fmt_dur(e1, sizeof e1, est_direct + r->t_sample);
+    if (r->plan_bounces) {
+        /* CPU estimate turned into wall time with the share of a core the sample's threads got */
+        double busy = 0, cpu = 0;
+        for (int t = 0; t < r->nthreads; t++) { busy += r->scratch[t].t_busy; cpu += r->scratch[t].t_cpu; }
+        double share = busy > 0 && cpu > 0 ? fmin(1.0, cpu / busy) : 1.0;
+        double eg = pc_estimate_gather(m, r->vs, r->out->factors, r->d.gather_res, r->tr->cfg.N, r->order, r->nsample) *
+                    m->nverts / r->nthreads / share;
+        fmt_dur(e2, sizeof e2, eg);
+        plan_add(r->plan, r->pcap, "  estimate: direct pass %s, each bounce pass ~%s (rough)\n", e1, e2);
+    } else {
+        plan_add(r->plan, r->pcap, "  estimate: direct pass %s\n", e1);
+    }
+    /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
+    if (!r->d.quiet) { fprintf(stderr, "effects plan\n%s", r->plan); fflush(stderr); }
+    return 0;
+}
+
+/* Stage direct: the rest of the direct pass, its statistics, the set finished, and the sample's
+ * estimate of how much surfaces see each other checked against the full pass. Returns 0 or -1. */
+static int pc_direct(pc_run *r, prt_error *err) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    prt_stats *st = &r->out->stats;
+    int k = 0, si = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        if (si < r->nsample && r->order[si] == v) { si++; continue; }
+        r->order[r->nsample + k++] = v;
+    }
+    r->c.order = r->order + r->nsample;
+    r->c.report = true;
+    double ts = prt_now();
+    prt_parallel_for(m->nverts - r->nsample, PC_GRAIN, r->nthreads, pc_range, &r->c);
+    double t_direct = r->t_sample + (prt_now() - ts);
+    if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
+    double tv = 0, tb = 0, es = 0;
+    long ec = 0;
+    for (int t = 0; t < r->nthreads; t++) {
+        st->rays_traced += r->scratch[t].traced;
+        st->rays_hit += r->scratch[t].hits;
+        tv += r->scratch[t].t_vis;
+        tb += r->scratch[t].t_busy;
+        es += r->scratch[t].err_sum;
+        ec += r->scratch[t].err_count;
+    }
+    st->hit_fraction = st->rays_traced ? (double)st->rays_hit / (double)st->rays_traced : 0;
+    st->t_visibility = tb > 0 ? t_direct * tv / tb : 0;
+    st->t_transport = t_direct - st->t_visibility;
+    st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
+    for (int t = 0; t < r->nthreads; t++) pc_scratch_free(&r->scratch[t]);
+    if (transport_finish(&r->direct, err)) return -1;
+    if (r->d.force_bounces == 0 && r->d.bounces > 0) {
+        bool full = st->hit_fraction >= PC_HIT_MIN;
+        if (full != r->plan_bounces) {
+            plan_add(r->plan, r->pcap, "  after the direct pass: %.2f%% of all rays hit geometry, so interreflections are %s\n",
+                     100 * st->hit_fraction, full ? "on after all" : "off after all");
+            r->plan_bounces = full;
+        }
+    }
+    return 0;
+}
+
+/* Stage bounces: interreflection passes (Eq. 8), adaptive unless forced. Pass b gathers pass b-1
+ * (`last`, the direct set for b = 1); `total` = direct + passes so far. Returns 0 or -1. */
+static int pc_bounces(pc_run *r, prt_error *err) {
+    if (!r->plan_bounces || r->max_b <= 0) return 0;
+    prt_stats *st = &r->out->stats;
+    double e0 = gather_energy(&r->direct);
+    for (int b = 1; b <= r->max_b; b++) {
+        char stage[32], line[256];
+        snprintf(stage, sizeof stage, "bounce %d", b);
+        gather_desc gd = { .res = r->d.gather_res, .nthreads = r->nthreads, .progress = r->d.progress,
+                           .progress_user = r->d.progress_user, .stage = stage };
+        prt_transport next = { 0 }, sum = { 0 };
+        double tb0 = prt_now();
+        if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
+        double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
+        if (gather_sum(b == 1 ? &r->direct : &r->total, &next, r->nthreads, &sum, err)) {
+            transport_free(&next);
+            return -1;
+        }
+        transport_free(&r->total);
+        r->total = sum;
+        transport_free(&r->last);
+        r->last = next;
+        st->t_bounce[b - 1] = prt_now() - tb0;
+        st->bounce_energy[b - 1] = e;
+        st->bounces = b;
+        bool stop = r->d.force_bounces != 1 && e < r->d.bounce_threshold;
+        snprintf(line, sizeof line, "  bounce %d: %.2f%% of the direct energy in %.1fs%s\n", b, 100 * e, st->t_bounce[b - 1],
+                 stop ? " (below the threshold: last pass)" : "");
+        plan_add(r->plan, r->pcap, "%s", line);
+        if (stop) break;
+    }
+    return 0;
+}
+
+/* Stage finish: the transfer's sets into out (direct + bounces, and the direct pass alone when
+ * kept for the viewer's toggle). */
+static void pc_finish(pc_run *r) {
+    transport_free(&r->last);
+    if (r->out->stats.bounces > 0) {
+        r->tr->transport = r->total;
+        memset(&r->total, 0, sizeof r->total);
+        if (r->d.keep_direct) {
+            r->tr->direct = r->direct;
+            memset(&r->direct, 0, sizeof r->direct);
+        }
+    } else {
+        r->tr->transport = r->direct;
+        memset(&r->direct, 0, sizeof r->direct);
+    }
+}
+
+/* Frees what the stages allocated (not out). */
+static void pc_cleanup(pc_run *r) {
+    if (r->have_lock) pthread_mutex_destroy(&r->c.lock);
+    for (int t = 0; t < PC_MAX_THREADS; t++) pc_scratch_free(&r->scratch[t]);
+    vis_destroy(r->vs);
+    free(r->vdir); free(r->vdw); free(r->ldir); free(r->order); free(r->nvec);
+    transport_free(&r->direct);
+    transport_free(&r->total);
+    transport_free(&r->last);
+}
+
 /* Runs the whole pipeline (see precompute.h and the file comment). */
-int precompute_run(prt_scene *scene, const precompute_desc *desc_in, prt_data *out, prt_error *err) {
+int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out, prt_error *err) {
     double t_start = prt_now();
     memset(out, 0, sizeof *out);
     out->scene = *scene;
     memset(scene, 0, sizeof *scene);
-
-    precompute_desc d;
-    vis_scene *vs = NULL;
-    float *vdir = NULL, *vdw = NULL, *ldir = NULL;
-    int *order = NULL, *nvec = NULL;
-    pc_scratch scratch[PC_MAX_THREADS];
-    memset(scratch, 0, sizeof scratch);
-    prt_transport direct = { 0 }, total = { 0 }, last = { 0 };
-    bool have_lock = false;
-    pc_ctx c;
-    memset(&c, 0, sizeof c);
+    pc_run *r = prt_calloc(1, sizeof *r, err);
+    if (!r) { prt_data_free(out); return -1; }
+    r->out = out;
+    r->plan = out->plan;
+    r->pcap = sizeof out->plan;
     int rc = -1;
-
-    if (pc_check_desc(desc_in, &d, err) || pc_check_scene(&out->scene, err)) goto fail;
-    const prt_mesh *m = &out->scene.mesh;
-    const int nthreads = prt_thread_count(d.nthreads) > PC_MAX_THREADS ? PC_MAX_THREADS : prt_thread_count(d.nthreads);
-    char *plan = out->plan;
-    const size_t pcap = sizeof out->plan;
-    out->vis_res = d.vis_res;
-    out->gather_res = d.gather_res;
-    out->sh_order = d.sh_order;
-
-    /* 1-2. BRDF factorization (section 3.3) and the BRDF part of the plan. */
-    double t0 = prt_now();
-    int kmax = 1;
-    for (int i = 0; i < out->scene.nmaterials; i++) {
-        brdf_factor_desc fd = { .max_terms = d.max_terms, .error_target = d.term_error, .res = 0, .param = d.param };
-        if (brdf_factorize(&out->scene.materials[i], &fd, &out->factors[i], err)) goto fail;
-        brdf_factor *f = &out->factors[i];
-        if (f->K < 1 || f->K > BRDF_MAX_SIGMA) {
-            prt_fail(err, "precompute: material %d factored into %d terms", i, f->K);
-            goto fail;
-        }
-        if (f->K > kmax) kmax = f->K;
-        if (f->lambertian) {
-            float up[3] = { 0, 0, 1 }, g[BRDF_MAX_SIGMA * 3];
-            brdf_factor_light(f, up, g);
-            memcpy(c.lambert_g[i], g, sizeof(float) * 3);
-        }
-    }
-    out->stats.t_brdf = prt_now() - t0;
-
-    plan_add(plan, pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
-             out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", nthreads, nthreads == 1 ? "" : "s");
-    plan_add(plan, pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
-    for (int i = 0; i < out->scene.nmaterials; i++)
-        plan_material(plan, pcap, i, &out->scene.materials[i], &out->factors[i], d.max_terms, d.term_error);
-    if (d.sh_order > 0)
-        plan_add(plan, pcap, "  basis: spherical harmonics of order %d (%d coefficients; N=%d)\n", d.sh_order,
-                 d.sh_order * d.sh_order, d.N);
-    else
-        plan_add(plan, pcap, "  basis: Haar wavelets, N=%d of %d coefficients per vector, %d-bit\n", d.N, CUBE_TEXELS,
-                 d.qbits);
-
-    /* Tables: visibility texel directions and solid angles, lighting texel directions. */
-    const int R = d.vis_res;
-    vdir = prt_calloc((size_t)6 * R * R * 3, sizeof(float), err);
-    vdw = vdir ? prt_calloc((size_t)R * R, sizeof(float), err) : NULL;
-    ldir = vdw ? prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err) : NULL;
-    nvec = ldir ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
-    order = nvec ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
-    if (!order) goto fail;
-    for (int i = 0; i < 6 * R * R; i++) {
-        float dd[3];
-        cube_texel_dir(R, i, dd);
-        for (int k = 0; k < 3; k++) vdir[(size_t)k * 6 * R * R + i] = dd[k];
-    }
-    cube_face_solid_angles(R, vdw);
-    for (int i = 0; i < CUBE_TEXELS; i++) cube_texel_dir(CUBE_RES, i, ldir + 3 * i);
-    for (int v = 0; v < m->nverts; v++) nvec[v] = out->factors[m->mat ? m->mat[v] : 0].K;
-    if (transport_init(&direct, m->nverts, nvec, d.N, d.qbits, err)) goto fail;
-
-    vs = vis_create(m, err);
-    if (!vs) goto fail;
-    for (int t = 0; t < nthreads; t++)
-        if (pc_scratch_init(&scratch[t], R, kmax, err)) goto fail;
-
-    c.mesh = m;
-    c.vs = vs;
-    c.factors = out->factors;
-    c.t = &direct;
-    c.vres = R;
-    c.ss = R / CUBE_RES;
-    c.sh_order = d.sh_order;
-    c.vdir = vdir;
-    c.vdw = vdw;
-    c.ldir = ldir;
-    c.order = order;
-    c.scratch = scratch;
-    c.total = m->nverts;
-    c.progress = d.progress;
-    c.progress_user = d.progress_user;
-    atomic_init(&c.cancelled, 0);
-    atomic_init(&c.done, 0);
-    pthread_mutex_init(&c.lock, NULL);
-    have_lock = true;
-
-    /* 3a. The planning sample: a strided set of vertices computed first (kept). */
-    int nsample = m->nverts < PC_SAMPLE ? m->nverts : PC_SAMPLE;
-    for (int i = 0; i < nsample; i++) order[i] = (int)((long)i * m->nverts / nsample);
-    double ts = prt_now();
-    prt_parallel_for(nsample, 4, nthreads, pc_range, &c);
-    double t_sample = prt_now() - ts;
-    if (atomic_load(&c.cancelled)) { prt_fail(err, "cancelled"); goto fail; }
-    long s_traced = 0, s_hits = 0;
-    for (int t = 0; t < nthreads; t++) { s_traced += scratch[t].traced; s_hits += scratch[t].hits; }
-    double hit_sample = s_traced ? (double)s_hits / (double)s_traced : 0;
-    double est_direct = nsample ? t_sample / nsample * (m->nverts - nsample) : 0;
-
-    /* 1b-c. Interreflections: what the scene calls for. */
-    int max_b = d.force_bounces == 1 && d.bounces == 0 ? 1 : d.bounces;
-    plan_add(plan, pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
-             R, c.ss, c.ss, nsample, 100 * hit_sample);
-    if (d.force_bounces == -1) {
-        plan_add(plan, pcap, "  interreflections: none (forced off)\n");
-    } else if (d.force_bounces == 1) {
-        plan_add(plan, pcap, "  interreflections: %d pass%s (forced, no adaptive stop)\n", max_b, max_b == 1 ? "" : "es");
-    } else if (hit_sample < PC_HIT_MIN) {
-        plan_add(plan, pcap, "  interreflections: none: only %.2f%% of visibility rays hit geometry (< %.1f%%: surfaces do not see each other)\n",
-                 100 * hit_sample, 100 * PC_HIT_MIN);
-    } else if (d.bounces == 0) {
-        plan_add(plan, pcap, "  interreflections: none (bounces 0); %.1f%% of rays hit geometry, so bounces would add interreflections\n",
-                 100 * hit_sample);
-    } else {
-        plan_add(plan, pcap, "  interreflections: up to %d pass%s while a pass carries >= %.1f%% of the direct energy (%.1f%% of rays hit geometry)\n",
-                 d.bounces, d.bounces == 1 ? "" : "es", 100 * d.bounce_threshold, 100 * hit_sample);
-    }
-    bool plan_bounces = d.force_bounces == 1 || (d.force_bounces == 0 && d.bounces > 0 && hit_sample >= PC_HIT_MIN);
-    char e1[32], e2[32];
-    fmt_dur(e1, sizeof e1, est_direct + t_sample);
-    if (plan_bounces) {
-        /* CPU estimate turned into wall time with the share of a core the sample's threads got */
-        double busy = 0, cpu = 0;
-        for (int t = 0; t < nthreads; t++) { busy += scratch[t].t_busy; cpu += scratch[t].t_cpu; }
-        double share = busy > 0 && cpu > 0 ? fmin(1.0, cpu / busy) : 1.0;
-        double eg = pc_estimate_gather(m, vs, out->factors, d.gather_res, d.N, order, nsample) * m->nverts / nthreads / share;
-        fmt_dur(e2, sizeof e2, eg);
-        plan_add(plan, pcap, "  estimate: direct pass %s, each bounce pass ~%s (rough)\n", e1, e2);
-    } else {
-        plan_add(plan, pcap, "  estimate: direct pass %s\n", e1);
-    }
-    /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
-    if (!d.quiet) { fprintf(stderr, "effects plan\n%s", plan); fflush(stderr); }
-
-    /* 3b. The rest of the direct pass. */
-    {
-        int k = 0, si = 0;
-        for (int v = 0; v < m->nverts; v++) {
-            if (si < nsample && order[si] == v) { si++; continue; }
-            order[nsample + k++] = v;
-        }
-        c.order = order + nsample;
-        c.report = true;
-        ts = prt_now();
-        prt_parallel_for(m->nverts - nsample, PC_GRAIN, nthreads, pc_range, &c);
-    }
-    double t_direct = t_sample + (prt_now() - ts);
-    if (atomic_load(&c.cancelled)) { prt_fail(err, "cancelled"); goto fail; }
-    {
-        double tv = 0, tb = 0, es = 0;
-        long ec = 0;
-        for (int t = 0; t < nthreads; t++) {
-            out->stats.rays_traced += scratch[t].traced;
-            out->stats.rays_hit += scratch[t].hits;
-            tv += scratch[t].t_vis;
-            tb += scratch[t].t_busy;
-            es += scratch[t].err_sum;
-            ec += scratch[t].err_count;
-        }
-        out->stats.hit_fraction = out->stats.rays_traced ? (double)out->stats.rays_hit / (double)out->stats.rays_traced : 0;
-        out->stats.t_visibility = tb > 0 ? t_direct * tv / tb : 0;
-        out->stats.t_transport = t_direct - out->stats.t_visibility;
-        out->stats.trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
-    }
-    for (int t = 0; t < nthreads; t++) pc_scratch_free(&scratch[t]);
-    if (transport_finish(&direct, err)) goto fail;
-
-    /* The sample's estimate of how much surfaces see each other is checked against the full pass. */
-    if (d.force_bounces == 0 && d.bounces > 0) {
-        bool full = out->stats.hit_fraction >= PC_HIT_MIN;
-        if (full != plan_bounces) {
-            plan_add(plan, pcap, "  after the direct pass: %.2f%% of all rays hit geometry, so interreflections are %s\n",
-                     100 * out->stats.hit_fraction, full ? "on after all" : "off after all");
-            plan_bounces = full;
-        }
-    }
-
-    /* 4. Interreflection passes (Eq. 8), adaptive unless forced. Pass b gathers pass b-1
-     * (`last`, the direct set for b = 1); `total` = direct + passes so far. */
-    if (plan_bounces && max_b > 0) {
-        double e0 = gather_energy(&direct);
-        char line[256];
-        for (int b = 1; b <= max_b; b++) {
-            char stage[32];
-            snprintf(stage, sizeof stage, "bounce %d", b);
-            gather_desc gd = { .res = d.gather_res, .nthreads = nthreads, .progress = d.progress,
-                               .progress_user = d.progress_user, .stage = stage };
-            prt_transport next = { 0 }, sum = { 0 };
-            double tb0 = prt_now();
-            if (gather_pass(out, vs, b == 1 ? &direct : &last, &gd, &next, err)) goto fail;
-            double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
-            if (gather_sum(b == 1 ? &direct : &total, &next, nthreads, &sum, err)) { transport_free(&next); goto fail; }
-            transport_free(&total);
-            total = sum;
-            transport_free(&last);
-            last = next;
-            out->stats.t_bounce[b - 1] = prt_now() - tb0;
-            out->stats.bounce_energy[b - 1] = e;
-            out->stats.bounces = b;
-            bool stop = d.force_bounces != 1 && e < d.bounce_threshold;
-            snprintf(line, sizeof line, "  bounce %d: %.2f%% of the direct energy in %.1fs%s\n", b, 100 * e,
-                     out->stats.t_bounce[b - 1], stop ? " (below the threshold: last pass)" : "");
-            plan_add(plan, pcap, "%s", line);
-            if (stop) break;
-        }
-    }
-    transport_free(&last);
-    if (out->stats.bounces > 0) {
-        out->transport = total;
-        memset(&total, 0, sizeof total);
-        if (d.keep_direct) {   /* the viewer's direct-only toggle */
-            out->direct = direct;
-            memset(&direct, 0, sizeof direct);
-        }
-    } else {
-        out->transport = direct;
-        memset(&direct, 0, sizeof direct);
-    }
-
+    if (pc_check_desc(desc, &r->d, err) || pc_check_scene(&out->scene, err)) goto done;
+    int nt = prt_thread_count(r->d.nthreads);
+    r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
+    out->vis_res = r->d.vis_res;
+    out->gather_res = r->d.gather_res;
+    if (pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err)) goto done;
+    atomic_init(&r->c.cancelled, 0);
+    atomic_init(&r->c.done, 0);
+    pthread_mutex_init(&r->c.lock, NULL);
+    r->have_lock = true;
+    if (pc_plan(r, err) || pc_direct(r, err) || pc_bounces(r, err)) goto done;
+    pc_finish(r);
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();
     rc = 0;
-fail:
-    if (have_lock) pthread_mutex_destroy(&c.lock);
-    for (int t = 0; t < PC_MAX_THREADS; t++) pc_scratch_free(&scratch[t]);
-    vis_destroy(vs);
-    free(vdir); free(vdw); free(ldir); free(order); free(nvec);
-    transport_free(&direct);
-    transport_free(&total);
-    transport_free(&last);
+done:
+    pc_cleanup(r);
+    free(r);
     if (rc) prt_data_free(out);
     return rc;
 }

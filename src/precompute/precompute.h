@@ -12,10 +12,12 @@
  *   T_k(x, j) = g_k(w_j) * sum over its 2x2 sub-texels s of V(x, w_s) max(n.w_s, 0) dw_s
  * (Eq. 3 integrated over the texel with exact solid angles; g_k is smooth at the
  * light maps' 48x48 resolution, so it is evaluated once at the texel centre);
- * each face is Haar transformed, the N largest coefficients kept, quantized.
+ * each cube is projected by the transfer representation (Haar per face, or SH;
+ * transfer.h), the N largest coefficients kept, quantized.
  *
  * Effects plan (printed to stderr unless quiet, kept in out->plan for `prt info`):
- * K per material from its singular values (Lambertian: 1; glossy: the smallest
+ * the transfer representation per material with the reason (desc.basis when given,
+ * else Haar wavelets; out gets one transfer covering every material); K per material from its singular values (Lambertian: 1; glossy: the smallest
  * K meeting term_error, else max_terms); interreflections only if at least 0.5%
  * of the visibility rays of a 200-vertex sample hit geometry (re-checked on the
  * full pass), passes continuing while one carries >= bounce_threshold of the
@@ -35,7 +37,8 @@ typedef struct precompute_desc {
     int qbits;              /* 8 (default), 16, 32 */
     int vis_res;            /* 0: 128 (64 * supersampling 2); 64, 128, 256 allowed */
     brdf_param param;       /* BRDF parameterization */
-    int sh_order;           /* 0: Haar wavelets (the paper); 3..10: spherical harmonics of that order (baseline) */
+    const char *basis;      /* transfer representation (transfer.h): NULL = "haar" (the paper), "sh" (baseline) */
+    int basis_order;        /* its order where it has one: SH bands 3..10 (0: 6) */
     int bounces;            /* maximum interreflection passes; 0: none */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */

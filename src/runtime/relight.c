@@ -1,7 +1,8 @@
 /* relight.c - CPU relighting with Eq. 5: colour = h(view) . g(light) per vertex.
  *
  * A light change recomputes the light-dependent K-vectors g = T x L for every
- * transport vector (transport_light, both cores) and caches them. A view change
+ * transport vector (the transfer representation's CPU kernel, transfer_light, both
+ * cores) and caches them. A view change
  * then costs, per vertex, one normalization, a frame change into the vertex's
  * Eq. 10 tangent frame (precomputed here once), a bilinear lookup of the K view
  * maps h_k (brdf_factor_view) and a K-term dot product per channel. Lambertian
@@ -33,6 +34,7 @@ typedef struct relight_vert {
 
 struct relight_ctx {
     const prt_data *d;
+    const prt_transfer *tr;       /* the file's one transfer (prt_data_transfer) */
     int nthreads;
     bool use_direct;       /* light changes use d->direct (see relight_use_direct) */
     int nverts, nvecs;
@@ -44,10 +46,16 @@ struct relight_ctx {
 /* Validates d and precomputes frames; returns a context (free with relight_destroy) or NULL with err set. */
 relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     const prt_mesh *m = &d->scene.mesh;
-    const prt_transport *t = &d->transport;
+    if (d->ntransfers != 1 || !d->transfers[0].ops) {
+        prt_fail(err, "relight: the data has %d transfers (one expected)", d->ntransfers);
+        return NULL;
+    }
+    const prt_transfer *tr = prt_data_transfer(d);
+    const prt_transport *t = &tr->transport;
     const char *bad = NULL;
     char why[256];
-    if (!t->coef_first || !t->vec_first) bad = "the transport set is not finished";
+    if (!tr->ops->light_range) bad = "the transfer has no CPU light kernel";
+    else if (!t->coef_first || !t->vec_first) bad = "the transport set is not finished";
     else if (t->nverts != m->nverts) {
         snprintf(why, sizeof why, "transport has %d vertices but the mesh has %d", t->nverts, m->nverts);
         bad = why;
@@ -76,6 +84,7 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     relight_ctx *rc = prt_calloc(1, sizeof *rc, err);
     if (!rc) return NULL;
     rc->d = d;
+    rc->tr = tr;
     rc->nthreads = nthreads;
     rc->nverts = m->nverts;
     rc->nvecs = t->nvecs;
@@ -110,15 +119,15 @@ void relight_destroy(relight_ctx *rc) {
     free(rc);
 }
 
-/* Light change: g = T x L for every vector (Eq. 5), on rc->nthreads threads. */
+/* Light change: g = T x L for every vector (Eq. 5) with the representation's kernel, on rc->nthreads threads. */
 void relight_set_light(relight_ctx *rc, const float (*L)[4]) {
-    const prt_transport *t = rc->use_direct && rc->d->direct.nvecs ? &rc->d->direct : &rc->d->transport;
-    transport_light(t, L, rc->g, rc->nthreads);
+    const prt_transport *t = rc->use_direct && rc->tr->direct.nvecs ? &rc->tr->direct : &rc->tr->transport;
+    transfer_light(rc->tr, t, L, rc->g, rc->nthreads);
 }
 
 /* Chooses the direct-only set (when the file keeps one) or the total; true if the choice is available. */
 bool relight_use_direct(relight_ctx *rc, bool direct) {
-    if (direct && !rc->d->direct.nvecs) return false;
+    if (direct && !rc->tr->direct.nvecs) return false;
     rc->use_direct = direct;
     return true;
 }
@@ -131,7 +140,8 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
     const prt_data *d = rc->d;
     int mi = d->scene.mesh.mat ? d->scene.mesh.mat[v] : 0;
     const brdf_factor *f = &d->factors[mi];
-    uint32_t v0 = d->transport.vec_first[v], nk = d->transport.vec_first[v + 1] - v0;
+    const uint32_t *vf = rc->tr->transport.vec_first;
+    uint32_t v0 = vf[v], nk = vf[v + 1] - v0;
     int K = (int)nk < f->K ? (int)nk : f->K;
     if (kmax > 0 && kmax < K) K = kmax;
     const float *g = rc->g + 3 * (size_t)v0;

@@ -20,7 +20,7 @@ void relight_destroy(relight_ctx *rc);
 /* L: [CUBE_TEXELS][4] light vector (light.h). */
 void relight_set_light(relight_ctx *rc, const float (*L)[4]);
 /* Light changes from now on use the direct-only transport (true; only when the file keeps
- * one, d->direct.nvecs > 0) or direct + bounces (false, the default). Returns false when
+ * one, prt_data_transfer(d)->direct.nvecs > 0) or direct + bounces (false, the default). Returns false when
  * the direct set is asked for but absent. Call relight_set_light again to see the change. */
 bool relight_use_direct(relight_ctx *rc, bool direct);
 /* The cached light-dependent K-vectors ([3 * nvecs]). */

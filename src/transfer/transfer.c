@@ -1,14 +1,74 @@
-/* transfer.c - transfer representations (transfer.h). STUB: replaced by the table. */
+/* transfer.c - the table of transfer representations (transfer.h): every
+ * implementation is listed here and nowhere else, and the two calls every
+ * runtime makes (the light vector, the light change) go through its ops. */
 #include "transfer.h"
+#include "check.h"
 #include "light.h"
 #include "prtfile.h"
-#include "shbasis.h"
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
+
+/* Every representation. Adding one: its module (transfer_NAME.c) and one line here. */
+static const transfer_ops *const k_transfers[] = {
+    &transfer_haar,     /* Haar wavelets, N largest of 24,576, quantized (the paper) */
+    &transfer_sh,       /* spherical harmonics of order 3..10 (the low-frequency baseline) */
+};
+#define NTRANSFERS ((int)(sizeof k_transfers / sizeof k_transfers[0]))
+
+int transfer_count(void) { return NTRANSFERS; }
+
+/* The i-th representation (0 <= i < transfer_count()). */
+const transfer_ops *transfer_at(int i) {
+    PRT_CHECK(i >= 0 && i < NTRANSFERS);
+    return k_transfers[i];
+}
+
+const transfer_ops *transfer_find(const char *name) {
+    for (int i = 0; name && i < NTRANSFERS; i++)
+        if (!strcmp(k_transfers[i]->name, name)) return k_transfers[i];
+    return NULL;
+}
+
+/* Tag 0 is never a section (a representation without one, e.g. per-frame lights). */
+const transfer_ops *transfer_by_tag(uint32_t tag) {
+    for (int i = 0; tag && i < NTRANSFERS; i++)
+        if (k_transfers[i]->tag == tag) return k_transfers[i];
+    return NULL;
+}
+
+void transfer_names(char *buf, size_t cap) {
+    size_t len = 0;
+    if (cap) buf[0] = 0;
+    for (int i = 0; i < NTRANSFERS && len < cap; i++)
+        len += (size_t)snprintf(buf + len, cap - len, "%s%s", i ? ", " : "", k_transfers[i]->name);
+}
 
 float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[4] {
+    const prt_transfer *tr = prt_data_transfer(d);
+    PRT_CHECK(tr->ops->project_light != NULL);
     float (*L)[4] = light_alloc();
     if (!L) return NULL;
-    if (d->sh_order > 0) sh_light_from_cube(cube_rgb, CUBE_RES, d->sh_order, L);
-    else light_from_cube(cube_rgb, NULL, L, NULL);
+    tr->ops->project_light(&tr->cfg, cube_rgb, L);
     return L;
+}
+
+typedef struct light_job {
+    const prt_transfer *tr;
+    const prt_transport *t;
+    const float (*L)[4];
+    float *g;
+} light_job;
+
+/* prt_parallel_for body: one chunk of vectors through the representation's kernel. */
+static void light_chunk(void *p, int begin, int end, int thread) {
+    const light_job *j = p;
+    j->tr->ops->light_range(j->t, j->L, j->g, begin, end);
+}
+
+void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
+    PRT_CHECK(tr->ops->light_range != NULL);
+    light_job j = { tr, t, L, g };
+    /* the chunk size transport_light used: 2048 vectors keep both cores busy without contention */
+    prt_parallel_for(t->nvecs, 2048, nthreads, light_chunk, &j);
 }

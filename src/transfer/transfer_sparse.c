@@ -1,0 +1,292 @@
+/* transfer_sparse.c - what the sparse family (haar, sh) shares: storage in a
+ * prt_transport (transport.h), its compression, its file section, its index
+ * validation and its GLSL light kernels. A module's table points at these.
+ *
+ * Section layout (little-endian; the tag is the module's):
+ *     i32 N, i32 qbits, i32 order        the transfer_config
+ *     u64 materials                      bit i: material i
+ *     u8  has_direct                     1: the direct-only set follows the total
+ *     transport, [direct transport]      each: i32 nverts, nvecs, N, qbits; u64 ncoefs, nruns;
+ *                                        vec_first, coef_first, run_first, runs, scale, then
+ *                                        packed (8-bit) or offs + q16 / f32
+ * Reading sizes and allocates only; transfer_sparse_validate then checks every
+ * index the runtimes follow: per-vertex vector counts against each material's K
+ * (0 for materials outside the mask), coefficient and run offsets, blocks, strictly
+ * ascending indices below the representation's limit, finite values. */
+#include "transfer.h"
+#include "prtfile.h"
+#include "sparse.h"
+#include <math.h>
+#include <string.h>
+
+#define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
+
+double transfer_sparse_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
+    return transport_store(t, i, r, g, b, scratch);
+}
+
+static size_t ncoefs_of(const prt_transport *t) { return t->coef_first && t->nvecs >= 0 ? t->coef_first[t->nvecs] : 0; }
+static size_t nruns_of(const prt_transport *t) { return t->run_first && t->nvecs >= 0 ? t->run_first[t->nvecs] : 0; }
+
+/* ---- writing ---------------------------------------------------------------------------- */
+
+static void put_transport(prt_writer *w, const prt_transport *t) {
+    size_t nc = ncoefs_of(t), nr = nruns_of(t);
+    prtio_put_i32(w, t->nverts);
+    prtio_put_i32(w, t->nvecs);
+    prtio_put_i32(w, t->N);
+    prtio_put_i32(w, t->qbits);
+    prtio_put_u64(w, nc);
+    prtio_put_u64(w, nr);
+    prtio_put_arr(w, t->vec_first, (size_t)t->nverts + 1, 4);
+    prtio_put_arr(w, t->coef_first, (size_t)t->nvecs + 1, 4);
+    prtio_put_arr(w, t->run_first, (size_t)t->nvecs + 1, 4);
+    prtio_put_arr(w, t->runs, 2 * nr, 1);
+    prtio_put_arr(w, t->scale, 3 * (size_t)t->nvecs, 4);
+    if (t->qbits == 8) {
+        prtio_put_arr(w, t->packed, nc, 4);
+    } else {
+        prtio_put_arr(w, t->offs, nc, 1);
+        if (t->qbits == 16) prtio_put_arr(w, t->q16, 3 * nc, 2);
+        else prtio_put_arr(w, t->f32, 3 * nc, 4);
+    }
+}
+
+void transfer_sparse_write(prt_writer *w, const prt_transfer *tr) {
+    prtio_put_i32(w, tr->cfg.N);
+    prtio_put_i32(w, tr->cfg.qbits);
+    prtio_put_i32(w, tr->cfg.order);
+    prtio_put_u64(w, tr->materials);
+    bool direct = tr->direct.nvecs > 0;
+    prtio_put_u8(w, direct ? 1 : 0);
+    put_transport(w, &tr->transport);
+    if (direct) put_transport(w, &tr->direct);
+}
+
+/* ---- reading ---------------------------------------------------------------------------- */
+
+static bool get_transport(prt_reader *r, prt_transport *t, char *why) {
+    int nverts = prtio_get_i32(r), nvecs = prtio_get_i32(r), N = prtio_get_i32(r), qbits = prtio_get_i32(r);
+    uint64_t nc = prtio_get_u64(r), nr = prtio_get_u64(r);
+    if (r->bad) return BAD(why, "transfer section too short");
+    if (qbits != 8 && qbits != 16 && qbits != 32) return BAD(why, "bad quantization %d bits", qbits);
+    if (N < 1 || N > CUBE_TEXELS) return BAD(why, "bad coefficient count N = %d", N);
+    if (nverts < 0 || nverts > INT32_MAX - 1 || nvecs < 0 || nvecs > INT32_MAX / 3 - 1) return BAD(why, "bad transport size");
+    if (nc > (uint64_t)nvecs * (uint64_t)N || nr > nc) return BAD(why, "bad coefficient or run totals");
+    t->nverts = nverts;
+    t->nvecs = nvecs;
+    t->N = N;
+    t->qbits = qbits;
+    t->vec_first = prtio_get_arr(r, (size_t)nverts + 1, 4);
+    t->coef_first = prtio_get_arr(r, (size_t)nvecs + 1, 4);
+    t->run_first = prtio_get_arr(r, (size_t)nvecs + 1, 4);
+    t->runs = prtio_get_arr(r, 2 * (size_t)nr, 1);
+    t->scale = prtio_get_arr(r, 3 * (size_t)nvecs, 4);
+    if (qbits == 8) {
+        t->packed = prtio_get_arr(r, (size_t)nc, 4);
+    } else {
+        t->offs = prtio_get_arr(r, (size_t)nc, 1);
+        if (qbits == 16) t->q16 = prtio_get_arr(r, 3 * (size_t)nc, 2);
+        else t->f32 = prtio_get_arr(r, 3 * (size_t)nc, 4);
+    }
+    if (r->bad) return BAD(why, "transfer section too short for %d vectors, %llu coefficients", nvecs, (unsigned long long)nc);
+    /* The arrays were sized by nc and nr: the offsets must end exactly there. */
+    if (t->coef_first[nvecs] != nc || t->run_first[nvecs] != nr) return BAD(why, "coefficient or run offsets do not match their totals");
+    return true;
+}
+
+bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why) {
+    tr->cfg.N = prtio_get_i32(r);
+    tr->cfg.qbits = prtio_get_i32(r);
+    tr->cfg.order = prtio_get_i32(r);
+    tr->materials = prtio_get_u64(r);
+    uint8_t direct = prtio_get_u8(r);
+    if (r->bad) return BAD(why, "transfer section too short");
+    if (direct > 1) return BAD(why, "bad direct-set flag %u", direct);
+    if (!get_transport(r, &tr->transport, why)) return false;
+    if (direct && !get_transport(r, &tr->direct, why)) return false;
+    if (r->pos != r->n) return BAD(why, "transfer section longer than its data");
+    return true;
+}
+
+/* ---- validation ------------------------------------------------------------------------- */
+
+/* The runs of vector i cover exactly its coefficients, blocks in range, and the full indices
+ * block * 256 + offset strictly ascending (section 4.1.2's index split) and below max_index. */
+static bool runs_ok(const prt_transport *t, int i, size_t nr, uint32_t max_index, char *why) {
+    uint32_t c0 = t->coef_first[i], c1 = t->coef_first[i + 1], q0 = t->run_first[i], q1 = t->run_first[i + 1];
+    if (q1 < q0 || q1 > nr) return BAD(why, "vector %d: bad run offsets", i);
+    uint32_t c = c0;
+    long prev = -1;
+    for (uint32_t q = q0; q < q1; q++) {
+        uint32_t block = t->runs[2 * q], count = (uint32_t)t->runs[2 * q + 1] + 1;
+        if (block >= SPARSE_NBLOCKS) return BAD(why, "vector %d: block %u out of range", i, block);
+        if (count > c1 - c) return BAD(why, "vector %d: runs cover more than its %u coefficients", i, c1 - c0);
+        for (uint32_t k = 0; k < count; k++, c++) {
+            uint32_t off = t->qbits == 8 ? (t->packed[c] & 255u) : t->offs[c];
+            long idx = (long)block * SPARSE_BLOCK + off;
+            if (idx <= prev) return BAD(why, "vector %d: coefficient indices not ascending", i);
+            if (idx >= (long)max_index) return BAD(why, "vector %d: coefficient index %ld beyond the basis (%u)", i, idx, max_index);
+            prev = idx;
+        }
+    }
+    if (c != c1) return BAD(why, "vector %d: runs cover %u of its %u coefficients", i, c - c0, c1 - c0);
+    return true;
+}
+
+/* Vertex offsets: vertex v has K vectors of its material when the mask holds it, else none. */
+static bool vectors_ok(const struct prt_data *d, const prt_transfer *tr, const prt_transport *t, char *why) {
+    const prt_mesh *m = &d->scene.mesh;
+    int nv = m->nverts;
+    if (t->vec_first[0] != 0) return BAD(why, "vector offsets do not start at 0");
+    for (int v = 0; v < nv; v++) {
+        uint32_t a = t->vec_first[v], b = t->vec_first[v + 1];
+        if (b < a || b > (uint32_t)t->nvecs) return BAD(why, "vector offsets not increasing at vertex %d", v);
+        int mat = m->mat[v];
+        int K = (tr->materials >> mat) & 1 ? d->factors[mat].K : 0;
+        if (b - a != (uint32_t)K) return BAD(why, "vertex %d has %u vectors but its material %u has K = %d", v, b - a, m->mat[v], K);
+    }
+    if (t->vec_first[nv] != (uint32_t)t->nvecs) return BAD(why, "vector offsets end at %u, not %d", t->vec_first[nv], t->nvecs);
+    return true;
+}
+
+/* Checks one transport set against d's mesh and factors; false with why on the first problem. */
+static bool set_ok(const struct prt_data *d, const prt_transfer *tr, const prt_transport *t, uint32_t max_index, char *why) {
+    if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32) return BAD(why, "bad quantization %d bits", t->qbits);
+    if (t->N < 1 || t->N > CUBE_TEXELS) return BAD(why, "bad coefficient count N = %d", t->N);
+    if (t->nverts != d->scene.mesh.nverts) return BAD(why, "transport has %d vertices, the mesh %d", t->nverts, d->scene.mesh.nverts);
+    if (t->nvecs < 0) return BAD(why, "bad vector count %d", t->nvecs);
+    if (t->stage_count || t->stage_idx || t->stage_val) return BAD(why, "transport not finished (transport_finish)");
+    if (!t->vec_first || !t->coef_first || !t->run_first || !t->scale) return BAD(why, "transport offsets missing");
+    if (!vectors_ok(d, tr, t, why)) return false;
+    if (t->coef_first[0] != 0 || t->run_first[0] != 0) return BAD(why, "coefficient or run offsets do not start at 0");
+    size_t nc = t->coef_first[t->nvecs], nr = t->run_first[t->nvecs];
+    if (nc && (t->qbits == 8 ? !t->packed : (!t->offs || (t->qbits == 16 ? !t->q16 : !t->f32))))
+        return BAD(why, "transport coefficients missing");
+    if (nr && !t->runs) return BAD(why, "transport runs missing");
+    for (int i = 0; i < t->nvecs; i++) {
+        uint32_t c0 = t->coef_first[i], c1 = t->coef_first[i + 1];
+        if (c1 < c0 || c1 - c0 > (uint32_t)t->N || c1 > nc) return BAD(why, "vector %d: bad coefficient offsets", i);
+        if (!runs_ok(t, i, nr, max_index, why)) return false;
+    }
+    if (!prtio_all_finite(t->scale, 3 * (size_t)t->nvecs)) return BAD(why, "non-finite quantization scales");
+    for (size_t i = 0; i < 3 * (size_t)t->nvecs; i++)
+        if (t->scale[i] < 0) return BAD(why, "negative quantization scale");
+    if (t->qbits == 32 && !prtio_all_finite(t->f32, 3 * nc)) return BAD(why, "non-finite coefficients");
+    return true;
+}
+
+bool transfer_sparse_validate(const struct prt_data *d, const prt_transfer *tr, uint32_t max_index, char *why) {
+    if (!set_ok(d, tr, &tr->transport, max_index, why)) return false;
+    if (tr->cfg.N != tr->transport.N || tr->cfg.qbits != tr->transport.qbits)
+        return BAD(why, "%s config and transport disagree on N or qbits", tr->ops->name);
+    /* The optional direct-only set (the direct/bounces toggle) has the same layout as the total. */
+    if (tr->direct.nvecs || tr->direct.vec_first) {
+        if (!set_ok(d, tr, &tr->direct, max_index, why)) return false;
+        if (tr->direct.nvecs != tr->transport.nvecs)
+            return BAD(why, "direct transport has %d vectors, the total %d", tr->direct.nvecs, tr->transport.nvecs);
+    }
+    return true;
+}
+
+void transfer_sparse_release(prt_transfer *tr) {
+    transport_free(&tr->transport);
+    transport_free(&tr->direct);
+}
+
+/* ---- GLSL light kernels (compiled by gpu/glrt.c; buffer layout in its header comment) ---- */
+
+/* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel. */
+static const char k_decode[] =
+    "#if QBITS == 8\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    uint w = WORD(c);\n"
+    "    idx = BLOCK(c) * 256u + (w & 255u);\n"
+    "    return vec3(float(int(w << 16) >> 24), float(int(w << 8) >> 24), float(int(w) >> 24));\n"
+    "}\n"
+    "#elif QBITS == 16\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    uint w0 = WORD(2u * c), w1 = WORD(2u * c + 1u);\n"
+    "    idx = w0 & 65535u;\n"
+    "    return vec3(float(int(w0) >> 16), float(int(w1 << 16) >> 16), float(int(w1) >> 16));\n"
+    "}\n"
+    "#else\n"
+    "vec3 coef(uint c, out uint idx) {\n"
+    "    idx = WORD(4u * c);\n"
+    "    return vec3(uintBitsToFloat(WORD(4u * c + 1u)), uintBitsToFloat(WORD(4u * c + 2u)),\n"
+    "                uintBitsToFloat(WORD(4u * c + 3u)));\n"
+    "}\n"
+    "#endif\n";
+
+/* Fragment kernel: one fragment per vector (GL 3.3, buffer textures). */
+static const char k_light_frag[] =
+    "uniform usamplerBuffer t_first, t_words, t_blocks;\n"
+    "uniform samplerBuffer t_scale, t_L;\n"
+    "uniform int u_width, u_nvecs;\n"
+    "out vec4 o_g;\n"
+    "#define WORD(c) texelFetch(t_words, int(c)).r\n"
+    "#define BLOCK(c) texelFetch(t_blocks, int(c)).r\n"
+    "DECODE\n"
+    "void main() {\n"
+    "    int i = int(gl_FragCoord.y) * u_width + int(gl_FragCoord.x);\n"
+    "    if (i >= u_nvecs) { o_g = vec4(0.0); return; }\n"
+    "    uint c0 = texelFetch(t_first, i).r, c1 = texelFetch(t_first, i + 1).r;\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * texelFetch(t_L, int(idx)).rgb; }\n"
+    "    vec3 s = vec3(texelFetch(t_scale, 3 * i).r, texelFetch(t_scale, 3 * i + 1).r, texelFetch(t_scale, 3 * i + 2).r);\n"
+    "    o_g = vec4(acc * s, 0.0);\n"
+    "}\n";
+
+static const char k_light_buffers[] =
+    "layout(std430, binding = 0) readonly buffer B0 { uint first[]; };\n"
+    "layout(std430, binding = 1) readonly buffer B1 { uint words[]; };\n"
+    "layout(std430, binding = 2) readonly buffer B2 { uint blocks[]; };\n"
+    "layout(std430, binding = 3) readonly buffer B3 { float scale[]; };\n"
+    "layout(std430, binding = 4) readonly buffer B4 { vec4 L[]; };\n"
+    "layout(std430, binding = 5) writeonly buffer B5 { vec4 g[]; };\n"
+    "uniform uint u_nvecs;\n"
+    "#define WORD(c) words[c]\n"
+    "#define BLOCK(c) ((blocks[(c) >> 2] >> (((c) & 3u) * 8u)) & 255u)\n";
+
+/* Compute kernel, one invocation per vector. */
+static const char k_light_thread[] =
+    "layout(local_size_x = 64) in;\n"
+    "BUFFERS\n"
+    "DECODE\n"
+    "void main() {\n"
+    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 64u + gl_LocalInvocationID.x;\n"
+    "    if (i >= u_nvecs) return;\n"
+    "    uint c0 = first[i], c1 = first[i + 1u];\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
+    "    g[i] = vec4(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "}\n";
+
+/* Compute kernel, 32 invocations per vector (8 vectors per group of 256) and a tree sum in shared memory. */
+static const char k_light_warp[] =
+    "layout(local_size_x = 256) in;\n"
+    "BUFFERS\n"
+    "DECODE\n"
+    "shared vec3 part[256];\n"
+    "void main() {\n"
+    "    uint lid = gl_LocalInvocationID.x, lane = lid & 31u;\n"
+    "    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 8u + (lid >> 5);\n"
+    "    vec3 acc = vec3(0.0);\n"
+    "    if (i < u_nvecs) {\n"
+    "        uint c1 = first[i + 1u];\n"
+    "        for (uint c = first[i] + lane; c < c1; c += 32u) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
+    "    }\n"
+    "    part[lid] = acc;\n"
+    "    memoryBarrierShared(); barrier();\n"
+    "    for (uint s = 16u; s > 0u; s >>= 1) {\n"
+    "        if (lane < s) part[lid] += part[lid + s];\n"
+    "        memoryBarrierShared(); barrier();\n"
+    "    }\n"
+    "    if (lane == 0u && i < u_nvecs)\n"
+    "        g[i] = vec4(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "}\n";
+
+const transfer_glsl transfer_sparse_glsl = {
+    .decode = k_decode, .fragment = k_light_frag, .buffers = k_light_buffers,
+    .thread = k_light_thread, .warp = k_light_warp,
+};
