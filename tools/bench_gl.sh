@@ -18,7 +18,7 @@ set -euo pipefail
 PRT=${PRT:-build/prt}
 SIZE=${SIZE:-800x600}
 RUNS=${RUNS:-5}
-if [ $# -lt 2 ]; then sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 2; fi
+if [ $# -lt 2 ]; then sed -n '2,16p' "$0" | sed 's/^# \{0,1\}//'; exit 2; fi
 in=$1; probe=$2; k1=${3:-}
 [ -x "$PRT" ] || { echo "bench_gl: $PRT not built (run make)" >&2; exit 1; }
 case "$in" in
