@@ -29,6 +29,7 @@ typedef struct gl_rt {
     double view_ms, raster_ms;  /* the last view change (draw or vertex finish) and read-back */
 } gl_rt;
 
+/* Frees the glrt (and its context when it made one) and the vertex-finish state. */
 static void gl_destroy(void *self) {
     gl_rt *g = self;
     if (!g) return;
@@ -54,8 +55,10 @@ static int parse_kernel(const char *s, glrt_light_method *out, prt_error *err) {
     return prt_fail(err, "gl runtime: unknown light kernel '%s' (auto, fragment, thread, warp)", s);
 }
 
+/* The glrt view mode of a runtime view model (default: per pixel). */
 static glrt_view_mode view_mode(runtime_view v) { return v == RUNTIME_VIEW_VERTEX ? GLRT_VIEW_VERTEX : GLRT_VIEW_PIXEL; }
 
+/* glrt_create with the kernel and view model asked for, the direct set if asked. NULL with err. */
 static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
     glrt_desc gd = { .ctx = desc->ctx, .view = view_mode(desc->view) };
     if (parse_kernel(desc->kernel, &gd.light, err)) return NULL;
@@ -72,6 +75,7 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
     return g;
 }
 
+/* Light change on the GPU (timed by glrt, finished). */
 static int gl_set_light(void *self, const float (*L)[4], prt_error *err) {
     gl_rt *g = self;
     return glrt_set_light(g->rt, L, err);
@@ -93,6 +97,7 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     return 0;
 }
 
+/* Background (uploaded again only for another probe), then the view change into the target. */
 static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
     gl_rt *g = self;
     const prt_probe *p = rd->background;
@@ -111,6 +116,7 @@ static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err
     return 0;
 }
 
+/* The target read back, timed. */
 static int gl_read(void *self, prt_image *out, prt_error *err) {
     gl_rt *g = self;
     if (!g->has_frame) return prt_fail(err, "gl runtime: no frame rendered yet");
@@ -120,11 +126,13 @@ static int gl_read(void *self, prt_image *out, prt_error *err) {
     return rc;
 }
 
+/* Tone-mapped blit to the window. */
 static void gl_present(void *self, int win_w, int win_h, float exposure_stops) {
     gl_rt *g = self;
     glrt_present(g->rt, win_w, win_h, exposure_stops);
 }
 
+/* Uploads the direct-only (or total) transport; -1 with err. */
 static int gl_use_direct(void *self, bool direct, prt_error *err) {
     gl_rt *g = self;
     if (glrt_use_direct(g->rt, direct, err)) return -1;
@@ -132,12 +140,14 @@ static int gl_use_direct(void *self, bool direct, prt_error *err) {
     return 0;
 }
 
+/* Per pixel or per vertex from the next frame on. */
 static int gl_set_view(void *self, runtime_view view, prt_error *err) {
     gl_rt *g = self;
     glrt_set_view_mode(g->rt, view_mode(view));
     return 0;
 }
 
+/* glrt's timings in the runtime's fields; the kernels measured at create as detail. */
 static void gl_get_timing(const void *self, runtime_timing *t) {
     const gl_rt *g = self;
     glrt_timing gt;

@@ -52,6 +52,7 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
     return rt;
 }
 
+/* Frees the backend state and the runtime; NULL is fine. */
 void runtime_destroy(prt_runtime *rt) {
     if (!rt) return;
     rt->be->destroy(rt->self);
@@ -74,6 +75,7 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
     return rc;
 }
 
+/* Vertex colours toward eye with the current term count; -1 with err when the backend has none. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err) {
     PRT_CHECK(rt != NULL && eye != NULL);
     if (rt->d->scene.mesh.nverts > 0) PRT_CHECK(rgb != NULL);
@@ -93,17 +95,20 @@ int runtime_render(prt_runtime *rt, const render_desc *rd, prt_image *out, prt_e
     return out ? rt->be->read(rt->self, out, err) : 0;
 }
 
+/* The last frame, read back (the caller frees it); -1 with err. */
 int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err) {
     PRT_CHECK(rt != NULL && out != NULL);
     memset(out, 0, sizeof *out);
     return rt->be->read(rt->self, out, err);
 }
 
+/* Blits the last frame to the window (a headless backend has no present op: nothing). */
 void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops) {
     PRT_CHECK(rt != NULL);
     if (rt->be->present) rt->be->present(rt->self, win_w, win_h, exposure_stops);
 }
 
+/* Direct-only (true) or total (false) transport for the next light change; -1 with err. */
 int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err) {
     PRT_CHECK(rt != NULL);
     if (direct && rt->d->direct.nvecs == 0)
@@ -111,16 +116,19 @@ int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err) {
     return rt->be->use_direct(rt->self, direct, err);
 }
 
+/* BRDF terms of the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax) {
     PRT_CHECK(rt != NULL && kmax >= 0);
     rt->kmax = kmax;
 }
 
+/* The backend's view model; -1 with err when it lacks the one asked for. */
 int runtime_set_view(prt_runtime *rt, runtime_view view, prt_error *err) {
     PRT_CHECK(rt != NULL);
     return rt->be->set_view(rt->self, view, err);
 }
 
+/* The backend's timings, plus the light vector time and the backend name kept here. */
 void runtime_get_timing(const prt_runtime *rt, runtime_timing *t) {
     PRT_CHECK(rt != NULL && t != NULL);
     memset(t, 0, sizeof *t);
@@ -129,4 +137,5 @@ void runtime_get_timing(const prt_runtime *rt, runtime_timing *t) {
     t->light_vector_ms = rt->light_vector_ms;
 }
 
+/* The name the backend was found by. */
 const char *runtime_backend_name(const prt_runtime *rt) { return rt->be->name; }

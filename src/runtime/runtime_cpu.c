@@ -31,6 +31,7 @@ typedef struct cpu_rt {
     double light_ms, view_ms, raster_ms;
 } cpu_rt;
 
+/* Frees the relight context, the colours and the GL objects made in the caller's context. */
 static void cpu_destroy(void *self) {
     cpu_rt *c = self;
     if (!c) return;
@@ -49,6 +50,7 @@ static int cpu_check_desc(const runtime_desc *desc, prt_error *err) {
     return 0;
 }
 
+/* relight_create, the colour buffer and, with a context, a gldraw with the mesh. NULL with err. */
 static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
     if (cpu_check_desc(desc, err)) return NULL;
     cpu_rt *c = prt_calloc(1, sizeof *c, err);
@@ -68,6 +70,7 @@ static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *
     return c;
 }
 
+/* Light change: g = T x L on every thread (Eq. 5), timed. */
 static int cpu_set_light(void *self, const float (*L)[4], prt_error *err) {
     cpu_rt *c = self;
     double t0 = prt_now();
@@ -76,6 +79,7 @@ static int cpu_set_light(void *self, const float (*L)[4], prt_error *err) {
     return 0;
 }
 
+/* View change: h(view) . g per vertex into rgb, timed. */
 static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
     cpu_rt *c = self;
     double t0 = prt_now();
@@ -101,6 +105,7 @@ static int draw_in_context(cpu_rt *c, const render_desc *rd, prt_error *err) {
     return glctx_check(&c->ctx->gl, "cpu runtime: drawing", err);
 }
 
+/* The view change, then the raster into the context (or kept for read, headless). */
 static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
     cpu_rt *c = self;
     if (cpu_shade_vertices(c, rd->camera.eye, kmax, c->rgb, err)) return -1;
@@ -120,6 +125,7 @@ static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *er
     return rc;
 }
 
+/* The frame: the context's target, or rasterized now by OSMesa (headless). */
 static int cpu_read(void *self, prt_image *out, prt_error *err) {
     cpu_rt *c = self;
     if (!c->has_frame) return prt_fail(err, "cpu runtime: no frame rendered yet");
@@ -130,22 +136,26 @@ static int cpu_read(void *self, prt_image *out, prt_error *err) {
     return rc;
 }
 
+/* Tone-mapped blit of the target to the window (nothing headless). */
 static void cpu_present(void *self, int win_w, int win_h, float exposure_stops) {
     cpu_rt *c = self;
     if (c->ctx && glctx_make_current(c->ctx, NULL) == 0) gldraw_present(&c->draw, win_w, win_h, exposure_stops);
 }
 
+/* relight_use_direct; -1 with err when the file keeps no direct set. */
 static int cpu_use_direct(void *self, bool direct, prt_error *err) {
     cpu_rt *c = self;
     if (!relight_use_direct(c->rc, direct)) return prt_fail(err, "cpu runtime: the file keeps no direct-only transport");
     return 0;
 }
 
+/* Per vertex is the only model here. */
 static int cpu_set_view(void *self, runtime_view view, prt_error *err) {
     runtime_desc want = { .view = view };
     return cpu_check_desc(&want, err);
 }
 
+/* Wall-clock timings of the last calls, the memory held, the thread count. */
 static void cpu_get_timing(const void *self, runtime_timing *t) {
     const cpu_rt *c = self;
     t->light_ms = c->light_ms;
