@@ -102,7 +102,7 @@ int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err) {
     return rt->be->read(rt->self, out, err);
 }
 
-/* Blits the last frame to the window (a headless backend has no present op: nothing). */
+/* Blits the last frame to the window (nothing without a window context). */
 void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops) {
     PRT_CHECK(rt != NULL);
     if (rt->be->present) rt->be->present(rt->self, win_w, win_h, exposure_stops);
