@@ -75,11 +75,11 @@ static void expect_error(const char *args, const char *needle, const char *out) 
     CHECK(temporaries() == 0, "%s: a temporary file was left behind", args);
 }
 
-int main(void) {
+/* The inputs every case may use: OBJ files good and bad, a constant probe, a text "probe". */
+static void setup(void) {
     snprintf(g_dir, sizeof g_dir, "%s", check_tmpdir());
-    char p[1024], q[1024], args[8192], buf[8192];
+    char p[1024];
     const char *D = g_dir;
-
     /* A 2x2 square facing +y (4 corners and a centre vertex), Lambert albedo 0.5, and a
      * 0.4x0.4 square at height 0.5 above its centre casting a shadow. */
     write_file("good.obj", "# two squares\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nv 0 0 0\n"
@@ -95,7 +95,33 @@ int main(void) {
     snprintf(p, sizeof p, "%s/adir.obj", D);
     mkdir(p, 0755);
 
-    /* Bad OBJ inputs to precompute. */
+    /* A constant probe: a 2:1 latlong EXR of radiance 2. */
+    prt_image im = { 0 };
+    prt_error err;
+    image_alloc(&im, 64, 32, 3, &err);
+    for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = 2.f;
+    snprintf(p, sizeof p, "%s/const.exr", D);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+}
+
+/* good.prt: the two squares, Lambert 0.5, float transport with every coefficient (made once). */
+static const char *good_prt(void) {
+    static char q[1024];    /* test-binary state, not the library's */
+    char args[8192], buf[8192];
+    snprintf(q, sizeof q, "%s/good.prt", g_dir);
+    if (exists(q)) return q;
+    snprintf(args, sizeof args, "%s precompute %s/good.obj --material lambert:kd=0.5 -o %s --coeffs 24576 --quant 32 --quiet",
+             check_prt_bin(), g_dir, q);
+    int rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && exists(q), "good precompute failed (%d): %s", rc, buf);
+    return q;
+}
+
+/* Bad OBJ inputs to precompute. */
+static void bad_obj(void) {
+    char q[1024], args[8192];
+    const char *D = g_dir;
     snprintf(q, sizeof q, "%s/out.prt", D);
     const char *bad_obj[] = { "missing.obj", "adir.obj", "garbage.obj", "empty.obj", "comments.obj",
                               "nan.obj", "degenerate.obj", "badindex.obj" };
@@ -103,7 +129,13 @@ int main(void) {
         snprintf(args, sizeof args, "precompute %s/%s -o %s --quiet", D, bad_obj[i], q);
         expect_error(args, bad_obj[i], q);
     }
-    /* Usage errors: exit 2, one line. */
+}
+
+/* Usage errors: exit 2, one line. */
+static void usage_errors(void) {
+    char p[1024], q[1024], args[8192];
+    const char *D = g_dir;
+    snprintf(q, sizeof q, "%s/out.prt", D);
     snprintf(args, sizeof args, "precompute %s/good.obj -o %s --coeffs 0", D, q);
     expect_error(args, "--coeffs", q);
     snprintf(args, sizeof args, "precompute %s/good.obj -o %s --bogus", D, q);
@@ -113,25 +145,29 @@ int main(void) {
     snprintf(args, sizeof args, "precompute %s/good.obj -o %s/no/such/dir/out.prt --quiet --vis-res 64", D, D);
     expect_error(args, "no/such/dir/out.prt", NULL);
 
-    /* A good precompute. */
-    snprintf(args, sizeof args, "%s precompute %s/good.obj --material lambert:kd=0.5 -o %s --coeffs 24576 --quant 32 --quiet",
-             check_prt_bin(), D, q);
-    int rc = check_run(args, buf, sizeof buf);
-    CHECK(rc == 0 && exists(q), "good precompute failed (%d): %s", rc, buf);
-    snprintf(args, sizeof args, "%s info %s", check_prt_bin(), q);
-    rc = check_run(args, buf, sizeof buf);
-    CHECK(rc == 0 && strstr(buf, "9 vertices") && strstr(buf, "K = 1") && strstr(buf, "N = 24576"), "info: %s", buf);
+    /* bench: an unknown backend, and the glbench command it replaced is gone. */
+    snprintf(args, sizeof args, "bench %s --probe %s/const.exr --backend vulkan", q, D);
+    expect_error(args, "vulkan", NULL);
+    snprintf(args, sizeof args, "glbench %s --probe %s/const.exr", q, D);
+    expect_error(args, "glbench", NULL);
+    snprintf(args, sizeof args, "render %s --probe %s/const.exr --backend vulkan -o %s/v.png", q, D, D);
+    snprintf(p, sizeof p, "%s/v.png", D);
+    expect_error(args, "vulkan", p);
+}
 
-    /* A constant probe (2:1 latlong EXR of radiance 2) rendered: the lower square's
-     * upward face sees the sky except where the upper square blocks it; the upper
-     * square's top is unoccluded and must show a*L = 0.5 * 2 = 1. */
+/* A good run: info, then the constant probe rendered: the lower square's upward face sees the
+ * sky except where the upper square blocks it; the upper square's top is unoccluded and must
+ * show a*L = 0.5 * 2 = 1. */
+static void good_render(void) {
+    char p[1024], q[1024], args[8192], buf[8192];
+    const char *D = g_dir;
     prt_image im = { 0 };
     prt_error err;
-    image_alloc(&im, 64, 32, 3, &err);
-    for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = 2.f;
+    snprintf(q, sizeof q, "%s", good_prt());
     snprintf(p, sizeof p, "%s/const.exr", D);
-    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
-    image_free(&im);
+    snprintf(args, sizeof args, "%s info %s", check_prt_bin(), q);
+    int rc = check_run(args, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "9 vertices") && strstr(buf, "K = 1") && strstr(buf, "N = 24576"), "info: %s", buf);
     char png[1024], exr[1024], csv[1024];
     snprintf(png, sizeof png, "%s/out.png", D);
     snprintf(exr, sizeof exr, "%s/out.exr", D);
@@ -170,6 +206,13 @@ int main(void) {
     }
     CHECK(nrows == 9, "csv rows %d", nrows);
 
+}
+
+static void interreflections(void) {
+    char args[8192], buf[8192];
+    const char *D = g_dir;
+    prt_error err;
+    int rc;
     /* Interreflections kept apart: an L of two 2x2 Lambert squares (a floor facing +y and a
      * wall at x = 0 facing +x, 5x5 vertices each), albedo 0.8, with one forced bounce
      * and --keep-direct. Under a constant probe the total (direct + bounce) is at least the
@@ -268,7 +311,13 @@ int main(void) {
         CHECK(n == 45 && more > n / 2, "%d vertices, %d brighter with the bounce", n, more);
     }
 
-    /* Bad probes. */
+}
+
+/* Bad probes. */
+static void bad_probes(void) {
+    char p[1024], q[1024], args[8192];
+    const char *D = g_dir;
+    snprintf(q, sizeof q, "%s", good_prt());
     snprintf(args, sizeof args, "render %s --probe %s/missing.exr -o %s/x.png", q, D, D);
     snprintf(p, sizeof p, "%s/x.png", D);
     expect_error(args, "missing.exr", p);
@@ -277,7 +326,13 @@ int main(void) {
     snprintf(args, sizeof args, "render %s --probe %s/const.exr -o %s/x.bmpx", q, D, D);
     expect_error(args, "x.bmpx", NULL);
 
-    /* Damaged .prt files: truncated, a flipped byte, wrong version, empty, missing. */
+}
+
+/* Damaged .prt files: truncated, a flipped byte, wrong version, empty, missing. */
+static void damaged_prt(void) {
+    char p[1024], q[1024], args[8192];
+    const char *D = g_dir;
+    snprintf(q, sizeof q, "%s", good_prt());
     FILE *in = fopen(q, "rb");
     long size = 0;
     unsigned char *bytes = NULL;
@@ -313,5 +368,16 @@ int main(void) {
     free(bytes);
     snprintf(args, sizeof args, "info %s/missing.prt", D);
     expect_error(args, "missing.prt", NULL);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    setup();
+    CHECK_CASE(bad_obj);
+    CHECK_CASE(usage_errors);
+    CHECK_CASE(good_render);
+    CHECK_CASE(interreflections);
+    CHECK_CASE(bad_probes);
+    CHECK_CASE(damaged_prt);
     return check_summary();
 }

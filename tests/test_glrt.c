@@ -208,7 +208,7 @@ static double image_max_rel(const prt_image *a, const prt_image *b, double floor
     return worst;
 }
 
-static void test_synthetic(void) {
+static void synthetic(void) {
     const int qb[3] = { 8, 16, 32 };
     for (int q = 0; q < 3; q++) {
         synth s;
@@ -285,7 +285,7 @@ static void test_synthetic(void) {
 
 /* A file that keeps the direct-only set too (precompute --keep-direct): glrt_use_direct switches the
  * uploaded set (here also its quantization, 16-bit direct vs 8-bit full, so the kernels are rebuilt). */
-static void test_direct_switch(void) {
+static void direct_switch(void) {
     synth full, dir;
     synth_make(&full, 14, 40, 8, 31);
     synth_make(&dir, 14, 40, 16, 32);
@@ -320,7 +320,7 @@ static void test_direct_switch(void) {
  * parameterization (its seam crosses the image: the eye is above the plane's middle, so the local
  * view azimuths go all the way round), normals are tilted at random. The per-vertex view model
  * must reproduce sum_k brdf_factor_view(wl)_k g_k with brdf_frame's frames, clamped at zero. */
-static void test_viewmaps(void) {
+static void viewmaps(void) {
     for (int param = 0; param < 2; param++) {
         synth s;
         synth_make(&s, 28, 32, 16, 777 + param);
@@ -407,7 +407,7 @@ static void rel_diffs(const prt_image *a, const prt_image *b, double floor_, dou
 }
 
 /* A precomputed scene (glossy Phong sphere over a Lambertian floor) under a procedural sky with a sun. */
-static void test_scene(void) {
+static void scene(void) {
     prt_error err = { { 0 } };
     prt_mesh sphere = { 0 };
     prt_scene scene = { 0 };
@@ -523,7 +523,7 @@ done:
 }
 
 /* EGL (Mesa's software device here) runs the same kernels as OSMesa. */
-static void test_egl(void) {
+static void egl(void) {
     synth s;
     synth_make(&s, 12, 48, 8, 99);
     const char *old = getenv("PRT_GL");
@@ -551,11 +551,12 @@ static void test_egl(void) {
     synth_free(&s);
 }
 
-int main(void) {
-    test_synthetic();
-    test_egl();
-    test_viewmaps();
-    test_direct_switch();
-    test_scene();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(synthetic);
+    CHECK_CASE(egl);
+    CHECK_CASE(viewmaps);
+    CHECK_CASE(direct_switch);
+    CHECK_CASE(scene);
     return check_summary();
 }

@@ -108,7 +108,7 @@ static void make_probe(prt_probe *p, int w) {
     p->max_value = 2;
 }
 
-static void test_camera(void) {
+static void camera(void) {
     prt_camera cam = { .eye = { 0, 0, 5 }, .target = { 0, 0, 0 }, .up = { 0, 1, 0 }, .fov_deg = 40 };
     prt_camera c = cam;
     CHECK(camera_parse("1,2,3", &c) == 0, "eye only rejected");
@@ -183,7 +183,7 @@ static void test_camera(void) {
     }
 }
 
-static void test_raster(void) {
+static void raster(void) {
     prt_camera cam = { .eye = { 0.3f, 0.2f, 4 }, .target = { 0.3f, 0, -0.5f }, .up = { 0, 1, 0 }, .fov_deg = 45 };
     const int w = 160, h = 120;
     prt_image ref = { 0 };
@@ -229,7 +229,7 @@ static void test_raster(void) {
     image_free(&ref);
 }
 
-static void test_background(void) {
+static void background(void) {
     prt_probe probe;
     make_probe(&probe, 512);
     prt_mesh empty = { 0 };
@@ -264,7 +264,7 @@ static void test_background(void) {
 
 /* A probe in another layout (angular, 1:1) is resampled to latlong through probe_eval: texels hold
  * f at the directions probe_pixel_dir gives, the background must show f of each pixel's ray. */
-static void test_background_angular(void) {
+static void background_angular(void) {
     prt_probe p;
     memset(&p, 0, sizeof p);
     p.layout = PROBE_ANGULAR;
@@ -301,7 +301,7 @@ static void test_background_angular(void) {
     free(p.img.data);
 }
 
-static void test_errors_and_backends(void) {
+static void errors_and_backends(void) {
     prt_mesh m = { 0 };
     float *rgb;
     make_scene(&m, &rgb, false);
@@ -348,11 +348,12 @@ static void test_errors_and_backends(void) {
     free_scene(&m, rgb);
 }
 
-int main(void) {
-    test_camera();
-    test_raster();
-    test_background();
-    test_background_angular();
-    test_errors_and_backends();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(camera);
+    CHECK_CASE(raster);
+    CHECK_CASE(background);
+    CHECK_CASE(background_angular);
+    CHECK_CASE(errors_and_backends);
     return check_summary();
 }

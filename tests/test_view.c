@@ -87,26 +87,44 @@ static double mean_code(const char *path) {
     return s;
 }
 
-int main(void) {
-    const char *dir = check_tmpdir(), *prt = check_prt_bin();
-    char obj[512], sky[512], sky2[512], scene[512], cmd[8192], out[16384];
-    snprintf(obj, sizeof obj, "%s/sphere.obj", dir);
-    snprintf(sky, sizeof sky, "%s/sky.exr", dir);
-    snprintf(sky2, sizeof sky2, "%s/sky2.exr", dir);
-    snprintf(scene, sizeof scene, "%s/scene.prt", dir);
-    CHECK(access(prt, X_OK) == 0, "%s not built", prt);
-    int have_xvfb = check_run("command -v xvfb-run", NULL, 0) == 0;
-    CHECK(have_xvfb, "xvfb-run is not installed (apt-get install xvfb): the viewer cannot be tested");
+/* Paths shared by the cases (under the binary's scratch directory). */
+static char g_obj[512], g_sky[512], g_sky2[512], g_scene[512];
+static int g_have_xvfb;
 
-    /* Inputs. */
-    CHECK(write_obj(obj) == 0, "cannot write %s", obj);
+/* Runs `xvfb-run prt view ARGS` (window 640x480x24) into out; returns the exit status. */
+static int run_view(const char *args, char *out, size_t cap) {
+    char cmd[16384];
+    snprintf(cmd, sizeof cmd, "xvfb-run -a -s '-screen 0 640x480x24' %s view %s", check_prt_bin(), args);
+    return check_run(cmd, out, cap);
+}
+
+/* Runs `prt render ARGS` headless; returns the exit status. */
+static int run_render(const char *args, char *out, size_t cap) {
+    char cmd[16384];
+    snprintf(cmd, sizeof cmd, "%s render %s", check_prt_bin(), args);
+    return check_run(cmd, out, cap);
+}
+
+/* The inputs every case uses: a sphere OBJ, two sky probes, the precomputed scene (one bounce,
+ * direct set kept). */
+static void setup(void) {
+    const char *dir = check_tmpdir(), *prt = check_prt_bin();
+    char cmd[8192], out[16384];
+    snprintf(g_obj, sizeof g_obj, "%s/sphere.obj", dir);
+    snprintf(g_sky, sizeof g_sky, "%s/sky.exr", dir);
+    snprintf(g_sky2, sizeof g_sky2, "%s/sky2.exr", dir);
+    snprintf(g_scene, sizeof g_scene, "%s/scene.prt", dir);
+    CHECK(access(prt, X_OK) == 0, "%s not built", prt);
+    g_have_xvfb = check_run("command -v xvfb-run", NULL, 0) == 0;
+    CHECK(g_have_xvfb, "xvfb-run is not installed (apt-get install xvfb): the viewer cannot be tested");
+    CHECK(write_obj(g_obj) == 0, "cannot write %s", g_obj);
     prt_probe p;
     prt_error err = { { 0 } };
     sky_desc sd = { .width = 256, .sun_dir = { 0.5f, 0.7f, 0.3f }, .sun_radius_deg = 4, .sun_radiance = 60 };
     int rc = probe_make_sky(&sd, &p, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc == 0) {
-        CHECK(image_write(sky, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
+        CHECK(image_write(g_sky, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
         probe_free(&p);
     }
     sky_desc sd2 = { .width = 256, .sun_dir = { -0.6f, 0.5f, -0.2f }, .sun_radius_deg = 8, .sun_radiance = 30,
@@ -114,52 +132,77 @@ int main(void) {
     rc = probe_make_sky(&sd2, &p, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc == 0) {
-        CHECK(image_write(sky2, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
+        CHECK(image_write(g_sky2, &p.img, &(image_desc){ 0 }, &err) == 0, "%s", err.msg);
         probe_free(&p);
     }
     snprintf(cmd, sizeof cmd,
              "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --terms 2 --floor 1500 --coeffs 64 "
              "--vis-res 64 --bounces 1 --force-bounces --keep-direct --quiet -o %s",
-             prt, obj, scene);
+             prt, g_obj, g_scene);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 0, "precompute failed (%d): %s", rc, out);
+}
 
-    /* --help lists every key. */
-    snprintf(cmd, sizeof cmd, "%s view --help", prt);
+/* ref_cpu.png: the headless CPU render of the test camera (several cases compare against it). */
+static const char *ref_cpu(void) {
+    static char ref[512];   /* test-binary state, not the library's */
+    char args[4096], out[16384];
+    snprintf(ref, sizeof ref, "%s/ref_cpu.png", check_tmpdir());
+    if (access(ref, F_OK) != 0) {
+        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --backend cpu -o %s", g_scene,
+                 g_sky, k_cam, W, H, ref);
+        int rc = run_render(args, out, sizeof out);
+        CHECK(rc == 0, "render --backend cpu failed (%d): %s", rc, out);
+    }
+    return ref;
+}
+
+/* --help lists every key. */
+static void help(void) {
+    char cmd[4096], out[16384];
+    snprintf(cmd, sizeof cmd, "%s view --help", check_prt_bin());
     CHECK(check_run(cmd, out, sizeof out) == 0, "view --help failed: %s", out);
     const char *keys[] = { "orbit", "pan", "zoom", "rotate the lighting", "1 .. 9", "next / previous probe",
                            "exposure", "K / k", "CPU runtime", "direct only", "screenshot", "quit", "--frames",
                            "--screenshot", "--probes" };
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
         CHECK(strstr(out, keys[i]) != NULL, "--help does not mention '%s'", keys[i]);
+}
 
-    /* Bad input: one-line errors, before any window. */
-    snprintf(cmd, sizeof cmd, "%s view %s/missing.prt --probe %s --frames 1", prt, dir, sky);
-    rc = check_run(cmd, out, sizeof out);
+/* Bad input: one-line errors, before any window. */
+static void bad_input(void) {
+    const char *dir = check_tmpdir(), *prt = check_prt_bin();
+    char cmd[8192], out[16384];
+    snprintf(cmd, sizeof cmd, "%s view %s/missing.prt --probe %s --frames 1", prt, dir, g_sky);
+    int rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 1 && strstr(out, "missing.prt") && strchr(out, '\n') == out + strlen(out) - 1, "rc %d: %s", rc, out);
-    snprintf(cmd, sizeof cmd, "%s view %s", prt, scene);
+    snprintf(cmd, sizeof cmd, "%s view %s", prt, g_scene);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 2 && strstr(out, "probe"), "no probe: rc %d: %s", rc, out);
-    snprintf(cmd, sizeof cmd, "%s view %s --probe %s --camera 1,2 --frames 1", prt, scene, sky);
+    snprintf(cmd, sizeof cmd, "%s view %s --probe %s --camera 1,2 --frames 1", prt, g_scene, g_sky);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc != 0 && strstr(out, "--camera"), "bad camera: rc %d: %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s view %s --probe %s --backend vulkan --frames 1", prt, g_scene, g_sky);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "vulkan") && strchr(out, '\n') == out + strlen(out) - 1, "bad backend: rc %d: %s", rc, out);
+}
 
-    /* Window screenshot vs headless render, both runtimes. */
-    const char *backends[2] = { "cpu", "gl" };
-    for (int b = 0; b < 2 && have_xvfb; b++) {
+/* Window screenshot vs headless render, both runtimes. */
+static void screenshot_vs_render(void) {
+    const char *dir = check_tmpdir(), *backends[2] = { "cpu", "gl" };
+    char args[8192], out[16384];
+    for (int b = 0; b < 2 && g_have_xvfb; b++) {
         char shot[512], ref[512];
         snprintf(shot, sizeof shot, "%s/shot_%s.png", dir, backends[b]);
         snprintf(ref, sizeof ref, "%s/ref_%s.png", dir, backends[b]);
-        snprintf(cmd, sizeof cmd,
-                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --exposure -1 "
-                 "--backend %s --frames 3 --screenshot %s",
-                 prt, scene, sky, k_cam, W, H, backends[b], shot);
-        rc = check_run(cmd, out, sizeof out);
+        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s --frames 3 --screenshot %s",
+                 g_scene, g_sky, k_cam, W, H, backends[b], shot);
+        int rc = run_view(args, out, sizeof out);
         CHECK(rc == 0, "view --backend %s failed (%d): %s", backends[b], rc, out);
         CHECK(strstr(out, "view: 3 frames") != NULL, "no frame summary: %s", out);
-        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s -o %s", prt,
-                 scene, sky, k_cam, W, H, backends[b], ref);
-        rc = check_run(cmd, out, sizeof out);
+        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s -o %s", g_scene, g_sky,
+                 k_cam, W, H, backends[b], ref);
+        rc = run_render(args, out, sizeof out);
         CHECK(rc == 0, "render --backend %s failed (%d): %s", backends[b], rc, out);
         double mean, worst = compare_png(shot, ref, &mean);
         CHECK(worst >= 0, "%s: images missing or of different sizes", backends[b]);
@@ -168,97 +211,127 @@ int main(void) {
         double m = mean_code(shot);
         CHECK(m > 10 && m < 245, "%s: screenshot is blank (mean code %.1f)", backends[b], m);
     }
-    /* Keys, probes and light rotation: start on GL with two probes and a rotated light, then press
-     * b (CPU runtime), 2 (second probe), k (one BRDF term fewer) and + (half a stop brighter); the
-     * last frame must match the headless render of exactly that state. */
-    if (have_xvfb) {
-        char shot[512], ref[512];
-        snprintf(shot, sizeof shot, "%s/shot_keys.png", dir);
-        snprintf(ref, sizeof ref, "%s/ref_keys.png", dir);
-        snprintf(cmd, sizeof cmd,
-                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --probe %s --light-rotation 60,10 --camera %s "
-                 "--size %dx%d --exposure -1 --backend gl --frames 5 --keys b2k+ --screenshot %s",
-                 prt, scene, sky, sky2, k_cam, W, H, shot);
-        rc = check_run(cmd, out, sizeof out);
-        CHECK(rc == 0 && strstr(out, "CPU runtime"), "view with keys failed (%d): %s", rc, out);
-        snprintf(cmd, sizeof cmd,
-                 "%s render %s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -0.5 --terms 1 -o %s", prt,
-                 scene, sky2, k_cam, W, H, ref);
-        rc = check_run(cmd, out, sizeof out);
+}
+
+/* Keys, probes and light rotation: start on GL with two probes and a rotated light, then press
+ * b (CPU runtime), 2 (second probe), k (one BRDF term fewer) and + (half a stop brighter); the
+ * last frame must match the headless render of exactly that state. */
+static void keys(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir();
+    char shot[512], ref[512], args[8192], out[16384];
+    snprintf(shot, sizeof shot, "%s/shot_keys.png", dir);
+    snprintf(ref, sizeof ref, "%s/ref_keys.png", dir);
+    snprintf(args, sizeof args,
+             "%s --probe %s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -1 --backend gl --frames 5 "
+             "--keys b2k+ --screenshot %s",
+             g_scene, g_sky, g_sky2, k_cam, W, H, shot);
+    int rc = run_view(args, out, sizeof out);
+    CHECK(rc == 0 && strstr(out, "CPU runtime"), "view with keys failed (%d): %s", rc, out);
+    snprintf(args, sizeof args, "%s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -0.5 --terms 1 -o %s",
+             g_scene, g_sky2, k_cam, W, H, ref);
+    rc = run_render(args, out, sizeof out);
+    CHECK(rc == 0, "render failed (%d): %s", rc, out);
+    double mean, worst = compare_png(shot, ref, &mean);
+    CHECK(worst >= 0, "keys: images missing or of different sizes");
+    CHECK_LE(worst, 2, "keys: viewer state after b2k+ differs from the headless render (mean %.4f codes)", mean);
+    /* ... and differs clearly from the first probe's unrotated 2-term image. */
+    worst = compare_png(shot, ref_cpu(), &mean);
+    CHECK(worst > 20 && mean > 1, "keys had no visible effect (max %g, mean %g)", worst, mean);
+}
+
+/* D: direct lighting only (the file keeps both sets). The GL runtime in its per-vertex view model
+ * against the CPU runtime's `render --direct-only`; the bounce must have changed the image. */
+static void direct_gl(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir();
+    char shot[512], ref[512], args[8192], out[16384];
+    snprintf(shot, sizeof shot, "%s/shot_direct.png", dir);
+    snprintf(ref, sizeof ref, "%s/ref_direct.png", dir);
+    snprintf(args, sizeof args,
+             "%s --probe %s --camera %s --size %dx%d --exposure -1 --backend gl --view-model vertex --frames 3 --keys d "
+             "--screenshot %s",
+             g_scene, g_sky, k_cam, W, H, shot);
+    int rc = run_view(args, out, sizeof out);
+    CHECK(rc == 0 && strstr(out, "direct lighting only"), "view --keys d failed (%d): %s", rc, out);
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only -o %s", g_scene, g_sky,
+             k_cam, W, H, ref);
+    rc = run_render(args, out, sizeof out);
+    CHECK(rc == 0, "render --direct-only failed (%d): %s", rc, out);
+    double mean, worst = compare_png(shot, ref, &mean);
+    CHECK(worst >= 0, "direct: images missing or of different sizes");
+    CHECK_LE(worst, 2, "direct: GL per-vertex viewer differs from the CPU direct-only render (mean %.4f codes)", mean);
+    worst = compare_png(ref, ref_cpu(), &mean);
+    fprintf(stderr, "test_view: one bounce changes the image by max %g, mean %.3f codes\n", worst, mean);
+    CHECK(worst > 3, "the bounce had no visible effect (max %g codes)", worst);
+}
+
+/* Power of the comparison: another camera gives a clearly different image. */
+static void camera_power(void) {
+    char other[512], args[8192], out[16384];
+    snprintf(other, sizeof other, "%s/other.png", check_tmpdir());
+    snprintf(args, sizeof args, "%s --probe %s --camera 2.3,1.6,2.8,0,0.35,0,40 --size %dx%d --exposure -1 -o %s", g_scene,
+             g_sky, W, H, other);
+    CHECK(run_render(args, out, sizeof out) == 0, "%s", out);
+    double mean, worst = compare_png(other, ref_cpu(), &mean);
+    CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
+}
+
+/* The same toggle on the CPU runtime (the scene has one bounce pass and keeps its direct set):
+ * key d switches to direct lighting only, which must match `prt render --direct-only`, and
+ * differ from the total. */
+static void direct_cpu(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir();
+    char shot[512], ref[512], reft[512], args[8192], out[16384];
+    snprintf(shot, sizeof shot, "%s/shot_direct_cpu.png", dir);
+    snprintf(ref, sizeof ref, "%s/ref_direct0.png", dir);
+    snprintf(reft, sizeof reft, "%s/ref_total0.png", dir);
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --backend cpu --frames 3 --keys d --screenshot %s",
+             g_scene, g_sky, k_cam, W, H, shot);
+    int rc = run_view(args, out, sizeof out);
+    CHECK(rc == 0 && strstr(out, "direct lighting only"), "view with key d failed (%d): %s", rc, out);
+    for (int k = 0; k < 2; k++) {
+        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d %s -o %s", g_scene, g_sky, k_cam, W, H,
+                 k ? "" : "--direct-only", k ? reft : ref);
+        rc = run_render(args, out, sizeof out);
         CHECK(rc == 0, "render failed (%d): %s", rc, out);
-        double mean, worst = compare_png(shot, ref, &mean);
-        CHECK(worst >= 0, "keys: images missing or of different sizes");
-        CHECK_LE(worst, 2, "keys: viewer state after b2k+ differs from the headless render (mean %.4f codes)", mean);
-        /* ... and differs clearly from the first probe's unrotated 2-term image. */
-        snprintf(ref, sizeof ref, "%s/ref_cpu.png", dir);
-        worst = compare_png(shot, ref, &mean);
-        CHECK(worst > 20 && mean > 1, "keys had no visible effect (max %g, mean %g)", worst, mean);
     }
-    /* D: direct lighting only (the file keeps both sets). The GL runtime in its per-vertex view model
-     * against the CPU runtime's `render --direct-only`; the bounce must have changed the image. */
-    if (have_xvfb) {
-        char shot[512], ref[512], full[512];
-        snprintf(shot, sizeof shot, "%s/shot_direct.png", dir);
-        snprintf(ref, sizeof ref, "%s/ref_direct.png", dir);
-        snprintf(full, sizeof full, "%s/ref_cpu.png", dir);
-        snprintf(cmd, sizeof cmd,
-                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --exposure -1 "
-                 "--backend gl --view-model vertex --frames 3 --keys d --screenshot %s",
-                 prt, scene, sky, k_cam, W, H, shot);
-        rc = check_run(cmd, out, sizeof out);
-        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view --keys d failed (%d): %s", rc, out);
-        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only -o %s", prt,
-                 scene, sky, k_cam, W, H, ref);
-        rc = check_run(cmd, out, sizeof out);
-        CHECK(rc == 0, "render --direct-only failed (%d): %s", rc, out);
-        double mean, worst = compare_png(shot, ref, &mean);
-        CHECK(worst >= 0, "direct: images missing or of different sizes");
-        CHECK_LE(worst, 2, "direct: GL per-vertex viewer differs from the CPU direct-only render (mean %.4f codes)", mean);
-        worst = compare_png(ref, full, &mean);
-        fprintf(stderr, "test_view: one bounce changes the image by max %g, mean %.3f codes\n", worst, mean);
-        CHECK(worst > 3, "the bounce had no visible effect (max %g codes)", worst);
+    double mean, worst = compare_png(shot, ref, &mean);
+    CHECK(worst >= 0 && worst <= 2, "key d: viewer differs from render --direct-only (max %g, mean %.4f codes)", worst, mean);
+    worst = compare_png(ref, reft, &mean);
+    CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
+}
+
+/* `prt bench --backend gl` (what replaced glbench) runs headless and prints the same lines as the CPU one. */
+static void bench(void) {
+    const char *backends[2] = { "cpu", "gl" };
+    for (int b = 0; b < 2; b++) {
+        char cmd[8192], out[16384];
+        snprintf(cmd, sizeof cmd, "%s bench %s --probe %s --backend %s --size 64x48 --frames 2", check_prt_bin(), g_scene,
+                 g_sky, backends[b]);
+        int rc = check_run(cmd, out, sizeof out);
+        char want[64];
+        snprintf(want, sizeof want, "bench: backend=%s K=2 ", backends[b]);
+        CHECK(rc == 0 && strstr(out, "\nlight change: ") && strstr(out, "\nview change:  ") && strstr(out, want) &&
+                  strstr(out, "Table II"),
+              "bench --backend %s failed (%d): %s", backends[b], rc, out);
     }
-    /* Power of the comparison: another camera gives a clearly different image. */
-    if (have_xvfb) {
-        char other[512], ref[512];
-        snprintf(other, sizeof other, "%s/other.png", dir);
-        snprintf(ref, sizeof ref, "%s/ref_cpu.png", dir);
-        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera 2.3,1.6,2.8,0,0.35,0,40 --size %dx%d --exposure -1 -o %s",
-                 prt, scene, sky, W, H, other);
-        CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
-        double mean, worst = compare_png(other, ref, &mean);
-        CHECK(worst > 20 && mean > 0.3, "a slightly moved camera should differ clearly (max %g, mean %g)", worst, mean);
-    }
-    /* The same toggle on the CPU runtime (the scene has one bounce pass and keeps its direct set):
-     * key d switches to direct lighting only, which must match `prt render --direct-only`, and
-     * differ from the total. */
-    if (have_xvfb) {
-        const char *bscene = scene;
-        char shot[512], ref[512], reft[512];
-        snprintf(shot, sizeof shot, "%s/shot_direct_cpu.png", dir);
-        snprintf(ref, sizeof ref, "%s/ref_direct0.png", dir);
-        snprintf(reft, sizeof reft, "%s/ref_total0.png", dir);
-        snprintf(cmd, sizeof cmd,
-                 "xvfb-run -a -s '-screen 0 640x480x24' %s view %s --probe %s --camera %s --size %dx%d --backend cpu "
-                 "--frames 3 --keys d --screenshot %s",
-                 prt, bscene, sky, k_cam, W, H, shot);
-        rc = check_run(cmd, out, sizeof out);
-        CHECK(rc == 0 && strstr(out, "direct lighting only"), "view with key d failed (%d): %s", rc, out);
-        for (int k = 0; k < 2; k++) {
-            snprintf(cmd, sizeof cmd, "%s render %s --probe %s --camera %s --size %dx%d %s -o %s", prt, bscene, sky, k_cam,
-                     W, H, k ? "" : "--direct-only", k ? reft : ref);
-            rc = check_run(cmd, out, sizeof out);
-            CHECK(rc == 0, "render failed (%d): %s", rc, out);
-        }
-        double mean, worst = compare_png(shot, ref, &mean);
-        CHECK(worst >= 0 && worst <= 2, "key d: viewer differs from render --direct-only (max %g, mean %.4f codes)", worst, mean);
-        worst = compare_png(ref, reft, &mean);
-        CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
-    }
-    /* prt glbench runs headless and prints both runtimes beside the paper's figures. */
-    snprintf(cmd, sizeof cmd, "%s glbench %s --probe %s --size 64x48 --runs 1", prt, scene, sky);
-    rc = check_run(cmd, out, sizeof out);
-    CHECK(rc == 0 && strstr(out, "GL runtime") && strstr(out, "CPU runtime") && strstr(out, "Table II"),
-          "glbench failed (%d): %s", rc, out);
+    char cmd[8192], out[16384];
+    snprintf(cmd, sizeof cmd, "%s glbench %s --probe %s", check_prt_bin(), g_scene, g_sky);
+    CHECK(check_run(cmd, out, sizeof out) == 2 && strstr(out, "unknown command 'glbench'"), "glbench still there: %s", out);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    setup();
+    CHECK_CASE(help);
+    CHECK_CASE(bad_input);
+    CHECK_CASE(screenshot_vs_render);
+    CHECK_CASE(keys);
+    CHECK_CASE(direct_gl);
+    CHECK_CASE(camera_power);
+    CHECK_CASE(direct_cpu);
+    CHECK_CASE(bench);
     return check_summary();
 }

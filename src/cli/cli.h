@@ -13,5 +13,4 @@ int cli_view(int argc, char **argv);
 int cli_reference(int argc, char **argv);
 int cli_compare(int argc, char **argv);
 int cli_bench(int argc, char **argv);
-int cli_glbench(int argc, char **argv);   /* in cli_view.c */
 #endif

@@ -1,106 +1,185 @@
-/* cli_bench.c - `prt bench`: CPU runtime frame times for a .prt file.
+/* cli_bench.c - `prt bench`: light-change and view-change times of a .prt file on
+ * one runtime backend (--backend cpu|gl), the quantities of the paper's Table II.
  *
  * Light change = the sparse inner products T x L for every transport vector
- * (Eq. 5's light-dependent K-vectors); view change = view-map lookups and the
- * K-term dot product per vertex. Both produce vertex colours only (no raster,
- * no image write), which is what the paper's Table II measures. Each is timed
- * over many repetitions (rotating the light / orbiting the eye so no call is
- * a repeat), and the median is reported. */
+ * (Eq. 5's light-dependent K-vectors); view change = the backend's own view
+ * change: the cpu backend's h(view) . g per vertex (vertex colours, no raster:
+ * what Table II's CPU rows measure), the gl backend's frame of --size pixels
+ * (view maps per pixel, finished). Both go through the runtime interface
+ * (runtime.h) and are read from runtime_timing, so the two backends report the
+ * same lines. Each is timed over many frames (rotating the light / orbiting the
+ * eye so no call is a repeat) after one warm-up, and the median is reported. */
 #include "cli.h"
 #include "cli_args.h"
 #include "prtfile.h"
-#include "relight.h"
+#include "runtime.h"
 #include "render.h"
-#include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 static const char *k_cmd = "bench";
 
+typedef struct bench_args {
+    const char *in, *probe_path, *backend, *kernel;
+    int frames, nthreads, kmax, size[2];
+} bench_args;
+
+static void help(void) {
+    puts("usage: prt bench FILE.prt --probe PROBE [--backend cpu|gl] [--frames N] [--size WxH] [--terms K]\n"
+         "                 [--threads T] [--kernel K]\n"
+         "\n"
+         "Times light changes (sparse T x L for every vector) and view changes, median over N frames\n"
+         "(default 40), and prints frame rates (the paper's Table II: GeForce 6800 / Pentium 4, Bunny).\n"
+         "The view change is the backend's own: cpu, vertex colours h(view) . g (no raster); gl, one\n"
+         "frame of --size pixels (default 800x600) with per-pixel view maps, finished.\n"
+         "GL runs headless (OSMesa, or EGL on an NVIDIA machine; PRT_GL=osmesa|egl overrides).\n"
+         "\n"
+         "  --probe PROBE    light probe\n"
+         "  --backend B      cpu (default) or gl\n"
+         "  --frames N       timed repetitions of each measurement (default 40)\n"
+         "  --size WxH       frame size of gl view changes and the camera's aspect (default 800x600)\n"
+         "  --terms K        BRDF terms used in view changes (default: all)\n"
+         "  --threads T      CPU threads (default: all cores)\n"
+         "  --kernel K       gl light kernel: auto (default), fragment, thread, warp");
+}
+
 static int cmp_double(const void *a, const void *b) {
     double x = *(const double *)a, y = *(const double *)b;
     return x < y ? -1 : x > y;
 }
 
-int cli_bench(int argc, char **argv) {
-    const char *in = NULL, *probe_path = NULL;
-    int frames = 40, nthreads = 0, kmax = 0;
+/* Parses argv into a; returns -1 to go on, else the exit status. */
+static int parse_args(int argc, char **argv, bench_args *a) {
+    memset(a, 0, sizeof *a);
+    a->frames = 40;
+    a->size[0] = 800;
+    a->size[1] = 600;
+    a->backend = "cpu";
     const cli_option opts[] = {
-        CLI_S("--probe", &probe_path),
-        CLI_I("--frames", &frames, 1, 100000),
-        CLI_I("--terms", &kmax, 1, 64),
-        CLI_I("--threads", &nthreads, 1, 64),
-        CLI_END,
+        CLI_S("--probe", &a->probe_path), CLI_S("--backend", &a->backend), CLI_S("--kernel", &a->kernel),
+        CLI_I("--frames", &a->frames, 1, 100000), CLI_WH("--size", a->size), CLI_I("--terms", &a->kmax, 1, 64),
+        CLI_I("--threads", &a->nthreads, 1, 64), CLI_END,
     };
-    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
-    if (pr == 1) {
-        puts("usage: prt bench FILE.prt --probe PROBE [--frames N] [--terms K] [--threads T]\n\n"
-             "Times CPU light changes (sparse T x L) and view changes (view maps . g) on vertex colours,\n"
-             "median over N frames (default 40), and prints frames per second.");
-        return 0;
-    }
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &a->in, 1, &npos);
+    if (pr == 1) { help(); return 0; }
     if (pr) return 2;
-    if (!in || !probe_path) { cli_error(k_cmd, "usage: prt bench FILE.prt --probe PROBE"); return 2; }
+    if (!a->in || !a->probe_path) { cli_error(k_cmd, "usage: prt bench FILE.prt --probe PROBE"); return 2; }
+    if (strcmp(a->backend, "cpu") && strcmp(a->backend, "gl"))
+        return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", a->backend) + 1;
+    return -1;
+}
+
+/* Light changes under the probe yawed by 0, 90, 180, 270 degrees in turn: medians into ms[0] (light
+ * change) and ms[1] (light vector, mean), the minimum into ms[2], the mean GPU time into ms[3]. */
+static int time_light(prt_runtime *rt, const prt_probe *probe, int frames, double *t, double ms[4], prt_error *err) {
+    float R[4][9];
+    for (int i = 0; i < 4; i++) {
+        char rot[32];
+        snprintf(rot, sizeof rot, "%d", 90 * i);
+        probe_parse_rotation(rot, R[i]);
+    }
+    double lv = 0, gpu = 0;
+    for (int f = 0; f < frames; f++) {
+        if (runtime_set_light(rt, probe, R[f % 4], err)) return -1;
+        runtime_timing tm;
+        runtime_get_timing(rt, &tm);
+        t[f] = tm.light_ms;
+        lv += tm.light_vector_ms;
+        gpu += tm.light_gpu_ms;
+    }
+    qsort(t, frames, sizeof(double), cmp_double);
+    ms[0] = t[frames / 2];
+    ms[1] = lv / frames;
+    ms[2] = t[0];
+    ms[3] = gpu / frames;
+    return 0;
+}
+
+/* View changes orbiting the eye once around the scene's centre: as time_light. */
+static int time_view(prt_runtime *rt, const prt_data *d, const render_desc *rd0, int frames, double *t, double ms[4],
+                     prt_error *err) {
+    render_desc rd = *rd0;
+    const float *e = rd0->camera.eye;
+    float c[3] = { 0.5f * (d->scene.bmin[0] + d->scene.bmax[0]), 0.5f * (d->scene.bmin[1] + d->scene.bmax[1]),
+                   0.5f * (d->scene.bmin[2] + d->scene.bmax[2]) };
+    float dx = e[0] - c[0], dz = e[2] - c[2];
+    double gpu = 0;
+    for (int f = 0; f < frames; f++) {
+        float a = 6.2831853f * f / frames;
+        float eye[3] = { c[0] + dx * cosf(a) - dz * sinf(a), e[1], c[2] + dx * sinf(a) + dz * cosf(a) };
+        memcpy(rd.camera.eye, eye, sizeof eye);
+        if (runtime_render(rt, &rd, NULL, err)) return -1;
+        runtime_timing tm;
+        runtime_get_timing(rt, &tm);
+        t[f] = tm.view_ms;
+        gpu += tm.view_gpu_ms;
+    }
+    qsort(t, frames, sizeof(double), cmp_double);
+    ms[0] = t[frames / 2];
+    ms[2] = t[0];
+    ms[3] = gpu / frames;
+    return 0;
+}
+
+/* Prints the results: the same lines for every backend (tools/bench.sh parses "light change" and
+ * "view change"; tools/bench_gl.sh the "bench:" line). */
+static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4]) {
+    int K = 0;
+    for (int m = 0; m < d->scene.nmaterials; m++) K = d->factors[m].K > K ? d->factors[m].K : K;
+    int kuse = a->kmax && a->kmax < K ? a->kmax : K;
+    printf("file %s: %d vertices, %d vectors (max K = %d), N = %d, %d-bit\n", a->in, d->scene.mesh.nverts,
+           prt_data_transfer(d)->transport.nvecs, kuse, prt_data_transfer(d)->transport.N, prt_data_transfer(d)->transport.qbits);
+    printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
+           tm->detail, tm->detail[0] ? ")" : "");
+    printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);
+    printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", lm[0], 1e3 / lm[0], lm[2]);
+    printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", vm[0], 1e3 / vm[0], vm[2]);
+    if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);
+    printf("bench: backend=%s K=%d light_ms=%.3f view_ms=%.3f kernel=%s\n", tm->backend, kuse, lm[0], vm[0], tm->kernel);
+    printf("paper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
+           "  GPU 1-term: light change 31 fps, view change 226 fps\n"
+           "  CPU 1-term: light change 12 fps, view change 79 fps\n"
+           "  CPU 4-term: light change 4.8 fps, view change 62 fps (GPU 4-term view change 97 fps)\n");
+}
+
+/* Creates the runtime, warms it up (one light and one view change), times both, reports. 0 or 1. */
+static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
+    prt_error err = { { 0 } };
+    runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .kernel = a->kernel };
+    double *t = malloc(sizeof(double) * a->frames), lm[4] = { 0 }, vm[4] = { 0 };
+    prt_runtime *rt = t ? runtime_create(d, &desc, &err) : NULL;
+    if (!t) prt_fail(&err, "out of memory");
+    int rc = 1;
+    prt_camera cam;
+    if (rt) cli_camera(k_cmd, &d->scene, (float)a->size[0] / a->size[1], NULL, &cam); /* no --camera: cannot fail */
+    render_desc rd = { .width = a->size[0], .height = a->size[1], .camera = cam, .background = probe };
+    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 && runtime_render(rt, &rd, NULL, &err) == 0 &&
+        time_light(rt, probe, a->frames, t, lm, &err) == 0 && time_view(rt, d, &rd, a->frames, t, vm, &err) == 0) {
+        runtime_timing tm;
+        runtime_get_timing(rt, &tm);
+        report(a, d, &tm, lm, vm);
+        rc = 0;
+    } else cli_error(k_cmd, "%s", err.msg);
+    runtime_destroy(rt);
+    free(t);
+    return rc;
+}
+
+/* Entry point of `prt bench` (see cli.h). */
+int cli_bench(int argc, char **argv) {
+    bench_args a;
+    int pr = parse_args(argc, argv, &a);
+    if (pr >= 0) return pr;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
-    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
-    if (cli_load_probe(k_cmd, probe_path, NULL, &probe)) { prt_data_free(&d); return 1; }
-    int nL = 4;
-    float (*Ls[4])[4] = { 0 };
-    double t_lv = prt_now();
-    for (int i = 0; i < nL; i++) {
-        float R[9];
-        char rot[32];
-        snprintf(rot, sizeof rot, "%d", 90 * i);
-        probe_parse_rotation(rot, R);
-        float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-        if (cube) { probe_to_cube(&probe, CUBE_RES, R, 0, cube); Ls[i] = transfer_light_vector(&d, cube); }
-        free(cube);
-    }
-    t_lv = (prt_now() - t_lv) / nL;
-    relight_ctx *rc = relight_create(&d, nthreads, &err);
-    float *rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
-    double *tl = malloc(sizeof(double) * frames), *tv = malloc(sizeof(double) * frames);
-    if (!rc || !rgb || !tl || !tv || !Ls[nL - 1]) { cli_error(k_cmd, "%s", rc ? "out of memory" : err.msg); return 1; }
-    prt_camera cam;
-    cli_camera(k_cmd, &d.scene, 4.f / 3, NULL, &cam);   /* no --camera: cannot fail */
-    relight_set_light(rc, Ls[0]); /* warm-up */
-    relight_view(rc, cam.eye, kmax, rgb);
-    for (int f = 0; f < frames; f++) {
-        double t = prt_now();
-        relight_set_light(rc, Ls[f % nL]);
-        tl[f] = prt_now() - t;
-    }
-    float c[3] = { 0.5f * (d.scene.bmin[0] + d.scene.bmax[0]), 0.5f * (d.scene.bmin[1] + d.scene.bmax[1]),
-                   0.5f * (d.scene.bmin[2] + d.scene.bmax[2]) };
-    float dx = cam.eye[0] - c[0], dz = cam.eye[2] - c[2];
-    for (int f = 0; f < frames; f++) {
-        float a = 6.2831853f * f / frames;
-        float eye[3] = { c[0] + dx * cosf(a) - dz * sinf(a), cam.eye[1], c[2] + dx * sinf(a) + dz * cosf(a) };
-        double t = prt_now();
-        relight_view(rc, eye, kmax, rgb);
-        tv[f] = prt_now() - t;
-    }
-    qsort(tl, frames, sizeof(double), cmp_double);
-    qsort(tv, frames, sizeof(double), cmp_double);
-    double ml = tl[frames / 2], mv = tv[frames / 2];
-    int K = 0;
-    for (int m = 0; m < d.scene.nmaterials; m++) K = d.factors[m].K > K ? d.factors[m].K : K;
-    printf("file %s: %d vertices, %d vectors (max K = %d), N = %d, %d-bit, threads %d\n", in, d.scene.mesh.nverts,
-           d.transfers[0].transport.nvecs, kmax ? kmax : K, d.transfers[0].transport.N, d.transfers[0].transport.qbits, prt_thread_count(nthreads));
-    printf("light vector (probe -> cube -> Haar): %.1f ms\n", 1e3 * t_lv);
-    printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", 1e3 * ml, 1 / ml, 1e3 * tl[0]);
-    printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", 1e3 * mv, 1 / mv, 1e3 * tv[0]);
-    for (int i = 0; i < nL; i++) free(Ls[i]);
-    free(tl);
-    free(tv);
-    free(rgb);
-    relight_destroy(rc);
+    int rc = 1;
+    if (cli_load_probe(k_cmd, a.probe_path, NULL, &probe) == 0) rc = run(&a, &d, &probe);
     probe_free(&probe);
     prt_data_free(&d);
-    return 0;
+    return rc;
 }

@@ -43,114 +43,135 @@ static void help(void) {
          "  --quiet                 no progress output\n");
 }
 
-/* Entry point of `prt reference` (see cli.h). */
-int cli_reference(int argc, char **argv) {
-    const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
-    const char *vert_out = NULL, *seed_s = NULL;
-    int size[2] = { 800, 600 }, spp = 64, vspp = 0, bounces = 0, nthreads = 0;
-    unsigned long long seed = 1;
-    bool no_background = false, quiet = false, no_image = false;
+/* What the command line asked for. */
+typedef struct reference_args {
+    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out;
+    int w, h, spp, vspp, bounces, nthreads;
+    unsigned long long seed;
+    bool background, quiet, no_image;
+    float R[9];
+} reference_args;
+
+/* Parses argv into a; returns -1 to go on, else the exit status (0 after --help, 1 or 2 after printing). */
+static int parse_args(int argc, char **argv, reference_args *a) {
+    const char *seed_s = NULL;
+    int size[2] = { 800, 600 };
+    bool no_background = false;
+    memset(a, 0, sizeof *a);
+    a->spp = 64;
+    a->seed = 1;
     const cli_option opts[] = {
-        CLI_S("-o", &out),
-        CLI_S("--probe", &probe_path),
-        CLI_S("--layout", &layout),
-        CLI_S("--camera", &cam_s),
-        CLI_S("--light-rotation", &rot_s),
-        CLI_S("--vertices", &vert_out),
-        CLI_B("--no-background", &no_background),
-        CLI_B("--no-image", &no_image),
-        CLI_B("--quiet", &quiet),
-        CLI_B("-q", &quiet),
-        CLI_WH("--size", size),
-        CLI_I("--spp", &spp, 1, 1 << 24),
-        CLI_I("--vertex-spp", &vspp, 1, 1 << 24),
-        CLI_I("--bounces", &bounces, -1, 1000),
-        CLI_I("--threads", &nthreads, 1, 64),
-        CLI_S("--seed", &seed_s),
-        CLI_END,
+        CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
+        CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
+        CLI_B("--no-background", &no_background), CLI_B("--no-image", &a->no_image), CLI_B("--quiet", &a->quiet),
+        CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24),
+        CLI_I("--vertex-spp", &a->vspp, 1, 1 << 24), CLI_I("--bounces", &a->bounces, -1, 1000),
+        CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--seed", &seed_s), CLI_END,
     };
-    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &a->in, 1, &npos);
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
-    int w = size[0], h = size[1];
-    bool background = !no_background;
+    a->w = size[0];
+    a->h = size[1];
+    a->background = !no_background;
     if (seed_s) {
         char *end;
-        seed = strtoull(seed_s, &end, 10);
+        a->seed = strtoull(seed_s, &end, 10);
         if (end == seed_s || *end) { cli_error(k_cmd, "bad value for --seed: '%s' (expected an integer)", seed_s); return 2; }
     }
-    if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
-    if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
-    if (no_image && !vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
-    if (!no_image && !out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
-    if (!no_image && cli_check_image_path(k_cmd, out)) return 1;
-    float R[9];
-    if (cli_rotation(k_cmd, rot_s, R)) return 2;
+    if (!a->in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
+    if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
+    if (a->no_image && !a->vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
+    if (!a->no_image && !a->out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
+    if (!a->no_image && cli_check_image_path(k_cmd, a->out)) return 1;
+    if (cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
+    return -1;
+}
 
+/* --vertices: per-vertex radiance toward the eye with standard errors, and whether each vertex
+ * faces the eye, as CSV. -1 with err. */
+static int vertices(ref_ctx *ref, const prt_mesh *m, const float eye[3], const ref_desc *rd, const reference_args *a,
+                    prt_bar *bar, prt_error *err) {
+    int n = m->nverts, rc = -1;
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)n), *se = malloc(sizeof(float) * 3 * (size_t)n);
+    uint8_t *facing = malloc((size_t)(n > 0 ? n : 1));
+    ref_desc vd = *rd;
+    vd.spp = a->vspp ? a->vspp : a->spp;
+    vd.stage = "reference vertices";
+    ref_stats st;
+    if (!rgb || !se || !facing) prt_fail(err, "out of memory");
+    else if (ref_render_vertices(ref, eye, NULL, n, &vd, rgb, se, &st, err) == 0) {
+        prt_bar_done(bar);
+        for (int v = 0; v < n; v++) facing[v] = ref_vertex_faces(m, v, eye);
+        rc = ref_write_vertex_csv(a->vert_out, rgb, se, facing, n, err);
+    } else prt_bar_done(bar);
+    if (rc == 0)
+        fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", a->vert_out,
+                n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+                st.dropped ? " (non-finite samples dropped)" : "");
+    free(rgb);
+    free(se);
+    free(facing);
+    return rc;
+}
+
+/* The image from the camera, written to -o. -1 with err. */
+static int image(ref_ctx *ref, const prt_camera *cam, ref_desc rd, const reference_args *a, prt_bar *bar, prt_error *err) {
+    float *ise = malloc(sizeof(float) * 3 * (size_t)a->w * a->h);
+    prt_image img = { 0 };
+    ref_stats st;
+    int rc = -1;
+    rd.stage = "reference image";
+    if (!ise) prt_fail(err, "out of memory");
+    else if (ref_render_image(ref, cam, a->w, a->h, &rd, &img, ise, &st, err) == 0) {
+        prt_bar_done(bar);
+        image_desc idesc = { 0 };
+        rc = image_write(a->out, &img, &idesc, err);
+    } else prt_bar_done(bar);
+    if (rc == 0)
+        fprintf(stderr, "wrote %s (%dx%d): %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", a->out, a->w, a->h,
+                a->spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+                st.dropped ? " (non-finite samples dropped)" : "");
+    free(ise);
+    image_free(&img);
+    return rc;
+}
+
+/* Path-traces what a asks for of d's scene under the probe. 0 or 1 (error printed). */
+static int trace(const reference_args *a, const prt_data *d, const prt_probe *probe, const prt_camera *cam) {
+    prt_error err = { { 0 } };
+    prt_bar bar;
+    prt_bar_init(&bar, stderr, a->quiet);
+    ref_ctx *ref = ref_create(&d->scene, probe, a->rot_s ? a->R : NULL, &err);
+    ref_desc rd = { .spp = a->spp, .bounces = a->bounces, .seed = a->seed, .nthreads = a->nthreads,
+                    .black_background = !a->background, .progress = prt_bar_report, .progress_user = &bar };
+    if (ref && !a->quiet)
+        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d\n",
+                d->scene.mesh.nverts, d->scene.mesh.ntris, d->scene.nmaterials, probe->img.w, probe->img.h, a->bounces,
+                a->spp);
+    int rc = !ref || (a->vert_out && vertices(ref, &d->scene.mesh, cam->eye, &rd, a, &bar, &err)) ||
+             (!a->no_image && image(ref, cam, rd, a, &bar, &err));
+    if (rc) cli_error(k_cmd, "%s", err.msg);
+    ref_destroy(ref);
+    return rc;
+}
+
+/* Entry point of `prt reference` (see cli.h). */
+int cli_reference(int argc, char **argv) {
+    reference_args a;
+    int pr = parse_args(argc, argv, &a);
+    if (pr >= 0) return pr;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
-    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     prt_camera cam;
-    if (cli_camera(k_cmd, &d.scene, (float)w / h, cam_s, &cam)) { prt_data_free(&d); return 1; }
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
-    if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }
-
     int rc = 1;
-    ref_ctx *ref = NULL;
-    float *rgb = NULL, *se = NULL, *ise = NULL;
-    uint8_t *facing = NULL;
-    prt_image img = { 0 };
-    prt_bar bar;
-    prt_bar_init(&bar, stderr, quiet);
-    ref = ref_create(&d.scene, &probe, rot_s ? R : NULL, &err);
-    if (!ref) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    ref_desc rd = { .spp = spp, .bounces = bounces, .seed = seed, .nthreads = nthreads,
-                    .black_background = !background, .progress = prt_bar_report, .progress_user = &bar };
-    if (!quiet)
-        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d\n",
-                d.scene.mesh.nverts, d.scene.mesh.ntris, d.scene.nmaterials, probe.img.w, probe.img.h, bounces, spp);
-    if (vert_out) {
-        int n = d.scene.mesh.nverts;
-        rgb = malloc(sizeof(float) * 3 * (size_t)n);
-        se = malloc(sizeof(float) * 3 * (size_t)n);
-        if (!rgb || !se) { cli_error(k_cmd, "out of memory"); goto done; }
-        ref_desc vd = rd;
-        vd.spp = vspp ? vspp : spp;
-        vd.stage = "reference vertices";
-        ref_stats st;
-        if (ref_render_vertices(ref, cam.eye, NULL, n, &vd, rgb, se, &st, &err)) { prt_bar_done(&bar); cli_error(k_cmd, "%s", err.msg); goto done; }
-        prt_bar_done(&bar);
-        facing = malloc((size_t)n);
-        if (!facing) { cli_error(k_cmd, "out of memory"); goto done; }
-        for (int v = 0; v < n; v++) facing[v] = ref_vertex_faces(&d.scene.mesh, v, cam.eye);
-        if (ref_write_vertex_csv(vert_out, rgb, se, facing, n, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", vert_out,
-                n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
-                st.dropped ? " (non-finite samples dropped)" : "");
-    }
-    if (!no_image) {
-        ise = malloc(sizeof(float) * 3 * (size_t)w * h);
-        if (!ise) { cli_error(k_cmd, "out of memory"); goto done; }
-        rd.stage = "reference image";
-        ref_stats st;
-        if (ref_render_image(ref, &cam, w, h, &rd, &img, ise, &st, &err)) { prt_bar_done(&bar); cli_error(k_cmd, "%s", err.msg); goto done; }
-        prt_bar_done(&bar);
-        image_desc idesc = { 0 };
-        if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        fprintf(stderr, "wrote %s (%dx%d): %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", out, w, h, spp,
-                st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
-                st.dropped ? " (non-finite samples dropped)" : "");
-    }
-    rc = 0;
-done:
-    ref_destroy(ref);
-    free(rgb);
-    free(se);
-    free(ise);
-    free(facing);
-    image_free(&img);
+    if (cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam) == 0 &&
+        cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) == 0)
+        rc = trace(&a, &d, &probe, &cam);
     probe_free(&probe);
     prt_data_free(&d);
     return rc;

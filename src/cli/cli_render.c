@@ -3,16 +3,15 @@
  * Pipeline (section 4.3): probe -> filtered 6x64x64 cube (rotated) -> Haar light
  * vector (16-bit) -> light-dependent K-vectors (sparse T x L) -> per-vertex colour
  * h(view) . g (Eq. 5) -> rasterized with OSMesa (CPU backend) or the GLSL runtime
- * (--backend gl). PNG is tone-mapped with --exposure; EXR is linear radiance. */
+ * (--backend gl), all through the runtime interface (runtime.h). PNG is
+ * tone-mapped with --exposure; EXR is linear radiance. */
 #include "cli.h"
 #include "cli_args.h"
-#include "glrt.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
-#include "relight.h"
 #include "render.h"
-#include "transfer.h"
+#include "runtime.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -47,108 +46,109 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
     return prt_atomic_commit(f, tmp, path, err);
 }
 
-int cli_render(int argc, char **argv) {
-    const char *in = NULL, *out = NULL, *probe_path = NULL, *layout = NULL, *cam_s = NULL, *rot_s = NULL;
-    const char *vert_out = NULL, *tonemap_s = "clamp", *backend_s = "cpu";
-    int size[2] = { 800, 600 }, kmax = 0, nthreads = 0, tonemap = 0;
-    float exposure = 0;
-    bool gl = false, no_background = false, direct_only = false;
+/* What the command line asked for. */
+typedef struct render_args {
+    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *backend;
+    int w, h, kmax, nthreads, tonemap;
+    float exposure, R[9];
+    bool background, direct_only;
+} render_args;
+
+/* Parses argv into a; returns -1 to go on, else the exit status (0 after --help, 1 or 2 after printing). */
+static int parse_args(int argc, char **argv, render_args *a) {
+    const char *tonemap_s = "clamp";
+    int size[2] = { 800, 600 };
+    bool no_background = false;
+    memset(a, 0, sizeof *a);
+    a->backend = "cpu";
     const cli_option opts[] = {
-        CLI_S("-o", &out),
-        CLI_S("--probe", &probe_path),
-        CLI_S("--layout", &layout),
-        CLI_S("--camera", &cam_s),
-        CLI_S("--light-rotation", &rot_s),
-        CLI_S("--vertices", &vert_out),
-        CLI_B("--no-background", &no_background),
-        CLI_B("--direct-only", &direct_only),
-        CLI_WH("--size", size),
-        CLI_F("--exposure", &exposure, -64, 64),
-        CLI_S("--tonemap", &tonemap_s),
-        CLI_I("--terms", &kmax, 1, 64),
-        CLI_I("--threads", &nthreads, 1, 64),
-        CLI_S("--backend", &backend_s),
-        CLI_END,
+        CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
+        CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
+        CLI_B("--no-background", &no_background), CLI_B("--direct-only", &a->direct_only), CLI_WH("--size", size),
+        CLI_F("--exposure", &a->exposure, -64, 64), CLI_S("--tonemap", &tonemap_s), CLI_I("--terms", &a->kmax, 1, 64),
+        CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--backend", &a->backend), CLI_END,
     };
-    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
+    int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &a->in, 1, &npos);
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
-    int w = size[0], h = size[1];
-    bool background = !no_background;
-    if (!strcmp(tonemap_s, "clamp")) tonemap = 0;
-    else if (!strcmp(tonemap_s, "reinhard")) tonemap = 1;
-    else if (!strcmp(tonemap_s, "aces")) tonemap = 2;
+    a->w = size[0];
+    a->h = size[1];
+    a->background = !no_background;
+    if (!strcmp(tonemap_s, "clamp")) a->tonemap = 0;
+    else if (!strcmp(tonemap_s, "reinhard")) a->tonemap = 1;
+    else if (!strcmp(tonemap_s, "aces")) a->tonemap = 2;
     else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", tonemap_s) + 1;
-    if (!strcmp(backend_s, "gl")) gl = true;
-    else if (strcmp(backend_s, "cpu")) return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", backend_s) + 1;
-    if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
-    if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
-    if (!out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
-    if (cli_check_image_path(k_cmd, out)) return 1;
-    float R[9];
-    if (cli_rotation(k_cmd, rot_s, R)) return 2;
+    if (strcmp(a->backend, "gl") && strcmp(a->backend, "cpu"))
+        return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", a->backend) + 1;
+    if (!a->in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
+    if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
+    if (!a->out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
+    if (cli_check_image_path(k_cmd, a->out)) return 1;
+    if (cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
+    return -1;
+}
 
+/* Relights d under the probe through the runtime: the image into img, the vertex colours into
+ * --vertices when asked; prints the timing line after writing the image. 0 or 1 (error printed). */
+static int relight(const render_args *a, const prt_data *d, const prt_probe *probe, const prt_camera *cam, double t_read) {
+    prt_error err = { { 0 } };
+    /* One light change only: gl's fragment kernel runs on every GL 3.3+ context, and timing every
+     * kernel first ("auto") would cost more than it saves. */
+    runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .direct_only = a->direct_only,
+                          .kernel = strcmp(a->backend, "gl") ? NULL : "fragment" };
+    const float *R = a->rot_s ? a->R : NULL;
+    render_desc rd = { .width = a->w, .height = a->h, .camera = *cam, .background = a->background ? probe : NULL,
+                       .background_rotation = R };
+    prt_image img = { 0 };
+    float *rgb = NULL;
+    int rc = 1;
+    prt_runtime *rt = runtime_create(d, &desc, &err);
+    if (!rt || runtime_set_light(rt, probe, R, &err) || runtime_render(rt, &rd, &img, &err)) goto fail;
+    runtime_timing t;
+    runtime_get_timing(rt, &t);
+    if (a->vert_out) {
+        rgb = malloc(sizeof(float) * 3 * (size_t)(d->scene.mesh.nverts > 0 ? d->scene.mesh.nverts : 1));
+        if (!rgb) { prt_fail(&err, "out of memory"); goto fail; }
+        if (runtime_shade_vertices(rt, cam->eye, rgb, &err) || write_vertices(a->vert_out, rgb, d->scene.mesh.nverts, &err))
+            goto fail;
+    }
+    image_desc idesc = { .exposure = a->exposure, .tonemap = a->tonemap };
+    double t5 = prt_now();
+    if (image_write(a->out, &img, &idesc, &err)) goto fail;
+    fprintf(stderr, "wrote %s (%dx%d): read %.2fs, light vector %.3fs, light change %.1f ms, view change %.1f ms, "
+                    "raster %.3fs, write %.3fs\n",
+            a->out, a->w, a->h, t_read, 1e-3 * t.light_vector_ms, t.light_ms, t.view_ms, 1e-3 * t.raster_ms, prt_now() - t5);
+    rc = 0;
+    goto done;
+fail:
+    cli_error(k_cmd, "%s", err.msg);
+done:
+    runtime_destroy(rt);
+    free(rgb);
+    image_free(&img);
+    return rc;
+}
+
+/* Entry point of `prt render` (see cli.h). */
+int cli_render(int argc, char **argv) {
+    render_args a;
+    int pr = parse_args(argc, argv, &a);
+    if (pr >= 0) return pr;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
     double t0 = prt_now();
-    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_read = prt_now() - t0;
-    if (direct_only && d.stats.bounces > 0 && d.transfers[0].direct.nvecs == 0) {
-        prt_data_free(&d);
-        return cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", in);
-    }
-    prt_camera cam;
-    if (cli_camera(k_cmd, &d.scene, (float)w / h, cam_s, &cam)) { prt_data_free(&d); return 1; }
+    int rc = 1;
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
-    if (cli_load_probe(k_cmd, probe_path, layout, &probe)) { prt_data_free(&d); return 1; }
-
-    double t1 = prt_now();
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), (*L)[4] = NULL;
-    if (cube) { probe_to_cube(&probe, CUBE_RES, rot_s ? R : NULL, 0, cube); L = transfer_light_vector(&d, cube); }
-    free(cube);
-    double t_light = prt_now() - t1;
-    int rc = 1;
-    float *rgb = NULL;
-    relight_ctx *rcx = NULL;
-    prt_image img = { 0 };
-    if (!L) { cli_error(k_cmd, "out of memory"); goto done; }
-    render_desc rd = { .width = w, .height = h, .camera = cam, .background = background ? &probe : NULL,
-                       .background_rotation = rot_s ? R : NULL, .direct_only = direct_only };
-    double t_lc = 0, t_vc = 0, t_raster = 0;
-    if (gl) {
-        double t2 = prt_now();
-        if (glrt_render_image(&d, L, &rd, kmax, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        t_raster = prt_now() - t2;
-    } else {
-        rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
-        rcx = relight_create(&d, nthreads, &err);
-        if (!rgb || !rcx) { cli_error(k_cmd, "%s", rcx ? "out of memory" : err.msg); goto done; }
-        if (direct_only) relight_use_direct(rcx, d.transfers[0].direct.nvecs > 0);
-        double t2 = prt_now();
-        relight_set_light(rcx, L);
-        double t3 = prt_now();
-        relight_view(rcx, cam.eye, kmax, rgb);
-        double t4 = prt_now();
-        t_lc = t3 - t2;
-        t_vc = t4 - t3;
-        if (render_vertex_colors(&d.scene.mesh, rgb, &rd, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        t_raster = prt_now() - t4;
-        if (vert_out && write_vertices(vert_out, rgb, d.scene.mesh.nverts, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    }
-    image_desc idesc = { .exposure = exposure, .tonemap = tonemap };
-    double t5 = prt_now();
-    if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    fprintf(stderr, "wrote %s (%dx%d): read %.2fs, light vector %.3fs, light change %.1f ms, view change %.1f ms, "
-                    "raster %.3fs, write %.3fs\n",
-            out, w, h, t_read, t_light, 1e3 * t_lc, 1e3 * t_vc, t_raster, prt_now() - t5);
-    rc = 0;
-done:
-    relight_destroy(rcx);
-    free(rgb);
-    free(L);
-    image_free(&img);
+    prt_camera cam;
+    if (a.direct_only && d.stats.bounces > 0 && prt_data_transfer(&d)->direct.nvecs == 0)
+        cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", a.in);
+    else if (cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam) == 0 &&
+             cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) == 0)
+        rc = relight(&a, &d, &probe, &cam, t_read);
     probe_free(&probe);
     prt_data_free(&d);
     return rc;

@@ -1,29 +1,28 @@
-/* cli_view.c - `prt view`, the interactive relighting viewer, and `prt glbench`,
- * GL versus CPU runtime frame rates beside the paper's Table II.
+/* cli_view.c - `prt view`, the interactive relighting viewer.
  *
- * The viewer is a GLFW window drawn entirely through the GLSL runtime's float
- * target (glrt.h): with the GL backend the GPU does both the light change
- * (sparse T x L) and the view change (per-pixel view maps); with the CPU
- * backend relight.c computes per-vertex colours that glrt draws (the paper's
- * CPU path). Either way the image is tone-mapped (exposure, clamp, sRGB) onto
- * the window, and the on-screen text (6x13 bitmap font) shows the frame time,
- * the last light-change and view-change times, the probe, K and the exposure.
- * A light change happens only when the probe or its rotation changes; orbiting
- * is a view change only, exactly the split the paper times.
+ * The viewer is a GLFW window drawn through the runtime interface (runtime.h):
+ * two runtimes share the window's context, the gl backend (the GPU does both
+ * the light change, sparse T x L, and the view change, per-pixel view maps)
+ * and the cpu backend (relight.c's per-vertex colours drawn into the same
+ * window: the paper's CPU path); key b switches between them. Either way the
+ * frame is tone-mapped (exposure, clamp, sRGB) onto the window, and the
+ * on-screen text (6x13 bitmap font) shows the frame time, the last light-change
+ * and view-change times, the probe, K and the exposure. A light change happens
+ * only when the probe or its rotation changes (each runtime catches up when it
+ * is switched to); orbiting is a view change only, exactly the split the paper
+ * times.
  *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
  * image_write, the same tone curve `prt render` uses for PNG). */
 #include "cli.h"
 #include "cli_args.h"
-#include "glrt.h"
 #include "gldraw.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
-#include "relight.h"
 #include "render.h"
-#include "transfer.h"
+#include "runtime.h"
 #include "vec3.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
@@ -88,17 +87,15 @@ typedef struct viewer {
     char names[VIEW_MAX_PROBES][128];
     int nprobes, probe;
     glctx *ctx;
-    glrt *rt;
     gltext text;
-    relight_ctx *rc;
-    float *rgb;
-    float (*L)[4];
+    prt_runtime *rts[2];    /* [0] the cpu backend, [1] the gl backend, both drawing into ctx */
+    bool stale[2];          /* that runtime has not seen the current light yet */
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
     bool gl, vertex_model, help, quit, direct;
     int kmax, kfile, nthreads;
     float exposure;
-    bool light_dirty, g_dirty_gl, g_dirty_cpu, probe_dirty, view_dirty, present_dirty;
+    bool light_dirty, view_dirty, present_dirty;
     double lightvec_ms, light_ms, view_ms, frame_ms;
     const char *light_backend, *view_backend;
     char status[4300];
@@ -131,52 +128,35 @@ static void update_rotation(viewer *v) {
 
 static bool rotated(const viewer *v) { return v->lyaw != 0 || v->lpitch != 0; }
 
-/* Light change: light vector from the rotated probe, then T x L on the current backend (the other
- * backend's K-vectors are refreshed when it is switched to). */
+/* The runtime in use (the b key switches). */
+static prt_runtime *current(const viewer *v) { return v->rts[v->gl ? 1 : 0]; }
+
+/* Light change on the current runtime: the rotated probe through runtime_set_light (the other
+ * runtime catches up when it is switched to). */
 static int light_change(viewer *v, prt_error *err) {
     if (v->light_dirty) {
-        double t0 = prt_now();
-        free(v->L);
-        v->L = NULL;
-        float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-        if (cube) { probe_to_cube(&v->probes[v->probe], CUBE_RES, rotated(v) ? v->R : NULL, 0, cube); v->L = transfer_light_vector(&v->d, cube); }
-        free(cube);
-        if (!v->L) return prt_fail(err, "out of memory");
-        v->lightvec_ms = 1e3 * (prt_now() - t0);
+        v->stale[0] = v->stale[1] = true;
         v->light_dirty = false;
-        v->g_dirty_gl = v->g_dirty_cpu = true;
-        glrt_set_background_rotation(v->rt, rotated(v) ? v->R : NULL);
     }
-    if (v->probe_dirty) {
-        if (glrt_set_background(v->rt, &v->probes[v->probe], rotated(v) ? v->R : NULL, err)) return -1;
-        v->probe_dirty = false;
-    }
-    if (v->gl && v->g_dirty_gl) {
-        if (glrt_set_light(v->rt, (const float (*)[4])v->L, err)) return -1;
-        glrt_timing t;
-        glrt_get_timing(v->rt, &t);
-        v->light_ms = t.light_ms;
-        v->light_backend = "GL";
-        v->g_dirty_gl = false;
-    } else if (!v->gl && v->g_dirty_cpu) {
-        double t0 = prt_now();
-        relight_set_light(v->rc, (const float (*)[4])v->L);
-        v->light_ms = 1e3 * (prt_now() - t0);
-        v->light_backend = "CPU";
-        v->g_dirty_cpu = false;
-    }
+    prt_runtime *rt = current(v);
+    if (runtime_set_light(rt, &v->probes[v->probe], rotated(v) ? v->R : NULL, err)) return -1;
+    runtime_timing t;
+    runtime_get_timing(rt, &t);
+    v->lightvec_ms = t.light_vector_ms;
+    v->light_ms = t.light_ms;
+    v->light_backend = v->gl ? "GL" : "CPU";
+    v->stale[v->gl] = false;
     return 0;
 }
 
-/* View change: relit image of the current camera into the float target. */
+/* View change: relit frame of the current camera into the runtime's float target. */
 static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
-    if (v->gl) {
-        if (glrt_draw(v->rt, &v->cam, v->fbw, v->fbh, v->kmax, err)) return -1;
-    } else {
-        relight_view(v->rc, v->cam.eye, v->kmax, v->rgb);
-        if (glrt_draw_vertex_colors(v->rt, &v->cam, v->fbw, v->fbh, v->rgb, err)) return -1;
-    }
+    prt_runtime *rt = current(v);
+    render_desc rd = { .width = v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
+                       .background_rotation = rotated(v) ? v->R : NULL };
+    runtime_set_terms(rt, v->kmax);
+    if (runtime_render(rt, &rd, NULL, err)) return -1;
     v->view_ms = 1e3 * (prt_now() - t0);
     v->view_backend = v->gl ? "GL" : "CPU";
     return 0;
@@ -185,19 +165,19 @@ static int view_change(viewer *v, prt_error *err) {
 /* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
     char buf[2048];
-    glrt_timing t;
-    glrt_get_timing(v->rt, &t);
+    runtime_timing t;
+    runtime_get_timing(v->rts[1], &t);
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
                      "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
-                     v->gl ? t.light_method_name : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
-                     t.renderer, t.context,
+                     v->gl ? t.kernel : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
+                     v->ctx->renderer, glctx_kind_name(v->ctx->kind),
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure,
-                     v->d.transfers[0].direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
+                     prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
@@ -211,7 +191,7 @@ static void overlay(viewer *v) {
 /* Saves the float target as an image file (exposure applied for 8-bit formats). */
 static int screenshot(viewer *v, const char *path, prt_error *err) {
     prt_image img;
-    if (glrt_read(v->rt, &img, err)) return -1;
+    if (runtime_read(current(v), &img, err)) return -1;
     image_desc d = { .exposure = v->exposure };
     int rc = image_write(path, &img, &d, err);
     image_free(&img);
@@ -250,14 +230,14 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     glfwGetFramebufferSize((GLFWwindow *)v->ctx->window, &w, &h);
     if (w < 1 || h < 1) return 0; /* minimized */
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
-    bool lit = v->light_dirty || v->probe_dirty || (v->gl ? v->g_dirty_gl : v->g_dirty_cpu);
+    bool lit = v->light_dirty || v->stale[v->gl];
     if (lit && light_change(v, err)) return -1;
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
         v->frame_ms = 1e3 * (prt_now() - t0);
     }
     v->view_dirty = false;
-    glrt_present(v->rt, v->fbw, v->fbh, v->exposure);
+    runtime_present(current(v), v->fbw, v->fbh, v->exposure);
     overlay(v);
     if (v->window_shot_now && window_screenshot(v, v->window_shot, err)) return -1;
     glfwSwapBuffers((GLFWwindow *)v->ctx->window);
@@ -367,7 +347,7 @@ static void select_probe(viewer *v, int i) {
     }
     if (i == v->probe) return;
     v->probe = i;
-    v->light_dirty = v->probe_dirty = true;
+    v->light_dirty = true;
 }
 
 /* S key: saves the float target as PNG (next free prt-view-NNN.png or --screenshot). */
@@ -390,21 +370,21 @@ static void toggle_direct(viewer *v) {
         set_status(v, "the file has no interreflection passes: it is direct lighting only");
         return;
     }
-    if (v->d.transfers[0].direct.nvecs == 0) {
+    if (prt_data_transfer(&v->d)->direct.nvecs == 0) {
         set_status(v, "the file keeps no direct-only transport (precompute with --keep-direct)");
         return;
     }
     prt_error err = { { 0 } };
     bool want = !v->direct;
-    if (!relight_use_direct(v->rc, want) || glrt_use_direct(v->rt, want, &err)) {
-        relight_use_direct(v->rc, v->direct);
+    if (runtime_use_direct(v->rts[0], want, &err) || runtime_use_direct(v->rts[1], want, &err)) {
+        runtime_use_direct(v->rts[0], v->direct, NULL);
         char msg[1100];
         snprintf(msg, sizeof msg, "cannot switch the transport: %s", err.msg[0] ? err.msg : "no direct set");
         set_status(v, msg);
         return;
     }
     v->direct = want;
-    v->g_dirty_gl = v->g_dirty_cpu = true;
+    v->light_dirty = true;
     char msg[128];
     snprintf(msg, sizeof msg, "%s", want ? "direct lighting only" : "direct lighting + interreflections");
     set_status(v, msg);
@@ -435,7 +415,7 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         break;
     case 'v': case 'V':
         v->vertex_model = !v->vertex_model;
-        glrt_set_view_mode(v->rt, v->vertex_model ? GLRT_VIEW_VERTEX : GLRT_VIEW_PIXEL);
+        runtime_set_view(v->rts[1], v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, NULL);
         v->view_dirty = true;
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
@@ -511,138 +491,134 @@ static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
 static void viewer_free(viewer *v) {
     if (v->ctx) glctx_make_current(v->ctx, NULL);
     gltext_free(&v->text);
-    glrt_destroy(v->rt);
+    runtime_destroy(v->rts[0]);
+    runtime_destroy(v->rts[1]);
     glctx_destroy(v->ctx);
-    relight_destroy(v->rc);
-    free(v->rgb);
-    free(v->L);
     for (int i = 0; i < v->nprobes; i++) probe_free(&v->probes[i]);
     prt_data_free(&v->d);
 }
 
-/* `prt view` (see view_help): 0, 1 on errors, 2 on usage errors. */
-int cli_view(int argc, char **argv) {
-    viewer *v = calloc(1, sizeof *v);
-    if (!v) return cli_error(k_view, "out of memory");
-    const char *layout = NULL, *cam_s = NULL, *rot_s = NULL, *val, *dirs[16], *paths[VIEW_MAX_PROBES];
-    int ndirs = 0, npaths = 0, w = 1024, h = 768, frames = 0;
-    v->gl = true;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { view_help(); free(v); return 0; }
-#define OPT(name, var) if ((r = cli_opt(k_view, argc, argv, &i, name, &var))) { if (r < 0) goto usage; continue; }
-        OPT("--layout", layout)
-        OPT("--camera", cam_s)
-        OPT("--light-rotation", rot_s)
-        OPT("--screenshot", v->shot_path)
-        OPT("--window-shot", v->window_shot)
-        OPT("--keys", v->keys)
-        if ((r = cli_opt(k_view, argc, argv, &i, "--probe", &val))) {
-            if (r < 0) goto usage;
-            if (npaths == VIEW_MAX_PROBES) { cli_error(k_view, "at most %d probes", VIEW_MAX_PROBES); goto usage; }
-            paths[npaths++] = val;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--probes", &val))) {
-            if (r < 0) goto usage;
-            if (ndirs < 16) dirs[ndirs++] = val;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--size", &val))) {
-            if (r < 0 || !cli_size(k_view, val, &w, &h)) goto usage;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--exposure", &val))) {
-            if (r < 0 || !cli_float(k_view, "--exposure", val, -64, 64, &v->exposure)) goto usage;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--terms", &val))) {
-            if (r < 0 || !cli_int(k_view, "--terms", val, 1, 64, &v->kmax)) goto usage;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--threads", &val))) {
-            if (r < 0 || !cli_int(k_view, "--threads", val, 1, 64, &v->nthreads)) goto usage;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--frames", &val))) {
-            if (r < 0 || !cli_int(k_view, "--frames", val, 1, 1000000, &frames)) goto usage;
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--backend", &val))) {
-            if (r < 0) goto usage;
-            if (!strcmp(val, "gl")) v->gl = true;
-            else if (!strcmp(val, "cpu")) v->gl = false;
-            else { cli_error(k_view, "unknown --backend '%s' (gl or cpu)", val); goto usage; }
-            continue;
-        }
-        if ((r = cli_opt(k_view, argc, argv, &i, "--view-model", &val))) {
-            if (r < 0) goto usage;
-            if (!strcmp(val, "pixel")) v->vertex_model = false;
-            else if (!strcmp(val, "vertex")) v->vertex_model = true;
-            else { cli_error(k_view, "unknown --view-model '%s' (pixel or vertex)", val); goto usage; }
-            continue;
-        }
-#undef OPT
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_view, "unknown option '%s' (see --help)", argv[i]); goto usage; }
-        if (v->file) { cli_error(k_view, "more than one input file ('%s' and '%s')", v->file, argv[i]); goto usage; }
-        v->file = argv[i];
+/* The command line beyond what goes straight into the viewer. */
+typedef struct view_args {
+    const char *layout, *cam_s, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
+    int ndirs, npaths, w, h, frames;
+} view_args;
+
+/* One option of argv at *i into v / a: 1 taken, 0 not an option of ours, -1 usage error (printed). */
+static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) {
+    const char *val;
+    int r;
+#define OPT_S(name, var) if ((r = cli_opt(k_view, argc, argv, i, name, &(var)))) return r < 0 ? -1 : 1;
+#define OPT_V(name) if ((r = cli_opt(k_view, argc, argv, i, name, &val)) < 0) return -1; else if (r)
+    OPT_S("--layout", a->layout)
+    OPT_S("--camera", a->cam_s)
+    OPT_S("--light-rotation", a->rot_s)
+    OPT_S("--screenshot", v->shot_path)
+    OPT_S("--window-shot", v->window_shot)
+    OPT_S("--keys", v->keys)
+    OPT_V("--probe") {
+        if (a->npaths == VIEW_MAX_PROBES) return cli_error(k_view, "at most %d probes", VIEW_MAX_PROBES), -1;
+        a->paths[a->npaths++] = val;
+        return 1;
     }
-    if (!v->file) { cli_error(k_view, "no input .prt file (see --help)"); goto usage; }
-    if ((v->window_shot || v->keys) && !frames) { cli_error(k_view, "--window-shot and --keys need --frames"); goto usage; }
-    if (!npaths && !ndirs) { cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"); goto usage; }
+    OPT_V("--probes") { if (a->ndirs < 16) a->dirs[a->ndirs++] = val; return 1; }
+    OPT_V("--size") return cli_size(k_view, val, &a->w, &a->h) ? 1 : -1;
+    OPT_V("--exposure") return cli_float(k_view, "--exposure", val, -64, 64, &v->exposure) ? 1 : -1;
+    OPT_V("--terms") return cli_int(k_view, "--terms", val, 1, 64, &v->kmax) ? 1 : -1;
+    OPT_V("--threads") return cli_int(k_view, "--threads", val, 1, 64, &v->nthreads) ? 1 : -1;
+    OPT_V("--frames") return cli_int(k_view, "--frames", val, 1, 1000000, &a->frames) ? 1 : -1;
+    OPT_V("--backend") {
+        if (strcmp(val, "gl") && strcmp(val, "cpu")) return cli_error(k_view, "unknown --backend '%s' (gl or cpu)", val), -1;
+        v->gl = !strcmp(val, "gl");
+        return 1;
+    }
+    OPT_V("--view-model") {
+        if (strcmp(val, "pixel") && strcmp(val, "vertex"))
+            return cli_error(k_view, "unknown --view-model '%s' (pixel or vertex)", val), -1;
+        v->vertex_model = !strcmp(val, "vertex");
+        return 1;
+    }
+#undef OPT_S
+#undef OPT_V
+    return 0;
+}
+
+/* Checks what the options say together (and the initial light rotation). 0 or -1 (printed). */
+static int check_args(viewer *v, const view_args *a) {
+    if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
+    if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
+    if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
     if (v->shot_path) {
         char ext[16];
         prt_path_ext(v->shot_path, ext);
-        if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif")) {
-            cli_error(k_view, "%s: unsupported screenshot format '.%s' (use .png or .exr)", v->shot_path, ext);
-            goto usage;
-        }
+        if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif"))
+            return cli_error(k_view, "%s: unsupported screenshot format '.%s' (use .png or .exr)", v->shot_path, ext), -1;
     }
-    if (rot_s) {
+    if (a->rot_s) {
         float R[9];
-        if (probe_parse_rotation(rot_s, R) != 0 || sscanf(rot_s, "%f", &v->lyaw) != 1) {
-            cli_error(k_view, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", rot_s);
-            goto usage;
-        }
-        const char *comma = strchr(rot_s, ',');
+        if (probe_parse_rotation(a->rot_s, R) != 0 || sscanf(a->rot_s, "%f", &v->lyaw) != 1)
+            return cli_error(k_view, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", a->rot_s), -1;
+        const char *comma = strchr(a->rot_s, ',');
         if (comma) v->lpitch = strtof(comma + 1, NULL);
     }
+    return 0;
+}
 
-    prt_error err = { { 0 } };
-    int rc = 1;
-    if (prtfile_read(v->file, &v->d, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-    if (cli_camera(k_view, &v->d.scene, (float)w / h, cam_s, &v->cam)) {
-        rc = 2;
-        goto done;
+/* Parses argv into v and a: -1 to go on, else the exit status (0 after --help, 2 on usage errors). */
+static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
+    memset(a, 0, sizeof *a);
+    a->w = 1024;
+    a->h = 768;
+    v->gl = true;
+    for (int i = 1; i < argc; i++) {
+        if (cli_is_help(argv[i])) { view_help(); return 0; }
+        int r = parse_option(v, a, argc, argv, &i);
+        if (r < 0) return 2;
+        if (r) continue;
+        if (argv[i][0] == '-' && argv[i][1]) return cli_error(k_view, "unknown option '%s' (see --help)", argv[i]) + 1;
+        if (v->file) return cli_error(k_view, "more than one input file ('%s' and '%s')", v->file, argv[i]) + 1;
+        v->file = argv[i];
     }
+    return check_args(v, a) ? 2 : -1;
+}
+
+/* Reads the file and the probes, frames the camera. Returns 0, or the exit status after printing. */
+static int load_inputs(viewer *v, const view_args *a) {
+    prt_error err = { { 0 } };
+    if (prtfile_read(v->file, &v->d, &err)) return cli_error(k_view, "%s", err.msg);
+    if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, &v->cam)) return 2;
     v->cam0 = v->cam;
-    for (int i = 0; i < npaths; i++)
-        if (add_probe(v, paths[i], layout)) goto done;
-    for (int i = 0; i < ndirs; i++)
-        if (add_probe_dir(v, dirs[i], layout)) goto done;
+    for (int i = 0; i < a->npaths; i++)
+        if (add_probe(v, a->paths[i], a->layout)) return 1;
+    for (int i = 0; i < a->ndirs; i++)
+        if (add_probe_dir(v, a->dirs[i], a->layout)) return 1;
     for (int m = 0; m < v->d.scene.nmaterials; m++)
         if (v->d.factors[m].K > v->kfile) v->kfile = v->d.factors[m].K;
     if (v->kmax >= v->kfile) v->kmax = 0;
     v->lyaw0 = v->lyaw;
     v->lpitch0 = v->lpitch;
     update_rotation(v);
+    return 0;
+}
 
-    v->rgb = malloc(sizeof(float) * 3 * (size_t)(v->d.scene.mesh.nverts > 0 ? v->d.scene.mesh.nverts : 1));
-    v->rc = relight_create(&v->d, v->nthreads, &err);
-    if (!v->rgb || !v->rc) { cli_error(k_view, "%s", v->rc ? "out of memory" : err.msg); goto done; }
+/* The window, both runtimes drawing into it, the text and the callbacks. 0 or 1 (error printed). */
+static int open_window(viewer *v, const view_args *a) {
+    prt_error err = { { 0 } };
     char title[512];
     snprintf(title, sizeof title, "prt view - %s", v->file);
-    glctx_window_desc wd = { .width = w, .height = h, .title = title, .visible = true };
+    glctx_window_desc wd = { .width = a->w, .height = a->h, .title = title, .visible = true };
     v->ctx = glctx_create(GLCTX_GLFW, &wd, &err);
-    if (!v->ctx) { cli_error(k_view, "%s", err.msg); goto done; }
-    glrt_desc rdsc = { .ctx = v->ctx, .view = v->vertex_model ? GLRT_VIEW_VERTEX : GLRT_VIEW_PIXEL };
-    v->rt = glrt_create(&v->d, &rdsc, &err);
-    if (!v->rt) { cli_error(k_view, "%s", err.msg); goto done; }
-    if (gltext_init(&v->text, &v->ctx->gl, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
+    if (!v->ctx) return cli_error(k_view, "%s", err.msg);
+    runtime_desc cpu = { .backend = "cpu", .threads = v->nthreads, .ctx = v->ctx };
+    runtime_desc gl = { .backend = "gl", .threads = v->nthreads, .ctx = v->ctx,
+                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL };
+    if (!(v->rts[0] = runtime_create(&v->d, &cpu, &err)) || !(v->rts[1] = runtime_create(&v->d, &gl, &err)) ||
+        gltext_init(&v->text, &v->ctx->gl, &err))
+        return cli_error(k_view, "%s", err.msg);
     GLFWwindow *win = (GLFWwindow *)v->ctx->window;
     glfwSetWindowUserPointer(win, v);
     glfwSwapInterval(0); /* frame times are the renderer's, not the display's refresh */
-    if (!frames) {
+    if (!a->frames) {
         glfwSetMouseButtonCallback(win, on_mouse_button);
         glfwSetCursorPosCallback(win, on_cursor);
         glfwSetScrollCallback(win, on_scroll);
@@ -650,231 +626,63 @@ int cli_view(int argc, char **argv) {
         glfwSetKeyCallback(win, on_key);
         glfwSetFramebufferSizeCallback(win, on_resize);
     }
-    glrt_timing tm;
-    glrt_get_timing(v->rt, &tm);
+    runtime_timing tm;
+    runtime_get_timing(v->rts[1], &tm);
     fprintf(stderr, "prt view: %s (%d vertices, %d vectors), GL %s on %s (%s), light kernel %s; press h for help\n",
-            v->file, v->d.scene.mesh.nverts, v->d.transfers[0].transport.nvecs, tm.version, tm.renderer, tm.context,
-            tm.light_method_name);
-    v->light_dirty = v->probe_dirty = v->view_dirty = true;
-    if (frames) {
-        /* Scripted: the first frame is a light change, the others view changes of the same view. */
-        double sum_view = 0;
-        size_t nkeys = v->keys ? strlen(v->keys) : 0;
-        for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
-            glfwPollEvents();
-            if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
-            v->window_shot_now = v->window_shot && f == frames - 1;
-            if (frame(v, true, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-            if (f > 0 || frames == 1) sum_view += v->view_ms;
-        }
-        if (v->shot_path && screenshot(v, v->shot_path, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-        printf("view: %d frames at %dx%d, %s runtime: light change %.1f ms (light vector %.1f ms), view change %.2f ms "
-               "mean%s%s\n",
-               frames, v->fbw, v->fbh, v->gl ? "GL" : "CPU", v->light_ms, v->lightvec_ms,
-               sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
-    } else {
-        while (!glfwWindowShouldClose(win) && !v->quit) {
-            bool busy = v->light_dirty || v->view_dirty || v->probe_dirty || v->drag;
-            if (busy) glfwPollEvents();
-            else glfwWaitEventsTimeout(0.25);
-            bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;
-            if (v->light_dirty || v->view_dirty || v->probe_dirty || v->present_dirty || (v->gl ? v->g_dirty_gl : v->g_dirty_cpu) ||
-                status_visible)
-                if (frame(v, false, &err)) { cli_error(k_view, "%s", err.msg); goto done; }
-        }
+            v->file, v->d.scene.mesh.nverts, prt_data_transfer(&v->d)->transport.nvecs, v->ctx->version, v->ctx->renderer,
+            glctx_kind_name(v->ctx->kind), tm.kernel);
+    v->light_dirty = v->view_dirty = true;
+    return 0;
+}
+
+/* --frames N: the first frame is a light change, the others view changes of the same view (keys from
+ * --keys pressed one before each frame from the second). 0 or 1. */
+static int run_scripted(viewer *v, int frames) {
+    prt_error err = { { 0 } };
+    GLFWwindow *win = (GLFWwindow *)v->ctx->window;
+    double sum_view = 0;
+    size_t nkeys = v->keys ? strlen(v->keys) : 0;
+    for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
+        glfwPollEvents();
+        if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
+        v->window_shot_now = v->window_shot && f == frames - 1;
+        if (frame(v, true, &err)) return cli_error(k_view, "%s", err.msg);
+        if (f > 0 || frames == 1) sum_view += v->view_ms;
     }
-    rc = 0;
-done:
+    if (v->shot_path && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
+    printf("view: %d frames at %dx%d, %s runtime: light change %.1f ms (light vector %.1f ms), view change %.2f ms "
+           "mean%s%s\n",
+           frames, v->fbw, v->fbh, v->gl ? "GL" : "CPU", v->light_ms, v->lightvec_ms,
+           sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
+    return 0;
+}
+
+/* The event loop: waits for input when nothing changes, draws when something did. 0 or 1. */
+static int run_interactive(viewer *v) {
+    prt_error err = { { 0 } };
+    GLFWwindow *win = (GLFWwindow *)v->ctx->window;
+    while (!glfwWindowShouldClose(win) && !v->quit) {
+        bool busy = v->light_dirty || v->view_dirty || v->drag;
+        if (busy) glfwPollEvents();
+        else glfwWaitEventsTimeout(0.25);
+        bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;
+        if (v->light_dirty || v->view_dirty || v->present_dirty || v->stale[v->gl] || status_visible)
+            if (frame(v, false, &err)) return cli_error(k_view, "%s", err.msg);
+    }
+    return 0;
+}
+
+/* `prt view` (see view_help): 0, 1 on errors, 2 on usage errors. */
+int cli_view(int argc, char **argv) {
+    viewer *v = calloc(1, sizeof *v);
+    if (!v) return cli_error(k_view, "out of memory");
+    view_args a;
+    int rc = parse_args(argc, argv, v, &a);
+    if (rc >= 0) { free(v); return rc; }
+    rc = load_inputs(v, &a);
+    if (rc == 0) rc = open_window(v, &a);
+    if (rc == 0) rc = a.frames ? run_scripted(v, a.frames) : run_interactive(v);
     viewer_free(v);
     free(v);
-    return rc;
-usage:
-    free(v);
-    return 2;
-}
-
-/* ---------------------------------------------------------------- glbench */
-
-static void glbench_help(void) {
-    puts("usage: prt glbench FILE.prt --probe PROBE [--size WxH] [--runs N] [--terms K] [--threads T]\n"
-         "\n"
-         "Times light changes (sparse T x L for every vector) and view changes (view maps and\n"
-         "drawing one frame) with the GLSL runtime and with the CPU runtime, and prints them as\n"
-         "frame rates beside the paper's Table II (GeForce 6800 / Pentium 4, Bunny).\n"
-         "GL runs headless (OSMesa, or EGL on an NVIDIA machine; PRT_GL=osmesa|egl overrides).\n"
-         "\n"
-         "  --probe PROBE    light probe\n"
-         "  --size WxH       frame size for view changes (default 800x600)\n"
-         "  --runs N         timed repetitions of each measurement (default 5; the median is shown)\n"
-         "  --terms K        BRDF terms used in view changes (default: all)\n"
-         "  --threads T      CPU runtime threads (default: all cores)\n"
-         "  --kernel K       GL light kernel: auto (default), fragment, thread, warp");
-}
-
-/* qsort order for doubles. */
-static int cmp_double(const void *a, const void *b) {
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
-
-/* Median of x[0..n) (sorts x). */
-static double median(double *x, int n) {
-    qsort(x, n, sizeof *x, cmp_double);
-    return n % 2 ? x[n / 2] : 0.5 * (x[n / 2 - 1] + x[n / 2]);
-}
-
-/* `prt glbench` (see glbench_help): 0, 1 on errors, 2 on usage errors. */
-int cli_glbench(int argc, char **argv) {
-    const char *k_cmd = "glbench", *in = NULL, *probe_path = NULL, *val, *kernel = "auto";
-    int w = 800, h = 600, runs = 5, kmax = 0, nthreads = 0;
-    for (int i = 1; i < argc; i++) {
-        int r;
-        if (cli_is_help(argv[i])) { glbench_help(); return 0; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--probe", &probe_path))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--kernel", &kernel))) { if (r < 0) return 2; continue; }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--size", &val))) {
-            if (r < 0 || !cli_size(k_cmd, val, &w, &h)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--runs", &val))) {
-            if (r < 0 || !cli_int(k_cmd, "--runs", val, 1, 1000, &runs)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--terms", &val))) {
-            if (r < 0 || !cli_int(k_cmd, "--terms", val, 1, 64, &kmax)) return 2;
-            continue;
-        }
-        if ((r = cli_opt(k_cmd, argc, argv, &i, "--threads", &val))) {
-            if (r < 0 || !cli_int(k_cmd, "--threads", val, 1, 64, &nthreads)) return 2;
-            continue;
-        }
-        if (argv[i][0] == '-' && argv[i][1]) { cli_error(k_cmd, "unknown option '%s' (see --help)", argv[i]); return 2; }
-        if (in) { cli_error(k_cmd, "more than one input file ('%s' and '%s')", in, argv[i]); return 2; }
-        in = argv[i];
-    }
-    if (!in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
-    if (!probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
-    glrt_light_method method = GLRT_LIGHT_AUTO;
-    if (!strcmp(kernel, "fragment")) method = GLRT_LIGHT_FRAGMENT;
-    else if (!strcmp(kernel, "thread")) method = GLRT_LIGHT_THREAD;
-    else if (!strcmp(kernel, "warp")) method = GLRT_LIGHT_WARP;
-    else if (strcmp(kernel, "auto")) { cli_error(k_cmd, "unknown --kernel '%s' (auto, fragment, thread, warp)", kernel); return 2; }
-
-    prt_error err = { { 0 } };
-    prt_data d;
-    memset(&d, 0, sizeof d);
-    if (prtfile_read(in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
-    prt_probe probe;
-    memset(&probe, 0, sizeof probe);
-    int rc = 1;
-    relight_ctx *rcx = NULL;
-    glrt *rt = NULL;
-    float *rgb = NULL;
-    float(*L)[4] = NULL;
-    double *t = calloc((size_t)runs, sizeof(double));
-    if (cli_load_probe(k_cmd, probe_path, NULL, &probe)) goto done;
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    if (cube) { probe_to_cube(&probe, CUBE_RES, NULL, 0, cube); L = transfer_light_vector(&d, cube); }
-    free(cube);
-    rgb = malloc(sizeof(float) * 3 * (size_t)(d.scene.mesh.nverts > 0 ? d.scene.mesh.nverts : 1));
-    if (!L || !rgb || !t) { cli_error(k_cmd, "out of memory"); goto done; }
-    prt_camera cam;
-    cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
-    int kfile = 0;
-    for (int m = 0; m < d.scene.nmaterials; m++)
-        if (d.factors[m].K > kfile) kfile = d.factors[m].K;
-    int kuse = kmax > 0 && kmax < kfile ? kmax : kfile;
-
-    glrt_desc desc = { .light = method };
-    rt = glrt_create(&d, &desc, &err);
-    if (!rt) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    if (glrt_set_background(rt, &probe, NULL, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    rcx = relight_create(&d, nthreads, &err);
-    if (!rcx) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    glrt_timing tm;
-    glrt_get_timing(rt, &tm);
-    printf("prt glbench: %s: %d vertices, %d triangles, %d vectors, %zu coefficients (%d-bit), K %d (using %d), "
-           "%dx%d frames\n",
-           in, d.scene.mesh.nverts, d.scene.mesh.ntris, d.transfers[0].transport.nvecs, (size_t)d.transfers[0].transport.coef_first[d.transfers[0].transport.nvecs],
-           d.transfers[0].transport.qbits, kfile, kuse, w, h);
-    printf("GL: %s, %s (%s context); light kernel %s", tm.renderer, tm.version, tm.context, tm.light_method_name);
-    if (method == GLRT_LIGHT_AUTO) {
-        printf(" (measured:");
-        for (int k = GLRT_LIGHT_FRAGMENT; k < GLRT_LIGHT_COUNT; k++)
-            if (tm.method_ms[k] > 0) printf(" %s %.2f ms", glrt_light_method_name((glrt_light_method)k), tm.method_ms[k]);
-        printf(")");
-    }
-    printf("\nCPU: %d threads\n\n", prt_thread_count(nthreads));
-
-    double res[2][2], gpu[2] = { 0, 0 };
-    /* GL light change: upload L + kernel, finished. */
-    glrt_set_light(rt, (const float (*)[4])L, &err); /* warm-up */
-    double gsum = 0;
-    for (int r = 0; r < runs; r++) {
-        if (glrt_set_light(rt, (const float (*)[4])L, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        glrt_get_timing(rt, &tm);
-        t[r] = tm.light_ms;
-        gsum += tm.light_gpu_ms;
-    }
-    res[0][0] = median(t, runs);
-    gpu[0] = gsum / runs;
-    /* GL view change: one frame (per-pixel view maps), finished. */
-    glrt_draw(rt, &cam, w, h, kuse, &err);
-    gsum = 0;
-    for (int r = 0; r < runs; r++) {
-        cam.eye[0] += 1e-4f; /* a different view each time */
-        if (glrt_draw(rt, &cam, w, h, kuse, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-        glrt_get_timing(rt, &tm);
-        t[r] = tm.view_ms;
-        gsum += tm.view_gpu_ms;
-    }
-    res[0][1] = median(t, runs);
-    gpu[1] = gsum / runs;
-    /* CPU light change: relight_set_light (sparse T x L, all threads). */
-    relight_set_light(rcx, (const float (*)[4])L);
-    for (int r = 0; r < runs; r++) {
-        double t0 = prt_now();
-        relight_set_light(rcx, (const float (*)[4])L);
-        t[r] = 1e3 * (prt_now() - t0);
-    }
-    res[1][0] = median(t, runs);
-    /* CPU view change: per-vertex view maps (relight_view), then drawing the colours with the same GL
-     * raster (finished). */
-    double *t2 = calloc((size_t)runs, sizeof(double));
-    if (!t2) { cli_error(k_cmd, "out of memory"); goto done; }
-    for (int r = 0; r < runs; r++) {
-        cam.eye[0] += 1e-4f;
-        double t0 = prt_now();
-        relight_view(rcx, cam.eye, kuse, rgb);
-        t2[r] = 1e3 * (prt_now() - t0);
-        if (glrt_draw_vertex_colors(rt, &cam, w, h, rgb, &err)) { free(t2); cli_error(k_cmd, "%s", err.msg); goto done; }
-        t[r] = 1e3 * (prt_now() - t0);
-    }
-    res[1][1] = median(t, runs);
-    double t_maps = median(t2, runs);
-    free(t2);
-
-    printf("%-30s %24s %24s\n", "", "light change", "view change");
-    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms)\n", "GL runtime (wall, finished)", 1e3 / res[0][0],
-           res[0][0], 1e3 / res[0][1], res[0][1]);
-    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms)\n", "GL runtime (GPU timer query)",
-           gpu[0] > 0 ? 1e3 / gpu[0] : 0, gpu[0], gpu[1] > 0 ? 1e3 / gpu[1] : 0, gpu[1]);
-    printf("%-30s %11.2f fps (%7.1f ms) %11.2f fps (%7.1f ms) = view maps %.1f ms + raster %.1f ms\n",
-           "CPU runtime", 1e3 / res[1][0], res[1][0], 1e3 / res[1][1], res[1][1], t_maps, res[1][1] - t_maps);
-    printf("glbench: K=%d gl_light_ms=%.3f gl_view_ms=%.3f cpu_light_ms=%.3f cpu_view_ms=%.3f kernel=%s\n", kuse,
-           res[0][0], res[0][1], res[1][0], res[1][1], tm.light_method_name);
-    printf("\npaper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
-           "  GPU 1-term: light change 31 fps, view change 226 fps\n"
-           "  CPU 1-term: light change 12 fps, view change 79 fps\n"
-           "  CPU 4-term: light change 4.8 fps, view change 62 fps (GPU 4-term view change 97 fps)\n");
-    rc = 0;
-done:
-    free(t);
-    free(L);
-    free(rgb);
-    relight_destroy(rcx);
-    glrt_destroy(rt);
-    probe_free(&probe);
-    prt_data_free(&d);
     return rc;
 }

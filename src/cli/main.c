@@ -15,8 +15,7 @@ static const subcommand k_commands[] = {
     { "view", cli_view, "interactive relighting viewer (GLFW window)" },
     { "reference", cli_reference, "path-traced reference of a .prt file's scene" },
     { "compare", cli_compare, "compare two EXR images or per-vertex CSV files" },
-    { "glbench", cli_glbench, "time light and view changes, GLSL runtime against CPU (Table II)" },
-    { "bench", cli_bench, "time light changes and view changes of a .prt file (CPU runtime)" },
+    { "bench", cli_bench, "time light changes and view changes of a .prt file (--backend cpu|gl; Table II)" },
 };
 
 static void usage(FILE *f) {

@@ -203,3 +203,6 @@ void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb) {
     view_job j = { rc, { eye[0], eye[1], eye[2] }, kmax, rgb };
     prt_parallel_for(rc->nverts, 4096, rc->nthreads, view_chunk, &j);
 }
+
+/* Copies externally computed K-vectors into the cache. */
+void relight_set_gvec(relight_ctx *rc, const float *g) { memcpy(rc->g, g, sizeof(float) * 3 * (size_t)rc->nvecs); }

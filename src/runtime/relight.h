@@ -29,4 +29,7 @@ const float *relight_gvec(const relight_ctx *rc);
 void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb);
 /* Outgoing radiance of vertex v toward a unit world direction wo (for tests and the reference). */
 void relight_vertex(const relight_ctx *rc, int v, const float wo[3], int kmax, float rgb[3]);
+/* Replaces the cached K-vectors with g[3 * nvecs] computed elsewhere (the GL runtime's, read back),
+ * so that relight_view finishes them per vertex. */
+void relight_set_gvec(relight_ctx *rc, const float *g);
 #endif

@@ -1,0 +1,183 @@
+/* runtime_gl.c - the "gl" runtime backend (runtime.h) over the GLSL runtime (glrt.h).
+ *
+ * Light change: glrt_set_light, the sparse T x L in a GPU pass (the kernel
+ * chosen by name, "auto" timing each once at create). View change: glrt_draw,
+ * per pixel (the default) or per vertex. Images are read back from glrt's float
+ * target; runtime_present blits it to the caller's window.
+ *
+ * Vertex colours: the GPU has no per-vertex output buffer here, so the K-vectors
+ * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
+ * CPU by relight_view (relight_set_gvec): the per-vertex model, so the colours
+ * equal the cpu backend's to the float rounding of the GPU's sums. The relight
+ * context for that is made on the first such call. */
+#include "runtime.h"
+#include "glrt.h"
+#include "relight.h"
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct gl_rt {
+    const prt_data *d;
+    glrt *rt;
+    int nthreads;
+    bool direct;
+    relight_ctx *finish;        /* vertex colours: made on first use */
+    float *g;                   /* [3*nvecs] read back */
+    const prt_probe *bg;        /* the probe uploaded as background (and its pixels) */
+    const float *bg_pixels;
+    bool bg_set, has_frame;
+    double view_ms, raster_ms;  /* the last view change (draw or vertex finish) and read-back */
+} gl_rt;
+
+/* Frees the glrt (and its context when it made one) and the vertex-finish state. */
+static void gl_destroy(void *self) {
+    gl_rt *g = self;
+    if (!g) return;
+    glrt_destroy(g->rt);
+    relight_destroy(g->finish);
+    free(g->g);
+    free(g);
+}
+
+/* The light kernel named s (NULL: auto; glrt's own names too); -1 with err listing the known ones. */
+static int parse_kernel(const char *s, glrt_light_method *out, prt_error *err) {
+    static const struct { const char *name; glrt_light_method m; } k_names[] = {
+        { "auto", GLRT_LIGHT_AUTO }, { "fragment", GLRT_LIGHT_FRAGMENT }, { "thread", GLRT_LIGHT_THREAD },
+        { "warp", GLRT_LIGHT_WARP },
+    };
+    *out = GLRT_LIGHT_AUTO;
+    if (!s) return 0;
+    for (size_t i = 0; i < sizeof k_names / sizeof k_names[0]; i++)
+        if (!strcmp(s, k_names[i].name) || !strcmp(s, glrt_light_method_name(k_names[i].m))) {
+            *out = k_names[i].m;
+            return 0;
+        }
+    return prt_fail(err, "gl runtime: unknown light kernel '%s' (auto, fragment, thread, warp)", s);
+}
+
+/* The glrt view mode of a runtime view model (default: per pixel). */
+static glrt_view_mode view_mode(runtime_view v) { return v == RUNTIME_VIEW_VERTEX ? GLRT_VIEW_VERTEX : GLRT_VIEW_PIXEL; }
+
+/* glrt_create with the kernel and view model asked for, the direct set if asked. NULL with err. */
+static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
+    glrt_desc gd = { .ctx = desc->ctx, .view = view_mode(desc->view) };
+    if (parse_kernel(desc->kernel, &gd.light, err)) return NULL;
+    gl_rt *g = prt_calloc(1, sizeof *g, err);
+    if (!g) return NULL;
+    g->d = d;
+    g->nthreads = desc->threads;
+    g->rt = glrt_create(d, &gd, err);
+    if (!g->rt) { gl_destroy(g); return NULL; }
+    if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) {
+        if (glrt_use_direct(g->rt, true, err)) { gl_destroy(g); return NULL; }
+        g->direct = true;
+    }
+    return g;
+}
+
+/* Light change on the GPU (timed by glrt, finished). */
+static int gl_set_light(void *self, const float (*L)[4], prt_error *err) {
+    gl_rt *g = self;
+    return glrt_set_light(g->rt, L, err);
+}
+
+/* Read back g, finish h . g per vertex on the CPU (see the header comment). */
+static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
+    gl_rt *g = self;
+    double t0 = prt_now();
+    if (!g->finish) {
+        g->finish = relight_create(g->d, g->nthreads, err);
+        g->g = g->finish ? prt_calloc(3 * (size_t)prt_data_transfer(g->d)->transport.nvecs + 3, sizeof(float), err) : NULL;
+        if (!g->g) { relight_destroy(g->finish); g->finish = NULL; return -1; }
+    }
+    if (glrt_read_gvec(g->rt, g->g, err)) return -1;
+    relight_set_gvec(g->finish, g->g);
+    relight_view(g->finish, eye, kmax, rgb);
+    g->view_ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+/* Background (uploaded again only for another probe), then the view change into the target. */
+static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
+    gl_rt *g = self;
+    const prt_probe *p = rd->background;
+    if (!g->bg_set || p != g->bg || (p && p->img.data != g->bg_pixels)) {
+        if (glrt_set_background(g->rt, p, rd->background_rotation, err)) return -1;
+        g->bg = p;
+        g->bg_pixels = p ? p->img.data : NULL;
+        g->bg_set = true;
+    } else glrt_set_background_rotation(g->rt, rd->background_rotation);
+    if (glrt_draw(g->rt, &rd->camera, rd->width, rd->height, kmax, err)) return -1;
+    glrt_timing t;
+    glrt_get_timing(g->rt, &t);
+    g->view_ms = t.view_ms;
+    g->raster_ms = 0;
+    g->has_frame = true;
+    return 0;
+}
+
+/* The target read back, timed. */
+static int gl_read(void *self, prt_image *out, prt_error *err) {
+    gl_rt *g = self;
+    if (!g->has_frame) return prt_fail(err, "gl runtime: no frame rendered yet");
+    double t0 = prt_now();
+    int rc = glrt_read(g->rt, out, err);
+    g->raster_ms = 1e3 * (prt_now() - t0);
+    return rc;
+}
+
+/* Tone-mapped blit to the window. */
+static void gl_present(void *self, int win_w, int win_h, float exposure_stops) {
+    gl_rt *g = self;
+    glrt_present(g->rt, win_w, win_h, exposure_stops);
+}
+
+/* Uploads the direct-only (or total) transport; -1 with err. */
+static int gl_use_direct(void *self, bool direct, prt_error *err) {
+    gl_rt *g = self;
+    if (glrt_use_direct(g->rt, direct, err)) return -1;
+    g->direct = direct;
+    return 0;
+}
+
+/* Per pixel or per vertex from the next frame on. */
+static int gl_set_view(void *self, runtime_view view, prt_error *err) {
+    gl_rt *g = self;
+    glrt_set_view_mode(g->rt, view_mode(view));
+    return 0;
+}
+
+/* glrt's timings in the runtime's fields; the kernels measured at create as detail. */
+static void gl_get_timing(const void *self, runtime_timing *t) {
+    const gl_rt *g = self;
+    glrt_timing gt;
+    glrt_get_timing(g->rt, &gt);
+    t->light_ms = gt.light_ms;
+    t->light_gpu_ms = gt.light_gpu_ms;
+    t->view_ms = g->view_ms;
+    t->view_gpu_ms = gt.view_gpu_ms;
+    t->raster_ms = g->raster_ms;
+    t->bytes = gt.gpu_bytes;
+    t->kernel = gt.light_method_name;
+    snprintf(t->device, sizeof t->device, "%s, %s (%s context)", gt.renderer, gt.version, gt.context);
+    size_t n = 0;
+    for (int m = GLRT_LIGHT_FRAGMENT; m < GLRT_LIGHT_COUNT && n < sizeof t->detail; m++)
+        if (gt.method_ms[m] > 0)
+            n += (size_t)snprintf(t->detail + n, sizeof t->detail - n, "%s%s %.2f ms", n ? ", " : "kernels measured: ",
+                                  glrt_light_method_name((glrt_light_method)m), gt.method_ms[m]);
+}
+
+const runtime_backend runtime_gl = {
+    .name = "gl",
+    .create = gl_create,
+    .destroy = gl_destroy,
+    .set_light = gl_set_light,
+    .shade_vertices = gl_shade_vertices,
+    .render = gl_render,
+    .read = gl_read,
+    .present = gl_present,
+    .use_direct = gl_use_direct,
+    .set_view = gl_set_view,
+    .get_timing = gl_get_timing,
+    .set_local_lights = NULL,   /* issue 11 */
+};

@@ -1,0 +1,141 @@
+/* runtime.c - the runtime seam (runtime.h): the list of every backend, and what
+ * all of them share: argument checks, the light vector (probe -> rotated cube
+ * -> the transfer representation's light vector, transfer.h), its timing, and
+ * the number of BRDF terms view changes use. Each backend module implements
+ * the runtime_backend operations; nothing here knows what a backend does. */
+#include "runtime.h"
+#include "check.h"
+#include "cubemap.h"
+#include "transfer.h"
+#include <stdlib.h>
+#include <string.h>
+
+/* Every backend, found by name (the first is the default). Adding one: a module and a line here. */
+static const runtime_backend *const k_backends[] = { &runtime_cpu, &runtime_gl };
+#define NBACKENDS (sizeof k_backends / sizeof k_backends[0])
+
+struct prt_runtime {
+    const runtime_backend *be;
+    void *self;
+    const prt_data *d;
+    int kmax;
+    double light_vector_ms;
+};
+
+/* The backend called name, or NULL. */
+static const runtime_backend *find_backend(const char *name) {
+    for (size_t i = 0; i < NBACKENDS; i++)
+        if (!strcmp(k_backends[i]->name, name)) return k_backends[i];
+    return NULL;
+}
+
+/* See runtime.h; the caller owns the runtime (runtime_destroy). */
+prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
+    PRT_CHECK(d != NULL);
+    runtime_desc dd = desc ? *desc : (runtime_desc){ 0 };
+    if (!dd.backend) dd.backend = k_backends[0]->name;
+    const runtime_backend *be = find_backend(dd.backend);
+    if (!be) {
+        char names[256] = "";
+        for (size_t i = 0, n = 0; i < NBACKENDS && n < sizeof names; i++)
+            n += (size_t)snprintf(names + n, sizeof names - n, "%s%s", i ? ", " : "", k_backends[i]->name);
+        return prt_fail(err, "unknown backend '%s' (known: %s)", dd.backend, names), NULL;
+    }
+    if (dd.terms < 0) return prt_fail(err, "%s runtime: bad term count %d", be->name, dd.terms), NULL;
+    prt_runtime *rt = prt_calloc(1, sizeof *rt, err);
+    if (!rt) return NULL;
+    rt->be = be;
+    rt->d = d;
+    rt->kmax = dd.terms;
+    rt->self = be->create(d, &dd, err);
+    if (!rt->self) { free(rt); return NULL; }
+    return rt;
+}
+
+/* Frees the backend state and the runtime; NULL is fine. */
+void runtime_destroy(prt_runtime *rt) {
+    if (!rt) return;
+    rt->be->destroy(rt->self);
+    free(rt);
+}
+
+/* Light vector of the probe rotated by R (timed), then the backend's light change. */
+int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err) {
+    PRT_CHECK(rt != NULL && p != NULL);
+    double t0 = prt_now();
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (!cube) return prt_fail(err, "out of memory");
+    probe_to_cube(p, CUBE_RES, R, 0, cube);
+    float (*L)[4] = transfer_light_vector(rt->d, cube);
+    free(cube);
+    if (!L) return prt_fail(err, "out of memory");
+    rt->light_vector_ms = 1e3 * (prt_now() - t0);
+    int rc = rt->be->set_light(rt->self, (const float (*)[4])L, err);
+    free(L);
+    return rc;
+}
+
+/* Vertex colours toward eye with the current term count; -1 with err when the backend has none. */
+int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err) {
+    PRT_CHECK(rt != NULL && eye != NULL);
+    if (rt->d->scene.mesh.nverts > 0) PRT_CHECK(rgb != NULL);
+    if (!rt->be->shade_vertices) return prt_fail(err, "the %s backend cannot shade vertex colours", rt->be->name);
+    return rt->be->shade_vertices(rt->self, eye, rt->kmax, rgb, err);
+}
+
+/* Resolves the frame size, draws, and reads back when asked. */
+int runtime_render(prt_runtime *rt, const render_desc *rd, prt_image *out, prt_error *err) {
+    PRT_CHECK(rt != NULL && rd != NULL);
+    if (out) memset(out, 0, sizeof *out);
+    render_desc r = *rd;
+    if (r.width == 0 && r.height == 0) { r.width = 800; r.height = 600; }
+    if (r.width <= 0 || r.height <= 0 || r.width > 16384 || r.height > 16384)
+        return prt_fail(err, "render: image size %dx%d out of range (1..16384)", r.width, r.height);
+    if (rt->be->render(rt->self, &r, rt->kmax, err)) return -1;
+    return out ? rt->be->read(rt->self, out, err) : 0;
+}
+
+/* The last frame, read back (the caller frees it); -1 with err. */
+int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err) {
+    PRT_CHECK(rt != NULL && out != NULL);
+    memset(out, 0, sizeof *out);
+    return rt->be->read(rt->self, out, err);
+}
+
+/* Blits the last frame to the window (nothing without a window context). */
+void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops) {
+    PRT_CHECK(rt != NULL);
+    if (rt->be->present) rt->be->present(rt->self, win_w, win_h, exposure_stops);
+}
+
+/* Direct-only (true) or total (false) transport for the next light change; -1 with err. */
+int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err) {
+    PRT_CHECK(rt != NULL);
+    if (direct && prt_data_transfer(rt->d)->direct.nvecs == 0)
+        return prt_fail(err, "the file keeps no direct-only transport (precompute it with --keep-direct)");
+    return rt->be->use_direct(rt->self, direct, err);
+}
+
+/* BRDF terms of the next view changes (0: all). */
+void runtime_set_terms(prt_runtime *rt, int kmax) {
+    PRT_CHECK(rt != NULL && kmax >= 0);
+    rt->kmax = kmax;
+}
+
+/* The backend's view model; -1 with err when it lacks the one asked for. */
+int runtime_set_view(prt_runtime *rt, runtime_view view, prt_error *err) {
+    PRT_CHECK(rt != NULL);
+    return rt->be->set_view(rt->self, view, err);
+}
+
+/* The backend's timings, plus the light vector time and the backend name kept here. */
+void runtime_get_timing(const prt_runtime *rt, runtime_timing *t) {
+    PRT_CHECK(rt != NULL && t != NULL);
+    memset(t, 0, sizeof *t);
+    rt->be->get_timing(rt->self, t);
+    t->backend = rt->be->name;
+    t->light_vector_ms = rt->light_vector_ms;
+}
+
+/* The name the backend was found by. */
+const char *runtime_backend_name(const prt_runtime *rt) { return rt->be->name; }

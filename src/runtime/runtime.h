@@ -1,0 +1,165 @@
+/* runtime.h - the runtime seam: relighting a precomputed .prt file under an
+ * environment light, on any backend, through one interface (section 4.3).
+ *
+ * Usage:
+ *     runtime_desc desc = { .backend = "gl" };          // zero = defaults: "cpu", all threads, all terms
+ *     prt_runtime *rt = runtime_create(&data, &desc, &err);   // data is SHARED: keep it alive
+ *     runtime_set_light(rt, &probe, R, &err);          // light change: probe (rotated by R) -> T x L
+ *     runtime_shade_vertices(rt, eye, rgb, &err);      // view change as vertex colours, or
+ *     runtime_render(rt, &rd, &img, &err);             // view change as an image (rd: size, camera, background)
+ *     runtime_timing t; runtime_get_timing(rt, &t);    // the same fields for every backend
+ *     runtime_destroy(rt);
+ *
+ * Backends (the table in runtime.c lists every one):
+ *   cpu  relight.h: sparse T x L on the CPU threads, h(view) . g per vertex
+ *        (Eq. 5); images are those vertex colours rasterized (Gouraud) by OSMesa
+ *        (headless; render.h) or into desc.ctx (the viewer's window). Its view
+ *        model is per vertex only.
+ *   gl   glrt.h: the same T x L and h . g in GLSL; per pixel (default, the view
+ *        maps looked up at every pixel) or per vertex (the CPU's model).
+ *        Vertex colours: the GPU's K-vectors g are read back and h . g is
+ *        finished per vertex on the CPU (relight.h), i.e. the per-vertex model,
+ *        equal to the cpu backend's to float rounding.
+ * A backend is chosen by name; an unknown name is an error listing the known
+ * ones. Adding a backend is one module (runtime_NAME.c, a runtime_backend
+ * table) and one line in runtime.c's list; nothing else switches on it.
+ *
+ * The light: runtime_set_light resamples the probe to the 6x64x64 cube
+ * (probe_to_cube, rotated by R so that a light at d appears at R d) and asks
+ * the file's transfer representation for its light vector (transfer.h); the
+ * backend then runs its light-change kernel. The probe is only read during the
+ * call. Images show rd->background (rotated by rd->background_rotation) behind
+ * the scene; a backend that keeps the background on the GPU uploads it again
+ * only when the probe (pointer or pixels) differs from the last one drawn, so a
+ * caller that changes a probe's pixels in place must pass another prt_probe.
+ * rd->direct_only is ignored: direct-only lighting is runtime_desc.direct_only
+ * or runtime_use_direct.
+ *
+ * Frames and targets: runtime_render draws a frame into the runtime's target
+ * and, when out is non-NULL, reads it back. With a GL context (desc.ctx, or
+ * the gl backend's own) the target is a float framebuffer that runtime_present
+ * blits to the window and runtime_read reads. The cpu backend without a context
+ * has no framebuffer: runtime_render(out NULL) computes the vertex colours (its
+ * view change) and the raster happens when an image is asked for (out, or
+ * runtime_read), so `prt bench` times each backend's own view change.
+ *
+ * Timings (runtime_timing): wall clock of the last light vector, light change,
+ * view change and raster, finished (GL calls glFinish); GPU timer queries where
+ * the backend has them (0 otherwise); the bytes the backend holds for the
+ * scene; the backend's name, light kernel and device in words.
+ *
+ * Threads and contexts: a runtime is used from one thread at a time. A gl
+ * runtime, or a cpu runtime given desc.ctx, makes its context current in every
+ * call that draws, so other users of the context (the viewer's text) may draw
+ * in between.
+ *
+ * Local lights (issue 11, reserved): runtime_backend.set_local_lights is the
+ * place for per-frame local lights (spherical-Gaussian virtual lights); NULL in
+ * every backend today, so runtime.c will refuse them with one line per backend.
+ *
+ * Errors: every call that can fail returns 0, or -1 with one line in err
+ * (unknown backend, no GL context, GL too old, out of memory, a file that keeps
+ * no direct-only set). Bugs (NULL runtime, bad sizes from the library) are
+ * PRT_CHECKs. Ownership: the runtime owns its backend state and, when it made
+ * one, its GL context; prt_data, probes, the desc's context and images passed
+ * in stay the caller's; images read back are the caller's (image_free). */
+#ifndef PRT_RUNTIME_H
+#define PRT_RUNTIME_H
+#include "common.h"
+#include "prtfile.h"
+#include "probe.h"
+#include "render.h"
+
+struct glctx;
+
+/* How view-dependent shading is evaluated. */
+typedef enum runtime_view {
+    RUNTIME_VIEW_DEFAULT = 0,   /* the backend's own: gl per pixel, cpu per vertex */
+    RUNTIME_VIEW_PIXEL,         /* view maps looked up per pixel (gl) */
+    RUNTIME_VIEW_VERTEX,        /* h . g per vertex, colours interpolated (both) */
+} runtime_view;
+
+/* What to create; zero means default everywhere. */
+typedef struct runtime_desc {
+    const char *backend;        /* "cpu" (NULL: default) or "gl" (runtime.c lists them) */
+    int threads;                /* cpu: worker threads (0: all cores); also the gl backend's vertex finish */
+    int terms;                  /* BRDF terms used by view changes (0: all the file has) */
+    bool direct_only;           /* light with the file's direct-only set (if it keeps one; else ignored) */
+    struct glctx *ctx;          /* draw into this context (the viewer's window); NULL: headless, owned */
+    runtime_view view;          /* view model (a backend refuses one it lacks) */
+    const char *kernel;         /* light-change kernel by name (NULL: the backend's default; gl: "auto"
+                                   times fragment/thread/warp once at create and keeps the fastest) */
+} runtime_desc;
+
+/* The last call's timings; the same fields for every backend. */
+typedef struct runtime_timing {
+    const char *backend;        /* "cpu", "gl" */
+    double light_vector_ms;     /* last runtime_set_light: probe -> cube -> light vector (CPU) */
+    double light_ms;            /* last light change: T x L for every vector, finished */
+    double view_ms;             /* last view change: h(view) . g per vertex or per pixel, finished */
+    double raster_ms;           /* last image: drawing beyond the view change (background, raster, read) */
+    double light_gpu_ms, view_gpu_ms; /* GPU timer queries of the last light / view change (0: none) */
+    size_t bytes;               /* memory the backend holds for the scene (gl: uploaded to the GPU) */
+    const char *kernel;         /* the light-change kernel in use ("sparse T x L", "fragment", ...) */
+    char device[256];           /* "2 threads" / "GL renderer, version (context)" */
+    char detail[256];           /* backend extras, e.g. the gl kernels measured at create */
+} runtime_timing;
+
+typedef struct prt_runtime prt_runtime;
+
+/* Creates a runtime of desc->backend for d (d must outlive it). NULL with err. */
+prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_error *err);
+/* Frees the runtime and what it owns; NULL is fine. */
+void runtime_destroy(prt_runtime *rt);
+/* Light change: probe p rotated by R (row-major 3x3, NULL: none) through the file's representation. */
+int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err);
+/* View change as vertex colours: rgb[3*nverts] = radiance of every vertex toward eye, clamped >= 0. */
+int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err);
+/* View change as a frame rd->width x rd->height (0 x 0: 800 x 600) into the target; out non-NULL:
+ * also read back (linear RGB, top row first, allocated here). */
+int runtime_render(prt_runtime *rt, const render_desc *rd, prt_image *out, prt_error *err);
+/* The last frame as an image (allocated here). -1 with err when no frame was rendered. */
+int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err);
+/* Blits the last frame to the current window (win_w x win_h) with exposure (clamp, sRGB), as image_write's
+ * PNG; nothing without a window context. */
+void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops);
+/* Direct-only lighting (true) or direct + bounces (false); -1 with err when the file keeps no direct
+ * set. Takes effect at the next runtime_set_light. */
+int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err);
+/* BRDF terms used by the next view changes (0: all). */
+void runtime_set_terms(prt_runtime *rt, int kmax);
+/* Switches the view model; -1 with err when the backend lacks it (cpu: per pixel). */
+int runtime_set_view(prt_runtime *rt, runtime_view view, prt_error *err);
+/* Fills t with the last calls' timings and the backend's description. */
+void runtime_get_timing(const prt_runtime *rt, runtime_timing *t);
+/* The backend's name ("cpu", "gl"). */
+const char *runtime_backend_name(const prt_runtime *rt);
+
+/* ---------------------------------------------------------------- backend interface
+ * What a backend module implements (runtime_cpu.c, gpu/runtime_gl.c). runtime.c
+ * validates arguments, computes the light vector, times it and holds kmax;
+ * the ops see a valid self. Optional ops may be NULL (the call then fails with
+ * one line naming the backend). */
+typedef struct runtime_backend {
+    const char *name;           /* found by runtime_create by this name */
+    /* Creates the state; desc is complete (backend resolved). NULL with err. */
+    void *(*create)(const prt_data *d, const runtime_desc *desc, prt_error *err);
+    void (*destroy)(void *self);
+    /* Light change with the representation's light vector L ([CUBE_TEXELS][4]). */
+    int (*set_light)(void *self, const float (*L)[4], prt_error *err);
+    int (*shade_vertices)(void *self, const float eye[3], int kmax, float *rgb, prt_error *err);
+    /* Draws a frame into the target (size resolved, > 0). */
+    int (*render)(void *self, const render_desc *rd, int kmax, prt_error *err);
+    int (*read)(void *self, prt_image *out, prt_error *err);
+    void (*present)(void *self, int win_w, int win_h, float exposure_stops);
+    int (*use_direct)(void *self, bool direct, prt_error *err);
+    int (*set_view)(void *self, runtime_view view, prt_error *err);
+    /* Fills everything but backend and light_vector_ms. */
+    void (*get_timing)(const void *self, runtime_timing *t);
+    /* Reserved for issue 11 (local lights, per frame); NULL today. */
+    int (*set_local_lights)(void *self, const void *lights, int nlights, prt_error *err);
+} runtime_backend;
+
+extern const runtime_backend runtime_cpu;   /* src/runtime/runtime_cpu.c */
+extern const runtime_backend runtime_gl;    /* gpu/runtime_gl.c */
+#endif

@@ -1,0 +1,183 @@
+/* runtime_cpu.c - the "cpu" runtime backend (runtime.h) over relight.h.
+ *
+ * Light change: relight_set_light, the sparse T x L of Eq. 5 on every thread.
+ * View change: relight_view, h(view) . g per vertex (the per-vertex model; the
+ * paper's CPU path). Images are those colours drawn with Gouraud interpolation:
+ * headless through render_vertex_colors (OSMesa, a context per image, exactly
+ * what `prt render` always did, so its output is unchanged), or into the
+ * caller's context (the viewer's window) through a gldraw of our own, whose
+ * float target runtime_present blits. Without a context the raster waits for
+ * the image to be asked for (see runtime.h: bench times the view change alone). */
+#include "runtime.h"
+#include "check.h"
+#include "gldraw.h"
+#include "relight.h"
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct cpu_rt {
+    const prt_data *d;
+    relight_ctx *rc;
+    int nthreads;
+    float *rgb;                 /* [3*nverts] the last view change's colours */
+    glctx *ctx;                 /* the caller's, or NULL: headless */
+    gldraw draw;                /* with ctx: the float target */
+    bool draw_ready;
+    const prt_probe *bg;        /* with ctx: the probe uploaded as background (and its pixels) */
+    const float *bg_pixels;
+    render_desc frame;          /* headless: the last frame asked for, rasterized at read */
+    float frame_R[9];
+    bool has_frame;
+    double light_ms, view_ms, raster_ms;
+} cpu_rt;
+
+/* Frees the relight context, the colours and the GL objects made in the caller's context. */
+static void cpu_destroy(void *self) {
+    cpu_rt *c = self;
+    if (!c) return;
+    if (c->draw_ready && glctx_make_current(c->ctx, NULL) == 0) gldraw_free(&c->draw);
+    relight_destroy(c->rc);
+    free(c->rgb);
+    free(c);
+}
+
+/* Validates the desc's choices for this backend (one kernel, per-vertex view). */
+static int cpu_check_desc(const runtime_desc *desc, prt_error *err) {
+    if (desc->kernel && strcmp(desc->kernel, "auto") && strcmp(desc->kernel, "sparse"))
+        return prt_fail(err, "cpu runtime: unknown light kernel '%s' (the cpu backend has one: sparse)", desc->kernel);
+    if (desc->view == RUNTIME_VIEW_PIXEL)
+        return prt_fail(err, "cpu runtime: shades per vertex only (the per-pixel view model needs the gl backend)");
+    return 0;
+}
+
+/* relight_create, the colour buffer and, with a context, a gldraw with the mesh. NULL with err. */
+static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
+    if (cpu_check_desc(desc, err)) return NULL;
+    cpu_rt *c = prt_calloc(1, sizeof *c, err);
+    if (!c) return NULL;
+    c->d = d;
+    c->nthreads = desc->threads;
+    c->ctx = desc->ctx;
+    c->rc = relight_create(d, desc->threads, err);
+    c->rgb = c->rc ? prt_calloc(3 * (size_t)(d->scene.mesh.nverts > 0 ? d->scene.mesh.nverts : 1), sizeof(float), err) : NULL;
+    if (!c->rgb) { cpu_destroy(c); return NULL; }
+    if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) relight_use_direct(c->rc, true);
+    if (c->ctx) {
+        if (glctx_make_current(c->ctx, err) || gldraw_init(&c->draw, &c->ctx->gl, err)) { cpu_destroy(c); return NULL; }
+        c->draw_ready = true;
+        if (gldraw_set_mesh(&c->draw, &d->scene.mesh, err)) { cpu_destroy(c); return NULL; }
+    }
+    return c;
+}
+
+/* Light change: g = T x L on every thread (Eq. 5), timed. */
+static int cpu_set_light(void *self, const float (*L)[4], prt_error *err) {
+    cpu_rt *c = self;
+    double t0 = prt_now();
+    relight_set_light(c->rc, L);
+    c->light_ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+/* View change: h(view) . g per vertex into rgb, timed. */
+static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
+    cpu_rt *c = self;
+    double t0 = prt_now();
+    relight_view(c->rc, eye, kmax, rgb);
+    c->view_ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+/* Into the caller's context: background (uploaded again only for another probe), then the colours. */
+static int draw_in_context(cpu_rt *c, const render_desc *rd, prt_error *err) {
+    if (glctx_make_current(c->ctx, err)) return -1;
+    const prt_probe *p = rd->background;
+    if (p != c->bg || (p && p->img.data != c->bg_pixels)) {
+        if (gldraw_set_probe(&c->draw, p, err)) return -1;
+        c->bg = p;
+        c->bg_pixels = p ? p->img.data : NULL;
+    }
+    int w = rd->width, h = rd->height;
+    if (gldraw_target(&c->draw, w, h, err)) return -1;
+    gldraw_background(&c->draw, &rd->camera, w, h, rd->background_rotation);
+    if (gldraw_vertex_colors(&c->draw, &rd->camera, w, h, c->rgb, err)) return -1;
+    c->ctx->gl.Finish();
+    return glctx_check(&c->ctx->gl, "cpu runtime: drawing", err);
+}
+
+/* The view change, then the raster into the context (or kept for read, headless). */
+static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
+    cpu_rt *c = self;
+    if (cpu_shade_vertices(c, rd->camera.eye, kmax, c->rgb, err)) return -1;
+    c->raster_ms = 0;
+    c->has_frame = true;
+    if (!c->ctx) { /* headless: rasterized when the image is asked for */
+        c->frame = *rd;
+        if (rd->background_rotation) {
+            memcpy(c->frame_R, rd->background_rotation, sizeof c->frame_R);
+            c->frame.background_rotation = c->frame_R;
+        }
+        return 0;
+    }
+    double t0 = prt_now();
+    int rc = draw_in_context(c, rd, err);
+    c->raster_ms = 1e3 * (prt_now() - t0);
+    return rc;
+}
+
+/* The frame: the context's target, or rasterized now by OSMesa (headless). */
+static int cpu_read(void *self, prt_image *out, prt_error *err) {
+    cpu_rt *c = self;
+    if (!c->has_frame) return prt_fail(err, "cpu runtime: no frame rendered yet");
+    if (c->ctx) return glctx_make_current(c->ctx, err) ? -1 : gldraw_read(&c->draw, out, err);
+    double t0 = prt_now();
+    int rc = render_vertex_colors(&c->d->scene.mesh, c->rgb, &c->frame, out, err);
+    c->raster_ms = 1e3 * (prt_now() - t0);
+    return rc;
+}
+
+/* Tone-mapped blit of the target to the window (nothing headless). */
+static void cpu_present(void *self, int win_w, int win_h, float exposure_stops) {
+    cpu_rt *c = self;
+    if (c->ctx && glctx_make_current(c->ctx, NULL) == 0) gldraw_present(&c->draw, win_w, win_h, exposure_stops);
+}
+
+/* relight_use_direct; -1 with err when the file keeps no direct set. */
+static int cpu_use_direct(void *self, bool direct, prt_error *err) {
+    cpu_rt *c = self;
+    if (!relight_use_direct(c->rc, direct)) return prt_fail(err, "cpu runtime: the file keeps no direct-only transport");
+    return 0;
+}
+
+/* Per vertex is the only model here. */
+static int cpu_set_view(void *self, runtime_view view, prt_error *err) {
+    runtime_desc want = { .view = view };
+    return cpu_check_desc(&want, err);
+}
+
+/* Wall-clock timings of the last calls, the memory held, the thread count. */
+static void cpu_get_timing(const void *self, runtime_timing *t) {
+    const cpu_rt *c = self;
+    t->light_ms = c->light_ms;
+    t->view_ms = c->view_ms;
+    t->raster_ms = c->raster_ms;
+    /* Its own memory: the K-vector cache and the per-vertex position + frame records (relight.c). */
+    t->bytes = sizeof(float) * (3 * (size_t)prt_data_transfer(c->d)->transport.nvecs + 12 * (size_t)c->d->scene.mesh.nverts);
+    t->kernel = "sparse";
+    snprintf(t->device, sizeof t->device, "%d threads", prt_thread_count(c->nthreads));
+}
+
+const runtime_backend runtime_cpu = {
+    .name = "cpu",
+    .create = cpu_create,
+    .destroy = cpu_destroy,
+    .set_light = cpu_set_light,
+    .shade_vertices = cpu_shade_vertices,
+    .render = cpu_render,
+    .read = cpu_read,
+    .present = cpu_present,
+    .use_direct = cpu_use_direct,
+    .set_view = cpu_set_view,
+    .get_timing = cpu_get_timing,
+    .set_local_lights = NULL,   /* issue 11 */
+};

@@ -1,0 +1,317 @@
+/* test_runtime.c - the runtime seam (runtime.h): both backends through the one interface.
+ *
+ * A small precomputed scene (a glossy Phong sphere over a Lambertian floor, one
+ * forced bounce, direct set kept) under a procedural sky with a sun:
+ *   - an unknown backend, kernel or view model is refused with one line;
+ *   - the cpu runtime gives exactly what relight.h gives (the seam adds nothing),
+ *     and its image exactly what render_vertex_colors makes of those colours
+ *     (so `prt render` is unchanged);
+ *   - cpu and gl vertex colours and per-vertex images agree within test_glrt's
+ *     CPU-vs-GL tolerances (float rounding of the same sums); the gl per-pixel
+ *     image stays near them (a finer model, loosely bounded as in test_glrt);
+ *   - a light rotated by R equals the rotated light: the sky whose sun sits at
+ *     R s (a 90-degree yaw maps the latlong pixel grid onto itself), and is far
+ *     from the unrotated light;
+ *   - direct-only and the term count switch both backends alike;
+ *   - timings are filled and finite for both. */
+#include "harness.h"
+#include "light.h"
+#include "mesh.h"
+#include "precompute.h"
+#include "probe.h"
+#include "relight.h"
+#include "runtime.h"
+#include "scene.h"
+#include <stdlib.h>
+#include <string.h>
+
+#define W 160
+#define H 120
+
+/* Shared by the cases: built once by setup(). */
+static prt_data g_d;
+static prt_probe g_sky, g_sky_rot;      /* sun at s, and at R s (R: yaw 90) */
+static float g_R[9];
+static prt_camera g_cam;
+static int g_ok;
+
+static void setup(void) {
+    prt_error err = { { 0 } };
+    prt_mesh sphere = { 0 };
+    prt_scene scene = { 0 };
+    const float c[3] = { 0, 0.5f, 0 };
+    int rc = mesh_make_sphere(&sphere, c, 0.5f, 16, 24, &err);
+    if (rc == 0) rc = scene_from_mesh(&sphere, "phong:kd=0.4,0.25,0.15;ks=0.5;n=30", &scene, &err);
+    if (rc == 0) rc = scene_add_floor(&scene, 900, 3, NULL, &err);
+    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1,
+                           .keep_direct = true, .gather_res = 16 };
+    if (rc == 0) rc = precompute_run(&scene, &pd, &g_d, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    CHECK(rc || (g_d.factors[0].K == 3 && g_d.transfers[0].direct.nvecs == g_d.transfers[0].transport.nvecs), "K %d, direct %d", g_d.factors[0].K,
+          g_d.transfers[0].direct.nvecs);
+    const float s[3] = { 0.4f, 0.8f, 0.45f };
+    CHECK(probe_parse_rotation("90", g_R) == 0, "rotation");
+    float rs[3];
+    for (int i = 0; i < 3; i++) rs[i] = g_R[3 * i] * s[0] + g_R[3 * i + 1] * s[1] + g_R[3 * i + 2] * s[2];
+    sky_desc sd = { .width = 256, .sun_radius_deg = 5, .sun_radiance = 80 };
+    memcpy(sd.sun_dir, s, sizeof s);
+    int rp = probe_make_sky(&sd, &g_sky, &err);
+    memcpy(sd.sun_dir, rs, sizeof rs);
+    if (rp == 0) rp = probe_make_sky(&sd, &g_sky_rot, &err);
+    CHECK(rp == 0, "%s", err.msg);
+    camera_default(g_d.scene.bmin, g_d.scene.bmax, (float)W / H, &g_cam);
+    const float eye[3] = { 1.1f, 1.0f, 1.4f };
+    memcpy(g_cam.eye, eye, sizeof eye);
+    memcpy(g_cam.target, c, sizeof c);
+    g_ok = rc == 0 && rp == 0;
+}
+
+/* A runtime of backend (view model view), lit by p rotated by R; NULL after a failed check. */
+static prt_runtime *lit(const char *backend, runtime_view view, const prt_probe *p, const float *R) {
+    prt_error err = { { 0 } };
+    runtime_desc desc = { .backend = backend, .view = view };
+    prt_runtime *rt = runtime_create(&g_d, &desc, &err);
+    CHECK(rt != NULL, "%s: %s", backend, err.msg);
+    if (rt && runtime_set_light(rt, p, R, &err)) {
+        CHECK(false, "%s: set_light: %s", backend, err.msg);
+        runtime_destroy(rt);
+        return NULL;
+    }
+    return rt;
+}
+
+/* One line, naming what was wrong. */
+static void check_one_line(const prt_error *err, const char *needle) {
+    CHECK(strstr(err->msg, needle) != NULL && !strchr(err->msg, '\n'), "'%s' not named in: %s", needle, err->msg);
+}
+
+static void unknown_backend(void) {
+    prt_error err = { { 0 } };
+    runtime_desc desc = { .backend = "vulkan" };
+    CHECK(runtime_create(&g_d, &desc, &err) == NULL, "unknown backend accepted");
+    check_one_line(&err, "vulkan");
+    CHECK(strstr(err.msg, "cpu") && strstr(err.msg, "gl"), "known backends not listed: %s", err.msg);
+    runtime_desc k = { .backend = "gl", .kernel = "magic" };
+    CHECK(runtime_create(&g_d, &k, &err) == NULL, "unknown gl kernel accepted");
+    check_one_line(&err, "magic");
+    runtime_desc v = { .backend = "cpu", .view = RUNTIME_VIEW_PIXEL };
+    CHECK(runtime_create(&g_d, &v, &err) == NULL, "cpu accepted the per-pixel view model");
+    check_one_line(&err, "per vertex");
+    prt_runtime *rt = runtime_create(&g_d, NULL, &err);   /* NULL desc: the default, cpu */
+    CHECK(rt && !strcmp(runtime_backend_name(rt), "cpu"), "default backend %s", rt ? runtime_backend_name(rt) : err.msg);
+    prt_image img;
+    CHECK(rt && runtime_read(rt, &img, &err) == -1, "read before any frame");
+    runtime_destroy(rt);
+}
+
+/* max over elements of |a - b| / (|b| + floor), floor a fraction of b's largest value. */
+static double max_rel(const float *a, const float *b, size_t n, double floor_frac, double *bmax) {
+    double m = 0, worst = 0;
+    for (size_t i = 0; i < n; i++) m = fmax(m, fabs(b[i]));
+    for (size_t i = 0; i < n; i++) worst = fmax(worst, fabs(a[i] - b[i]) / (fabs(b[i]) + floor_frac * m));
+    if (bmax) *bmax = m;
+    return worst;
+}
+
+/* cpu = relight.h exactly; gl (g read back, finished per vertex) = cpu to float rounding; terms. */
+static void vertex_colours(void) {
+    if (!g_ok) return;
+    int n = g_d.scene.mesh.nverts;
+    float *a = calloc(3 * (size_t)n, sizeof(float)), *b = calloc(3 * (size_t)n, sizeof(float));
+    float *ref = calloc(3 * (size_t)n, sizeof(float));
+    prt_error err = { { 0 } };
+    prt_runtime *cpu = lit("cpu", 0, &g_sky, NULL), *gl = lit("gl", 0, &g_sky, NULL);
+    relight_ctx *rc = relight_create(&g_d, 0, &err);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    float (*L)[4] = light_alloc();
+    if (cpu && gl && rc && cube && L) {
+        probe_to_cube(&g_sky, CUBE_RES, NULL, 0, cube);
+        light_from_cube(cube, NULL, L, NULL);
+        relight_set_light(rc, (const float (*)[4])L);
+        for (int k = 0; k <= 1; k++) {
+            runtime_set_terms(cpu, k);
+            runtime_set_terms(gl, k);
+            relight_view(rc, g_cam.eye, k, ref);
+            CHECK(runtime_shade_vertices(cpu, g_cam.eye, a, &err) == 0, "%s", err.msg);
+            CHECK(runtime_shade_vertices(gl, g_cam.eye, b, &err) == 0, "%s", err.msg);
+            CHECK(memcmp(a, ref, sizeof(float) * 3 * n) == 0, "terms %d: cpu runtime differs from relight_view", k);
+            double bmax, e = max_rel(b, a, 3 * (size_t)n, 1e-3, &bmax);
+            CHECK_LE(e, 1e-4, "terms %d: gl vertex colours differ from cpu", k);
+            CHECK(bmax > 0.01, "black colours (%g)", bmax);
+        }
+        /* One term is not all three on the glossy sphere. */
+        relight_view(rc, g_cam.eye, 0, ref);
+        double e = max_rel(ref, a, 3 * (size_t)n, 1e-3, NULL);
+        CHECK(e > 0.01, "the term count changed nothing (%g)", e);
+    }
+    free(L);
+    free(cube);
+    relight_destroy(rc);
+    runtime_destroy(cpu);
+    runtime_destroy(gl);
+    free(a);
+    free(b);
+    free(ref);
+}
+
+static int cmp_dbl(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Sorted per-pixel |a - b| / (|b| + floor) into out (w*h*3); returns the count. */
+static size_t rel_diffs(const prt_image *a, const prt_image *b, double floor_, double *out) {
+    size_t n = (size_t)a->w * a->h * 3;
+    for (size_t i = 0; i < n; i++) out[i] = fabs(a->data[i] - b->data[i]) / (fabs(b->data[i]) + floor_);
+    qsort(out, n, sizeof *out, cmp_dbl);
+    return n;
+}
+
+/* Images: cpu = render_vertex_colors of its colours exactly; gl per vertex = cpu within test_glrt's
+ * tolerances; gl per pixel near it. */
+static void images(void) {
+    if (!g_ok) return;
+    prt_error err = { { 0 } };
+    render_desc rd = { .width = W, .height = H, .camera = g_cam, .background = &g_sky };
+    prt_image ic = { 0 }, iv = { 0 }, ip = { 0 }, ref = { 0 };
+    prt_runtime *cpu = lit("cpu", 0, &g_sky, NULL), *glv = lit("gl", RUNTIME_VIEW_VERTEX, &g_sky, NULL);
+    prt_runtime *glp = lit("gl", 0, &g_sky, NULL);
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)g_d.scene.mesh.nverts);
+    double *rel = malloc(sizeof(double) * W * H * 3);
+    if (cpu && glv && glp && rgb && rel && runtime_render(cpu, &rd, &ic, &err) == 0 && runtime_render(glv, &rd, &iv, &err) == 0 &&
+        runtime_render(glp, &rd, &ip, &err) == 0 && runtime_shade_vertices(cpu, g_cam.eye, rgb, &err) == 0 &&
+        render_vertex_colors(&g_d.scene.mesh, rgb, &rd, &ref, &err) == 0) {
+        CHECK(ic.w == W && ic.h == H && iv.w == W && ip.h == H, "sizes");
+        CHECK(memcmp(ic.data, ref.data, sizeof(float) * W * H * 3) == 0, "cpu runtime image differs from render_vertex_colors");
+        double cmax = 0;
+        for (size_t i = 0; i < (size_t)W * H * 3; i++) cmax = fmax(cmax, ic.data[i]);
+        size_t n = rel_diffs(&iv, &ic, 1e-3 * cmax, rel);
+        CHECK_LE(rel[n * 999 / 1000], 1e-4, "gl per-vertex image differs from the cpu one");
+        CHECK_LE(rel[n / 2], 1e-5, "median");
+        n = rel_diffs(&ip, &ic, 1e-2 * cmax, rel);
+        double mean = 0;
+        for (size_t i = 0; i < n; i++) mean += rel[i];
+        CHECK_LE(mean / n, 0.1, "gl per-pixel image far from the per-vertex one");
+        CHECK(cmax > 0.01, "black image");
+        /* The same runtime switched to per vertex gives the per-vertex runtime's image. */
+        prt_image sw = { 0 };
+        CHECK(runtime_set_view(glp, RUNTIME_VIEW_VERTEX, &err) == 0 && runtime_render(glp, &rd, &sw, &err) == 0, "%s", err.msg);
+        CHECK(sw.data && memcmp(sw.data, iv.data, sizeof(float) * W * H * 3) == 0, "set_view(vertex) differs");
+        image_free(&sw);
+    } else CHECK(false, "%s", err.msg);
+    image_free(&ic);
+    image_free(&iv);
+    image_free(&ip);
+    image_free(&ref);
+    free(rgb);
+    free(rel);
+    runtime_destroy(cpu);
+    runtime_destroy(glv);
+    runtime_destroy(glp);
+}
+
+/* set_light(sky, R) = set_light(sky with its sun at R s), on both backends; far from set_light(sky). */
+static void rotation(void) {
+    if (!g_ok) return;
+    const char *backends[2] = { "cpu", "gl" };
+    int n = g_d.scene.mesh.nverts;
+    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n), *c = malloc(sizeof(float) * 3 * n);
+    for (int k = 0; k < 2; k++) {
+        prt_error err = { { 0 } };
+        prt_runtime *rot = lit(backends[k], 0, &g_sky, g_R), *truth = lit(backends[k], 0, &g_sky_rot, NULL);
+        prt_runtime *plain = lit(backends[k], 0, &g_sky, NULL);
+        if (rot && truth && plain && runtime_shade_vertices(rot, g_cam.eye, a, &err) == 0 &&
+            runtime_shade_vertices(truth, g_cam.eye, b, &err) == 0 && runtime_shade_vertices(plain, g_cam.eye, c, &err) == 0) {
+            double e = max_rel(a, b, 3 * (size_t)n, 1e-2, NULL), far = max_rel(c, b, 3 * (size_t)n, 1e-2, NULL);
+            fprintf(stderr, "test_runtime: %s: rotated light vs rotated sky %.2e, vs unrotated %.2e\n", backends[k], e, far);
+            /* The same directions up to float rounding (a 90-degree yaw maps the pixel grid onto itself). */
+            CHECK_LE(e, 1e-4, "%s: the light rotated by R differs from the sky rotated by R", backends[k]);
+            CHECK(far > 0.2, "%s: rotation had no effect (%g)", backends[k], far);
+        } else CHECK(false, "%s: %s", backends[k], err.msg);
+        runtime_destroy(rot);
+        runtime_destroy(truth);
+        runtime_destroy(plain);
+    }
+    free(a);
+    free(b);
+    free(c);
+}
+
+/* Direct-only through the interface: both backends agree, differ from the total, and switch back. */
+static void direct(void) {
+    if (!g_ok) return;
+    int n = g_d.scene.mesh.nverts;
+    float *col[2][2];
+    const char *backends[2] = { "cpu", "gl" };
+    prt_error err = { { 0 } };
+    for (int k = 0; k < 2; k++) {
+        prt_runtime *rt = lit(backends[k], 0, &g_sky, NULL);
+        for (int dir = 0; dir < 2; dir++) {
+            col[k][dir] = calloc(3 * (size_t)n, sizeof(float));
+            CHECK(rt && runtime_use_direct(rt, dir, &err) == 0 && runtime_set_light(rt, &g_sky, NULL, &err) == 0 &&
+                      runtime_shade_vertices(rt, g_cam.eye, col[k][dir], &err) == 0,
+                  "%s: %s", backends[k], err.msg);
+        }
+        runtime_destroy(rt);
+    }
+    for (int dir = 0; dir < 2; dir++)
+        CHECK_LE(max_rel(col[1][dir], col[0][dir], 3 * (size_t)n, 1e-3, NULL), 1e-4, "direct %d: gl differs from cpu", dir);
+    double sd = 0, st = 0;
+    for (int i = 0; i < 3 * n; i++) { sd += col[0][1][i]; st += col[0][0][i]; }
+    CHECK(st > sd * 1.01 && sd > 0, "the bounce added nothing: total %g, direct %g", st, sd);
+    for (int k = 0; k < 2; k++)
+        for (int dir = 0; dir < 2; dir++) free(col[k][dir]);
+    /* A file without a direct set refuses the switch with one line. */
+    prt_transport keep = g_d.transfers[0].direct;
+    memset(&g_d.transfers[0].direct, 0, sizeof g_d.transfers[0].direct);
+    prt_runtime *rt = lit("cpu", 0, &g_sky, NULL);
+    CHECK(rt && runtime_use_direct(rt, true, &err) == -1, "direct switch without a direct set");
+    check_one_line(&err, "direct");
+    runtime_destroy(rt);
+    g_d.transfers[0].direct = keep;
+}
+
+/* Every timing field filled and finite on both backends, after a light change, an image and colours. */
+static void timings(void) {
+    if (!g_ok) return;
+    const char *backends[2] = { "cpu", "gl" };
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)g_d.scene.mesh.nverts);
+    for (int k = 0; k < 2; k++) {
+        prt_error err = { { 0 } };
+        prt_runtime *rt = lit(backends[k], 0, &g_sky, NULL);
+        render_desc rd = { .width = 64, .height = 48, .camera = g_cam };
+        prt_image img = { 0 };
+        runtime_timing t;
+        if (rt && runtime_render(rt, &rd, &img, &err) == 0) {
+            runtime_get_timing(rt, &t);
+            CHECK(!strcmp(t.backend, backends[k]) && t.kernel && t.kernel[0] && t.device[0], "%s: names", backends[k]);
+            CHECK(t.light_vector_ms > 0 && t.light_ms > 0 && t.view_ms > 0 && t.raster_ms > 0, "%s: %g %g %g %g", backends[k],
+                  t.light_vector_ms, t.light_ms, t.view_ms, t.raster_ms);
+            CHECK_LE(t.light_vector_ms + t.light_ms + t.view_ms + t.raster_ms + t.light_gpu_ms + t.view_gpu_ms, 1e6,
+                     "%s: finite", backends[k]);
+            CHECK(t.light_gpu_ms >= 0 && t.view_gpu_ms >= 0, "%s: GPU times", backends[k]);
+            CHECK(t.bytes >= sizeof(float) * 3 * (size_t)g_d.transfers[0].transport.nvecs, "%s: bytes %zu", backends[k], t.bytes);
+            CHECK(runtime_shade_vertices(rt, g_cam.eye, rgb, &err) == 0, "%s", err.msg);
+            runtime_get_timing(rt, &t);
+            CHECK(t.view_ms > 0 && t.view_ms < 1e6, "%s: vertex view change %g", backends[k], t.view_ms);
+        } else CHECK(false, "%s: %s", backends[k], err.msg);
+        image_free(&img);
+        runtime_destroy(rt);
+    }
+    free(rgb);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    setup();
+    CHECK_CASE(unknown_backend);
+    CHECK_CASE(vertex_colours);
+    CHECK_CASE(images);
+    CHECK_CASE(rotation);
+    CHECK_CASE(direct);
+    CHECK_CASE(timings);
+    prt_data_free(&g_d);
+    probe_free(&g_sky);
+    probe_free(&g_sky_rot);
+    return check_summary();
+}
