@@ -76,6 +76,7 @@ def blank(text):
 
 
 HEAD_END = re.compile(r"\)\s*(const|noexcept|override|final|\s)*$")
+ATTR_END = re.compile(r"(\s*__attribute__\s*\(\((?:[^()]|\([^()]*\))*\)\))+$")
 NAME = re.compile(r"([A-Za-z_~][A-Za-z0-9_:~]*)\s*\($")
 
 
@@ -99,17 +100,18 @@ def functions(path):
             if re.search(r"\b(extern\s*\"\s*\"|namespace(\s+\w+)?)\s*$", head):
                 kind = "T"
             elif HEAD_END.search(head) and not re.search(r"\b(struct|union|enum)\b|=", head):
-                # name: identifier before the "(" that matches the last ")"
-                depth, j = 0, head.rstrip().rfind(")")
+                # name: identifier before the "(" that matches the last ")" (trailing attributes dropped)
+                sig = ATTR_END.sub("", head.rstrip())
+                depth, j = 0, sig.rfind(")")
                 while j >= 0:
-                    if head[j] == ")":
+                    if sig[j] == ")":
                         depth += 1
-                    elif head[j] == "(":
+                    elif sig[j] == "(":
                         depth -= 1
                         if depth == 0:
                             break
                     j -= 1
-                m = NAME.search(head[: j + 1]) if j >= 0 else None
+                m = NAME.search(sig[: j + 1]) if j >= 0 else None
                 if m:
                     kind = "F"
                     pos = head_start + m.start(1)
