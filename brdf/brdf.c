@@ -456,20 +456,15 @@ static bool key_allowed(brdf_type t, const char *key) {
     return false;
 }
 
-/* Parses a spec (see brdf.h). Returns 0, or -1 with err naming the spec and the problem. */
-int brdf_parse(const char *spec, brdf_params *out, prt_error *err) {
-    if (!spec) return prt_fail(err, "brdf: no spec given");
-    char buf[1024];
-    if (strlen(spec) >= sizeof buf) return prt_fail(err, "brdf \"%.60s...\": spec longer than %zu characters", spec, sizeof buf - 1);
-    strcpy(buf, spec);
-    char *s = trim(buf);
+/* The presets of section 5: true (and *out set) when s names one. */
+static bool parse_preset(const char *s, brdf_params *out) {
     if (!strcasecmp(s, "paper-phong")) {
         /* section 5: Phong with a red diffuse colour and exponent 50 */
         defaults(BRDF_PHONG, out);
         out->kd[0] = 0.5f, out->kd[1] = 0.05f, out->kd[2] = 0.05f;
         set3(out->ks, 0.3f);
         out->n = 50;
-        return 0;
+        return true;
     }
     if (!strcasecmp(s, "paper-as")) {
         /* section 5: AS with kd 0.5, ks 0.75, nu 10, nv 100 */
@@ -477,8 +472,85 @@ int brdf_parse(const char *spec, brdf_params *out, prt_error *err) {
         set3(out->kd, 0.5f);
         set3(out->ks, 0.75f);
         out->nu = 10, out->nv = 100;
+        return true;
+    }
+    return false;
+}
+
+/* Sets colour key ("kd" or "ks") of p from v[3] after range checks (ks of a microfacet or AS
+ * model is a Fresnel reflectance, so at most 1). Returns 0, or -1 with err set. */
+static int parse_rgb(const char *spec, const char *key, const double v[3], brdf_params *p, prt_error *err) {
+    bool fresnel = !strcmp(key, "ks") && (p->type == BRDF_AS || p->type == BRDF_GGX || p->type == BRDF_BECKMANN);
+    for (int k = 0; k < 3; k++) {
+        if (v[k] < 0) return prt_fail(err, "brdf \"%s\": %s=%g is negative", spec, key, v[k]);
+        if (fresnel && v[k] > 1)
+            return prt_fail(err, "brdf \"%s\": ks=%g out of range [0,1] (Fresnel reflectance)", spec, v[k]);
+        if (v[k] > 1e6) return prt_fail(err, "brdf \"%s\": %s=%g out of range", spec, key, v[k]);
+    }
+    float *d = key[1] == 'd' ? p->kd : p->ks;
+    for (int k = 0; k < 3; k++) d[k] = (float)v[k];
+    return 0;
+}
+
+/* Sets exponent key n, nu or nv (v[0]) of p, or appends lobe v[4] = Cx,Cy,Cz,n as lobe
+ * *lobes. Returns 0, or -1 with err set. */
+static int parse_exponent(const char *spec, const char *key, const double *v, int want, brdf_params *p, int *lobes,
+                          prt_error *err) {
+    double e = want == 4 ? v[3] : v[0];
+    if (e < 0) return prt_fail(err, "brdf \"%s\": negative exponent %s=%g", spec, key, e);
+    if (e > EXP_LIMIT) return prt_fail(err, "brdf \"%s\": exponent %s=%g out of range [0,1e6]", spec, key, e);
+    if (!strcmp(key, "n")) p->n = (float)e;
+    else if (!strcmp(key, "nu")) p->nu = (float)e;
+    else if (!strcmp(key, "nv")) p->nv = (float)e;
+    else {
+        if (*lobes == BRDF_MAX_LOBES) return prt_fail(err, "brdf \"%s\": more than %d lobes", spec, BRDF_MAX_LOBES);
+        for (int k = 0; k < 3; k++) {
+            if (fabs(v[k]) > 1e6) return prt_fail(err, "brdf \"%s\": lobe coefficient %g out of range", spec, v[k]);
+            p->lobe[*lobes][k] = (float)v[k];
+        }
+        p->lobe[*lobes][3] = (float)e;
+        (*lobes)++;
+    }
+    return 0;
+}
+
+/* Applies one trimmed, non-empty "key=value" item (modified in place) of spec to p.
+ * Returns 0, or -1 with err naming the spec and the problem. */
+static int parse_item(const char *spec, char *it, brdf_params *p, int *lobes, prt_error *err) {
+    char *eq = strchr(it, '=');
+    if (!eq) return prt_fail(err, "brdf \"%s\": expected key=value, got '%s'", spec, it);
+    *eq = 0;
+    char *key = trim(it), *val = trim(eq + 1);
+    if (!key_allowed(p->type, key))
+        return prt_fail(err, "brdf \"%s\": unknown key '%s' for model %s", spec, key, k_names[p->type]);
+    double v[4];
+    int want = !strcmp(key, "lobe") ? 4 : 1;
+    bool rgb = !strcmp(key, "kd") || !strcmp(key, "ks");
+    int nv = parse_numbers(val, v, rgb ? 3 : want);
+    if (nv < 0 || (rgb ? (nv != 1 && nv != 3) : nv != want))
+        return prt_fail(err, "brdf \"%s\": bad number '%s' for %s (expected %s)", spec, val, key,
+                        rgb ? "1 or 3 numbers" : want == 4 ? "Cx,Cy,Cz,n" : "1 number");
+    if (rgb) {
+        if (nv == 1) v[1] = v[2] = v[0];
+        return parse_rgb(spec, key, v, p, err);
+    }
+    if (!strcmp(key, "alpha")) {
+        if (!(v[0] >= 1e-3 && v[0] <= 2)) return prt_fail(err, "brdf \"%s\": alpha=%g out of range [0.001,2]", spec, v[0]);
+        p->alpha = (float)v[0];
         return 0;
     }
+    return parse_exponent(spec, key, v, want, p, lobes, err);
+}
+
+/* Parses a spec (see brdf.h): a preset, or "model:key=value;...". Returns 0, or -1 with
+ * err naming the spec and the problem. */
+int brdf_parse(const char *spec, brdf_params *out, prt_error *err) {
+    if (!spec) return prt_fail(err, "brdf: no spec given");
+    char buf[1024];
+    if (strlen(spec) >= sizeof buf) return prt_fail(err, "brdf \"%.60s...\": spec longer than %zu characters", spec, sizeof buf - 1);
+    strcpy(buf, spec);
+    char *s = trim(buf);
+    if (parse_preset(s, out)) return 0;
     char *colon = strchr(s, ':'), *rest = NULL;
     if (colon) *colon = 0, rest = colon + 1;
     char *model = trim(s);
@@ -497,51 +569,7 @@ int brdf_parse(const char *spec, brdf_params *out, prt_error *err) {
         if (semi) *semi = 0;
         char *it = trim(item);
         item = semi ? semi + 1 : NULL;
-        if (!*it) continue;
-        char *eq = strchr(it, '=');
-        if (!eq) return prt_fail(err, "brdf \"%s\": expected key=value, got '%s'", spec, it);
-        *eq = 0;
-        char *key = trim(it), *val = trim(eq + 1);
-        if (!key_allowed(p.type, key))
-            return prt_fail(err, "brdf \"%s\": unknown key '%s' for model %s", spec, key, k_names[p.type]);
-        double v[4];
-        int want = !strcmp(key, "lobe") ? 4 : 1;
-        bool rgb = !strcmp(key, "kd") || !strcmp(key, "ks");
-        int nv = parse_numbers(val, v, rgb ? 3 : want);
-        if (nv < 0 || (rgb ? (nv != 1 && nv != 3) : nv != want))
-            return prt_fail(err, "brdf \"%s\": bad number '%s' for %s (expected %s)", spec, val, key,
-                            rgb ? "1 or 3 numbers" : want == 4 ? "Cx,Cy,Cz,n" : "1 number");
-        if (rgb) {
-            if (nv == 1) v[1] = v[2] = v[0];
-            bool fresnel = !strcmp(key, "ks") && (p.type == BRDF_AS || p.type == BRDF_GGX || p.type == BRDF_BECKMANN);
-            for (int k = 0; k < 3; k++) {
-                if (v[k] < 0) return prt_fail(err, "brdf \"%s\": %s=%g is negative", spec, key, v[k]);
-                if (fresnel && v[k] > 1)
-                    return prt_fail(err, "brdf \"%s\": ks=%g out of range [0,1] (Fresnel reflectance)", spec, v[k]);
-                if (v[k] > 1e6) return prt_fail(err, "brdf \"%s\": %s=%g out of range", spec, key, v[k]);
-            }
-            float *d = key[1] == 'd' ? p.kd : p.ks;
-            for (int k = 0; k < 3; k++) d[k] = (float)v[k];
-        } else if (!strcmp(key, "alpha")) {
-            if (!(v[0] >= 1e-3 && v[0] <= 2)) return prt_fail(err, "brdf \"%s\": alpha=%g out of range [0.001,2]", spec, v[0]);
-            p.alpha = (float)v[0];
-        } else {
-            double e = want == 4 ? v[3] : v[0];
-            if (e < 0) return prt_fail(err, "brdf \"%s\": negative exponent %s=%g", spec, key, e);
-            if (e > EXP_LIMIT) return prt_fail(err, "brdf \"%s\": exponent %s=%g out of range [0,1e6]", spec, key, e);
-            if (!strcmp(key, "n")) p.n = (float)e;
-            else if (!strcmp(key, "nu")) p.nu = (float)e;
-            else if (!strcmp(key, "nv")) p.nv = (float)e;
-            else {
-                if (lobes == BRDF_MAX_LOBES) return prt_fail(err, "brdf \"%s\": more than %d lobes", spec, BRDF_MAX_LOBES);
-                for (int k = 0; k < 3; k++) {
-                    if (fabs(v[k]) > 1e6) return prt_fail(err, "brdf \"%s\": lobe coefficient %g out of range", spec, v[k]);
-                    p.lobe[lobes][k] = (float)v[k];
-                }
-                p.lobe[lobes][3] = (float)e;
-                lobes++;
-            }
-        }
+        if (*it && parse_item(spec, it, &p, &lobes, err)) return -1;
     }
     if (p.type == BRDF_LAFORTUNE) {
         if (lobes) p.nlobes = lobes;

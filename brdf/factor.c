@@ -351,121 +351,156 @@ static bool channels_proportional(const float *a, const float *b, size_t nn, dou
     return true;
 }
 
-/* Tabulates and factors p (see factor.h). Returns 0, or -1 with err set. */
-int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_factor *out, prt_error *err) {
-    double t0 = prt_now();
-    memset(out, 0, sizeof *out);
-    brdf_factor_desc d = { 0 };
-    if (desc) d = *desc;
-    if (d.max_terms == 0) d.max_terms = 4;
-    if (d.res == 0) d.res = BRDF_DEFAULT_RES;
-    if (!p || (unsigned)p->type > BRDF_BECKMANN) return prt_fail(err, "brdf_factorize: invalid BRDF parameters");
-    if (d.max_terms < 1 || d.max_terms > BRDF_MAX_SIGMA)
-        return prt_fail(err, "brdf_factorize: max_terms %d out of range [1,%d]", d.max_terms, BRDF_MAX_SIGMA);
-    if (d.res < 4 || d.res > 256) return prt_fail(err, "brdf_factorize: resolution %d out of range [4,256]", d.res);
-    if (!(d.error_target >= 0) || !isfinite(d.error_target))
-        return prt_fail(err, "brdf_factorize: error target %g must be >= 0", d.error_target);
-    if (d.param != BRDF_PARAM_GRID && d.param != BRDF_PARAM_POLAR)
-        return prt_fail(err, "brdf_factorize: unknown parameterization %d", (int)d.param);
-    if ((unsigned)d.solver > BRDF_SOLVER_GESDD_S) return prt_fail(err, "brdf_factorize: unknown solver %d", (int)d.solver);
+/* The three channels' factorizations: channel c is scale[c] times cf[src[c]] (src[c] == c
+ * when it was factored itself). */
+typedef struct fac_channels {
+    chan_fac cf[3];
+    int src[3];
+    double scale[3];
+} fac_channels;
 
-    fac_grid g;
-    if (grid_build(&g, d.res, d.param, err)) return -1;
-    int n = g.n, kmax = d.max_terms < n ? d.max_terms : n, rc = -1;
+/* Copies desc (NULL: defaults) into *d with zero fields defaulted, and validates p and *d.
+ * Returns 0, or -1 with err set. */
+static int factor_desc_resolve(const brdf_params *p, const brdf_factor_desc *desc, brdf_factor_desc *d, prt_error *err) {
+    memset(d, 0, sizeof *d);
+    if (desc) *d = *desc;
+    if (d->max_terms == 0) d->max_terms = 4;
+    if (d->res == 0) d->res = BRDF_DEFAULT_RES;
+    if (!p || (unsigned)p->type > BRDF_BECKMANN) return prt_fail(err, "brdf_factorize: invalid BRDF parameters");
+    if (d->max_terms < 1 || d->max_terms > BRDF_MAX_SIGMA)
+        return prt_fail(err, "brdf_factorize: max_terms %d out of range [1,%d]", d->max_terms, BRDF_MAX_SIGMA);
+    if (d->res < 4 || d->res > 256) return prt_fail(err, "brdf_factorize: resolution %d out of range [4,256]", d->res);
+    if (!(d->error_target >= 0) || !isfinite(d->error_target))
+        return prt_fail(err, "brdf_factorize: error target %g must be >= 0", d->error_target);
+    if (d->param != BRDF_PARAM_GRID && d->param != BRDF_PARAM_POLAR)
+        return prt_fail(err, "brdf_factorize: unknown parameterization %d", (int)d->param);
+    if ((unsigned)d->solver > BRDF_SOLVER_GESDD_S) return prt_fail(err, "brdf_factorize: unknown solver %d", (int)d->solver);
+    return 0;
+}
+
+/* Tabulates p on grid g and factors each channel into kmax terms; channels with identical or
+ * proportional tabulations share one factorization. Returns 0, or -1 with err set (what was
+ * factored stays in ch for the caller to free). */
+static int factor_channels(const brdf_params *p, const fac_grid *g, brdf_solver solver, int kmax, fac_channels *ch,
+                           prt_error *err) {
+    int n = g->n;
     size_t nn = (size_t)n * n;
     float *M = malloc(3 * nn * sizeof *M);
-    chan_fac cf[3];
-    memset(cf, 0, sizeof cf);
-    if (!M) {
-        prt_fail(err, "brdf_factorize: out of memory tabulating %d x %d directions", n, n);
-        goto done;
-    }
-    tab_ctx tc = { p, &g, { M, M + nn, M + 2 * nn } };
+    if (!M) return prt_fail(err, "brdf_factorize: out of memory tabulating %d x %d directions", n, n);
+    tab_ctx tc = { p, g, { M, M + nn, M + 2 * nn } };
     prt_parallel_for(n, 16, 0, tab_rows, &tc);
-
-    /* channels with identical or proportional tabulations share one factorization */
-    int src[3] = { 0, 1, 2 };
-    double scale[3] = { 1, 1, 1 };
+    for (int c = 0; c < 3; c++) ch->src[c] = c, ch->scale[c] = 1;
     for (int c = 1; c < 3; c++)
         for (int o = 0; o < c; o++)
-            if (src[o] == o && channels_proportional(tc.M[c], tc.M[o], nn, &scale[c])) { src[c] = o; break; }
-    for (int c = 0; c < 3; c++)
-        if (src[c] == c && solve_channel(d.solver, tc.M[c], n, kmax, &cf[c], err)) goto done;
+            if (ch->src[o] == o && channels_proportional(tc.M[c], tc.M[o], nn, &ch->scale[c])) { ch->src[c] = o; break; }
+    int rc = 0;
+    for (int c = 0; c < 3 && !rc; c++)
+        if (ch->src[c] == c && solve_channel(solver, tc.M[c], n, kmax, &ch->cf[c], err)) rc = -1;
     free(M);
-    M = NULL;
+    return rc;
+}
 
-    /* singular values, and the relative error of k terms from the full spectra (tails summed small-first) */
+/* Fills out->nsigma, sigma and rel_rms: the relative error of k terms from the full spectra
+ * of n singular values (tails summed small-first). */
+static void factor_spectra(const fac_channels *ch, int n, brdf_factor *out) {
     out->nsigma = n < BRDF_MAX_SIGMA ? n : BRDF_MAX_SIGMA;
     double total = 0, tail[BRDF_MAX_SIGMA + 1] = { 0 };
     for (int c = 0; c < 3; c++) {
-        const double *sg = cf[src[c]].sig, sc = scale[c], s2 = sc * sc;
+        const chan_fac *f = &ch->cf[ch->src[c]];
+        const double *sg = f->sig, sc = ch->scale[c], s2 = sc * sc;
         double acc = 0;
         for (int j = n - 1; j >= 0; j--) {
             acc += sg[j] * sg[j] * s2;
-            if (j == 0) acc += cf[src[c]].rest2 * s2;
+            if (j == 0) acc += f->rest2 * s2;
             if (j <= out->nsigma) tail[j] += acc;
         }
         /* the rank-1 residual belongs to every tail from k = 1 on */
-        for (int j = 1; j <= out->nsigma; j++) tail[j] += cf[src[c]].rest2 * s2;
+        for (int j = 1; j <= out->nsigma; j++) tail[j] += f->rest2 * s2;
         total += acc;
         for (int j = 0; j < out->nsigma; j++) out->sigma[c][j] = (float)(sg[j] * sc);
     }
     for (int k = 0; k <= out->nsigma; k++) out->rel_rms[k] = total > 0 ? (float)sqrt(tail[k] / total) : 0.0f;
+}
 
-    /* K: the error target's smallest K, or max_terms limited to the numerical rank */
+/* K: the error target's smallest K (0: none), or kmax; never above the numerical rank, never 0. */
+static int factor_terms(const fac_channels *ch, int kmax, double error_target, const brdf_factor *out) {
     double smax = 0;
-    for (int c = 0; c < 3; c++) smax = fmax(smax, cf[src[c]].sig[0] * scale[c]);
+    for (int c = 0; c < 3; c++) smax = fmax(smax, ch->cf[ch->src[c]].sig[0] * ch->scale[c]);
     int rank = 0;
     for (int c = 0; c < 3; c++) {
         int r = 0;
-        while (r < kmax && cf[src[c]].sig[r] * scale[c] > RANK_TOL * smax) r++;
+        while (r < kmax && ch->cf[ch->src[c]].sig[r] * ch->scale[c] > RANK_TOL * smax) r++;
         if (r > rank) rank = r;
     }
     int K = kmax;
-    if (d.error_target > 0) {
+    if (error_target > 0) {
         for (int k = 1; k <= kmax; k++)
-            if (out->rel_rms[k] <= d.error_target) { K = k; break; }
+            if (out->rel_rms[k] <= error_target) { K = k; break; }
     }
     if (rank < K) K = rank > 0 ? rank : 1;
+    return K;
+}
 
-    /* maps: light = sqrt(sigma) L, view = sqrt(sigma) V, unweighted by the sample's sqrt weight */
-    int nt = d.res * d.res;
+/* Allocates and fills out->light and out->view with K terms: light = sqrt(sigma) L, view =
+ * sqrt(sigma) V, unweighted by the sample's sqrt weight; sets out->lambertian. Returns 0 or -1. */
+static int factor_maps(const fac_channels *ch, const fac_grid *g, int K, brdf_param param, brdf_factor *out,
+                       prt_error *err) {
+    int n = g->n, nt = g->res * g->res;
     out->light = prt_calloc((size_t)nt * K * 3, sizeof *out->light, err);
     out->view = prt_calloc((size_t)nt * K * 3, sizeof *out->view, err);
-    if (!out->light || !out->view) goto done;
+    if (!out->light || !out->view) return -1;
     for (int c = 0; c < 3; c++) {
-        const chan_fac *f = &cf[src[c]];
+        const chan_fac *f = &ch->cf[ch->src[c]];
         for (int j = 0; j < K; j++) {
-            double s = sqrt(f->sig[j] * scale[c]);
+            double s = sqrt(f->sig[j] * ch->scale[c]);
             const double *L = f->L + (size_t)j * n, *V = f->V + (size_t)j * n;
             for (int i = 0; i < n; i++) {
-                size_t at = ((size_t)g.texel[i] * K + j) * 3 + c;
-                out->light[at] = (float)(s * L[i] / g.sw[i]);
-                out->view[at] = (float)(s * V[i] / g.sw[i]);
+                size_t at = ((size_t)g->texel[i] * K + j) * 3 + c;
+                out->light[at] = (float)(s * L[i] / g->sw[i]);
+                out->view[at] = (float)(s * V[i] / g->sw[i]);
             }
         }
     }
-    if (d.param == BRDF_PARAM_GRID) {
-        fill_outside(&g, out->light, K);
-        fill_outside(&g, out->view, K);
+    if (param == BRDF_PARAM_GRID) {
+        fill_outside(g, out->light, K);
+        fill_outside(g, out->view, K);
     }
     /* Lambertian: one term whose view map is constant over the sampled texels */
     out->lambertian = K == 1;
     for (int c = 0; c < 3 && out->lambertian; c++) {
-        float lo = out->view[(size_t)g.texel[0] * 3 + c], hi = lo;
+        float lo = out->view[(size_t)g->texel[0] * 3 + c], hi = lo;
         for (int i = 1; i < n; i++) {
-            float v = out->view[(size_t)g.texel[i] * 3 + c];
+            float v = out->view[(size_t)g->texel[i] * 3 + c];
             lo = v < lo ? v : lo, hi = v > hi ? v : hi;
         }
         if (hi - lo > 1e-4f * fmaxf(fabsf(hi), fabsf(lo))) out->lambertian = false;
     }
-    out->K = K;
-    out->res = d.res;
-    out->param = d.param;
-    rc = 0;
-done:
-    free(M);
-    for (int c = 0; c < 3; c++) chan_free(&cf[c]);
+    return 0;
+}
+
+/* Tabulates and factors p (see factor.h): tabulate and factor each channel, spectra and
+ * errors, choose K, build the maps. Returns 0, or -1 with err set. */
+int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_factor *out, prt_error *err) {
+    double t0 = prt_now();
+    memset(out, 0, sizeof *out);
+    brdf_factor_desc d;
+    if (factor_desc_resolve(p, desc, &d, err)) return -1;
+    fac_grid g;
+    if (grid_build(&g, d.res, d.param, err)) return -1;
+    int kmax = d.max_terms < g.n ? d.max_terms : g.n, rc = -1;
+    fac_channels ch;
+    memset(&ch, 0, sizeof ch);
+    if (!factor_channels(p, &g, d.solver, kmax, &ch, err)) {
+        factor_spectra(&ch, g.n, out);
+        int K = factor_terms(&ch, kmax, d.error_target, out);
+        if (!factor_maps(&ch, &g, K, d.param, out, err)) {
+            out->K = K;
+            out->res = d.res;
+            out->param = d.param;
+            rc = 0;
+        }
+    }
+    for (int c = 0; c < 3; c++) chan_free(&ch.cf[c]);
     grid_free(&g);
     if (rc) brdf_factor_free(out);
     else out->seconds = prt_now() - t0;

@@ -55,7 +55,7 @@ static const char *k_models[] = {
 };
 #define NMODELS (int)(sizeof k_models / sizeof k_models[0])
 
-static void test_parse(void) {
+static void parse(void) {
     brdf_params p = parse_ok("paper-as");
     CHECK(p.type == BRDF_AS && p.kd[0] == 0.5f && p.ks[2] == 0.75f && p.nu == 10 && p.nv == 100, "paper-as preset");
     p = parse_ok("paper-phong");
@@ -122,7 +122,7 @@ static void test_parse(void) {
     CHECK(brdf_parse(NULL, &q, &err) == -1, "NULL spec");
 }
 
-static void test_reciprocity(void) {
+static void reciprocity(void) {
     uint64_t s = 0x1234567ull;
     for (int m = 0; m < NMODELS; m++) {
         brdf_params p = parse_ok(k_models[m]);
@@ -145,7 +145,7 @@ static void test_reciprocity(void) {
 }
 
 /* Every output finite and >= 0 for grazing, coincident, mirror and retro-grazing pairs. */
-static void test_finite(void) {
+static void finite_everywhere(void) {
     const char *hard[] = {
         "phong:kd=0.1;ks=0.9;n=10000", "phong:ks=1;n=1000000", "blinn:ks=1;n=10000", "blinn:ks=1;n=0",
         "as:ks=1;nu=10000;nv=10000", "as:ks=0.5;nu=0;nv=10000", "as:ks=1;nu=0;nv=0",
@@ -203,7 +203,7 @@ static void albedo(const brdf_params *p, const float wo[3], int nr, int nphi, do
     for (int c = 0; c < 3; c++) out[c] = acc[c] * (1.0 / nr) * (2 * PI / nphi);
 }
 
-static void test_energy(void) {
+static void energy(void) {
     double a[3];
     float wo[3];
     /* Lambert: kd exactly */
@@ -272,7 +272,7 @@ static void test_energy(void) {
 }
 
 /* Sampling: pdf integral = accepted fraction, sample pdf == brdf_pdf, chi-square histogram. */
-static void test_sampling(void) {
+static void sampling(void) {
     const char *models[] = {
         "lambert:kd=0.5", "phong:kd=0.3;ks=0.5;n=20", "paper-phong", "blinn:kd=0.2;ks=0.6;n=30", "paper-as",
         "as:kd=0.1;ks=0.9;nu=200;nv=5", "lafortune:kd=0.2;lobe=-1.01,-1.01,1.01,40;lobe=-0.5,-0.9,0.7,3",
@@ -347,7 +347,7 @@ static void cross(const double a[3], const double b[3], double o[3]) {
     o[0] = a[1] * b[2] - a[2] * b[1], o[1] = a[2] * b[0] - a[0] * b[2], o[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static void test_frame(void) {
+static void frame(void) {
     uint64_t s = 4242;
     int bad = 0, badf = 0;
     for (int i = 0; i < 20000; i++) {
@@ -388,12 +388,13 @@ static void test_frame(void) {
     CHECK(sf[0] == 1 && tf[2] == 1, "fixed frame at the pole");
 }
 
-int main(void) {
-    test_parse();
-    test_reciprocity();
-    test_finite();
-    test_energy();
-    test_sampling();
-    test_frame();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(parse);
+    CHECK_CASE(reciprocity);
+    CHECK_CASE(finite_everywhere);
+    CHECK_CASE(energy);
+    CHECK_CASE(sampling);
+    CHECK_CASE(frame);
     return check_summary();
 }

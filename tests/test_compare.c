@@ -13,7 +13,7 @@ static void write_text(const char *path, const char *text) {
 }
 
 /* Known arrays: every number below is worked out by hand in the comments. */
-static void test_arrays(void) {
+static void arrays(void) {
     prt_error err;
     cmp_result r;
     /* One channel, 4 items: b = 1,2,3,4, a = b + (0.1, 0, -0.3, 0).
@@ -50,7 +50,7 @@ static void test_arrays(void) {
     CHECK(cmp_arrays(nan3, one, 1, 3, &r, NULL, &err) == -1 && strstr(err.msg, "non-finite"), "NaN rejected");
 }
 
-static void test_colormap(void) {
+static void colormap(void) {
     float lo[3], hi[3], mid[3], zero[3];
     cmp_colormap(0.1f, lo);
     cmp_colormap(0.9f, hi);
@@ -63,7 +63,8 @@ static void test_colormap(void) {
     CHECK(isfinite(nanc[0]) && isfinite(nanc[1]) && isfinite(nanc[2]), "NaN maps to a colour");
 }
 
-static void test_csv(const char *dir) {
+static void csv(void) {
+    const char *dir = check_tmpdir();
     char pa[512], pb[512], pc[512], pd[512], pe[512], pf[512];
     snprintf(pa, sizeof pa, "%s/a.csv", dir);
     snprintf(pb, sizeof pb, "%s/b.csv", dir);
@@ -131,7 +132,8 @@ static int write_img(const char *path, int w, int h, const float *rgb) {
     return rc;
 }
 
-static void test_images(const char *dir) {
+static void images(void) {
+    const char *dir = check_tmpdir();
     enum { W = 8, H = 4 };
     char pa[512], pb[512], pc[512], pe[512], pcsv[512];
     snprintf(pa, sizeof pa, "%s/a.exr", dir);
@@ -176,7 +178,8 @@ static void test_images(const char *dir) {
 }
 
 /* The command line: output line format and exit codes. */
-static void test_cli(const char *dir) {
+static void cli(void) {
+    const char *dir = check_tmpdir();
     char cmd[2048], out[4096];
     snprintf(cmd, sizeof cmd, "%s compare %s/a.exr %s/b.exr", check_prt_bin(), dir, dir);
     int rc = check_run(cmd, out, sizeof out);
@@ -187,12 +190,12 @@ static void test_cli(const char *dir) {
     CHECK(check_run(cmd, out, sizeof out) == 1 && strstr(out, "size mismatch"), "size mismatch exits 1: %s", out);
 }
 
-int main(void) {
-    const char *dir = check_tmpdir();
-    test_arrays();
-    test_colormap();
-    test_csv(dir);
-    test_images(dir);
-    test_cli(dir);
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(arrays);
+    CHECK_CASE(colormap);
+    CHECK_CASE(csv);
+    CHECK_CASE(images);
+    CHECK_CASE(cli);
     return check_summary();
 }

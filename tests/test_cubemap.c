@@ -7,7 +7,7 @@
 /* Tiny deterministic generator (xorshift) for random directions. */
 static float rnd(uint32_t *s) { *s ^= *s << 13; *s ^= *s >> 17; *s ^= *s << 5; return (float)(*s >> 8) / 16777216.f; }
 
-int main(void) {
+static void solid_angle_sums(void) {
     /* 1. Solid angles sum to 4 pi (double, rel 1e-6) at several resolutions. */
     int resl[] = { 1, 2, 3, 16, 64, 128 };
     for (int r = 0; r < 6; r++) {
@@ -29,6 +29,9 @@ int main(void) {
         CHECK_NEAR(sa[5 * 64 + 7], cube_texel_solid_angle(64, 7, 5), 1e-9, "table entry");
         free(sa);
     }
+}
+
+static void solid_angle_quadrature(void) {
     /* 2. Texel solid angle against brute-force quadrature of dA / (1+x^2+y^2)^(3/2). */
     {
         int res = 4, pts = 400;
@@ -43,6 +46,9 @@ int main(void) {
                 CHECK_NEAR(cube_texel_solid_angle(res, i, j), acc, 1e-6 * acc, "texel %d %d", i, j);
             }
     }
+}
+
+static void face_convention(void) {
     /* 3. Convention: face centres are the axes, corners follow the GL 4.6 table 8.19. */
     {
         const float axis[6][3] = { { 1, 0, 0 }, { -1, 0, 0 }, { 0, 1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 } };
@@ -61,6 +67,9 @@ int main(void) {
             CHECK(cube_texel_index(64, axis[f]) / 4096 == f, "axis face %d", f);
         }
     }
+}
+
+static void texel_round_trip(void) {
     /* 4. Every texel centre round-trips at res 64 and 128. */
     int rt[] = { 64, 128 };
     for (int r = 0; r < 2; r++) {
@@ -78,6 +87,9 @@ int main(void) {
         CHECK(bad == 0, "res %d: %d texels do not round-trip", res, bad);
         CHECK(badxy == 0, "res %d: %d texels off in continuous coordinates", res, badxy);
     }
+}
+
+static void random_round_trip(void) {
     /* 5. Random directions: lookup then cube_dir gives the direction back. */
     {
         uint32_t s = 12345;
@@ -94,11 +106,24 @@ int main(void) {
         }
         CHECK(bad == 0, "%d components off", bad);
     }
+}
+
+static void zero_direction(void) {
     /* 6. A zero direction does not crash and gives a valid texel. */
     {
         float z[3] = { 0, 0, 0 };
         int idx = cube_texel_index(64, z);
         CHECK(idx >= 0 && idx < CUBE_TEXELS, "zero direction -> %d", idx);
     }
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(solid_angle_sums);
+    CHECK_CASE(solid_angle_quadrature);
+    CHECK_CASE(face_convention);
+    CHECK_CASE(texel_round_trip);
+    CHECK_CASE(random_round_trip);
+    CHECK_CASE(zero_direction);
     return check_summary();
 }

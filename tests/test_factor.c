@@ -65,7 +65,7 @@ static bool texel_dir(int res, int x, int y, float w[3]) {
     return true;
 }
 
-static void test_lambert(void) {
+static void lambert(void) {
     brdf_factor f;
     if (factor_ok("lambert:kd=0.7,0.2,0.1", (brdf_factor_desc){ .max_terms = 4 }, &f)) return;
     CHECK(f.K == 1 && f.lambertian, "Lambert: K %d lambertian %d", f.K, f.lambertian);
@@ -155,7 +155,7 @@ static void check_structure(const char *spec, int res, int K, brdf_solver solver
     brdf_factor_free(&f);
 }
 
-static void test_structure(void) {
+static void structure(void) {
     const char *specs[] = { "paper-phong", "paper-as", "lafortune:kd=0.2;lobe=-1.01,-1.01,1.01,40;lobe=-0.5,-0.9,0.7,3",
                             "ggx:kd=0.3,0.1,0.1;ks=0.04;alpha=0.25", "beckmann:kd=0.2;ks=0.5;alpha=0.3",
                             "blinn:kd=0.3;ks=0.5;n=20" };
@@ -178,7 +178,7 @@ static void test_structure(void) {
         for (int k = 1; k <= 6; k++) CHECK_NEAR(rel[s][k], rel[1][k], 1e-5, "solver %d vs symmetric double, K %d", s, k);
 }
 
-static void test_channels_and_copy(void) {
+static void channels_and_copy(void) {
     brdf_factor f, g;
     if (factor_ok("paper-as", (brdf_factor_desc){ .max_terms = 3, .res = 24 }, &f)) return;
     size_t cnt = (size_t)f.res * f.res * f.K * 3;
@@ -201,7 +201,7 @@ static void test_channels_and_copy(void) {
     brdf_factor_free(&g);
 }
 
-static void test_error_target(void) {
+static void error_target(void) {
     brdf_factor f, g;
     if (factor_ok("paper-phong", (brdf_factor_desc){ .max_terms = 16, .res = 24 }, &f)) return;
     float target = f.rel_rms[5] * 1.0001f;
@@ -230,7 +230,7 @@ static void test_error_target(void) {
 }
 
 /* Polar (Eq. 11): continuous across the phi = 0 seam; for AS the 1-term error is lower than the grid's. */
-static void test_polar(void) {
+static void polar(void) {
     brdf_factor fp, fg;
     if (factor_ok("paper-as", (brdf_factor_desc){ .max_terms = 4, .param = BRDF_PARAM_POLAR }, &fp)) return;
     if (factor_ok("paper-as", (brdf_factor_desc){ .max_terms = 4 }, &fg)) return;
@@ -255,7 +255,7 @@ static void test_polar(void) {
 }
 
 /* Timings at the default resolution, Fig. 5 analogue, and convergence of the lookups toward brdf_eval. */
-static void test_timing_and_convergence(void) {
+static void timing_and_convergence(void) {
     const char *specs[] = { "paper-phong", "paper-as" };
     for (int i = 0; i < 2; i++) {
         brdf_factor f;
@@ -295,12 +295,13 @@ static void test_timing_and_convergence(void) {
     brdf_factor_free(&f);
 }
 
-int main(void) {
-    test_lambert();
-    test_structure();
-    test_channels_and_copy();
-    test_error_target();
-    test_polar();
-    test_timing_and_convergence();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(lambert);
+    CHECK_CASE(structure);
+    CHECK_CASE(channels_and_copy);
+    CHECK_CASE(error_target);
+    CHECK_CASE(polar);
+    CHECK_CASE(timing_and_convergence);
     return check_summary();
 }

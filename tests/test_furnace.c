@@ -1,4 +1,4 @@
-/* test_furnace.c - physical sanity of the interreflection passes (gather.h):
+/* furnace.c - physical sanity of the interreflection passes (gather.h):
  * the white furnace and the energy decay of a grey bowl.
  *
  * Scene: a hemispherical bowl (the lower half of a unit sphere, 16 rings x 32
@@ -166,7 +166,7 @@ static double qerr_of(const prt_data *d, const prt_transport *t, int v) {
 
 #define FB 6   /* bounces in the furnace */
 
-static void test_furnace(void) {
+static void furnace(void) {
     prt_data d;
     vis_scene *vs = NULL;
     if (build_bowl(&d, &vs, "lambert:kd=1")) { CHECK(0, "bowl scene"); return; }
@@ -291,7 +291,7 @@ static void test_furnace(void) {
     fx_free(&d);
 }
 
-static void test_energy(void) {
+static void energy(void) {
     const double albedo = 0.5;
     prt_data d;
     vis_scene *vs = NULL;
@@ -356,8 +356,9 @@ static void test_energy(void) {
     fx_free(&d);
 }
 
-int main(void) {
-    test_furnace();
-    test_energy();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(furnace);
+    CHECK_CASE(energy);
     return check_summary();
 }

@@ -102,7 +102,7 @@ static double cubature_bound(const float p[3], const float n[3], float hp, int r
     return b / M_PI;
 }
 
-static void test_analytic(void) {
+static void analytic(void) {
     prt_data d;
     vis_scene *vs;
     if (build_planes(&d, &vs, "lambert:kd=0.6")) { CHECK(0, "scene"); return; }
@@ -280,19 +280,35 @@ static bool same_set(const prt_transport *a, const prt_transport *b) {
     return same;
 }
 
-static void test_glossy(void) {
-    prt_data d;
-    vis_scene *vs;
-    if (build_planes(&d, &vs, "phong:kd=0.2,0.3,0.4;ks=0.5;n=20")) { CHECK(0, "scene"); return; }
+/* The glossy scene (G) of the glossy_* cases and what several of them share: the direct
+ * sets (ex0: exact, N = 24,576 float; q0: N = 128, 8-bit), NL lights L with ex0's
+ * projections s0, and the passes at res 32 (ex1, exact, with projections pg; q1,
+ * compressed). Built with their checks by the first case that needs them (glossy_setup),
+ * so a filter can run any case alone; main frees them (glossy_free). */
+static bool glossy_built, glossy_ok;
+static prt_data d;
+static vis_scene *vs;
+static prt_transport ex0, q0, ex1, q1;
+static int nvecs;
+static float *L;
+static double *s0, *pg;
+static double t_exact, t_q;
+static const gather_desc gd = { .res = 32 };
+
+/* Builds the shared glossy fixture once; returns false (after a failed check) when the scene
+ * could not be built. */
+static bool glossy_setup(void) {
+    if (glossy_built) return glossy_ok;
+    glossy_built = true;
+    if (build_planes(&d, &vs, "phong:kd=0.2,0.3,0.4;ks=0.5;n=20")) { CHECK(0, "scene"); return false; }
     CHECK(d.factors[1].K == 4, "glossy plane has 4 terms (got %d)", d.factors[1].K);
     prt_error err;
-    prt_transport ex0, q0, ex1, q1, floor1;
     CHECK(fx_direct(&d, vs, CUBE_TEXELS, 32, &ex0) == 0, "exact direct");
     CHECK(fx_direct(&d, vs, 128, 8, &q0) == 0, "8-bit direct");
-    int nvecs = ex0.nvecs;
+    nvecs = ex0.nvecs;
 
     /* Lights: constant, then Gaussian random wavelet vectors (deterministic LCG + Box-Muller). */
-    float *L = malloc(sizeof(float) * NL * 3 * CUBE_TEXELS);
+    L = malloc(sizeof(float) * NL * 3 * CUBE_TEXELS);
     fx_const_light(1.f, L);
     uint64_t st = 12345;
     for (size_t j = 3 * CUBE_TEXELS; j < (size_t)NL * 3 * CUBE_TEXELS; j++) {
@@ -302,16 +318,35 @@ static void test_glossy(void) {
         double u2 = ((st >> 11) + 0.5) / 9007199254740992.0;
         L[j] = (float)(sqrt(-2 * log(u1)) * cos(2 * M_PI * u2));
     }
-    double *s0 = calloc((size_t)nvecs * NL * 3, sizeof(double)), *pg = calloc((size_t)nvecs * NL * 3, sizeof(double));
-    double *bf = calloc((size_t)nvecs * NL * 3, sizeof(double));
+    s0 = calloc((size_t)nvecs * NL * 3, sizeof(double));
+    pg = calloc((size_t)nvecs * NL * 3, sizeof(double));
     project(&ex0, L, s0);
-
-    /* (b) exact pass vs brute force at the same resolution. */
-    gather_desc gd = { .res = 32 };
     double t0 = prt_now();
     CHECK(gather_pass(&d, vs, &ex0, &gd, &ex1, &err) == 0, "%s", err.msg);
-    double t_exact = prt_now() - t0;
+    t_exact = prt_now() - t0;
     project(&ex1, L, pg);
+    t0 = prt_now();
+    CHECK(gather_pass(&d, vs, &q0, &gd, &q1, &err) == 0, "%s", err.msg);
+    t_q = prt_now() - t0;
+    glossy_ok = true;
+    return true;
+}
+
+/* Frees the glossy fixture if it was built. */
+static void glossy_free(void) {
+    if (!glossy_built) return;
+    free(L); free(s0); free(pg);
+    transport_free(&ex0); transport_free(&ex1); transport_free(&q0); transport_free(&q1);
+    if (vs) vis_destroy(vs);
+    fx_free(&d);
+    glossy_built = glossy_ok = false;
+}
+
+/* (b) exact pass vs brute force at the same resolution; both against brute force at res 64. */
+static void glossy_exact_vs_brute_force(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
+    double *bf = calloc((size_t)nvecs * NL * 3, sizeof(double));
     brute_ctx bc = { &d, vs, &ex0, 32, s0, bf };
     prt_parallel_for(d.scene.mesh.nverts, 2, 0, brute_range, &bc);
     for (int l = 0; l < NL; l++) {
@@ -347,7 +382,12 @@ static void test_glossy(void) {
         CHECK_LE(ec[ri], 0.05, "res %d: constant-light projections within 5%% (RMS) of res 64", ri ? 32 : 16);
         CHECK_LE(er[ri], 0.10, "res %d: random-light projections within 10%% (RMS) of res 64", ri ? 32 : 16);
     }
+    free(bf);
+}
 
+static void glossy_8bit_kernels(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
     /* The 8-bit decode kernels (SIMD for K = 1 and 4) against the generic float path validated
      * above: an 8-bit set keeping every coefficient, and the same values stored as floats. Both
      * passes see identical inputs; the 8-bit output differs only by its rounding, at most half a
@@ -389,11 +429,13 @@ static void test_glossy(void) {
         free(x); free(y); free(scr);
         transport_free(&a8); transport_free(&o8); transport_free(&o32);
     }
+}
 
-    /* (c) compressed path. */
-    t0 = prt_now();
-    CHECK(gather_pass(&d, vs, &q0, &gd, &q1, &err) == 0, "%s", err.msg);
-    double t_q = prt_now() - t0;
+/* (c) compressed path. */
+static void glossy_compressed(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
+    prt_transport floor1;
     /* The floor: the exact pass truncated to its best N = 128 terms (float, no quantization). */
     {
         int *cnt = malloc(sizeof(int) * ex1.nverts);
@@ -419,14 +461,24 @@ static void test_glossy(void) {
     CHECK_LE(e_floor, e_q, "the pass cannot beat the best N-term approximation");
     CHECK_LE(e_q, e_floor + e_in + 0.02, "pass error <= output truncation + propagated input error");
     CHECK_LE(e_qc, 0.02, "constant-light projection within 2%%");
+    free(pq);
+    transport_free(&floor1);
+}
 
+static void glossy_determinism(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
     /* Determinism: one thread and two threads give identical sets. */
     prt_transport q1b;
     gather_desc g1 = { .res = 32, .nthreads = 1 };
     CHECK(gather_pass(&d, vs, &q0, &g1, &q1b, &err) == 0, "%s", err.msg);
     CHECK(same_set(&q1, &q1b), "1 thread == 2 threads");
     transport_free(&q1b);
+}
 
+static void glossy_sum(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
     /* gather_sum: exact sets add exactly; quantized sets equal a dense add then store. */
     prt_transport sum;
     CHECK(gather_sum(&ex0, &ex1, 0, &sum, &err) == 0, "%s", err.msg);
@@ -465,7 +517,10 @@ static void test_glossy(void) {
         transport_free(&ref);
         transport_free(&sum);
     }
+}
 
+static void glossy_energy(void) {
+    if (!glossy_setup()) return;
     /* gather_energy against a dense decode. */
     {
         float *a = malloc(sizeof(float) * 3 * CUBE_TEXELS);
@@ -477,7 +532,11 @@ static void test_glossy(void) {
         CHECK_NEAR(gather_energy(&q1), e, 1e-9 * e, "energy of an 8-bit set");
         free(a);
     }
+}
 
+static void glossy_progress_and_cancel(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
     /* Progress and cancellation. */
     prog_state ps = { .monotone = true, .last = -1 };
     gather_desc gp = { .res = 16, .progress = prog_fn, .progress_user = &ps, .stage = "bounce 1" };
@@ -491,7 +550,13 @@ static void test_glossy(void) {
     int rc = gather_pass(&d, vs, &q0, &gp, &tmp, &err);
     CHECK(rc == -1 && strcmp(err.msg, "cancelled") == 0, "cancel gives -1 \"cancelled\" (got %d, %s)", rc, err.msg);
     CHECK(tmp.nvecs == 0 && tmp.coef_first == NULL, "cancelled output is empty");
+}
 
+static void glossy_bad_input(void) {
+    if (!glossy_setup()) return;
+    prt_error err;
+    prt_transport tmp;
+    int rc;
     /* Bad input. */
     prt_transport half;
     {
@@ -509,15 +574,19 @@ static void test_glossy(void) {
         CHECK(rc == -1 && strstr(err.msg, "resolution"), "absurd resolution rejected: %s", err.msg);
         transport_free(&half);
     }
-
-    free(L); free(s0); free(pg); free(bf); free(pq);
-    transport_free(&ex0); transport_free(&ex1); transport_free(&q0); transport_free(&q1); transport_free(&floor1);
-    vis_destroy(vs);
-    fx_free(&d);
 }
 
-int main(void) {
-    test_analytic();
-    test_glossy();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(analytic);
+    CHECK_CASE(glossy_exact_vs_brute_force);
+    CHECK_CASE(glossy_8bit_kernels);
+    CHECK_CASE(glossy_compressed);
+    CHECK_CASE(glossy_determinism);
+    CHECK_CASE(glossy_sum);
+    CHECK_CASE(glossy_energy);
+    CHECK_CASE(glossy_progress_and_cancel);
+    CHECK_CASE(glossy_bad_input);
+    glossy_free();
     return check_summary();
 }

@@ -40,7 +40,8 @@ static void check_err(const prt_error *err, const char *name) {
     CHECK(strchr(err->msg, '\n') == NULL, "message '%s' should be one line", err->msg);
 }
 
-static void test_exr_roundtrip(const char *dir) {
+static void exr_roundtrip(void) {
+    const char *dir = check_tmpdir();
     prt_image im, back;
     prt_error err;
     char path[512];
@@ -110,7 +111,8 @@ static void test_exr_roundtrip(const char *dir) {
     image_free(&im);
 }
 
-static void test_png(const char *dir) {
+static void png(void) {
+    const char *dir = check_tmpdir();
     prt_image im, back;
     prt_error err;
     char path[512];
@@ -171,7 +173,8 @@ static void test_png(const char *dir) {
 }
 
 /* A hand-written binary PGM: grey is replicated to RGB and decoded from sRGB. */
-static void test_grey(const char *dir) {
+static void grey(void) {
+    const char *dir = check_tmpdir();
     char path[512];
     snprintf(path, sizeof path, "%s/g.pgm", dir);
     FILE *f = fopen(path, "wb");
@@ -192,7 +195,8 @@ static void test_grey(const char *dir) {
 
 /* A hand-written PFM (little-endian floats, rows stored bottom to top): read as
  * linear floats, exactly, with row 0 at the top. */
-static void test_pfm(const char *dir) {
+static void pfm(void) {
+    const char *dir = check_tmpdir();
     char path[512];
     snprintf(path, sizeof path, "%s/a.pfm", dir);
     FILE *f = fopen(path, "wb");
@@ -216,7 +220,8 @@ static void test_pfm(const char *dir) {
     image_free(&im);
 }
 
-static void test_errors(const char *dir) {
+static void errors(void) {
+    const char *dir = check_tmpdir();
     prt_image im;
     prt_error err;
     char path[512];
@@ -271,12 +276,12 @@ static void test_errors(const char *dir) {
     image_free(&one);
 }
 
-int main(void) {
-    const char *dir = check_tmpdir();
-    test_exr_roundtrip(dir);
-    test_png(dir);
-    test_grey(dir);
-    test_pfm(dir);
-    test_errors(dir);
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(exr_roundtrip);
+    CHECK_CASE(png);
+    CHECK_CASE(grey);
+    CHECK_CASE(pfm);
+    CHECK_CASE(errors);
     return check_summary();
 }

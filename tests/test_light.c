@@ -11,11 +11,28 @@
 static float rnd(uint32_t *s) { *s ^= *s << 13; *s ^= *s >> 17; *s ^= *s << 5; return (float)(*s >> 8) / 16777216.f; }
 enum { T = CUBE_TEXELS };
 
-int main(void) {
+/* Fills cube (3 x CUBE_TEXELS, interleaved) with the probe of cases 2 and 3: a sky
+ * gradient plus a 34,000 sun, with a little noise in red. */
+static void sun_sky_cube(float *cube) {
+    uint32_t s = 77;
+    float sun[3] = { 0.3f, 0.8f, 0.52f };
+    float ls = sqrtf(sun[0] * sun[0] + sun[1] * sun[1] + sun[2] * sun[2]);
+    for (int k = 0; k < T; k++) {
+        float d[3];
+        cube_texel_dir(CUBE_RES, k, d);
+        float sky = 0.5f + 0.5f * d[1], dot = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2]) / ls;
+        float hot = dot > 0.9995f ? 34000.f : 0.f;
+        cube[3 * k] = sky + hot + 0.1f * rnd(&s);
+        cube[3 * k + 1] = 0.8f * sky + hot;
+        cube[3 * k + 2] = 1.2f * sky + 0.9f * hot;
+    }
+}
+
+static void constant_radiance(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
     float (*L)[4] = light_alloc();
-    CHECK(L != NULL && ((uintptr_t)L % 64) == 0, "light_alloc aligned");
     light_stats st;
+    CHECK(L != NULL && ((uintptr_t)L % 64) == 0, "light_alloc aligned");
     /* 1. Constant radiance c: only each face's scaling coefficient, c * 4096 / 64 = 64 c. */
     {
         const float c[3] = { 1.5f, 0.25f, 3.0f };
@@ -31,24 +48,20 @@ int main(void) {
         CHECK(st.kept == 6, "kept %d", st.kept);
         CHECK_NEAR(st.step[2], 64.0 * 3.0 / 32767, 1e-9, "step");
     }
+    free(cube); free(L);
+}
+
+static void wavelet_product(void) {
+    float *cube = malloc(sizeof(float) * 3 * T);
+    float (*L)[4] = light_alloc();
+    light_stats st;
     /* 2. Eq. 4: sum_j L_j T_j (texels, radiance x transport that includes solid angle)
      * equals the wavelet-domain dot product within sum_i |T_i| * (step/2) for 16 bits,
      * and to float precision without quantization. Probe: sky gradient plus a 34,000 sun. */
     {
-        uint32_t s = 77;
         float sa[4096], *tt[3], *tw[3], tmp[2 * 4096];
         cube_face_solid_angles(CUBE_RES, sa);
-        float sun[3] = { 0.3f, 0.8f, 0.52f };
-        float ls = sqrtf(sun[0] * sun[0] + sun[1] * sun[1] + sun[2] * sun[2]);
-        for (int k = 0; k < T; k++) {
-            float d[3];
-            cube_texel_dir(CUBE_RES, k, d);
-            float sky = 0.5f + 0.5f * d[1], dot = (d[0] * sun[0] + d[1] * sun[1] + d[2] * sun[2]) / ls;
-            float hot = dot > 0.9995f ? 34000.f : 0.f;
-            cube[3 * k] = sky + hot + 0.1f * rnd(&s);
-            cube[3 * k + 1] = 0.8f * sky + hot;
-            cube[3 * k + 2] = 1.2f * sky + 0.9f * hot;
-        }
+        sun_sky_cube(cube);
         for (int ch = 0; ch < 3; ch++) {
             tt[ch] = malloc(sizeof(float) * T);
             tw[ch] = malloc(sizeof(float) * T);
@@ -92,8 +105,20 @@ int main(void) {
                 if (fabs(q - nearbyint(q)) > 1e-6 * fabs(q) + 1e-6 || fabs(q) > 32767.5) off++;
             }
         CHECK(off == 0, "%d values off the 16-bit grid", off);
-        /* 3. Threshold: exactly the coefficients with energy >= threshold * max survive
-         * (brute force: own planar transform; qbits 32 so quantization cannot zero any). */
+        for (int ch = 0; ch < 3; ch++) { free(tt[ch]); free(tw[ch]); }
+    }
+    free(cube); free(L);
+}
+
+static void threshold(void) {
+    float *cube = malloc(sizeof(float) * 3 * T);
+    float (*L)[4] = light_alloc();
+    light_stats st;
+    /* 3. Threshold: exactly the coefficients with energy >= threshold * max survive
+     * (brute force: own planar transform; qbits 32 so quantization cannot zero any). */
+    {
+        float tmp[2 * 4096];
+        sun_sky_cube(cube);
         light_desc desc = { .threshold = 1e-4f, .qbits = 32 };
         light_from_cube(cube, &desc, L, &st);
         float *pl = malloc(sizeof(float) * T), *w[3];
@@ -114,9 +139,16 @@ int main(void) {
         }
         CHECK(st.kept == expect && expect > 6 && expect < T, "kept %d expected %d", st.kept, expect);
         CHECK(mism == 0, "%d coefficients differ from the brute-force threshold", mism);
-        for (int ch = 0; ch < 3; ch++) { free(tt[ch]); free(tw[ch]); free(w[ch]); }
+        for (int ch = 0; ch < 3; ch++) free(w[ch]);
         free(pl);
     }
+    free(cube); free(L);
+}
+
+static void non_finite(void) {
+    float *cube = malloc(sizeof(float) * 3 * T);
+    float (*L)[4] = light_alloc();
+    light_stats st;
     /* 4. Non-finite texels do not reach the output; an all-zero cube gives zeros. */
     {
         for (int k = 0; k < 3 * T; k++) cube[k] = 1.f;
@@ -131,6 +163,13 @@ int main(void) {
         for (int k = 0; k < T; k++) for (int ch = 0; ch < 4; ch++) nz += L[k][ch] != 0;
         CHECK(nz == 0 && st.kept == 0 && st.step[0] == 0, "zero cube: %d non-zeros", nz);
     }
+    free(cube); free(L);
+}
+
+static void speed(void) {
+    float *cube = malloc(sizeof(float) * 3 * T);
+    float (*L)[4] = light_alloc();
+    light_stats st;
     /* 5. Speed (printed): one light update. */
     {
         uint32_t s = 3;
@@ -142,5 +181,14 @@ int main(void) {
         printf("light_from_cube: %.0f us CPU\n", 1e6 * ((double)(b.tv_sec - a.tv_sec) + 1e-9 * (double)(b.tv_nsec - a.tv_nsec)) / 50);
     }
     free(cube); free(L);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(constant_radiance);
+    CHECK_CASE(wavelet_product);
+    CHECK_CASE(threshold);
+    CHECK_CASE(non_finite);
+    CHECK_CASE(speed);
     return check_summary();
 }

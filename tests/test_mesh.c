@@ -94,7 +94,7 @@ static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
            memcmp(a->tris, b->tris, 3 * (size_t)a->ntris * sizeof(uint32_t)) == 0;
 }
 
-static void test_parse_forms(void) {
+static void parse_forms(void) {
     prt_mesh m, ref;
     prt_error err = { "" };
     mesh_load_stats st;
@@ -161,7 +161,7 @@ static void test_parse_forms(void) {
     mesh_free(&m);
 }
 
-static void test_weld_clean(void) {
+static void weld_clean(void) {
     prt_mesh m;
     prt_error err = { "" };
     mesh_load_stats st;
@@ -220,7 +220,7 @@ static void expect_error(const char *label, const char *path, const char *text, 
     mesh_free(&m);
 }
 
-static void test_errors(void) {
+static void errors(void) {
     const char *d = check_tmpdir();
     char p[512];
     snprintf(p, sizeof p, "%s/missing.obj", d);
@@ -283,7 +283,7 @@ static void test_errors(void) {
     }
 }
 
-static void test_load_file_and_weld_scale(void) {
+static void load_file_and_weld_scale(void) {
     /* Write a 64x128 UV sphere as a triangle soup (every triangle has its own
      * three 'v' lines), with quads for the body: loading must weld it back to
      * exactly the procedural vertex set. */
@@ -334,7 +334,7 @@ static void test_load_file_and_weld_scale(void) {
     mesh_free(&s);
 }
 
-static void test_normals(void) {
+static void normals(void) {
     /* A fin: vertex 0's two triangles face +z (angle 90, area 0.5) and -z (angle
      * 90, area 1). They cancel; the larger one's normal (-z) wins. */
     float pos[] = { 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 2, 0, 5, 5, 5, 6, 5, 5, 7, 5, 5 };
@@ -372,7 +372,7 @@ static void test_normals(void) {
     CHECK_NEAR(n2[8], wz / l, 1e-6);
 }
 
-static void test_sphere(void) {
+static void sphere(void) {
     prt_mesh m;
     prt_error err = { "" };
     const float c[3] = { 1.f, 2.f, -3.f };
@@ -431,7 +431,7 @@ static void test_sphere(void) {
     CHECK(mesh_make_sphere(&m, c, 1.f, 1, 8, &err) == -1 && m.pos == NULL);
 }
 
-static void test_plane(void) {
+static void plane(void) {
     prt_mesh m;
     prt_error err = { "" };
     CHECK(mesh_make_plane(&m, -2.f, 3.f, -1.f, 1.f, 0.25f, 11, 5, &err) == 0, "%s", err.msg);
@@ -456,7 +456,7 @@ static void test_plane(void) {
     CHECK(mesh_make_plane(&m, 0.f, 1.f, 0.f, 1.f, 0.f, 1, 4, &err) == -1, "one column");
 }
 
-static void test_box(void) {
+static void box(void) {
     prt_mesh m;
     prt_error err = { "" };
     const float lo[3] = { -1.f, 0.f, 2.f }, hi[3] = { 1.f, 3.f, 6.f };
@@ -504,7 +504,7 @@ static void test_box(void) {
     CHECK(mesh_make_box(&m, lo, hi, 0, false, &err) == -1, "n = 0");
 }
 
-static void test_torus(void) {
+static void torus(void) {
     prt_mesh m;
     prt_error err = { "" };
     const float c[3] = { 0.f, 1.f, 0.f };
@@ -541,7 +541,7 @@ static void test_torus(void) {
     CHECK(mesh_make_torus(&m, c, R, -1.f, 8, 8, &err) == -1);
 }
 
-static void test_transform_append_copy(void) {
+static void transform_append_copy(void) {
     prt_mesh a, b, c;
     prt_error err = { "" };
     const float ctr[3] = { 0.f, 0.f, 0.f };
@@ -600,16 +600,17 @@ static void test_transform_append_copy(void) {
     mesh_free(&b);
 }
 
-int main(void) {
-    test_parse_forms();
-    test_weld_clean();
-    test_errors();
-    test_load_file_and_weld_scale();
-    test_normals();
-    test_sphere();
-    test_plane();
-    test_box();
-    test_torus();
-    test_transform_append_copy();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(parse_forms);
+    CHECK_CASE(weld_clean);
+    CHECK_CASE(errors);
+    CHECK_CASE(load_file_and_weld_scale);
+    CHECK_CASE(normals);
+    CHECK_CASE(sphere);
+    CHECK_CASE(plane);
+    CHECK_CASE(box);
+    CHECK_CASE(torus);
+    CHECK_CASE(transform_append_copy);
     return check_summary();
 }

@@ -86,7 +86,7 @@ static prt_image make_layout_image(probe_layout l, int w, int h) {
     return im;
 }
 
-static void test_parse(void) {
+static void parse(void) {
     probe_layout l;
     CHECK(probe_parse_layout("latlong", &l) == 0 && l == PROBE_LATLONG);
     CHECK(probe_parse_layout("angular", &l) == 0 && l == PROBE_ANGULAR);
@@ -124,7 +124,7 @@ static void test_parse(void) {
     CHECK(probe_parse_rotation("nan", R) == -1);
 }
 
-static void test_detect_and_clamp(void) {
+static void detect_and_clamp(void) {
     struct { int w, h; probe_layout want, got; int ok; } cases[] = {
         { 64, 32, PROBE_AUTO, PROBE_LATLONG, 1 },  { 32, 32, PROBE_AUTO, PROBE_ANGULAR, 1 },
         { 48, 64, PROBE_AUTO, PROBE_VCROSS, 1 },   { 64, 48, PROBE_AUTO, PROBE_HCROSS, 1 },
@@ -174,7 +174,8 @@ static void test_detect_and_clamp(void) {
 /* Each layout, from the same analytic function: load the EXR, probe_eval at random
  * directions against the function, pixel directions against the documented maps,
  * solid angles summing to 4 pi, and probe_to_cube against the function. */
-static void test_layouts(const char *dir) {
+static void layouts(void) {
+    const char *dir = check_tmpdir();
     struct { probe_layout l; int w, h; const char *name; double tol_max, tol_rms; } L[] = {
         /* Bilinear error of this smooth function at these sizes (measured: latlong 1.2e-4 max,
          * angular 7e-5, crosses 5e-3 max from clamping the taps at face edges). */
@@ -285,7 +286,7 @@ static void test_layouts(const char *dir) {
     }
 }
 
-static void test_constant(void) {
+static void constant(void) {
     float rgb[3] = { 0.7f, 1.3f, 2.5f };
     prt_probe p;
     prt_error err;
@@ -335,7 +336,7 @@ static int brightest(const float *cube, int n) {
     return best;
 }
 
-static void test_sky(void) {
+static void sky(void) {
     prt_probe p;
     prt_error err;
     sky_desc d = { 0 };
@@ -416,11 +417,12 @@ static void test_sky(void) {
     CHECK(probe_make_sky(&bad, &p, &err) == -1);
 }
 
-int main(void) {
-    test_parse();
-    test_detect_and_clamp();
-    test_layouts(check_tmpdir());
-    test_constant();
-    test_sky();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(parse);
+    CHECK_CASE(detect_and_clamp);
+    CHECK_CASE(layouts);
+    CHECK_CASE(constant);
+    CHECK_CASE(sky);
     return check_summary();
 }

@@ -46,7 +46,7 @@ static int make_scene_mesh(prt_mesh *m, const char *spec, prt_scene *s) {
 
 /* ---------------------------------------------------------------- environment sampling */
 
-static void test_env_sampling(void) {
+static void env_sampling(void) {
     prt_error err;
     prt_probe sky;
     sky_desc sd = { .width = 256, .sun_radius_deg = 3, .sun_radiance = 500 };
@@ -143,7 +143,7 @@ static void test_env_sampling(void) {
 
 /* ---------------------------------------------------------------- furnace */
 
-static void test_furnace_sphere(void) {
+static void furnace_sphere(void) {
     prt_error err;
     prt_mesh m;
     float c[3] = { 0, 0, 0 };
@@ -211,7 +211,7 @@ static double view_factor_corner(double a, double b, double c) {
     return (A / sqrt(1 + A * A) * atan(B / sqrt(1 + A * A)) + B / sqrt(1 + B * B) * atan(A / sqrt(1 + B * B))) / (2 * PI);
 }
 
-static void test_furnace_box(void) {
+static void furnace_box(void) {
     prt_error err;
     prt_mesh m;
     float bmin[3] = { -1, 0, -1 }, bmax[3] = { 1, 2, 1 };
@@ -325,7 +325,7 @@ static void brute_force_vertex(const prt_scene *s, const vis_scene *vs, const re
     for (int k = 0; k < 3; k++) out[k] = (float)acc[k];
 }
 
-static void test_glossy_brute_force(void) {
+static void glossy_brute_force(void) {
     prt_error err;
     prt_scene s;
     CHECK(make_plane_sphere("phong:kd=0.2,0.3,0.1;ks=0.5;n=30", "lambert:kd=0.7", &s) == 0, "glossy scene");
@@ -383,7 +383,7 @@ static void test_glossy_brute_force(void) {
 
 /* ---------------------------------------------------------------- MIS */
 
-static void test_mis(void) {
+static void mis(void) {
     prt_error err;
     prt_scene s;
     CHECK(make_plane_sphere("phong:kd=0.4;ks=0.3;n=20", "lambert:kd=0.5", &s) == 0, "MIS scene");
@@ -431,7 +431,7 @@ static bool stop_now(void *user, const char *stage, double f) {
     return false;
 }
 
-static void test_determinism_and_errors(void) {
+static void determinism_and_errors(void) {
     prt_error err;
     prt_scene s;
     CHECK(make_plane_sphere("phong:kd=0.4;ks=0.3;n=20", "lambert:kd=0.5", &s) == 0, "scene");
@@ -513,7 +513,7 @@ static bool parse_metrics(const char *out, double *rel_rmse, double *max_rel) {
     return true;
 }
 
-static void test_cli(void) {
+static void cli(void) {
     const char *dir = check_tmpdir(), *prt = check_prt_bin();
     char path[512], cmd[4096], out[8192];
     prt_error err;
@@ -570,21 +570,14 @@ static void test_cli(void) {
     CHECK(rc == 2 && strstr(out, "--spp"), "bad --spp (rc %d): %s", rc, out);
 }
 
-int main(void) {
-    double t0 = prt_now();
-    test_env_sampling();
-    printf("env sampling %.1fs\n", prt_now() - t0);
-    test_furnace_sphere();
-    printf("furnace sphere %.1fs\n", prt_now() - t0);
-    test_furnace_box();
-    printf("furnace box %.1fs\n", prt_now() - t0);
-    test_glossy_brute_force();
-    printf("glossy %.1fs\n", prt_now() - t0);
-    test_mis();
-    printf("mis %.1fs\n", prt_now() - t0);
-    test_determinism_and_errors();
-    test_cli();
-    printf("cli %.1fs\n", prt_now() - t0);
-    printf("total %.1fs\n", prt_now() - t0);
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(env_sampling);
+    CHECK_CASE(furnace_sphere);
+    CHECK_CASE(furnace_box);
+    CHECK_CASE(glossy_brute_force);
+    CHECK_CASE(mis);
+    CHECK_CASE(determinism_and_errors);
+    CHECK_CASE(cli);
     return check_summary();
 }

@@ -43,18 +43,25 @@ static void normalize3(float v[3]) { float l = sqrtf(v[0] * v[0] + v[1] * v[1] +
 /* Visibility kinds: 0 open, 1 fully occluded, 2 only directions with y >= 0 visible. */
 static float vis(int kind, const float d[3]) { return kind == 0 ? 1.f : kind == 1 ? 0.f : (d[1] >= 0 ? 1.f : 0.f); }
 
-int main(void) {
-    float sa[64 * 64];
+/* The scene of the cases: six vertices (material, visibility kind, normal), a Lambert
+ * material (albedo kd) and a two-term one with a linear view map (lin), lit by the constant
+ * environment c; S is the discrete truth S_v = sum_j V cos dw over the cube texels. */
+static const int vmat[6] = { 0, 0, 0, 1, 1, 1 }, vvis[6] = { 0, 1, 2, 0, 0, 2 };
+static float nrm[6][3] = { { 0, 1, 0 }, { 0, 1, 0 }, { 1, 0, 0 }, { 0, 1, 0 }, { 0.3f, 0.8f, -0.5f }, { -0.6f, 0.2f, 0.77f } };
+static const float kd[3] = { 0.8f, 0.5f, 0.2f }, c[3] = { 1.0f, 2.0f, 0.5f };
+static const float lam[1][3] = { { 0.8f / (float)M_PI, 0.5f / (float)M_PI, 0.2f / (float)M_PI } };
+static const float lin[2][3] = { { 0.2f, 0.3f, 0.4f }, { 0.1f, -0.5f, 0.6f } };
+static float sa[64 * 64];
+static double S[6];
+
+/* Normalizes the normals and computes sa and S, once (every case that needs them calls it). */
+static void scene_setup(void) {
+    static bool done;
+    if (done) return;
+    done = true;
     cube_face_solid_angles(CUBE_RES, sa);
-    /* Vertices: (material, visibility kind, normal). */
-    const int vmat[6] = { 0, 0, 0, 1, 1, 1 }, vvis[6] = { 0, 1, 2, 0, 0, 2 };
-    float nrm[6][3] = { { 0, 1, 0 }, { 0, 1, 0 }, { 1, 0, 0 }, { 0, 1, 0 }, { 0.3f, 0.8f, -0.5f }, { -0.6f, 0.2f, 0.77f } };
     for (int v = 0; v < 6; v++) normalize3(nrm[v]);
-    const float kd[3] = { 0.8f, 0.5f, 0.2f }, c[3] = { 1.0f, 2.0f, 0.5f };
-    const float lam[1][3] = { { kd[0] / (float)M_PI, kd[1] / (float)M_PI, kd[2] / (float)M_PI } };
-    const float lin[2][3] = { { 0.2f, 0.3f, 0.4f }, { 0.1f, -0.5f, 0.6f } };
     /* Discrete truth: S_v = sum_j V cos dw over the cube texels. */
-    double S[6];
     for (int v = 0; v < 6; v++) {
         S[v] = 0;
         for (int j = 0; j < T; j++) {
@@ -64,9 +71,18 @@ int main(void) {
             if (cs > 0) S[v] += vis(vvis[v], d) * cs * sa[j % 4096];
         }
     }
+}
+
+static void cube_quadrature(void) {
+    scene_setup();
     CHECK_NEAR(S[0] / M_PI, 1.0, 2e-4, "cube quadrature of the cosine over a hemisphere");
     CHECK_NEAR(S[2] / S[0], 0.5, 1e-6, "half-occluded vertex sees half the cosine");
+}
 
+/* For float and 8-bit transport: constant light (K-vectors, Lambert albedo x radiance,
+ * occlusion), the linear view map against c S (a + b (wo . s)), kmax, and errors. */
+static void lambert_and_linear_views(void) {
+    scene_setup();
     int qbits[2] = { 32, 8 };
     for (int qi = 0; qi < 2; qi++) {
         prt_data pd;
@@ -113,7 +129,7 @@ int main(void) {
         CHECK(transport_finish(&pd.transfers[0].transport, &err) == 0, "finish: %s", err.msg);
         relight_ctx *rc = relight_create(&pd, 2, &err);
         CHECK(rc != NULL, "create: %s", err.msg);
-        if (!rc) return check_summary();
+        if (!rc) return;
         /* constant environment */
         float *cube = malloc(sizeof(float) * 3 * T);
         for (int j = 0; j < T; j++) for (int ch = 0; ch < 3; ch++) cube[3 * j + ch] = c[ch];
@@ -194,6 +210,9 @@ int main(void) {
         for (int k = 0; k < 2; k++) { free(pd.factors[k].light); free(pd.factors[k].view); }
         free(m->pos); free(m->nrm); free(m->mat);
     }
+}
+
+static void speed(void) {
     /* Speed (printed): 36K vertices with a 4-term 48x48 factor + 31K Lambertian vertices. */
     {
         int nv4 = 36000, nv1 = 31000, n = nv4 + nv1;
@@ -256,5 +275,12 @@ int main(void) {
         for (int k = 0; k < 2; k++) { free(pd.factors[k].light); free(pd.factors[k].view); }
         free(m->pos); free(m->nrm); free(m->mat);
     }
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(cube_quadrature);
+    CHECK_CASE(lambert_and_linear_views);
+    CHECK_CASE(speed);
     return check_summary();
 }

@@ -65,7 +65,7 @@ static void check_floor(const prt_scene *s, int expect_n, float size) {
     CHECK(s->bmin[1] == fmin[1] && s->bmin[0] <= fmin[0] && s->bmax[2] >= fmax[2]);
 }
 
-static void test_obj_scene(void) {
+static void obj_scene(void) {
     const char *obj = tmp_path("cube.obj");
     write_file(obj, k_cube);
     prt_scene s;
@@ -102,7 +102,7 @@ static void test_obj_scene(void) {
     scene_free(&s);
 }
 
-static void test_floor_api(void) {
+static void floor_api(void) {
     prt_error err = { "" };
     prt_scene s;
     prt_mesh m;
@@ -126,7 +126,7 @@ static void test_floor_api(void) {
     scene_free(&e);
 }
 
-static void test_materials(void) {
+static void materials(void) {
     prt_scene s;
     memset(&s, 0, sizeof s);
     s.floor_first_vertex = -1;
@@ -158,7 +158,7 @@ static void test_materials(void) {
     scene_free(&s);
 }
 
-static void test_json_scene(void) {
+static void json_scene(void) {
     /* The OBJ sits in a subfolder beside the JSON: paths are relative to the JSON. */
     char dir[600];
     snprintf(dir, sizeof dir, "%s/models", check_tmpdir());
@@ -241,7 +241,7 @@ static void expect_fail(const char *label, const char *name, const char *text, c
     scene_free(&s);
 }
 
-static void test_json_errors(void) {
+static void json_errors(void) {
     write_file(tmp_path("bad.obj"), "v 0 0 0\nbogus\n");
     expect_fail("missing scene", "nothere.json", NULL, "cannot open");
     expect_fail("unknown extension", "scene.txt", "hi", "unknown scene format");
@@ -271,7 +271,7 @@ static void test_json_errors(void) {
     expect_fail("floor bad type", "fl2.json", "{ \"models\": [ { \"sphere\": {} } ], \"floor\": 3 }", "floor: expected an object or true/false");
 }
 
-static void test_demo(void) {
+static void demo(void) {
     prt_scene s;
     prt_error err = { "" };
     CHECK(scene_make_demo(&s, 0, &err) == -1 && err.msg[0]);
@@ -321,12 +321,13 @@ static void test_demo(void) {
     scene_free(&s);
 }
 
-int main(void) {
-    test_obj_scene();
-    test_floor_api();
-    test_materials();
-    test_json_scene();
-    test_json_errors();
-    test_demo();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(obj_scene);
+    CHECK_CASE(floor_api);
+    CHECK_CASE(materials);
+    CHECK_CASE(json_scene);
+    CHECK_CASE(json_errors);
+    CHECK_CASE(demo);
     return check_summary();
 }

@@ -45,13 +45,14 @@ static double kept_error(const float *r, const float *g, const float *b, int len
     return e;
 }
 
-int main(void) {
-    int len = CUBE_TEXELS;
-    float *r = malloc(sizeof(float) * len), *g = malloc(sizeof(float) * len), *b = malloc(sizeof(float) * len);
-    float *scratch = malloc(sizeof(float) * 2 * len);
-    uint32_t *idx = malloc(sizeof(uint32_t) * len), *ref = malloc(sizeof(uint32_t) * len);
-    uint32_t s = 2024;
+/* Buffers the cases share: full-length channels, selection scratch and index lists. Each
+ * case that draws random numbers seeds its own generator, so a case run alone (a filter)
+ * sees the same data as in the whole suite. */
+enum { len = CUBE_TEXELS };
+static float r[len], g[len], b[len], scratch[2 * len];
+static uint32_t idx[len], ref[len];
 
+static void hand_cases(void) {
     /* 1. Small hand case: energies 0, 9, 1, 9, 4 (two tied at 9), n = 2 -> {1, 3}; n = 3 -> {1, 3, 4};
      * n = 10 -> the four non-zero ones, never index 0. */
     {
@@ -75,6 +76,10 @@ int main(void) {
         CHECK(k == 2 && idx[0] == 1 && idx[1] == 3, "non-finite skipped: %d", k);
         CHECK(sparse_select(zero, zero, zero, 40, 5, idx, scratch) == 0, "all-zero selects nothing");
     }
+}
+
+static void brute_force(void) {
+    uint32_t s = 2024;
     /* 2. Against brute force on full-length vectors: dense, sparse, heavily tied (few distinct values). */
     {
         int bad = 0, trials = 0;
@@ -94,6 +99,10 @@ int main(void) {
             }
         CHECK(bad == 0, "%d of %d selections differ from brute force", bad, trials);
     }
+}
+
+static void nonlinear_approximation(void) {
+    uint32_t s = 2025;
     /* 3. Non-linear approximation of a Haar-transformed signal: the N largest give a lower
      * L2 error than 200 random other subsets of size N, the error (measured in the texel
      * domain after the inverse transform) matches the wavelet-domain one (Parseval), and it
@@ -144,6 +153,10 @@ int main(void) {
         free(rs);
         for (int c = 0; c < 3; c++) { free(tex[c]); free(wav[c]); }
     }
+}
+
+static void quantization(void) {
+    uint32_t s = 2026;
     /* 4. Quantization: |x - q step| <= step/2 for 8 and 16 bits; clamping; degenerate steps. */
     {
         int qm[2] = { 127, 32767 };
@@ -167,6 +180,9 @@ int main(void) {
         CHECK(sparse_step(0, 127) == 0 && sparse_step(INFINITY, 127) == 0 && sparse_step(NAN, 127) == 0, "degenerate steps");
         CHECK(sparse_quantize(5, 0, 127) == 0 && sparse_quantize(NAN, 0.1f, 127) == 0, "zero step / NaN give 0");
     }
+}
+
+static void packing(void) {
     /* 5. 8-bit packing: every index 0..24575 split into block/offset, with every int8 value. */
     {
         int bad = 0;
@@ -185,6 +201,10 @@ int main(void) {
         }
         CHECK(bad == 0, "%d pack/unpack failures", bad);
     }
+}
+
+static void speed(void) {
+    uint32_t s = 2027;
     /* 6. Speed of selection (printed): 24576 dense coefficients, N = 128. */
     {
         for (int i = 0; i < len; i++) { r[i] = rnd(&s); g[i] = rnd(&s); b[i] = rnd(&s); }
@@ -193,6 +213,15 @@ int main(void) {
         for (int t = 0; t < reps; t++) sparse_select(r, g, b, len, 128, idx, scratch);
         printf("sparse_select dense 24576 -> 128: %.1f us\n", 1e6 * (prt_now() - t0) / reps);
     }
-    free(r); free(g); free(b); free(scratch); free(idx); free(ref);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(hand_cases);
+    CHECK_CASE(brute_force);
+    CHECK_CASE(nonlinear_approximation);
+    CHECK_CASE(quantization);
+    CHECK_CASE(packing);
+    CHECK_CASE(speed);
     return check_summary();
 }

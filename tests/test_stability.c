@@ -47,7 +47,7 @@ static const char *k_hard_specs[] = {
     "beckmann:kd=0.1;ks=0.9;alpha=0.001",
 };
 
-static void test_brdf_extremes(void) {
+static void brdf_extremes(void) {
     prt_error err;
     /* Directions: grazing (z down to 1e-7), the normal, and mirror pairs. */
     const float zs[] = { 1e-7f, 1e-5f, 1e-3f, 0.05f, 0.5f, 0.999f, 1.0f };
@@ -121,7 +121,7 @@ static void test_brdf_extremes(void) {
 
 /* ---------------------------------------------------------------- frames */
 
-static void test_frames(void) {
+static void frames(void) {
     const float base[2][3] = { { 0, -1, 0 }, { 0, 1, 0 } };
     const float offs[] = { 0, 1e-8f, 1e-7f, 1e-6f, 1e-5f, 1e-3f };
     int bad = 0, total = 0;
@@ -165,7 +165,7 @@ static float (*light_of(const prt_probe *p))[4] {
 }
 
 /* Relight at the poles: a glossy sphere (vertices exactly at (0,+-1,0) and near) and a downward plane. */
-static void test_relight_poles(void) {
+static void relight_poles(void) {
     prt_error err;
     prt_mesh sph, plane;
     float c[3] = { 0, 2, 0 };
@@ -251,7 +251,7 @@ static void light_to_cube(const float (*L)[4], int c, float *out) {
     free(tmp);
 }
 
-static void test_probes(void) {
+static void probes(void) {
     prt_error err;
     float dw[CUBE_RES * CUBE_RES];
     cube_face_solid_angles(CUBE_RES, dw);
@@ -351,7 +351,7 @@ static void test_probes(void) {
 
 /* ---------------------------------------------------------------- transport */
 
-static void test_transport(void) {
+static void transport(void) {
     prt_error err;
     enum { NV = 4 };
     for (int qi = 0; qi < 2; qi++) {
@@ -512,7 +512,7 @@ static void check_sphere_scale(float s, float off, bool floor, const char *label
     prt_data_free(&d);
 }
 
-static void test_geometry(void) {
+static void geometry(void) {
     prt_error err;
     /* Degenerate input: a repeated index, a collinear triangle, a zero-area sliver, duplicate
      * vertices (welded) and a valid tetrahedron, all in one OBJ. */
@@ -560,17 +560,13 @@ static void test_geometry(void) {
     check_sphere_scale(1, 0, true, "sphere touching the floor");
 }
 
-int main(void) {
-    double t0 = prt_now();
-    test_brdf_extremes();
-    printf("brdf %.1fs\n", prt_now() - t0);
-    test_frames();
-    test_relight_poles();
-    printf("poles %.1fs\n", prt_now() - t0);
-    test_probes();
-    printf("probes %.1fs\n", prt_now() - t0);
-    test_transport();
-    test_geometry();
-    printf("total %.1fs\n", prt_now() - t0);
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(brdf_extremes);
+    CHECK_CASE(frames);
+    CHECK_CASE(relight_poles);
+    CHECK_CASE(probes);
+    CHECK_CASE(transport);
+    CHECK_CASE(geometry);
     return check_summary();
 }

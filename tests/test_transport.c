@@ -87,15 +87,51 @@ static int build(prt_transport *t, int nverts, int N, int qbits, int nthreads, d
 typedef struct idx_list { uint32_t *idx; int n; } idx_list;
 static void collect(void *p, uint32_t index, float r, float g, float b) { idx_list *l = p; l->idx[l->n++] = index; }
 
-int main(void) {
-    float *r = malloc(sizeof(float) * T), *g = malloc(sizeof(float) * T), *b = malloc(sizeof(float) * T);
-    float *dr = malloc(sizeof(float) * T), *dg = malloc(sizeof(float) * T), *db = malloc(sizeof(float) * T);
-    float *sel_scratch = malloc(sizeof(float) * 2 * T);
-    uint32_t *sel = malloc(sizeof(uint32_t) * T), *got = malloc(sizeof(uint32_t) * T);
-    float (*L)[4] = aligned_alloc(64, sizeof(float) * 4 * T);
-    uint32_t s = 5;
-    for (int i = 0; i < T; i++) { L[i][0] = rnd(&s) * 2 - 0.5f; L[i][1] = rnd(&s); L[i][2] = rnd(&s) * 10; L[i][3] = 0; }
+/* Buffers the cases share (full-length channels, decoded channels, selection scratch and
+ * index lists) and the light vector of cases 5 and 7. */
+static float r[T], g[T], b[T], dr[T], dg[T], db[T], sel_scratch[2 * T];
+static uint32_t sel[T], got[T];
+static _Alignas(64) float L[T][4];
 
+/* Fills L with random coefficients from *s (seed 5 for every case, so a case run alone sees
+ * the data it sees in the whole suite). */
+static void fill_light(uint32_t *s) {
+    for (int i = 0; i < T; i++) { L[i][0] = rnd(s) * 2 - 0.5f; L[i][1] = rnd(s); L[i][2] = rnd(s) * 10; L[i][3] = 0; }
+}
+
+/* The sets of cases 2-5 for each quantization: one stored on two threads, one on one thread
+ * (60 vertices, N = 128). Built, with their checks, by the first case that needs them. */
+static const int qb[3] = { 8, 16, 32 };
+typedef struct qset { prt_transport t, t1; double *errs, *errs1; bool built; } qset;
+static qset g_sets[3];
+
+/* Returns the sets of quantization qb[q], building them on first use. */
+static qset *qset_get(int q) {
+    qset *qs = &g_sets[q];
+    if (qs->built) return qs;
+    qs->built = true;
+    int nverts = 60, N = 128;
+    prt_transport *t = &qs->t;
+    CHECK(build(&qs->t, nverts, N, qb[q], 2, &qs->errs) == 0, "build q%d", qb[q]);
+    CHECK(build(&qs->t1, nverts, N, qb[q], 1, &qs->errs1) == 0, "build q%d serial", qb[q]);
+    CHECK(t->stage_count == NULL && t->stage_idx == NULL && t->stage_val == NULL, "staging freed");
+    CHECK(t->nvecs == 150 && t->vec_first[nverts] == 150 && t->vec_first[1] == 1 && t->vec_first[2] == 3, "vector numbering");
+    return qs;
+}
+
+/* Frees the sets of every quantization that was built. */
+static void qsets_free(void) {
+    for (int q = 0; q < 3; q++) {
+        qset *qs = &g_sets[q];
+        if (!qs->built) continue;
+        free(qs->errs); free(qs->errs1);
+        transport_free(&qs->t);
+        transport_free(&qs->t1);
+        memset(qs, 0, sizeof *qs);
+    }
+}
+
+static void bad_arguments(void) {
     /* 1. Bad arguments fail with a message. */
     {
         prt_transport t;
@@ -106,18 +142,15 @@ int main(void) {
         int neg[2] = { 1, -1 };
         CHECK(transport_init(&t, 2, neg, 128, 8, &err) == -1 && strstr(err.msg, "vertex 1"), "negative count: %s", err.msg);
     }
-    /* 2..6 for each quantization. */
-    int qb[3] = { 8, 16, 32 };
+}
+
+static void threaded_build(void) {
     for (int q = 0; q < 3; q++) {
-        prt_transport t, t1;
-        double *errs, *errs1;
-        int nverts = 60, N = 128;
-        CHECK(build(&t, nverts, N, qb[q], 2, &errs) == 0, "build q%d", qb[q]);
-        CHECK(build(&t1, nverts, N, qb[q], 1, &errs1) == 0, "build q%d serial", qb[q]);
-        CHECK(t.stage_count == NULL && t.stage_idx == NULL && t.stage_val == NULL, "staging freed");
-        CHECK(t.nvecs == 150 && t.vec_first[nverts] == 150 && t.vec_first[1] == 1 && t.vec_first[2] == 3, "vector numbering");
-        /* 2. Two threads store exactly what one thread stores. */
+        const qset *qs = qset_get(q);
+        prt_transport t = qs->t, t1 = qs->t1;
+        const double *errs = qs->errs, *errs1 = qs->errs1;
         size_t nc = transport_ncoefs(&t), nr = transport_nruns(&t);
+        /* 2. Two threads store exactly what one thread stores. */
         int same = nc == transport_ncoefs(&t1) && nr == transport_nruns(&t1) &&
                    memcmp(t.coef_first, t1.coef_first, sizeof(uint32_t) * (t.nvecs + 1)) == 0 &&
                    memcmp(t.runs, t1.runs, 2 * nr) == 0 && memcmp(t.scale, t1.scale, sizeof(float) * 3 * t.nvecs) == 0 &&
@@ -126,6 +159,16 @@ int main(void) {
         if (qb[q] == 16) same = same && memcmp(t.q16, t1.q16, 6 * nc) == 0 && memcmp(t.offs, t1.offs, nc) == 0;
         if (qb[q] == 32) same = same && memcmp(t.f32, t1.f32, 12 * nc) == 0 && memcmp(t.offs, t1.offs, nc) == 0;
         CHECK(same, "q%d: threaded build differs from serial build", qb[q]);
+    }
+}
+
+static void stored_vectors(void) {
+    for (int q = 0; q < 3; q++) {
+        const qset *qs = qset_get(q);
+        prt_transport t = qs->t;
+        const double *errs = qs->errs;
+        size_t nr = transport_nruns(&t);
+        int N = 128;
         /* 3. Per vector: stored indices are sparse_select's, decode error <= step/2 per
          * coefficient, the returned error equals the brute-force one, runs are consistent. */
         int bad_idx = 0, bad_q = 0, bad_err = 0, bad_runs = 0, nonfinite = 0;
@@ -166,6 +209,12 @@ int main(void) {
         CHECK(bad_err == 0, "q%d: %d returned errors differ from brute force", qb[q], bad_err);
         CHECK(nonfinite == 0, "q%d: %d non-finite decoded values", qb[q], nonfinite);
         CHECK(runs_brute == nr && bad_runs == 0, "q%d: %zu runs stored, %zu expected", qb[q], nr, runs_brute);
+    }
+}
+
+static void special_vectors(void) {
+    for (int q = 0; q < 3; q++) {
+        prt_transport t = qset_get(q)->t;
         /* 4. Special vectors: all-zero stores 0 coefficients; the single scaling coefficient
          * round-trips exactly; the dominant coefficient survives without NaN. */
         CHECK(t.coef_first[1] - t.coef_first[0] == 0 && t.run_first[1] == t.run_first[0], "q%d: zero vector stores nothing", qb[q]);
@@ -173,6 +222,15 @@ int main(void) {
         CHECK(t.coef_first[2] - t.coef_first[1] == 1 && dr[0] == 2.f && dg[0] == 1.f && db[0] == 0.5f, "q%d: scaling coefficient %g %g %g", qb[q], dr[0], dg[0], db[0]);
         transport_decode(&t, 2, dr, dg, db);
         CHECK(dr[77] == 1e30f && fabsf(dg[77] + 3e29f) <= 3e29f * 1e-4f && isfinite(db[300]), "q%d: dominant coefficient %g %g", qb[q], dr[77], dg[77]);
+    }
+}
+
+static void light_product(void) {
+    uint32_t s = 5;
+    fill_light(&s);
+    for (int q = 0; q < 3; q++) {
+        prt_transport t = qset_get(q)->t;
+        size_t nc = transport_ncoefs(&t), nr = transport_nruns(&t);
         /* 5. T x L against a dense double inner product of the decoded vectors. */
         float *gv = malloc(sizeof(float) * 3 * t.nvecs), *gv1 = malloc(sizeof(float) * 3 * t.nvecs), *gr = malloc(sizeof(float) * 3 * t.nvecs);
         transport_light(&t, (const float (*)[4])L, gv, 2);
@@ -199,11 +257,20 @@ int main(void) {
         CHECK(bad_thr == 0, "q%d: %d values depend on threads / range", qb[q], bad_thr);
         size_t per = qb[q] == 8 ? 4 : qb[q] == 16 ? 7 : 13;
         CHECK(transport_bytes(&t) == nc * per + 2 * nr + 12 * (size_t)t.nvecs, "q%d bytes", qb[q]);
-        free(gv); free(gv1); free(gr); free(errs); free(errs1);
-        transport_free(&t);
-        transport_free(&t1);
+        free(gv); free(gv1); free(gr);
+    }
+}
+
+static void free_zeroes_set(void) {
+    for (int q = 0; q < 3; q++) qset_get(q);   /* a filter may have skipped the cases that build them */
+    qsets_free();
+    for (int q = 0; q < 3; q++) {
+        prt_transport t = g_sets[q].t;
         CHECK(t.nvecs == 0 && t.packed == NULL && t.vec_first == NULL, "free zeroes the set");
     }
+}
+
+static void index_runs(void) {
     /* 6. Every index 0..24575 through runs: one dense vector with N = 24576 (96 full runs of
      * 256, count-1 = 255) and 192 vectors of 128 consecutive indices. */
     for (int qi = 0; qi < 2; qi++) {
@@ -236,6 +303,11 @@ int main(void) {
         free(nv); free(scratch);
         transport_free(&t);
     }
+}
+
+static void benchmark(void) {
+    uint32_t s = 5;
+    fill_light(&s);
     /* 7. Benchmark (printed, not asserted): ~36K vertices x 4 vectors + 31K x 1, N = 128,
      * 8-bit. Index patterns come from 256 realistic vectors (shadowed cosine and glossy
      * lobes, transformed and truncated: about 10 runs per vector), values are random. */
@@ -328,6 +400,18 @@ int main(void) {
         free(gv); free(pat); free(tex);
         transport_free(&t);
     }
-    free(r); free(g); free(b); free(dr); free(dg); free(db); free(sel_scratch); free(sel); free(got); free(L);
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(bad_arguments);
+    CHECK_CASE(threaded_build);
+    CHECK_CASE(stored_vectors);
+    CHECK_CASE(special_vectors);
+    CHECK_CASE(light_product);
+    CHECK_CASE(free_zeroes_set);
+    CHECK_CASE(index_runs);
+    CHECK_CASE(benchmark);
+    qsets_free();
     return check_summary();
 }

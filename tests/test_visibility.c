@@ -41,7 +41,7 @@ static void make_scene(prt_mesh *m, float r, float dist, float scale, const floa
     mesh_transform(m, I, scale, off);
 }
 
-static void test_texel_convention(void) {
+static void texel_convention(void) {
     /* One tiny triangle straddling the centre of texel idx at distance 1 blocks exactly that texel. */
     const int res = 32;
     int idxs[4] = { 2 * res * res + 5 * res + 7, 0 * res * res + 17 * res + 3, 5 * res * res + 30 * res + 30,
@@ -100,7 +100,7 @@ static void test_texel_convention(void) {
     }
 }
 
-static void test_sphere_cap(void) {
+static void sphere_cap(void) {
     const int res = 128;
     const float r = 1.0f, dist = 2.0f;   /* r/d = 0.5: cap half-angle 30 degrees */
     float zero[3] = { 0, 0, 0 };
@@ -175,7 +175,7 @@ static void test_sphere_cap(void) {
     mesh_free(&m);
 }
 
-static void test_closest(void) {
+static void closest(void) {
     prt_mesh m = { 0 };
     prt_error err;
     CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0.5f, 5, 5, &err) == 0, "%s", err.msg);
@@ -236,7 +236,7 @@ static void mt_fn(void *ctx, int b, int e, int th) {
     for (int v = b; v < e; v++) vis_cube(c->vs, c->m->pos + 3 * v, c->m->nrm + 3 * v, 16, c->out + (size_t)v * 6 * 256, NULL, NULL);
 }
 
-static void test_threads(void) {
+static void threads(void) {
     prt_mesh m = { 0 };
     float zero[3] = { 0, 0, 0 };
     make_scene(&m, 1, 1.5f, 1, zero);
@@ -254,7 +254,7 @@ static void test_threads(void) {
     mesh_free(&m);
 }
 
-static void test_errors(void) {
+static void errors(void) {
     prt_error err = { { 0 } };
     prt_mesh bad = { .nverts = 3, .ntris = 1, .pos = NULL, .tris = NULL };
     CHECK(vis_create(&bad, &err) == NULL, "a mesh without arrays must fail");
@@ -280,11 +280,12 @@ static void test_errors(void) {
     }
 }
 
-int main(void) {
-    test_texel_convention();
-    test_sphere_cap();
-    test_closest();
-    test_threads();
-    test_errors();
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    CHECK_CASE(texel_convention);
+    CHECK_CASE(sphere_cap);
+    CHECK_CASE(closest);
+    CHECK_CASE(threads);
+    CHECK_CASE(errors);
     return check_summary();
 }

@@ -178,6 +178,43 @@ static void tmp_name(const char *path, const char *ext, char *out, size_t cap) {
     std::snprintf(out, cap, "%s.tmp.%ld.%s", path, (long)getpid(), ext);
 }
 
+/* The first oc channels of im as float, non-finite values 0 and clamped to the range of
+ * half (EXR with desc.half) or float; returns the spec to write them with (zip for EXR). */
+static ImageSpec float_pixels(const prt_image *im, int oc, bool exr, bool half, std::vector<float> &fbuf) {
+    ImageSpec spec(im->w, im->h, oc, half ? TypeDesc::HALF : TypeDesc::FLOAT);
+    if (exr) spec.attribute("compression", "zip");
+    float lim = half ? 65504.f : 3.4028234e38f;
+    size_t n = (size_t)im->w * im->h;
+    fbuf.resize(n * oc);
+    for (size_t i = 0; i < n; i++)
+        for (int ch = 0; ch < oc; ch++) {
+            float v = im->data[i * im->c + ch];
+            if (!std::isfinite(v)) v = 0.f;
+            fbuf[i * oc + ch] = v > lim ? lim : (v < -lim ? -lim : v);
+        }
+    return spec;
+}
+
+/* The first oc channels of im as 8-bit sRGB after exposure and tone mapping (alpha, channel 3,
+ * stays linear and unassociated); returns the spec to write them with. */
+static ImageSpec byte_pixels(const prt_image *im, int oc, const image_desc &d, std::vector<unsigned char> &bbuf) {
+    ImageSpec spec(im->w, im->h, oc, TypeDesc::UINT8);
+    spec.attribute("oiio:ColorSpace", "sRGB");
+    if (oc == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
+    float gain = std::isfinite(d.exposure) ? std::exp2(d.exposure) : 1.f;
+    size_t n = (size_t)im->w * im->h;
+    bbuf.resize(n * oc);
+    for (size_t i = 0; i < n; i++)
+        for (int ch = 0; ch < oc; ch++) {
+            float v = im->data[i * im->c + ch];
+            float s;
+            if (ch == 3) s = std::isfinite(v) ? (v < 0.f ? 0.f : (v > 1.f ? 1.f : v)) : 0.f;   /* alpha: linear */
+            else s = linear_to_srgb(tonemap(v * gain, d.tonemap));
+            bbuf[i * oc + ch] = (unsigned char)std::lround(s * 255.f);
+        }
+    return spec;
+}
+
 /* image_write's body (may throw; the wrapper catches and removes the temporary). */
 static int image_write_impl(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!im || !im->data || im->w <= 0 || im->h <= 0 || (im->c != 3 && im->c != 4))
@@ -203,40 +240,17 @@ static int image_write_impl(const char *path, const prt_image *im, const image_d
         std::string m = first_line(OIIO::geterror());
         return prt_fail(err, "%s: no writer for '.%s' (%s)", path, ext, m.c_str());
     }
-    size_t n = (size_t)im->w * im->h;
     ImageSpec spec;
     std::vector<float> fbuf;
     std::vector<unsigned char> bbuf;
     const void *pixels;
     TypeDesc ptype;
     if (is_float) {
-        bool half = e == "exr" && d.half;
-        spec = ImageSpec(im->w, im->h, oc, half ? TypeDesc::HALF : TypeDesc::FLOAT);
-        if (e == "exr") spec.attribute("compression", "zip");
-        float lim = half ? 65504.f : 3.4028234e38f;
-        fbuf.resize(n * oc);
-        for (size_t i = 0; i < n; i++)
-            for (int ch = 0; ch < oc; ch++) {
-                float v = im->data[i * im->c + ch];
-                if (!std::isfinite(v)) v = 0.f;
-                fbuf[i * oc + ch] = v > lim ? lim : (v < -lim ? -lim : v);
-            }
+        spec = float_pixels(im, oc, e == "exr", e == "exr" && d.half, fbuf);
         pixels = fbuf.data();
         ptype = TypeDesc::FLOAT;
     } else {
-        spec = ImageSpec(im->w, im->h, oc, TypeDesc::UINT8);
-        spec.attribute("oiio:ColorSpace", "sRGB");
-        if (oc == 4) spec.attribute("oiio:UnassociatedAlpha", 1);
-        float gain = std::isfinite(d.exposure) ? std::exp2(d.exposure) : 1.f;
-        bbuf.resize(n * oc);
-        for (size_t i = 0; i < n; i++)
-            for (int ch = 0; ch < oc; ch++) {
-                float v = im->data[i * im->c + ch];
-                float s;
-                if (ch == 3) s = std::isfinite(v) ? (v < 0.f ? 0.f : (v > 1.f ? 1.f : v)) : 0.f;   /* alpha: linear */
-                else s = linear_to_srgb(tonemap(v * gain, d.tonemap));
-                bbuf[i * oc + ch] = (unsigned char)std::lround(s * 255.f);
-            }
+        spec = byte_pixels(im, oc, d, bbuf);
         pixels = bbuf.data();
         ptype = TypeDesc::UINT8;
     }

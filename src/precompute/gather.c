@@ -170,9 +170,9 @@ typedef struct gather_ctx {
     const prt_transport *prev;
     prt_transport *next;
     int res, ntex;
-    const float *tex_dir;     /* [ntex*3] gather cube texel directions */
-    const float *tex_dw;      /* [ntex] their solid angles */
-    const float *frame;       /* [nverts*6]: s, t of each vertex's Eq. 10 frame */
+    float *tex_dir;           /* [ntex*3] gather cube texel directions (owned by gather_pass) */
+    float *tex_dw;            /* [ntex] their solid angles */
+    float *frame;             /* [nverts*6]: s, t of each vertex's Eq. 10 frame */
     int kmax;                 /* largest vector count of any vertex */
     int slot_lanes;           /* lanes_of(kmax) rounded up to cover lanes_of(1) */
     int max_slots;
@@ -200,19 +200,9 @@ static void report(gather_ctx *c, int nfinished, int total) {
     pthread_mutex_unlock(&c->lock);
 }
 
-/* Gathers one vertex x into next (Eq. 8). */
-static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
-    const prt_mesh *m = &c->d->scene.mesh;
-    const prt_transport *prev = c->prev;
-    const int nk = nvec_of(prev, x);
-    if (nk <= 0) return;
-    const int S = lanes_of(nk);            /* accumulator floats per wavelet index */
-    const int SL = c->slot_lanes;          /* slot stride per neighbour term */
-    const brdf_factor *fx = &c->d->factors[m->mat[x]];
-    const float *n = m->nrm + 3 * (size_t)x, *s = c->frame + 6 * (size_t)x, *tt = s + 3;
-    const float *p = m->pos + 3 * (size_t)x;
-
-    /* Rays: gather-cube texel centres in the upper hemisphere of n. */
+/* Casts x's rays, the gather-cube texel centres in the upper hemisphere of n, into
+ * th->dirs, th->cosdw ((n.w) dw) and th->hits; returns their count. */
+static inline int gather_cast(const gather_ctx *c, gather_thread *th, const float *p, const float *n) {
     int nr = 0;
     for (int i = 0; i < c->ntex; i++) {
         const float *w = c->tex_dir + 3 * i;
@@ -225,10 +215,56 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
     float org[3];
     v3_madd(org, p, n, c->eps);
     if (nr > 0) vis_closest_many(c->vs, org, th->dirs, nr, c->eps, th->hits);
+    return nr;
+}
 
-    /* Combine weights per (neighbour vertex, term): W[y][l][lane(ch,k)] += beta h_l[ch] g_k[ch] (n.w) dw. */
+/* Adds one hit corner, neighbour y with barycentric weight b seen along -w (mw), to y's
+ * slot: W[y][l][lane(ch,k)] += b h_l(y, -w)[ch] gb[lane(ch,k)] (the bracket of Eq. 8).
+ * Returns the slot count, grown by one when y had no slot yet. */
+static inline int gather_add_corner(const gather_ctx *c, gather_thread *th, int y, float b, const float mw[3],
+                                    const float *gb, int nk, int nslots) {
+    const prt_mesh *m = &c->d->scene.mesh;
+    const int SL = c->slot_lanes;
+    int nl = nvec_of(c->prev, y);
+    if (nl <= 0) return nslots;
+    const float *ny = m->nrm + 3 * (size_t)y, *sy = c->frame + 6 * (size_t)y;
+    float ml[3], hy[3 * BRDF_MAX_SIGMA];
+    brdf_to_local(sy, sy + 3, ny, mw, ml);
+    if (ml[2] <= 0.f) return nslots;     /* x sees y's back: y reflects nothing toward x */
+    int my = m->mat[y];
+    if (c->hconst_ok[my]) v3_copy(hy, c->hconst[my]);
+    else brdf_factor_view(&c->d->factors[my], ml, hy);
+    int sl = th->slot_of[y];
+    if (sl < 0) {
+        sl = nslots++;
+        th->slot_of[y] = sl;
+        th->slot_vert[sl] = y;
+        memset(th->slot_w + (size_t)sl * c->kmax * SL, 0, sizeof(float) * (size_t)c->kmax * SL);
+    }
+    float *W = th->slot_w + (size_t)sl * c->kmax * SL;
+    for (int l = 0; l < nl; l++) {
+        float *Wl = W + (size_t)l * SL;
+        const float hb[3] = { b * hy[3 * l], b * hy[3 * l + 1], b * hy[3 * l + 2] };
+        if (nk == 4) {
+            for (int j = 0; j < 12; j++) Wl[j] += hb[j >> 2] * gb[j];
+        } else if (nk == 1) {
+            Wl[1] += hb[0] * gb[1]; Wl[2] += hb[1] * gb[2]; Wl[3] += hb[2] * gb[3];
+        } else {
+            for (int ch = 0; ch < 3; ch++)
+                for (int k = 0; k < nk; k++) Wl[lane(nk, ch, k)] += hb[ch] * gb[lane(nk, ch, k)];
+        }
+    }
+    return nslots;
+}
+
+/* Combines the nr cast rays of vertex x (nk terms) into per-neighbour slot weights,
+ * W[y][l][lane(ch,k)] += beta h_l[ch] g_k[ch] (n.w) dw; returns the number of slots used. */
+static inline int gather_combine(const gather_ctx *c, gather_thread *th, int x, int nk, int nr) {
+    const prt_mesh *m = &c->d->scene.mesh;
+    const brdf_factor *fx = &c->d->factors[m->mat[x]];
+    const float *n = m->nrm + 3 * (size_t)x, *s = c->frame + 6 * (size_t)x, *tt = s + 3;
     int nslots = 0;
-    float g[3 * BRDF_MAX_SIGMA], gb[3 * BRDF_MAX_SIGMA + 1], hy[3 * BRDF_MAX_SIGMA];
+    float g[3 * BRDF_MAX_SIGMA], gb[3 * BRDF_MAX_SIGMA + 1];
     for (int r = 0; r < nr; r++) {
         const vis_hit *h = &th->hits[r];
         if (h->tri < 0 || h->tri >= m->ntris) continue;
@@ -251,41 +287,20 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
             float b = beta[corner];
             if (!(b > 0.f)) continue;
             int y = (int)m->tris[3 * (size_t)h->tri + corner];
-            int nl = nvec_of(prev, y);
-            if (nl <= 0) continue;
-            const float *ny = m->nrm + 3 * (size_t)y, *sy = c->frame + 6 * (size_t)y;
-            float ml[3];
-            brdf_to_local(sy, sy + 3, ny, mw, ml);
-            if (ml[2] <= 0.f) continue;     /* x sees y's back: y reflects nothing toward x */
-            int my = m->mat[y];
-            if (c->hconst_ok[my]) v3_copy(hy, c->hconst[my]);
-            else brdf_factor_view(&c->d->factors[my], ml, hy);
-            int sl = th->slot_of[y];
-            if (sl < 0) {
-                sl = nslots++;
-                th->slot_of[y] = sl;
-                th->slot_vert[sl] = y;
-                memset(th->slot_w + (size_t)sl * c->kmax * SL, 0, sizeof(float) * (size_t)c->kmax * SL);
-            }
-            float *W = th->slot_w + (size_t)sl * c->kmax * SL;
-            for (int l = 0; l < nl; l++) {
-                float *Wl = W + (size_t)l * SL;
-                const float hb[3] = { b * hy[3 * l], b * hy[3 * l + 1], b * hy[3 * l + 2] };
-                if (nk == 4) {
-                    for (int j = 0; j < 12; j++) Wl[j] += hb[j >> 2] * gb[j];
-                } else if (nk == 1) {
-                    Wl[1] += hb[0] * gb[1]; Wl[2] += hb[1] * gb[2]; Wl[3] += hb[2] * gb[3];
-                } else {
-                    for (int ch = 0; ch < 3; ch++)
-                        for (int k = 0; k < nk; k++) Wl[lane(nk, ch, k)] += hb[ch] * gb[lane(nk, ch, k)];
-                }
-            }
+            nslots = gather_add_corner(c, th, y, b, mw, gb, nk, nslots);
         }
     }
+    return nslots;
+}
 
-    /* Decode each distinct neighbour vector once and accumulate. (Software prefetching of the
-     * next neighbour's coefficients and visiting neighbours in vertex order were measured on the
-     * bunny + floor and gained nothing: the lines mostly come from the shared L3.) */
+/* Decodes each of the nslots distinct neighbour vectors once and accumulates it, with its
+ * weights times its dequantization step, into th->acc; frees the slots for the next vertex.
+ * (Software prefetching of the next neighbour's coefficients and visiting neighbours in vertex
+ * order were measured on the bunny + floor and gained nothing: the lines mostly come from the
+ * shared L3.) */
+static inline void gather_decode(const gather_ctx *c, gather_thread *th, int nk, int nslots) {
+    const prt_transport *prev = c->prev;
+    const int SL = c->slot_lanes;
     memset(th->touched, 0, sizeof th->touched);
     for (int sl = 0; sl < nslots; sl++) {
         int y = th->slot_vert[sl];
@@ -309,8 +324,12 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
             if (any) accum_any(prev, vec, ws, nk, th->acc, th->touched);
         }
     }
+}
 
-    /* Store each of x's K vectors (truncation to N + quantization), clearing as we go. */
+/* Stores each of x's nk accumulated vectors (truncation to N + quantization) and clears the
+ * touched blocks of th->plane and th->acc, so both are zero again for the next vertex. */
+static inline void gather_store(const gather_ctx *c, gather_thread *th, int x, int nk) {
+    const int S = lanes_of(nk);            /* accumulator floats per wavelet index */
     float *R = th->plane, *G = R + CUBE_TEXELS, *B = G + CUBE_TEXELS;
     for (int k = 0; k < nk; k++) {
         for (int blk = 0; blk < SPARSE_NBLOCKS; blk++) {
@@ -332,6 +351,17 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
     for (int blk = 0; blk < SPARSE_NBLOCKS; blk++)
         if (th->touched[blk])
             memset(th->acc + (size_t)blk * SPARSE_BLOCK * S, 0, sizeof(float) * SPARSE_BLOCK * (size_t)S);
+}
+
+/* Gathers one vertex x into next (Eq. 8): cast, combine per neighbour, decode, store. */
+static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
+    const prt_mesh *m = &c->d->scene.mesh;
+    const int nk = nvec_of(c->prev, x);
+    if (nk <= 0) return;
+    int nr = gather_cast(c, th, m->pos + 3 * (size_t)x, m->nrm + 3 * (size_t)x);
+    int nslots = gather_combine(c, th, x, nk, nr);
+    gather_decode(c, th, nk, nslots);
+    gather_store(c, th, x, nk);
 }
 
 static void gather_range(void *ctx, int begin, int end, int thread) {
@@ -371,18 +401,15 @@ static int *vec_counts(const prt_transport *t, prt_error *err) {
     return cnt;
 }
 
-/* One interreflection pass (see gather.h). Returns 0, or -1 with err set; next is
- * left zeroed on failure. */
-int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *prev, const gather_desc *desc,
-                prt_transport *next, prt_error *err) {
-    memset(next, 0, sizeof *next);
+/* Checks prev against d's mesh and materials (each vertex has at most its material's
+ * K vectors); sets *kmax to the largest vector count of any vertex. Returns 0 or -1. */
+static int pass_check(const prt_data *d, const prt_transport *prev, int res, int *kmax, prt_error *err) {
     if (check_set(prev, "previous", err)) return -1;
     const prt_mesh *m = &d->scene.mesh;
     if (prev->nverts != m->nverts)
         return prt_fail(err, "gather: transport has %d vertices but the mesh has %d", prev->nverts, m->nverts);
-    int res = desc && desc->res > 0 ? desc->res : GATHER_DEFAULT_RES;
     if (res > GATHER_MAX_RES) return prt_fail(err, "gather: cube resolution %d out of range (1..%d)", res, GATHER_MAX_RES);
-    int kmax = 0;
+    *kmax = 0;
     for (int v = 0; v < m->nverts; v++) {
         int nv = nvec_of(prev, v), mat = m->mat[v];
         if (mat >= d->scene.nmaterials || mat >= PRT_MAX_MATERIALS)
@@ -390,8 +417,85 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
         if (nv > d->factors[mat].K || nv > BRDF_MAX_SIGMA)
             return prt_fail(err, "gather: vertex %d has %d transport vectors but its material has %d terms", v, nv,
                             d->factors[mat].K);
-        if (nv > kmax) kmax = nv;
+        if (nv > *kmax) *kmax = nv;
     }
+    return 0;
+}
+
+/* Fills the tables every thread reads: gather-cube texel directions and solid angles,
+ * each vertex's Eq. 10 frame, and the constant view maps of Lambertian materials.
+ * Returns 0, or -1 with what was allocated left in c for ctx_free. */
+static int ctx_tables(gather_ctx *c, prt_error *err) {
+    const prt_data *d = c->d;
+    const prt_mesh *m = &d->scene.mesh;
+    const int res = c->res;
+    if (!(c->tex_dir = prt_calloc((size_t)c->ntex * 3, sizeof(float), err)) ||
+        !(c->tex_dw = prt_calloc((size_t)c->ntex, sizeof(float), err)) ||
+        !(c->frame = prt_calloc((size_t)m->nverts * 6, sizeof(float), err)))
+        return -1;
+    for (int i = 0; i < c->ntex; i++) {
+        cube_texel_dir(res, i, c->tex_dir + 3 * i);
+        int ij = i % (res * res);
+        c->tex_dw[i] = (float)cube_texel_solid_angle(res, ij % res, ij / res);
+    }
+    for (int v = 0; v < m->nverts; v++)
+        brdf_frame(m->nrm + 3 * (size_t)v, c->frame + 6 * (size_t)v, c->frame + 6 * (size_t)v + 3);
+    for (int i = 0; i < d->scene.nmaterials && i < PRT_MAX_MATERIALS; i++) {
+        const brdf_factor *f = &d->factors[i];
+        if (f->lambertian && f->K == 1) {
+            const float up[3] = { 0.f, 0.f, 1.f };
+            brdf_factor_view(f, up, c->hconst[i]);
+            c->hconst_ok[i] = true;
+        }
+    }
+    return 0;
+}
+
+/* Allocates the nth per-thread work areas (zeroed; every slot_of entry -1). Returns 0,
+ * or -1 with what was allocated left in c->th for ctx_free. */
+static int threads_alloc(gather_ctx *c, int nth, prt_error *err) {
+    const int nverts = c->d->scene.mesh.nverts;
+    /* A vertex has at most ntex/2 + a few upper-hemisphere rays, each naming 3 neighbours. */
+    c->max_slots = 3 * c->ntex < nverts ? 3 * c->ntex : nverts;
+    if (!(c->th = prt_calloc((size_t)nth, sizeof(gather_thread), err))) return -1;
+    for (int i = 0; i < nth; i++) {
+        gather_thread *t = &c->th[i];
+        if (!(t->acc = prt_calloc((size_t)CUBE_TEXELS * c->slot_lanes, sizeof(float), err)) ||
+            !(t->plane = prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err)) ||
+            !(t->scratch = prt_calloc(1, transport_scratch_size(), err)) ||
+            !(t->slot_of = prt_calloc((size_t)nverts, sizeof(int), err)) ||
+            !(t->slot_vert = prt_calloc((size_t)c->max_slots, sizeof(int), err)) ||
+            !(t->slot_w = prt_calloc((size_t)c->max_slots * c->kmax * c->slot_lanes, sizeof(float), err)) ||
+            !(t->dirs = prt_calloc((size_t)c->ntex * 3, sizeof(float), err)) ||
+            !(t->cosdw = prt_calloc((size_t)c->ntex, sizeof(float), err)) ||
+            !(t->hits = prt_calloc((size_t)c->ntex, sizeof(vis_hit), err)))
+            return -1;
+        for (int v = 0; v < nverts; v++) t->slot_of[v] = -1;
+    }
+    return 0;
+}
+
+/* Frees what ctx_tables and threads_alloc allocated (any part may be NULL). */
+static void ctx_free(gather_ctx *c, int nth) {
+    free_threads(c->th, nth);
+    free(c->tex_dir); free(c->tex_dw); free(c->frame);
+}
+
+/* Frees next and leaves it zeroed; returns -1 for the caller to pass on. */
+static int drop_set(prt_transport *next) {
+    transport_free(next);
+    memset(next, 0, sizeof *next);
+    return -1;
+}
+
+/* One interreflection pass (see gather.h). Returns 0, or -1 with err set; next is
+ * left zeroed on failure. */
+int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *prev, const gather_desc *desc,
+                prt_transport *next, prt_error *err) {
+    memset(next, 0, sizeof *next);
+    int res = desc && desc->res > 0 ? desc->res : GATHER_DEFAULT_RES, kmax = 0;
+    if (pass_check(d, prev, res, &kmax, err)) return -1;
+    const prt_mesh *m = &d->scene.mesh;
     int *cnt = vec_counts(prev, err);
     if (!cnt) return -1;
     int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
@@ -406,42 +510,9 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     c.slot_lanes = lanes_of(kmax) > 4 ? lanes_of(kmax) : 4;
     c.eps = vis_eps(vs);
     int nth = prt_thread_count(desc ? desc->nthreads : 0);
-    float *tex_dir = NULL, *tex_dw = NULL, *frame = NULL;
-    tex_dir = prt_calloc((size_t)c.ntex * 3, sizeof(float), err);
-    tex_dw = tex_dir ? prt_calloc((size_t)c.ntex, sizeof(float), err) : NULL;
-    frame = tex_dw ? prt_calloc((size_t)m->nverts * 6, sizeof(float), err) : NULL;
-    c.th = frame ? prt_calloc((size_t)nth, sizeof(gather_thread), err) : NULL;
-    if (!c.th) goto fail;
-    for (int i = 0; i < c.ntex; i++) {
-        cube_texel_dir(res, i, tex_dir + 3 * i);
-        int ij = i % (res * res);
-        tex_dw[i] = (float)cube_texel_solid_angle(res, ij % res, ij / res);
-    }
-    for (int v = 0; v < m->nverts; v++) brdf_frame(m->nrm + 3 * (size_t)v, frame + 6 * (size_t)v, frame + 6 * (size_t)v + 3);
-    c.tex_dir = tex_dir; c.tex_dw = tex_dw; c.frame = frame;
-    for (int i = 0; i < d->scene.nmaterials && i < PRT_MAX_MATERIALS; i++) {
-        const brdf_factor *f = &d->factors[i];
-        if (f->lambertian && f->K == 1) {
-            const float up[3] = { 0.f, 0.f, 1.f };
-            brdf_factor_view(f, up, c.hconst[i]);
-            c.hconst_ok[i] = true;
-        }
-    }
-    /* A vertex has at most ntex/2 + a few upper-hemisphere rays, each naming 3 neighbours. */
-    c.max_slots = 3 * c.ntex < m->nverts ? 3 * c.ntex : m->nverts;
-    for (int i = 0; i < nth; i++) {
-        gather_thread *t = &c.th[i];
-        if (!(t->acc = prt_calloc((size_t)CUBE_TEXELS * c.slot_lanes, sizeof(float), err)) ||
-            !(t->plane = prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err)) ||
-            !(t->scratch = prt_calloc(1, transport_scratch_size(), err)) ||
-            !(t->slot_of = prt_calloc((size_t)m->nverts, sizeof(int), err)) ||
-            !(t->slot_vert = prt_calloc((size_t)c.max_slots, sizeof(int), err)) ||
-            !(t->slot_w = prt_calloc((size_t)c.max_slots * kmax * c.slot_lanes, sizeof(float), err)) ||
-            !(t->dirs = prt_calloc((size_t)c.ntex * 3, sizeof(float), err)) ||
-            !(t->cosdw = prt_calloc((size_t)c.ntex, sizeof(float), err)) ||
-            !(t->hits = prt_calloc((size_t)c.ntex, sizeof(vis_hit), err)))
-            goto fail;
-        for (int v = 0; v < m->nverts; v++) t->slot_of[v] = -1;
+    if (ctx_tables(&c, err) || threads_alloc(&c, nth, err)) {
+        ctx_free(&c, nth);
+        return drop_set(next);
     }
     pthread_mutex_init(&c.lock, NULL);
     atomic_init(&c.done, 0);
@@ -449,25 +520,13 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     prt_parallel_for(m->nverts, GATHER_GRAIN, nth, gather_range, &c);
     pthread_mutex_destroy(&c.lock);
     bool cancelled = atomic_load(&c.cancel);
-    free_threads(c.th, nth);
-    free(tex_dir); free(tex_dw); free(frame);
+    ctx_free(&c, nth);
     if (cancelled) {
-        transport_free(next);
-        memset(next, 0, sizeof *next);
+        drop_set(next);
         return prt_fail(err, "cancelled");
     }
-    if (transport_finish(next, err)) {
-        transport_free(next);
-        memset(next, 0, sizeof *next);
-        return -1;
-    }
+    if (transport_finish(next, err)) return drop_set(next);
     return 0;
-fail:
-    free_threads(c.th, nth);
-    free(tex_dir); free(tex_dw); free(frame);
-    transport_free(next);
-    memset(next, 0, sizeof *next);
-    return -1;
 }
 
 /* ---- sum of two sets ----------------------------------------------------- */

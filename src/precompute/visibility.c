@@ -160,6 +160,55 @@ static const float vis_face_o[6][3] = { { 1, 0, 0 }, { -1, 0, 0 }, { 0, 1, 0 }, 
 static const float vis_face_a[6][3] = { { 0, 0, -1 }, { 0, 0, 1 }, { 1, 0, 0 }, { 1, 0, 0 }, { 1, 0, 0 }, { -1, 0, 0 } };
 static const float vis_face_b[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 }, { 0, -1, 0 }, { 0, -1, 0 } };
 
+/* Lane l of a 4x4 packet is texel (bi + l % 4, bj + l / 4). */
+static const float vis_lane_s[16] = { 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3 };
+static const float vis_lane_t[16] = { 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3 };
+
+/* Sets the fields of packet r that every packet of one vertex shares: origin p + eps n, tnear eps. */
+static inline void vis_packet_origin(struct RTCRay16 *r, const float p[3], const float n[3], float eps) {
+    for (int l = 0; l < 16; l++) {
+        r->org_x[l] = p[0] + eps * n[0];
+        r->org_y[l] = p[1] + eps * n[1];
+        r->org_z[l] = p[2] + eps * n[2];
+        r->tnear[l] = eps;
+        r->time[l] = 0;
+        r->mask[l] = 0xffffffffu;
+        r->id[l] = (unsigned)l;
+        r->flags[l] = 0;
+    }
+}
+
+/* Sets the 16 normalized directions o + sc a + tc b of the packet whose first texel centre is
+ * (sc0, tc0), and resets tfar; straight-line over the lanes so it vectorizes. */
+static inline void vis_packet_dirs(struct RTCRay16 *r, const float *o, const float *a, const float *b, float sc0,
+                                   float tc0, float inv) {
+    for (int l = 0; l < 16; l++) {
+        const float sc = sc0 + vis_lane_s[l] * inv, tc = tc0 + vis_lane_t[l] * inv;
+        const float dx = o[0] + sc * a[0] + tc * b[0], dy = o[1] + sc * a[1] + tc * b[1];
+        const float dz = o[2] + sc * a[2] + tc * b[2];
+        const float q = vis_rsqrt(dx * dx + dy * dy + dz * dz);
+        r->dir_x[l] = dx * q;
+        r->dir_y[l] = dy * q;
+        r->dir_z[l] = dz * q;
+        r->tfar[l] = INFINITY;
+    }
+}
+
+/* Marks valid[l] (-1 / 0) the lanes of packet (bi, bj) inside the face and above the horizon,
+ * n.d = no + sc na + tc nb > 0; returns their count. */
+static inline int vis_packet_valid(int *valid, int res, int bi, int bj, float sc0, float tc0, float inv, float no,
+                                   float na, float nb) {
+    int nvalid = 0;
+    for (int l = 0; l < 16; l++) {
+        const int i = bi + (l & 3), j = bj + (l >> 2);
+        const float sc = sc0 + vis_lane_s[l] * inv, tc = tc0 + vis_lane_t[l] * inv;
+        const int ok = i < res && j < res && no + sc * na + tc * nb > 0;
+        valid[l] = ok ? -1 : 0;
+        nvalid += ok;
+    }
+    return nvalid;
+}
+
 /* Fills vis[6*res*res] (1 = escapes); see visibility.h.
  * n.d is linear in (sc, tc) on a face, so its extremes over a 4x4 packet's texel centres are at
  * the packet's corner centres: a packet with all four corners below the horizon is skipped
@@ -167,7 +216,6 @@ static const float vis_face_b[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 },
  * coordinates (i + 0.5) 2/res - 1 are exact in float for res a power of two, so the per-lane
  * test gives exactly opposite answers for antipodal texels: exactly half the cube is traced. */
 void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, uint8_t *vis, long *traced, long *hits) {
-    const float eps = vs->eps;
     const float inv = 2.0f / (float)res;
     long nt = 0, nh = 0;
     memset(vis, 0, (size_t)6 * res * res);
@@ -176,19 +224,7 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int valid[16];
-    /* lane l is texel (bi + l % 4, bj + l / 4) of the packet */
-    static const float lane_s[16] = { 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3 };
-    static const float lane_t[16] = { 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3 };
-    for (int l = 0; l < 16; l++) {
-        r.org_x[l] = p[0] + eps * n[0];
-        r.org_y[l] = p[1] + eps * n[1];
-        r.org_z[l] = p[2] + eps * n[2];
-        r.tnear[l] = eps;
-        r.time[l] = 0;
-        r.mask[l] = 0xffffffffu;
-        r.id[l] = (unsigned)l;
-        r.flags[l] = 0;
-    }
+    vis_packet_origin(&r, p, n, vs->eps);
     for (int face = 0; face < 6; face++) {
         uint8_t *fv = vis + (size_t)face * res * res;
         const float *o = vis_face_o[face], *a = vis_face_a[face], *b = vis_face_b[face];
@@ -209,30 +245,11 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
                  * (which keeps antipodal texels' decisions complementary) */
                 if (!(cmax > -1e-5f)) continue;
                 const bool all_up = cmin > 1e-5f && bi + 4 <= res && bj + 4 <= res;
-                /* directions: straight-line over the 16 lanes so it vectorizes */
-                for (int l = 0; l < 16; l++) {
-                    const float sc = sc0 + lane_s[l] * inv, tc = tc0 + lane_t[l] * inv;
-                    const float dx = o[0] + sc * a[0] + tc * b[0], dy = o[1] + sc * a[1] + tc * b[1];
-                    const float dz = o[2] + sc * a[2] + tc * b[2];
-                    const float q = vis_rsqrt(dx * dx + dy * dy + dz * dz);
-                    r.dir_x[l] = dx * q;
-                    r.dir_y[l] = dy * q;
-                    r.dir_z[l] = dz * q;
-                    r.tfar[l] = INFINITY;
-                }
+                vis_packet_dirs(&r, o, a, b, sc0, tc0, inv);
                 int nvalid = 16;
-                if (!all_up) {
-                    nvalid = 0;
-                    for (int l = 0; l < 16; l++) {
-                        const int i = bi + (l & 3), j = bj + (l >> 2);
-                        const float sc = sc0 + lane_s[l] * inv, tc = tc0 + lane_t[l] * inv;
-                        const int ok = i < res && j < res && no + sc * na + tc * nb > 0;
-                        valid[l] = ok ? -1 : 0;
-                        nvalid += ok;
-                    }
-                } else {
+                if (!all_up) nvalid = vis_packet_valid(valid, res, bi, bj, sc0, tc0, inv, no, na, nb);
+                else
                     for (int l = 0; l < 16; l++) valid[l] = -1;
-                }
                 if (!nvalid) continue;
                 rtcOccluded16(valid, vs->scene, &ctx, &r);
                 nt += nvalid;

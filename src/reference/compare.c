@@ -132,16 +132,84 @@ void cmp_vertices_free(cmp_vertices *v) {
     memset(v, 0, sizeof *v);
 }
 
+/* Column roles of a per-vertex CSV: vertex, r, g, b, stderr_r, stderr_g, stderr_b, facing. */
+enum { CSV_NCOL = 8 };
+static const char *const csv_names[CSV_NCOL] = { "vertex", "r", "g", "b", "stderr_r", "stderr_g", "stderr_b", "facing" };
+
+/* Maps the header's named columns into col[role] (-1 absent; unknown columns are ignored;
+ * the three stderr columns count only together). Returns 0, or -1 when r, g or b is missing. */
+static int csv_header(char **f, int nf, int col[CSV_NCOL], const char *path, int lineno, prt_error *err) {
+    for (int k = 0; k < CSV_NCOL; k++) col[k] = -1;
+    for (int i = 0; i < nf; i++)
+        for (int k = 0; k < CSV_NCOL; k++)
+            if (!strcmp(f[i], csv_names[k])) col[k] = i;
+    if (col[1] < 0 || col[2] < 0 || col[3] < 0) return prt_fail(err, "%s:%d: header has no r, g, b columns", path, lineno);
+    if (col[4] < 0 || col[5] < 0 || col[6] < 0) col[4] = col[5] = col[6] = -1;
+    return 0;
+}
+
+/* Parses the nf fields f of one data row into r (its id defaults to row, facing to 1).
+ * Returns 0, or -1 with a "path:line:" message. */
+static int csv_row(char **f, int nf, const int col[CSV_NCOL], size_t row, vrow *r, const char *path, int lineno,
+                   prt_error *err) {
+    r->id = (int)row;
+    r->v[6] = 1.f;
+    for (int k = 0; k < CSV_NCOL; k++) {
+        if (col[k] < 0) continue;
+        if (col[k] >= nf) return prt_fail(err, "%s:%d: missing column '%s'", path, lineno, csv_names[k]);
+        char *end;
+        errno = 0;
+        if (k == 0) {
+            long id = strtol(f[col[k]], &end, 10);
+            if (errno || end == f[col[k]] || *end || id < 0 || id > 2000000000L)
+                return prt_fail(err, "%s:%d: bad vertex id '%s'", path, lineno, f[col[k]]);
+            r->id = (int)id;
+        } else {
+            double v = strtod(f[col[k]], &end);
+            if (end == f[col[k]] || *end || !isfinite(v) || (k == 7 && v != 0 && v != 1))
+                return prt_fail(err, "%s:%d: bad %s '%s' in column '%s'", path, lineno,
+                                k == 7 ? "flag (0 or 1)" : "number", f[col[k]], csv_names[k]);
+            r->v[k - 1] = (float)v;
+        }
+    }
+    return 0;
+}
+
+/* Sorts the rows by vertex id, rejects a vertex listed twice, and fills out (stderr and facing
+ * only when their columns exist). Returns 0, or -1 with out freed. */
+static int csv_table(vrow *rows, size_t nrows, const int col[CSV_NCOL], cmp_vertices *out, const char *path,
+                     prt_error *err) {
+    if (nrows == 0) return prt_fail(err, "%s: no vertex rows", path);
+    qsort(rows, nrows, sizeof *rows, vrow_cmp);
+    for (size_t i = 1; i < nrows; i++)
+        if (rows[i].id == rows[i - 1].id) return prt_fail(err, "%s: vertex %d listed twice", path, rows[i].id);
+    out->ids = malloc(sizeof(int) * nrows);
+    out->rgb = malloc(sizeof(float) * 3 * nrows);
+    if (col[4] >= 0) out->se = malloc(sizeof(float) * 3 * nrows);
+    if (col[7] >= 0) out->facing = malloc(nrows);
+    if (!out->ids || !out->rgb || (col[4] >= 0 && !out->se) || (col[7] >= 0 && !out->facing)) {
+        cmp_vertices_free(out);
+        return prt_fail(err, "%s: out of memory", path);
+    }
+    for (size_t i = 0; i < nrows; i++) {
+        out->ids[i] = rows[i].id;
+        for (int c = 0; c < 3; c++) {
+            out->rgb[3 * i + c] = rows[i].v[c];
+            if (out->se) out->se[3 * i + c] = rows[i].v[3 + c];
+        }
+        if (out->facing) out->facing[i] = rows[i].v[6] != 0;
+    }
+    out->n = (int)nrows;
+    return 0;
+}
+
 /* Per-vertex CSV reader (see header). */
 int cmp_read_vertex_csv(const char *path, cmp_vertices *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     size_t len;
     char *text = slurp(path, &len, err);
     if (!text) return -1;
-    /* Column roles: vertex, r, g, b, stderr_r, stderr_g, stderr_b, facing (-1 absent). */
-    enum { NCOL = 8 };
-    int col[NCOL] = { 0, 1, 2, 3, -1, -1, -1, -1 };
-    static const char *names[NCOL] = { "vertex", "r", "g", "b", "stderr_r", "stderr_g", "stderr_b", "facing" };
+    int col[CSV_NCOL] = { 0, 1, 2, 3, -1, -1, -1, -1 };
     vrow *rows = NULL;
     size_t nrows = 0, cap = 0;
     int lineno = 0, header_seen = 0, rc = -1;
@@ -158,16 +226,7 @@ int cmp_read_vertex_csv(const char *path, cmp_vertices *out, prt_error *err) {
         int nf = split_csv(line, f, 32);
         if (nf > 32) nf = 32;
         if (!header_seen && (isalpha((unsigned char)f[0][0]) || f[0][0] == '_')) {
-            /* Header: map the named columns; unknown columns are ignored. */
-            for (int k = 0; k < NCOL; k++) col[k] = -1;
-            for (int i = 0; i < nf; i++)
-                for (int k = 0; k < NCOL; k++)
-                    if (!strcmp(f[i], names[k])) col[k] = i;
-            if (col[1] < 0 || col[2] < 0 || col[3] < 0) {
-                prt_fail(err, "%s:%d: header has no r, g, b columns", path, lineno);
-                goto done;
-            }
-            if (col[4] < 0 || col[5] < 0 || col[6] < 0) col[4] = col[5] = col[6] = -1;
+            if (csv_header(f, nf, col, path, lineno, err)) goto done;
             header_seen = 1;
             continue;
         }
@@ -178,56 +237,10 @@ int cmp_read_vertex_csv(const char *path, cmp_vertices *out, prt_error *err) {
             if (!nr) { prt_fail(err, "%s: out of memory", path); goto done; }
             rows = nr;
         }
-        vrow *r = &rows[nrows];
-        r->id = (int)nrows;
-        r->v[6] = 1.f;
-        for (int k = 0; k < NCOL; k++) {
-            if (col[k] < 0) continue;
-            if (col[k] >= nf) { prt_fail(err, "%s:%d: missing column '%s'", path, lineno, names[k]); goto done; }
-            char *end;
-            errno = 0;
-            if (k == 0) {
-                long id = strtol(f[col[k]], &end, 10);
-                if (errno || end == f[col[k]] || *end || id < 0 || id > 2000000000L) {
-                    prt_fail(err, "%s:%d: bad vertex id '%s'", path, lineno, f[col[k]]);
-                    goto done;
-                }
-                r->id = (int)id;
-            } else {
-                double v = strtod(f[col[k]], &end);
-                if (end == f[col[k]] || *end || !isfinite(v) || (k == 7 && v != 0 && v != 1)) {
-                    prt_fail(err, "%s:%d: bad %s '%s' in column '%s'", path, lineno, k == 7 ? "flag (0 or 1)" : "number",
-                             f[col[k]], names[k]);
-                    goto done;
-                }
-                r->v[k - 1] = (float)v;
-            }
-        }
+        if (csv_row(f, nf, col, nrows, &rows[nrows], path, lineno, err)) goto done;
         nrows++;
     }
-    if (nrows == 0) { prt_fail(err, "%s: no vertex rows", path); goto done; }
-    qsort(rows, nrows, sizeof *rows, vrow_cmp);
-    for (size_t i = 1; i < nrows; i++)
-        if (rows[i].id == rows[i - 1].id) { prt_fail(err, "%s: vertex %d listed twice", path, rows[i].id); goto done; }
-    out->ids = malloc(sizeof(int) * nrows);
-    out->rgb = malloc(sizeof(float) * 3 * nrows);
-    if (col[4] >= 0) out->se = malloc(sizeof(float) * 3 * nrows);
-    if (col[7] >= 0) out->facing = malloc(nrows);
-    if (!out->ids || !out->rgb || (col[4] >= 0 && !out->se) || (col[7] >= 0 && !out->facing)) {
-        cmp_vertices_free(out);
-        prt_fail(err, "%s: out of memory", path);
-        goto done;
-    }
-    for (size_t i = 0; i < nrows; i++) {
-        out->ids[i] = rows[i].id;
-        for (int c = 0; c < 3; c++) {
-            out->rgb[3 * i + c] = rows[i].v[c];
-            if (out->se) out->se[3 * i + c] = rows[i].v[3 + c];
-        }
-        if (out->facing) out->facing[i] = rows[i].v[6] != 0;
-    }
-    out->n = (int)nrows;
-    rc = 0;
+    rc = csv_table(rows, nrows, col, out, path, err);
 done:
     free(rows);
     free(text);
@@ -255,87 +268,102 @@ static bool is_csv(const char *path) {
     return !strcmp(ext, "csv");
 }
 
-/* Compares two files (see header). */
+/* Keeps only the vertices B marks as facing the eye, in place (rows stay sorted); returns
+ * how many were dropped, or -1 when none faces the eye. */
+static long keep_facing(cmp_vertices *va, cmp_vertices *vb) {
+    long skipped = 0;
+    int m = 0;
+    for (int i = 0; i < vb->n; i++) {
+        if (!vb->facing[i]) { skipped++; continue; }
+        va->ids[m] = va->ids[i];
+        memmove(va->rgb + 3 * m, va->rgb + 3 * i, sizeof(float) * 3);
+        memmove(vb->rgb + 3 * m, vb->rgb + 3 * i, sizeof(float) * 3);
+        if (vb->se) memmove(vb->se + 3 * m, vb->se + 3 * i, sizeof(float) * 3);
+        m++;
+    }
+    if (m == 0) return -1;
+    va->n = vb->n = m;
+    return skipped;
+}
+
+/* Prefixes err's message with "a vs b: "; returns -1. */
+static int fail_pair(const char *a, const char *b, prt_error *err) {
+    char msg[sizeof err->msg];
+    snprintf(msg, sizeof msg, "%s", err->msg);
+    return prt_fail(err, "%s vs %s: %s", a, b, msg);
+}
+
+/* Compares two per-vertex CSV files (the same vertices; B's facing column, unless
+ * desc->all_vertices, selects which count). Returns 0, or -1 with err set. */
+static int cmp_csv_files(const char *a, const char *b, const cmp_desc *desc, cmp_result *out, prt_error *err) {
+    cmp_vertices va = { 0 }, vb = { 0 };
+    int rc = -1;
+    if (cmp_read_vertex_csv(a, &va, err)) goto done;
+    if (cmp_read_vertex_csv(b, &vb, err)) goto done;
+    if (va.n != vb.n) { prt_fail(err, "%s has %d vertices but %s has %d", a, va.n, b, vb.n); goto done; }
+    for (int i = 0; i < va.n; i++)
+        if (va.ids[i] != vb.ids[i]) {
+            prt_fail(err, "%s and %s list different vertices (vertex %d vs %d)", a, b, va.ids[i], vb.ids[i]);
+            goto done;
+        }
+    long skipped = 0;
+    if (vb.facing && !desc->all_vertices && (skipped = keep_facing(&va, &vb)) < 0) {
+        prt_fail(err, "%s: no vertex faces the eye", b);
+        goto done;
+    }
+    if (cmp_arrays(va.rgb, vb.rgb, va.n, 3, out, NULL, err)) { fail_pair(a, b, err); goto done; }
+    out->skipped = skipped;
+    if (out->worst_item >= 0) out->worst_item = va.ids[out->worst_item];
+    if (vb.se) {
+        double s2 = 0, b2 = 0;
+        for (long i = 0; i < 3L * vb.n; i++) { s2 += (double)vb.se[i] * vb.se[i]; b2 += (double)vb.rgb[i] * vb.rgb[i]; }
+        out->ref_noise = b2 > 0 ? sqrt(s2 / b2) : 0;
+    }
+    rc = 0;
+done:
+    cmp_vertices_free(&va);
+    cmp_vertices_free(&vb);
+    return rc;
+}
+
+/* Compares two RGB images of one size; writes the false-colour error map to error_image
+ * when it is not NULL. Returns 0, or -1 with err set. */
+static int cmp_image_files(const char *a, const char *b, const char *error_image, cmp_result *out, prt_error *err) {
+    prt_image ima = { 0 }, imb = { 0 };
+    float *e = NULL;
+    int rc = -1;
+    if (image_read(a, &ima, err)) goto done;
+    if (image_read(b, &imb, err)) goto done;
+    if (ima.w != imb.w || ima.h != imb.h) {
+        prt_fail(err, "size mismatch: %s is %dx%d but %s is %dx%d", a, ima.w, ima.h, b, imb.w, imb.h);
+        goto done;
+    }
+    if (ima.c != 3 || imb.c != 3) { prt_fail(err, "%s, %s: expected RGB images", a, b); goto done; }
+    long n = (long)ima.w * ima.h;
+    e = prt_calloc((size_t)n, sizeof(float), err);
+    if (!e) goto done;
+    if (cmp_arrays(ima.data, imb.data, n, 3, out, e, err)) { fail_pair(a, b, err); goto done; }
+    out->ref_noise = -1;
+    if (error_image && write_error_image(error_image, e, ima.w, ima.h, err)) goto done;
+    rc = 0;
+done:
+    free(e);
+    image_free(&ima);
+    image_free(&imb);
+    return rc;
+}
+
+/* Compares two files (see header): both per-vertex CSV, or both images. */
 int cmp_files(const char *a, const char *b, const cmp_desc *desc, cmp_result *out, prt_error *err) {
     static const cmp_desc k_default = { 0 };
     if (!desc) desc = &k_default;
-    const char *error_image = desc->error_image;
     memset(out, 0, sizeof *out);
     bool ca = is_csv(a), cb = is_csv(b);
     if (ca != cb)
         return prt_fail(err, "cannot compare %s with %s: one is a per-vertex CSV and the other an image",
                         ca ? a : b, ca ? b : a);
-    if (ca) {
-        if (error_image) return prt_fail(err, "%s: an error image needs two images, not per-vertex CSV files", error_image);
-        cmp_vertices va = { 0 }, vb = { 0 };
-        int rc = -1;
-        if (cmp_read_vertex_csv(a, &va, err)) goto csv_done;
-        if (cmp_read_vertex_csv(b, &vb, err)) goto csv_done;
-        if (va.n != vb.n) { prt_fail(err, "%s has %d vertices but %s has %d", a, va.n, b, vb.n); goto csv_done; }
-        for (int i = 0; i < va.n; i++)
-            if (va.ids[i] != vb.ids[i]) {
-                prt_fail(err, "%s and %s list different vertices (vertex %d vs %d)", a, b, va.ids[i], vb.ids[i]);
-                goto csv_done;
-            }
-        /* Keep only the vertices B marks as facing the eye (in place: rows stay sorted). */
-        long skipped = 0;
-        if (vb.facing && !desc->all_vertices) {
-            int m = 0;
-            for (int i = 0; i < vb.n; i++) {
-                if (!vb.facing[i]) { skipped++; continue; }
-                va.ids[m] = va.ids[i];
-                memmove(va.rgb + 3 * m, va.rgb + 3 * i, sizeof(float) * 3);
-                memmove(vb.rgb + 3 * m, vb.rgb + 3 * i, sizeof(float) * 3);
-                if (vb.se) memmove(vb.se + 3 * m, vb.se + 3 * i, sizeof(float) * 3);
-                m++;
-            }
-            if (m == 0) { prt_fail(err, "%s: no vertex faces the eye", b); goto csv_done; }
-            va.n = vb.n = m;
-        }
-        if (cmp_arrays(va.rgb, vb.rgb, va.n, 3, out, NULL, err)) {
-            char msg[sizeof err->msg];
-            snprintf(msg, sizeof msg, "%s", err->msg);
-            prt_fail(err, "%s vs %s: %s", a, b, msg);
-            goto csv_done;
-        }
-        out->skipped = skipped;
-        if (out->worst_item >= 0) out->worst_item = va.ids[out->worst_item];
-        if (vb.se) {
-            double s2 = 0, b2 = 0;
-            for (long i = 0; i < 3L * vb.n; i++) { s2 += (double)vb.se[i] * vb.se[i]; b2 += (double)vb.rgb[i] * vb.rgb[i]; }
-            out->ref_noise = b2 > 0 ? sqrt(s2 / b2) : 0;
-        }
-        rc = 0;
-    csv_done:
-        cmp_vertices_free(&va);
-        cmp_vertices_free(&vb);
-        return rc;
-    }
-    prt_image ima = { 0 }, imb = { 0 };
-    float *e = NULL;
-    int rc = -1;
-    if (image_read(a, &ima, err)) goto img_done;
-    if (image_read(b, &imb, err)) goto img_done;
-    if (ima.w != imb.w || ima.h != imb.h) {
-        prt_fail(err, "size mismatch: %s is %dx%d but %s is %dx%d", a, ima.w, ima.h, b, imb.w, imb.h);
-        goto img_done;
-    }
-    if (ima.c != 3 || imb.c != 3) { prt_fail(err, "%s, %s: expected RGB images", a, b); goto img_done; }
-    long n = (long)ima.w * ima.h;
-    e = prt_calloc((size_t)n, sizeof(float), err);
-    if (!e) goto img_done;
-    if (cmp_arrays(ima.data, imb.data, n, 3, out, e, err)) {
-        char msg[sizeof err->msg];
-        snprintf(msg, sizeof msg, "%s", err->msg);
-        prt_fail(err, "%s vs %s: %s", a, b, msg);
-        goto img_done;
-    }
-    out->ref_noise = -1;
-    if (error_image && write_error_image(error_image, e, ima.w, ima.h, err)) goto img_done;
-    rc = 0;
-img_done:
-    free(e);
-    image_free(&ima);
-    image_free(&imb);
-    return rc;
+    if (!ca) return cmp_image_files(a, b, desc->error_image, out, err);
+    if (desc->error_image)
+        return prt_fail(err, "%s: an error image needs two images, not per-vertex CSV files", desc->error_image);
+    return cmp_csv_files(a, b, desc, out, err);
 }

@@ -122,48 +122,27 @@ void ref_env_radiance(const ref_ctx *rc, const float w[3], float rgb[3]) {
     probe_eval(rc->probe, d, rgb);
 }
 
-/* Builds the sampling grid: cell luminances (probe pixels for a latlong probe whose
- * pixel centres agree with our mapping, else probe_eval at a grid of cell centres),
- * dilated by the 3x3 maximum, times exact cell solid angles, into CDFs. */
-static int env_build(ref_ctx *rc, prt_error *err) {
+/* True when p is a 2:1 latlong probe whose pixel centres agree with our mapping
+ * (probe_pixel_dir against latlong_dir on a few pixels), so its pixels are the cells. */
+static bool env_use_pixels(const prt_probe *p) {
+    if (!(p->layout == PROBE_LATLONG && p->img.w == 2 * p->img.h && p->img.w >= 2)) return false;
+    int W = p->img.w, H = p->img.h;
+    int xs[3] = { 0, W / 3, W - 1 }, ys[3] = { 0, H / 2, H - 1 };
+    for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) {
+            float d[3], dw, e[3];
+            if (!probe_pixel_dir(p, xs[a], ys[b], d, &dw)) return false;
+            latlong_dir((xs[a] + 0.5) / W, cos(REF_PI * (ys[b] + 0.5) / H), e);
+            if (fabsf(d[0] - e[0]) + fabsf(d[1] - e[1]) + fabsf(d[2] - e[2]) > 1e-3f) return false;
+        }
+    return true;
+}
+
+/* Fills lum[eh][ew] with each cell's luminance (probe pixels, or probe_eval at cell centres),
+ * floored at 1e-3 of its largest channel so any positive channel gives a positive weight. */
+static void env_luminance(const ref_ctx *rc, bool use_pixels, float *lum) {
     const prt_probe *p = rc->probe;
-    int ew, eh;
-    bool use_pixels = false;
-    if (p->layout == PROBE_LATLONG && p->img.w == 2 * p->img.h && p->img.w >= 2) {
-        /* Check probe_pixel_dir against our inverse mapping on a few pixels. */
-        use_pixels = true;
-        int W = p->img.w, H = p->img.h;
-        int xs[3] = { 0, W / 3, W - 1 }, ys[3] = { 0, H / 2, H - 1 };
-        for (int a = 0; a < 3 && use_pixels; a++)
-            for (int b = 0; b < 3; b++) {
-                float d[3], dw, e[3];
-                if (!probe_pixel_dir(p, xs[a], ys[b], d, &dw)) { use_pixels = false; break; }
-                latlong_dir((xs[a] + 0.5) / W, cos(REF_PI * (ys[b] + 0.5) / H), e);
-                if (fabsf(d[0] - e[0]) + fabsf(d[1] - e[1]) + fabsf(d[2] - e[2]) > 1e-3f) { use_pixels = false; break; }
-            }
-    }
-    if (use_pixels) { ew = p->img.w; eh = p->img.h; }
-    else {
-        int m = p->img.w > p->img.h ? p->img.w : p->img.h;
-        ew = m < 64 ? 128 : (m > 1024 ? 2048 : 2 * m);
-        eh = ew / 2;
-    }
-    rc->ew = ew;
-    rc->eh = eh;
-    size_t ncell = (size_t)ew * eh;
-    float *lum = prt_calloc(ncell, sizeof(float), err);
-    double *wgt = prt_calloc(ncell, sizeof(double), err);
-    uint32_t *work = prt_calloc(ncell, sizeof(uint32_t), err);
-    rc->table = prt_calloc(ncell, sizeof *rc->table, err);
-    rc->cell_pdf = prt_calloc(ncell, sizeof(float), err);
-    rc->cos_edge = prt_calloc((size_t)eh + 1, sizeof(double), err);
-    if (!lum || !wgt || !work || !rc->table || !rc->cell_pdf || !rc->cos_edge) {
-        free(lum); free(wgt); free(work);
-        return -1;
-    }
-    for (int y = 0; y <= eh; y++) rc->cos_edge[y] = cos(REF_PI * y / eh);
-    rc->cos_edge[0] = 1.0;
-    rc->cos_edge[eh] = -1.0;
+    const int ew = rc->ew, eh = rc->eh;
     for (int y = 0; y < eh; y++)
         for (int x = 0; x < ew; x++) {
             float c[3];
@@ -180,6 +159,12 @@ static int env_build(ref_ctx *rc, prt_error *err) {
             float mx = fmaxf(c[0], fmaxf(c[1], c[2]));
             lum[(size_t)y * ew + x] = isfinite(l) && mx > 0 ? fmaxf(l, 1e-3f * mx) : 0.f;
         }
+}
+
+/* Fills wgt with each cell's sampling weight, its exact solid angle times the mean of its
+ * luminance and the 3x3 maximum around it (dilation); returns their sum. */
+static double env_weights(const ref_ctx *rc, const float *lum, double *wgt) {
+    const int ew = rc->ew, eh = rc->eh;
     double dphi = 2 * REF_PI / ew, total = 0;
     for (int y = 0; y < eh; y++) {
         double omega = dphi * (rc->cos_edge[y] - rc->cos_edge[y + 1]);
@@ -198,36 +183,74 @@ static int env_build(ref_ctx *rc, prt_error *err) {
             total += w;
         }
     }
-    rc->total = total;
-    if (total > 0) {
-        for (int y = 0; y < eh; y++) {
-            double omega = dphi * (rc->cos_edge[y] - rc->cos_edge[y + 1]);
-            for (int x = 0; x < ew; x++)
-                rc->cell_pdf[(size_t)y * ew + x] = (float)(wgt[(size_t)y * ew + x] / total / omega);
-        }
-        /* Vose's alias method: scaled probabilities n p_i; "small" cells (< 1) are topped up by
-         * one "large" cell each. work holds the small stack from the bottom, large from the top. */
-        size_t ns = 0, nl = ncell;
-        for (size_t i = 0; i < ncell; i++) {
-            wgt[i] = wgt[i] / total * (double)ncell;
-            if (wgt[i] < 1.0) work[ns++] = (uint32_t)i;
-            else work[--nl] = (uint32_t)i;
-        }
-        while (ns > 0 && nl < ncell) {
-            uint32_t sm = work[--ns], lg = work[nl];
-            rc->table[sm].prob = (float)wgt[sm];
-            rc->table[sm].alias = lg;
-            wgt[lg] -= 1.0 - wgt[sm];
-            if (wgt[lg] < 1.0) { nl++; work[ns++] = lg; }
-        }
-        /* Leftovers are 1 up to rounding. */
-        while (nl < ncell) { uint32_t i = work[nl++]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
-        while (ns > 0) { uint32_t i = work[--ns]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
-        for (size_t i = 0; i < ncell; i++) {
-            rc->table[i].pdf = rc->cell_pdf[i];
-            rc->table[i].pdf_alias = rc->cell_pdf[rc->table[i].alias];
-        }
+    return total;
+}
+
+/* Fills rc->cell_pdf and the alias table from the weights (total > 0); wgt is overwritten,
+ * work is scratch of ew*eh entries. Vose's alias method: scaled probabilities n p_i;
+ * "small" cells (< 1) are topped up by one "large" cell each. */
+static void env_alias(ref_ctx *rc, double *wgt, uint32_t *work, double total) {
+    const int ew = rc->ew, eh = rc->eh;
+    const size_t ncell = (size_t)ew * eh;
+    double dphi = 2 * REF_PI / ew;
+    for (int y = 0; y < eh; y++) {
+        double omega = dphi * (rc->cos_edge[y] - rc->cos_edge[y + 1]);
+        for (int x = 0; x < ew; x++)
+            rc->cell_pdf[(size_t)y * ew + x] = (float)(wgt[(size_t)y * ew + x] / total / omega);
     }
+    /* work holds the small stack from the bottom, large from the top. */
+    size_t ns = 0, nl = ncell;
+    for (size_t i = 0; i < ncell; i++) {
+        wgt[i] = wgt[i] / total * (double)ncell;
+        if (wgt[i] < 1.0) work[ns++] = (uint32_t)i;
+        else work[--nl] = (uint32_t)i;
+    }
+    while (ns > 0 && nl < ncell) {
+        uint32_t sm = work[--ns], lg = work[nl];
+        rc->table[sm].prob = (float)wgt[sm];
+        rc->table[sm].alias = lg;
+        wgt[lg] -= 1.0 - wgt[sm];
+        if (wgt[lg] < 1.0) { nl++; work[ns++] = lg; }
+    }
+    /* Leftovers are 1 up to rounding. */
+    while (nl < ncell) { uint32_t i = work[nl++]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
+    while (ns > 0) { uint32_t i = work[--ns]; rc->table[i].prob = 1.f; rc->table[i].alias = i; }
+    for (size_t i = 0; i < ncell; i++) {
+        rc->table[i].pdf = rc->cell_pdf[i];
+        rc->table[i].pdf_alias = rc->cell_pdf[rc->table[i].alias];
+    }
+}
+
+/* Builds the sampling grid: cell luminances (probe pixels for a latlong probe whose
+ * pixel centres agree with our mapping, else probe_eval at a grid of cell centres),
+ * dilated by the 3x3 maximum, times exact cell solid angles, into CDFs. */
+static int env_build(ref_ctx *rc, prt_error *err) {
+    const prt_probe *p = rc->probe;
+    bool use_pixels = env_use_pixels(p);
+    if (use_pixels) { rc->ew = p->img.w; rc->eh = p->img.h; }
+    else {
+        int m = p->img.w > p->img.h ? p->img.w : p->img.h;
+        rc->ew = m < 64 ? 128 : (m > 1024 ? 2048 : 2 * m);
+        rc->eh = rc->ew / 2;
+    }
+    const int eh = rc->eh;
+    size_t ncell = (size_t)rc->ew * eh;
+    float *lum = prt_calloc(ncell, sizeof(float), err);
+    double *wgt = prt_calloc(ncell, sizeof(double), err);
+    uint32_t *work = prt_calloc(ncell, sizeof(uint32_t), err);
+    rc->table = prt_calloc(ncell, sizeof *rc->table, err);
+    rc->cell_pdf = prt_calloc(ncell, sizeof(float), err);
+    rc->cos_edge = prt_calloc((size_t)eh + 1, sizeof(double), err);
+    if (!lum || !wgt || !work || !rc->table || !rc->cell_pdf || !rc->cos_edge) {
+        free(lum); free(wgt); free(work);
+        return -1;
+    }
+    for (int y = 0; y <= eh; y++) rc->cos_edge[y] = cos(REF_PI * y / eh);
+    rc->cos_edge[0] = 1.0;
+    rc->cos_edge[eh] = -1.0;
+    env_luminance(rc, use_pixels, lum);
+    rc->total = env_weights(rc, lum, wgt);
+    if (rc->total > 0) env_alias(rc, wgt, work, rc->total);
     free(lum);
     free(wgt);
     free(work);
@@ -345,6 +368,34 @@ static void surf_from_hit(const ref_ctx *rc, const vis_hit *h, const float dir[3
 
 static float max3(const float a[3]) { return fmaxf(a[0], fmaxf(a[1], a[2])); }
 
+/* Next-event estimation at s (frame S, T, s->ns; outgoing wol local): one environment
+ * sample, weighted by the power heuristic against the BRDF pdf when mis, adds
+ * beta f Le cos / pdf to L. Consumes 4 random numbers; returns the rays traced (0 or 1). */
+static long env_nee(const ref_ctx *rc, const ref_surf *s, const float S[3], const float T[3], const float wol[3],
+                    const brdf_params *bp, bool mis, pcg32 *rng, const float beta[3], float L[3]) {
+    float u[4] = { pcg32_float(rng), pcg32_float(rng), pcg32_float(rng), pcg32_float(rng) }, wi[3], pl;
+    if (!ref_env_sample(rc, u, wi, &pl)) return 0;
+    float wil[3];
+    brdf_to_local(S, T, s->ns, wi, wil);
+    if (wil[2] <= 0.f) return 0;
+    float f[3];
+    brdf_eval(bp, wil, wol, f);
+    if (!(max3(f) > 0.f)) return 0;
+    float o[3];
+    ray_origin(rc, s, wi, o);
+    if (vis_occluded(rc->vs, o, wi, rc->eps, INFINITY)) return 1;
+    float Le[3];
+    ref_env_radiance(rc, wi, Le);
+    float wgt = 1.f;
+    if (mis) {
+        float pb = brdf_pdf(bp, wol, wil);
+        wgt = pl * pl / (pl * pl + pb * pb);
+    }
+    float k = wgt * wil[2] / pl;
+    for (int c = 0; c < 3; c++) L[c] += beta[c] * f[c] * Le[c] * k;
+    return 1;
+}
+
 /* One sample of outgoing radiance from s toward world direction wo (unit), into out.
  * Returns the number of rays traced. */
 static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3], const ref_desc *d, pcg32 *rng,
@@ -364,33 +415,7 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
         if (wol[2] <= 0.f) break;   /* one-sided: seen from below the shading horizon */
         const bool cont = d->bounces < 0 || depth < d->bounces;
         /* Strategy 1: environment sample (next-event estimation). */
-        if (use_env) {
-            float u[4] = { pcg32_float(rng), pcg32_float(rng), pcg32_float(rng), pcg32_float(rng) }, wi[3], pl;
-            if (ref_env_sample(rc, u, wi, &pl)) {
-                float wil[3];
-                brdf_to_local(S, T, s.ns, wi, wil);
-                if (wil[2] > 0.f) {
-                    float f[3];
-                    brdf_eval(bp, wil, wol, f);
-                    if (max3(f) > 0.f) {
-                        float o[3];
-                        ray_origin(rc, &s, wi, o);
-                        rays++;
-                        if (!vis_occluded(rc->vs, o, wi, rc->eps, INFINITY)) {
-                            float Le[3];
-                            ref_env_radiance(rc, wi, Le);
-                            float wgt = 1.f;
-                            if (mis) {
-                                float pb = brdf_pdf(bp, wol, wil);
-                                wgt = pl * pl / (pl * pl + pb * pb);
-                            }
-                            float k = wgt * wil[2] / pl;
-                            for (int c = 0; c < 3; c++) L[c] += beta[c] * f[c] * Le[c] * k;
-                        }
-                    }
-                }
-            }
-        }
+        if (use_env) rays += env_nee(rc, &s, S, T, wol, bp, mis, rng, beta, L);
         /* Strategy 2: BRDF sample; it also carries the path on. */
         if (!use_brdf_light && !cont) break;
         float u1 = pcg32_float(rng), u2 = pcg32_float(rng), wil[3], pb;
