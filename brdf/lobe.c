@@ -259,7 +259,7 @@ float asg_eval(const asg_lobe *g, const float s[3]) {
     return (float)(g->amplitude * asg_shape(g, fmax(g->eta_x, 0), fmax(g->eta_y, 0), d));
 }
 
-/* Xu et al. 2013 Eq. 13 as written in tokuyoshi 3.2 (with the SG e^{2v (s.xi - 1)}, v = l/2). */
+/* Xu et al. 2013's ASG-SG product integral as written in tokuyoshi 3.2 (with the SG e^{2v (s.xi - 1)}, v = l/2). */
 double asg_sg_product_integral(const asg_lobe *a, const sg_lobe *g) {
     double ex = fmax(a->eta_x, 0), ey = fmax(a->eta_y, 0), v = clamp_kappa(g->sharpness) / 2, xi[3];
     unit_d(g->axis, xi);

@@ -31,8 +31,9 @@
  *     1 - r = 1e-6 (kappa 1e6) to better than 6%;
  *   - products of lobes use 1 - cos = |a - b|^2 / 2 and the exponent
  *     l_m - l_a - l_b = -2 l_a l_b (1 - cos) / (l_a + l_b + l_m) <= 0, so no overflow.
- * Phong and Blinn exponents map to kappa ~ n (cos^n t = e^{n log cos t} ~ e^{n (cos t - 1)}
- * to second order in t): a Phong n = 10,000 lobe is a vMF of kappa ~ 1e4.
+ * Exponents map to kappa by cos^n t = e^{n log cos t} ~ e^{n (cos t - 1)} (second order in t):
+ * a Phong lobe of exponent n is a vMF of kappa ~ n (n + 3 by moments, lobefit.h), so
+ * n = 10,000 is kappa ~ 1e4; Blinn's half-vector cos^n(t/2) is kappa ~ n/4 about the mirror.
  *
  * Directions are unit 3-vectors (s is normalized by the caller; mu and axes are
  * renormalized in double where precision matters). Everything here is a pure function

@@ -6,8 +6,11 @@
  * t(u) = pi (e^{b u} - 1) / (e^b - 1), b = log(1 + pi / 2e-4), midpoint in u, so the
  * spacing is 2e-4 rad near R and grows by ~4% per ring (res 256): a kappa-1e6 lobe
  * (width 1e-3) gets tens of rings and a broad GGX lobe still covers the sphere.
- * Two passes per view: the moments (alpha = int h, r = int s h_lum / int h_lum, Eq. 2),
- * then the error of alpha gamma against h. Nothing is allocated. */
+ * Per view: the moments (alpha = int h, r = int s h_lum / int h_lum, Eq. 2) while the
+ * points carrying energy are cached; a least-squares refinement of kappa and the axis
+ * elevation on that cache, using |h - a g|^2 = |h|^2 - 2 a <h, g> + a^2 |g|^2 with |g|^2
+ * analytic (so each trial costs one exp per cached point); then the reported error by a
+ * full, independent pass over the grid. */
 #include "lobefit.h"
 #include <math.h>
 #include <stdlib.h>
