@@ -147,6 +147,16 @@ void vmf_accum_add(vmf_accum *acc, const vmf_lobe *v, double weight) {
     acc->w += weight;
 }
 
+void vmf_accum_add_colour(vmf_accum *acc, const vmf_lobe *v, const float alpha[3]) {
+    vmf_accum_add(acc, v, 0.2126 * alpha[0] + 0.7152 * alpha[1] + 0.0722 * alpha[2]);
+    for (int k = 0; k < 3; k++) acc->alpha[k] += alpha[k];
+    acc->n++;
+}
+
+void vmf_accum_colour(const vmf_accum *acc, float out[3]) {
+    for (int k = 0; k < 3; k++) out[k] = acc->n > 0 ? (float)(acc->alpha[k] / acc->n) : 0.0f;
+}
+
 void vmf_accum_add_dir(vmf_accum *acc, const float s[3], double weight) {
     double d[3];
     if (!(unit_d(s, d) > 0)) return;
@@ -166,7 +176,7 @@ bool vmf_accum_result(const vmf_accum *acc, vmf_lobe *out) {
 
 bool vmf_merge(const vmf_lobe *in, const float *w, int n, vmf_lobe *out) {
     PRT_CHECK_GE(n, 0);
-    vmf_accum acc = { { 0, 0, 0 }, 0 };
+    vmf_accum acc = { { 0, 0, 0 }, 0, { 0, 0, 0 }, 0 };
     for (int i = 0; i < n; i++) vmf_accum_add(&acc, &in[i], w ? w[i] : 1.0);
     return vmf_accum_result(&acc, out);
 }

@@ -52,8 +52,9 @@ typedef struct vmf_lobe { float mu[3]; float kappa; } vmf_lobe;
 typedef struct sg_lobe { float axis[3]; float sharpness; float amplitude; } sg_lobe;
 /* Anisotropic SG a max(s.z,0) e^{-ex (s.x)^2 - ey (s.y)^2} on an orthonormal frame x, y, z. */
 typedef struct asg_lobe { float x[3], y[3], z[3]; float eta_x, eta_y; float amplitude; } asg_lobe;
-/* Running weighted sum of mean unnormalized directions (Eq. 4, 10); zero-initialize. */
-typedef struct vmf_accum { double r[3]; double w; } vmf_accum;
+/* Running weighted sum of mean unnormalized directions (Eq. 4, 10) and of colours (Eq. 11);
+ * zero-initialize. */
+typedef struct vmf_accum { double r[3]; double w; double alpha[3]; int n; } vmf_accum;
 
 /* ---------------------------------------------------------------- vMF (laurijssen-2011 section 2.1) */
 
@@ -80,6 +81,12 @@ void vmf_accum_add(vmf_accum *acc, const vmf_lobe *v, double weight);
 /* Adds one sample direction s (Eq. 2: r = mean of the s_i), normalized in double first so
  * that float rounding of |s| (6e-8) does not swamp 1 - |r| (1e-6 at kappa 1e6). */
 void vmf_accum_add_dir(vmf_accum *acc, const float s[3], double weight);
+/* Gathering (laurijssen-2011 5.2): adds lobe v of colour alpha with Eq. 10's weight, the
+ * luminance of alpha, and alpha to Eq. 11's sum. */
+void vmf_accum_add_colour(vmf_accum *acc, const vmf_lobe *v, const float alpha[3]);
+/* Eq. 11's colour of the merged lobe before the BRDF colour: (1/M) sum alpha_i over the M
+ * lobes added with vmf_accum_add_colour (0 when none). */
+void vmf_accum_colour(const vmf_accum *acc, float out[3]);
 /* The merged lobe: r_m = sum w_i r_i / sum w_i (Eq. 4, 10), then Eq. 3. False (and the
  * uniform lobe) when the total weight is not positive. */
 bool vmf_accum_result(const vmf_accum *acc, vmf_lobe *out);

@@ -167,7 +167,7 @@ static void sampling(void) {
     for (int q = 0; q < 5; q++) {
         vmf_lobe v = { { mu[0], mu[1], mu[2] }, (float)ks[q] }, fit;
         double m1 = 0;
-        vmf_accum acc = { { 0, 0, 0 }, 0 };
+        vmf_accum acc = { { 0, 0, 0 }, 0, { 0, 0, 0 }, 0 };
         uint64_t seed = 0x9e3779b97f4a7c15ull + (uint64_t)q;
         for (int i = 0; i < n; i++) {
             float s[3];
@@ -255,10 +255,23 @@ static void merge_mixture(void) {
     CHECK_NEAR(out.kappa / vmf_kappa_from_length(lm), 1, 1e-3, "merged kappa from the mixture's mean length");
     CHECK_LE(out.kappa, 30, "the merge of two separated lobes is wider than either");
     /* the streaming accumulator gives the same lobe */
-    vmf_accum acc = { { 0, 0, 0 }, 0 };
+    vmf_accum acc = { { 0, 0, 0 }, 0, { 0, 0, 0 }, 0 };
     vmf_lobe out2;
     vmf_accum_add(&acc, &in[0], w[0]), vmf_accum_add(&acc, &in[1], w[1]);
     CHECK(vmf_accum_result(&acc, &out2) && out2.kappa == out.kappa && angle(out2.mu, out.mu) < 1e-7, "accumulator = merge");
+    /* gathering with colours: Eq. 10 weights by luminance, Eq. 11 averages the colours */
+    const float ca[3] = { 0.9f, 0.1f, 0.1f }, cb[3] = { 0.1f, 0.5f, 0.9f };
+    double la = 0.2126 * ca[0] + 0.7152 * ca[1] + 0.0722 * ca[2], lb = 0.2126 * cb[0] + 0.7152 * cb[1] + 0.0722 * cb[2];
+    vmf_accum gc = { { 0, 0, 0 }, 0, { 0, 0, 0 }, 0 };
+    vmf_accum_add_colour(&gc, &in[0], ca), vmf_accum_add_colour(&gc, &in[1], cb);
+    float col[3], lw[2] = { (float)la, (float)lb };
+    vmf_lobe out3, out4;
+    vmf_accum_colour(&gc, col);
+    vmf_accum_result(&gc, &out3);
+    vmf_merge(in, lw, 2, &out4);
+    for (int k = 0; k < 3; k++) CHECK_NEAR(col[k], 0.5 * (ca[k] + cb[k]), 1e-7, "Eq. 11 colour, channel %d", k);
+    CHECK_NEAR(out3.kappa, out4.kappa, 1e-4 * out4.kappa, "Eq. 10 weights are the colours' luminance");
+    CHECK_LE(angle(out3.mu, out4.mu), 1e-6, "Eq. 10 axis");
 }
 
 /* Fibonacci quadrature of the product of two callbacks' lobes. */
