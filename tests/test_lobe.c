@@ -553,6 +553,21 @@ static void against_svd(void) {
            100 * t.err_whole_mean, 100 * mean, 100 * f.rel_rms[4]);
     CHECK_LE(t.err_whole_mean, mean, "one lobe beats K = 4 on paper-phong");
     brdf_factor_free(&f);
+    /* `prt brdf paper-phong` prints the same figures (the lobe fit does not depend on the SVD's
+     * --res, so a small one keeps this quick); --csv and a model without a fit do not */
+    char cmd[1024], out[8192];
+    snprintf(cmd, sizeof cmd, "%s brdf paper-phong --res 16", check_prt_bin());
+    CHECK(check_run(cmd, out, sizeof out) == 0, "prt brdf paper-phong: %s", out);
+    const char *line = strstr(out, "vMF lobe fit: error ");
+    double pm = -1, px = -1;
+    CHECK(line && sscanf(line, "vMF lobe fit: error %lf%% mean, %lf%% max", &pm, &px) == 2, "the lobe line: %s", out);
+    CHECK_NEAR(pm, 100 * t.err_mean, 0.051, "printed mean error");
+    CHECK_NEAR(px, 100 * t.err_max, 0.051, "printed max error");
+    CHECK(strstr(out, "SVD K = 4 ") != NULL, "the SVD beside it");
+    snprintf(cmd, sizeof cmd, "%s brdf paper-phong --csv --res 16", check_prt_bin());
+    CHECK(check_run(cmd, out, sizeof out) == 0 && !strstr(out, "vMF"), "--csv output unchanged");
+    snprintf(cmd, sizeof cmd, "%s brdf paper-as --res 16", check_prt_bin());
+    CHECK(check_run(cmd, out, sizeof out) == 0 && !strstr(out, "vMF"), "no lobe line for an anisotropic model");
 }
 
 int main(int argc, char **argv) {
