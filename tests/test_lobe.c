@@ -139,6 +139,10 @@ static void eq3_round_trip(void) {
     CHECK_NEAR(vmf_kappa_from_length(1), VMF_KAPPA_MAX, 0, "r = 1 clamps");
     CHECK_NEAR(vmf_kappa_from_length(1 - 1e-6), 1e6, 1e-3, "r = 1 - 1e-6");
     CHECK_NEAR(vmf_kappa_from_length(3e-9), 9e-9, 1e-20, "r tiny");
+    CHECK_NEAR(vmf_kappa_banerjee(0), 0, 0, "Eq. 3 at r = 0");
+    CHECK_NEAR(vmf_kappa_banerjee(3e-9) / 9e-9, 1, 1e-12, "Eq. 3 as r -> 0: 3r");
+    CHECK_NEAR(vmf_kappa_banerjee(1 - 1e-6) * 1e-6, 1, 1e-5, "Eq. 3 as r -> 1: 1/(1 - r)");
+    CHECK_NEAR(vmf_kappa_banerjee(1), VMF_KAPPA_MAX, 0, "Eq. 3 at r = 1 clamps");
     /* (mu, kappa) -> r -> (mu, kappa) through the double mean vector */
     float mu[3];
     unit(-0.1, 0.99, 0.05, mu);
