@@ -1,14 +1,18 @@
 /* cli_brdf.c - `prt brdf`: factor a BRDF (section 3.3) and print its singular values
- * and the cosine-weighted relative RMS error against K (the paper's Fig. 5). */
+ * and the cosine-weighted relative RMS error against K (the paper's Fig. 5); for the
+ * isotropic lobe models, the error of one vMF lobe per view elevation (laurijssen-2011
+ * section 3, brdf/lobefit.h) beside the SVD's in the same measure. */
 #include "cli.h"
 #include "cli_args.h"
 #include "factor.h"
+#include "lobefit.h"
+#include <math.h>
 #include <string.h>
 
 static const char *k_cmd = "brdf";
 
 static void help(void) {
-    puts("usage: prt brdf SPEC [--terms K] [--res R] [--polar] [--csv]\n"
+    puts("usage: prt brdf SPEC [--terms K] [--res R] [--polar] [--csv] [--lobes]\n"
          "\n"
          "SPEC is a BRDF: model:key=value;key=value (values: 1 number or R,G,B)\n"
          "  lambert:kd=..                          Lambertian\n"
@@ -19,17 +23,52 @@ static void help(void) {
          "  ggx:kd=..;ks=F0;alpha=A                microfacet, GGX\n"
          "  beckmann:kd=..;ks=F0;alpha=A           microfacet, Beckmann\n"
          "Prints the singular values per channel and the relative cosine-weighted RMS error\n"
-         "of the K-term approximation for K = 1..16 (and the K chosen by --terms).");
+         "of the K-term approximation for K = 1..16 (and the K chosen by --terms).\n"
+         "For phong, blinn, ggx and beckmann it then fits one vMF lobe and colour to the\n"
+         "specular slice f cos(theta_i) at 16 view elevations (diffuse left out) and prints\n"
+         "its relative L2 error over the sphere, and the SVD's error in that same measure\n"
+         "(relative to the whole slice); --lobes prints the lobe of every elevation.");
+}
+
+/* Mean of n floats. */
+static double mean_of(const float *x, int n) {
+    double s = 0;
+    for (int i = 0; i < n; i++) s += x[i];
+    return n > 0 ? s / n : 0;
+}
+
+/* The vMF lobe fit's error (and with `all` its lobes) beside the SVD's in the same measure. */
+static int print_lobes(const brdf_params *p, const brdf_factor *f, bool all, prt_error *err) {
+    lobefit_table t;
+    if (lobefit_fit(p, NULL, &t, err)) return -1;
+    printf("vMF lobe fit: error %.1f%% mean, %.1f%% max over %d view angles (specular slice f cos, diffuse left out)\n",
+           100 * t.err_mean, 100 * t.err_max, t.views);
+    float e4[LOBEFIT_MAX_VIEWS], eK[LOBEFIT_MAX_VIEWS];
+    int K4 = f->K < 4 ? f->K : 4;
+    lobefit_factor_error(&t, p, f, K4, e4);
+    lobefit_factor_error(&t, p, f, f->K, eK);
+    printf("  same measure, whole slice: vMF %.1f%% mean, %.1f%% max; SVD K = %d %.1f%% mean, K = %d %.1f%% mean\n",
+           100 * t.err_whole_mean, 100 * t.err_whole_max, K4, 100 * mean_of(e4, t.views), f->K, 100 * mean_of(eK, t.views));
+    if (!all) return 0;
+    printf("  theta_o   kappa       axis-mirror  alpha_R    alpha_G    alpha_B    error    SVD K=%d\n", K4);
+    for (int v = 0; v < t.views; v++) {
+        const vmf_lobe *l = &t.lobe[v];
+        double th = t.theta[v], ang = atan2(l->mu[0] * cos(th) + l->mu[2] * sin(th), l->mu[2] * cos(th) - l->mu[0] * sin(th));
+        printf("  %6.2f   %-10.4g  %+8.3f deg  %-9.4g  %-9.4g  %-9.4g  %6.2f%%  %6.2f%%\n", th * 180 / 3.14159265358979,
+               l->kappa, ang * 180 / 3.14159265358979, t.alpha[v][0], t.alpha[v][1], t.alpha[v][2], 100 * t.err[v], 100 * e4[v]);
+    }
+    return 0;
 }
 
 int cli_brdf(int argc, char **argv) {
     const char *spec = NULL;
     brdf_factor_desc fd = { .max_terms = 16 };
-    bool csv = false;
+    bool csv = false, lobes = false;
     int param = BRDF_PARAM_GRID;
     const cli_option opts[] = {
         CLI_SETV("--polar", &param, BRDF_PARAM_POLAR),
         CLI_B("--csv", &csv),
+        CLI_B("--lobes", &lobes),
         CLI_I("--terms", &fd.max_terms, 1, 64),
         CLI_I("--res", &fd.res, 8, 128),
         CLI_END,
@@ -59,6 +98,10 @@ int cli_brdf(int argc, char **argv) {
         for (int k = 1; k <= f.nsigma && k <= 16; k++)
             printf("  %2d   %-11.5g  %-11.5g  %-11.5g  %7.3f%%\n", k, f.sigma[0][k - 1], f.sigma[1][k - 1],
                    f.sigma[2][k - 1], 100 * f.rel_rms[k]);
+    }
+    if (!csv && lobefit_supported(p.type) && print_lobes(&p, &f, lobes, &err)) {
+        brdf_factor_free(&f);
+        return cli_error(k_cmd, "%s", err.msg);
     }
     brdf_factor_free(&f);
     return 0;
