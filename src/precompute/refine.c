@@ -25,8 +25,6 @@
 #define RF_MAX_THREADS 64
 #define RF_GRAIN_VERTS 16       /* vertices per dynamic chunk of mask tracing */
 #define RF_GRAIN_EDGES 2048     /* edges per chunk of mask comparison */
-/* A direction counts as above a vertex's horizon when n.w exceeds this (refine.h). */
-#define RF_MIN_COS 0.0f
 
 /* The refinement in progress. */
 typedef struct rf_ctx {
@@ -89,7 +87,7 @@ static void rf_mask_range(void *ctx, int begin, int end, int thread) {
             const float *w = c->dirs + 3 * (size_t)d;
             const uint64_t bit = (uint64_t)1 << (d & 63);
             if (b[d]) mv[d >> 6] |= bit;
-            if (n[0] * w[0] + n[1] * w[1] + n[2] * w[2] > RF_MIN_COS) mu[d >> 6] |= bit;
+            if (n[0] * w[0] + n[1] * w[1] + n[2] * w[2] > REFINE_MIN_COS) mu[d >> 6] |= bit;
         }
     }
 }
