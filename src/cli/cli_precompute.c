@@ -4,6 +4,7 @@
 #include "cli_args.h"
 #include "precompute.h"
 #include "prtfile.h"
+#include "refine.h"
 #include "scene.h"
 #include <stdlib.h>
 #include <string.h>
@@ -36,6 +37,12 @@ static void help(void) {
          "  --no-bounces           never do interreflection passes\n"
          "  --keep-direct          also store the direct-only transport (for render --direct-only and\n"
          "                         the viewer's direct/bounces toggle; about doubles the file)\n"
+         "adaptive refinement (Laurijssen et al. 2011, section 6.1; off by default for now):\n"
+         "  --refine               before the transport, split the edges whose vertices' visibility\n"
+         "                         masks differ in more than 0.5% of directions, iteratively\n"
+         "  --refine-threshold F   that share, 0 < F < 1 (turns refinement on; 0: off)\n"
+         "  --refine-budget V      at most V vertices after refinement (default 3x the scene's; turns it on)\n"
+         "  --no-refine            no refinement\n"
          "other:\n"
          "  --threads T            worker threads (default: all cores)\n"
          "  --quiet                no progress output\n");
@@ -70,6 +77,11 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
     prt_scene scene = { 0 };
     if (scene_load(in, sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_load = prt_now() - t0;
+    if (pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts) {
+        cli_error(k_cmd, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
+        scene_free(&scene);
+        return 2;
+    }
     if (!quiet)
         fprintf(stderr, "scene: %d vertices, %d triangles, %d material(s)%s (loaded in %.2fs)\n", scene.mesh.nverts,
                 scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
@@ -106,7 +118,8 @@ int cli_precompute(int argc, char **argv) {
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
-    int param = BRDF_PARAM_GRID, sh_bands = 0;
+    int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0;
+    float refine_thr = -1;
     const cli_option opts[] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
@@ -117,6 +130,10 @@ int cli_precompute(int argc, char **argv) {
         CLI_SETV("--force-bounces", &pd.force_bounces, 1),
         CLI_SETV("--no-bounces", &pd.force_bounces, -1),
         CLI_B("--keep-direct", &pd.keep_direct),
+        CLI_SETV("--refine", &refine, 1),
+        CLI_SETV("--no-refine", &refine, -1),
+        CLI_F("--refine-threshold", &refine_thr, 0, 1),
+        CLI_I("--refine-budget", &pd.refine_budget, 4, 1 << 28),
         CLI_B("--quiet", &quiet),
         CLI_I("--terms", &pd.max_terms, 1, 64),
         CLI_F("--term-error", &pd.term_error, 1e-6, 1),
@@ -141,6 +158,10 @@ int cli_precompute(int argc, char **argv) {
     if (pd.qbits && pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
     if (pd.vis_res && pd.vis_res != 64 && pd.vis_res != 128 && pd.vis_res != 256)
         return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;
+    if (refine_thr >= 1) return cli_error(k_cmd, "--refine-threshold must be below 1 (a share of directions)") + 1;
+    /* on when asked for by any refine flag; a threshold of 0 or --no-refine turns it off */
+    if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0))
+        pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
     return run(in, out, &sd, &pd, quiet);

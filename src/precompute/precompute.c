@@ -35,7 +35,8 @@
  * handed to its compress op, which keeps the N largest coefficients and
  * quantizes them. The ops are called once per vector channel, never per texel.
  *
- * Stages (precompute_run): factor (BRDF factorization, the plan's BRDF lines),
+ * Stages (precompute_run): refine (optional adaptive refinement where visibility changes,
+ * refine.h: it must come first, since every later stage sizes per-vertex arrays), factor (BRDF factorization, the plan's BRDF lines),
  * choose (the representation per material), setup (tables, visibility scene,
  * scratch), plan (the sample, the rest of the plan, printed), direct (the rest of
  * the pass), bounces (interreflections), finish (the transfer into out).
@@ -48,6 +49,7 @@
 #include "cubemap.h"
 #include "gather.h"
 #include "haar.h"
+#include "refine.h"
 #include "transfer.h"
 #include "visibility.h"
 #include <math.h>
@@ -427,6 +429,9 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
         return prt_fail(err, "precompute: bounce_threshold = %g is out of range (0, 1)", d->bounce_threshold);
     if (d->force_bounces < -1 || d->force_bounces > 1)
         return prt_fail(err, "precompute: force_bounces = %d (must be -1, 0 or 1)", d->force_bounces);
+    if (!(d->refine_threshold >= 0 && d->refine_threshold < 1))
+        return prt_fail(err, "precompute: refine_threshold = %g is out of range [0, 1)", d->refine_threshold);
+    if (d->refine_budget < 0) return prt_fail(err, "precompute: refine_budget = %d is negative", d->refine_budget);
     if (d->param != BRDF_PARAM_GRID && d->param != BRDF_PARAM_POLAR)
         return prt_fail(err, "precompute: unknown BRDF parameterization %d", (int)d->param);
     return 0;
@@ -471,6 +476,19 @@ typedef struct pc_run {
     double t_sample, hit_sample;
     bool plan_bounces;
 } pc_run;
+
+/* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
+ * plan line. Returns 0 or -1. */
+static int pc_refine(pc_run *r, prt_error *err) {
+    if (!(r->d.refine_threshold > 0)) return 0;
+    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .nthreads = r->nthreads };
+    refine_stats st;
+    if (refine_scene(&r->out->scene, &rd, &st, err)) return -1;
+    char line[512];
+    refine_describe(&st, line, sizeof line);
+    plan_add(r->plan, r->pcap, "  %s\n", line);
+    return 0;
+}
 
 /* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,
  * and the plan's scene and BRDF lines. Returns 0 or -1. */
@@ -748,7 +766,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
     out->vis_res = r->d.vis_res;
     out->gather_res = r->d.gather_res;
-    if (pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err)) goto done;
+    if (pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err)) goto done;
     atomic_init(&r->c.cancelled, 0);
     atomic_init(&r->c.done, 0);
     pthread_mutex_init(&r->c.lock, NULL);

@@ -25,6 +25,11 @@
  * force_bounces 1 does max(bounces, 1) passes regardless, -1 none. A time
  * estimate comes from the sample, which is computed first and kept.
  *
+ * Refinement (refine_threshold > 0, stage refine, before everything else): the scene's
+ * mesh is refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1),
+ * and the refined mesh is what is precomputed, stored and drawn; the plan's first line
+ * says vertices before and after, models and floor, and its time.
+ *
  * Cancelling: the progress callback returning false stops the run with error "cancelled". */
 #ifndef PRT_PRECOMPUTE_H
 #define PRT_PRECOMPUTE_H
@@ -44,6 +49,9 @@ typedef struct precompute_desc {
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
+    float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose
+                             * masks differ in more than this share; 0: no refinement (the default for now) */
+    int refine_budget;      /* with refinement, the most vertices after it; 0: 3x the scene's */
     int nthreads;           /* 0: all cores */
     prt_progress_fn progress;
     void *progress_user;
