@@ -55,6 +55,7 @@ static void summary(const char *out, const prt_data *data, double t_load, double
     const prt_stats *s = &data->stats;
     fprintf(stderr, "\ntiming summary\n");
     fprintf(stderr, "  %-28s %9.2fs\n", "scene load", t_load);
+    if (s->t_refine > 0) fprintf(stderr, "  %-28s %9.2fs\n", "refinement", s->t_refine);
     fprintf(stderr, "  %-28s %9.2fs\n", "BRDF factorization", s->t_brdf);
     fprintf(stderr, "  %-28s %9.2fs\n", "visibility (ray casting)", s->t_visibility);
     fprintf(stderr, "  %-28s %9.2fs\n", "transport+wavelet+quant.", s->t_transport);

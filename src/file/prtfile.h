@@ -28,6 +28,7 @@
 #define PRT_MAX_BOUNCES 8
 
 typedef struct prt_stats {
+    double t_refine;            /* adaptive refinement (refine.h; 0 when off; not stored: the plan line has it) */
     double t_brdf;              /* BRDF tabulation + SVD */
     double t_visibility;        /* ray casting */
     double t_transport;         /* transport evaluation, Haar, selection, quantization */

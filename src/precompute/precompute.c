@@ -481,9 +481,11 @@ typedef struct pc_run {
  * plan line. Returns 0 or -1. */
 static int pc_refine(pc_run *r, prt_error *err) {
     if (!(r->d.refine_threshold > 0)) return 0;
-    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .nthreads = r->nthreads };
+    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .nthreads = r->nthreads,
+                       .progress = r->d.progress, .progress_user = r->d.progress_user };
     refine_stats st;
     if (refine_scene(&r->out->scene, &rd, &st, err)) return -1;
+    r->out->stats.t_refine = st.seconds;
     char line[512];
     refine_describe(&st, line, sizeof line);
     plan_add(r->plan, r->pcap, "  %s\n", line);

@@ -19,6 +19,9 @@
 #include "cubemap.h"
 #include "visibility.h"
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -43,6 +46,14 @@ typedef struct rf_ctx {
     int *tedge;             /* [3 * ntris] edge of triangle side t*3+k (vertex k to k+1) */
     float *diff;            /* [nedges] differing share */
     int *mid;               /* [nedges] the new midpoint vertex, or -1 */
+    /* progress of the mask tracing (the slow part: rays) */
+    prt_progress_fn progress;
+    void *progress_user;
+    char stage[32];         /* "refine level N" */
+    pthread_mutex_t lock;
+    atomic_long done;
+    long total;
+    atomic_int cancelled;
 } rf_ctx;
 
 /* A triangle side for sorting into edges. */
@@ -70,9 +81,21 @@ static int rf_mark_cmp(const void *a, const void *b) {
     return x->edge < y->edge ? -1 : x->edge > y->edge;
 }
 
+/* Counts n traced vertices and reports the level's fraction (one thread at a time); a false
+ * answer cancels the refinement. */
+static void rf_report(rf_ctx *c, int n) {
+    long done = atomic_fetch_add(&c->done, n) + n;
+    if (!c->progress) return;
+    pthread_mutex_lock(&c->lock);
+    if (!atomic_load(&c->cancelled) && !c->progress(c->progress_user, c->stage, (double)done / (double)c->total))
+        atomic_store(&c->cancelled, 1);
+    pthread_mutex_unlock(&c->lock);
+}
+
 /* prt_parallel_for body: masks of vertices first + [begin, end). */
 static void rf_mask_range(void *ctx, int begin, int end, int thread) {
     rf_ctx *c = ctx;
+    if (atomic_load(&c->cancelled)) return;
     uint8_t *b = c->bytes[thread];
     for (int i = begin; i < end; i++) {
         const size_t v = (size_t)(c->first + i);
@@ -90,6 +113,7 @@ static void rf_mask_range(void *ctx, int begin, int end, int thread) {
             if (n[0] * w[0] + n[1] * w[1] + n[2] * w[2] > REFINE_MIN_COS) mu[d >> 6] |= bit;
         }
     }
+    rf_report(c, end - begin);
 }
 
 /* prt_parallel_for body: the differing share of edges [begin, end), counted only over the
@@ -259,15 +283,19 @@ static int rf_retriangulate(rf_ctx *c, int nsplit, prt_error *err) {
 }
 
 /* Traces the masks of vertices [c->first, nverts) on nthreads threads. */
-static void rf_trace(rf_ctx *c, int nthreads) {
+static void rf_trace(rf_ctx *c, int nthreads, int level) {
+    snprintf(c->stage, sizeof c->stage, "refine level %d", level + 1);
+    atomic_store(&c->done, 0);
+    c->total = c->m.nverts - c->first > 0 ? c->m.nverts - c->first : 1;
     prt_parallel_for(c->m.nverts - c->first, RF_GRAIN_VERTS, nthreads, rf_mask_range, c);
     c->first = c->m.nverts;
 }
 
 /* One iteration: masks, edges, differences, choice and split. Returns the number of edges
  * split (0: nothing left to do or no room) or -1. */
-static int rf_iterate(rf_ctx *c, const refine_desc *d, refine_stats *st, prt_error *err) {
-    rf_trace(c, d->nthreads);
+static int rf_iterate(rf_ctx *c, const refine_desc *d, int level, refine_stats *st, prt_error *err) {
+    rf_trace(c, d->nthreads, level);
+    if (atomic_load(&c->cancelled)) return prt_fail(err, "cancelled");
     if (rf_edges(c, err)) return -1;
     prt_parallel_for(c->nedges, RF_GRAIN_EDGES, d->nthreads, rf_diff_range, c);
     int marked = 0, nsplit = rf_choose(c, d->threshold, d->budget - c->m.nverts, &marked, err);
@@ -307,12 +335,15 @@ static void rf_free(rf_ctx *c) {
     free(c->floor); free(c->vis); free(c->up); free(c->dirs);
     free(c->ekey); free(c->tedge); free(c->diff); free(c->mid);
     for (int t = 0; t < RF_MAX_THREADS; t++) free(c->bytes[t]);
+    pthread_mutex_destroy(&c->lock);
 }
 
 /* The working copy of s's mesh, its floor flags, the mask directions and per-thread buffers
  * (the visibility scene is the caller's). Returns 0 or -1. */
 static int rf_init(rf_ctx *c, const prt_scene *s, const refine_desc *d, prt_error *err) {
     if (mesh_copy(&c->m, &s->mesh, err)) return -1;
+    c->progress = d->progress;
+    c->progress_user = d->progress_user;
     c->res = d->mask_res;
     c->ndirs = 6 * c->res * c->res;
     c->W = (c->ndirs + 63) / 64;
@@ -369,13 +400,17 @@ int refine_scene(prt_scene *s, const refine_desc *desc, refine_stats *stats, prt
     st.floor_before = s->floor_first_vertex >= 0 ? s->mesh.nverts - s->floor_first_vertex : 0;
     rf_ctx *c = prt_calloc(1, sizeof *c, err);
     if (!c) return -1;
+    pthread_mutex_init(&c->lock, NULL);
+    atomic_init(&c->done, 0);
+    atomic_init(&c->cancelled, 0);
     int rc = -1;
     /* the input mesh stays untouched (its triangles shared with Embree) until the commit */
     vis_scene *vs = NULL;
     if (rf_init(c, s, &d, err) || !(vs = vis_create(&s->mesh, err))) goto done;
     c->vs = vs;
     for (int level = 0; level < d.max_levels; level++) {
-        int n = rf_iterate(c, &d, &st, err);
+        if (c->m.nverts >= d.budget) { st.budget_hit = true; break; }   /* no room: trace nothing more */
+        int n = rf_iterate(c, &d, level, &st, err);
         if (n < 0) goto done;
         if (n == 0) break;
         st.levels++;

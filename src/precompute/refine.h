@@ -85,6 +85,8 @@ typedef struct refine_desc {
     int mask_res;       /* mask cube resolution, a multiple of 4 in 8..64; 0: 32 */
     int max_levels;     /* most iterations, 1..16; 0: 6 */
     int nthreads;       /* 0: all cores */
+    prt_progress_fn progress;   /* per level's mask tracing ("refine level N"); false cancels */
+    void *progress_user;
 } refine_desc;
 
 typedef struct refine_stats {
