@@ -18,6 +18,8 @@
 #define PF_RIM 16                      /* rim points bounding the cap's image on a face */
 #define PF_TEXELS 4.0                  /* output texels (of pi / (2 res)) per lobe width 1/sqrt k */
 #define PF_SRC_TEXELS 2.0              /* source texels per lobe width */
+#define PF_MIN_RES 8                   /* output levels are never coarser (bilinear on smooth maps) */
+#define PF_MIN_SRC_RES 32              /* nor sources: a wide kernel still varies by e^{kappa h} across a texel */
 #define PF_FACE_ANGLE 0.9553166181245093 /* acos(1/sqrt 3): face centre to corner */
 
 typedef struct pf_level {
@@ -231,10 +233,11 @@ static int pf_mean_level(const float *base, int res, pf_level *L, prt_error *err
     return 0;
 }
 
-/* Level resolution: the power of two nearest pi/2 sqrt(kappa) * texels, in [4, base]. */
-static int pf_level_res(double kappa, double texels, int base) {
+/* Level resolution: the power of two nearest pi/2 sqrt(kappa) * texels, in [lo, base]. */
+static int pf_level_res(double kappa, double texels, int lo, int base) {
     int r = pf_pow2_nearest(texels * 0.5 * PF_PI * sqrt(kappa));
-    return r < 4 ? 4 : (r > base ? base : r);
+    r = r < lo ? lo : r;
+    return r > base ? base : r;
 }
 
 /* Builds every level from the pyramid of cube (base res); cube is consumed (freed). */
@@ -243,8 +246,8 @@ static int pf_build(prefilter_env *e, const prefilter_desc *o, float *cube, prt_
     for (int l = 0; l < o->levels; l++) {
         pf_level *L = &e->lv[l];
         L->kappa = o->kappa_max / powf(o->ratio, (float)l);
-        L->res = pf_level_res(L->kappa, PF_TEXELS, o->base_res);
-        int src_res = pf_level_res(L->kappa, PF_SRC_TEXELS, o->base_res);
+        L->res = pf_level_res(L->kappa, PF_TEXELS, PF_MIN_RES, o->base_res);
+        int src_res = pf_level_res(L->kappa, PF_SRC_TEXELS, PF_MIN_SRC_RES, o->base_res);
         while (res > src_res) {     /* the pyramid: halve the source down to this level's */
             float *half = malloc((size_t)6 * (res / 2) * (res / 2) * 3 * sizeof *half);
             if (!half) { free(cube); return prt_fail(err, "prefilter: out of memory"); }
@@ -363,7 +366,8 @@ void prefilter_lookup(const prefilter_env *e, const float dir[3], float kappa, f
     while (l + 1 < last && e->lv[l + 1].kappa > kappa) l++;
     /* kappa in (kappa_{l+1}, kappa_l]: log kappa between vMF levels, kappa towards kappa 0. */
     float t;
-    t = (e->lv[l].kappa - kappa) / (e->lv[l].kappa - e->lv[l + 1].kappa);
+    if (l + 1 < last) t = logf(e->lv[l].kappa / kappa) / logf(e->lv[l].kappa / e->lv[l + 1].kappa);
+    else t = 1 - kappa / e->lv[l].kappa;
     float a[3], b[3];
     pf_bilinear(&e->lv[l], d, a);
     pf_bilinear(&e->lv[l + 1], d, b);
