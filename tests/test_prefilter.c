@@ -48,20 +48,31 @@ static void make_probe(env_fn fn, int w, prt_probe *p) {
     CHECK(probe_from_image(&img, PROBE_LATLONG, "test probe", p, &err) == 0);
 }
 
-/* Brute-force quadrature of int L gamma(.; d, k) over the probe's pixels. */
+/* Brute-force quadrature of int L gamma(.; d, k) over the probe's pixels (their directions and
+ * solid angles cached for the last probe seen: the sun's cases call it hundreds of times). */
+static struct { const prt_probe *p; size_t n; float *w; double *om; } g_q;
+
 static void quad(const prt_probe *p, const float d[3], float kappa, double out[3]) {
+    if (g_q.p != p || !g_q.w) {
+        free(g_q.w), free(g_q.om);
+        size_t n = (size_t)p->img.w * p->img.h;
+        g_q.p = p, g_q.n = n, g_q.w = malloc(3 * n * sizeof *g_q.w), g_q.om = malloc(n * sizeof *g_q.om);
+        for (size_t i = 0; i < n; i++) {
+            float om;
+            g_q.om[i] = probe_pixel_dir(p, (int)(i % p->img.w), (int)(i / p->img.w), g_q.w + 3 * i, &om) ? om : 0;
+        }
+    }
     vmf_lobe v = { { d[0], d[1], d[2] }, kappa };
     out[0] = out[1] = out[2] = 0;
-    for (int y = 0; y < p->img.h; y++)
-        for (int x = 0; x < p->img.w; x++) {
-            float w[3], om;
-            if (!probe_pixel_dir(p, x, y, w, &om)) continue;
-            double g = om * (double)vmf_eval(&v, w);
-            if (g == 0) continue;
-            const float *L = p->img.data + 3 * ((size_t)y * p->img.w + x);
-            for (int c = 0; c < 3; c++) out[c] += g * L[c];
-        }
+    for (size_t i = 0; i < g_q.n; i++) {
+        if (g_q.om[i] == 0) continue;
+        double g = g_q.om[i] * (double)vmf_eval(&v, g_q.w + 3 * i);
+        const float *L = p->img.data + 3 * i;
+        for (int c = 0; c < 3; c++) out[c] += g * L[c];
+    }
 }
+
+static void quad_free(void) { free(g_q.w), free(g_q.om), g_q.w = NULL, g_q.om = NULL, g_q.p = NULL; }
 
 /* ---- constant -------------------------------------------------------------------------- */
 
@@ -179,6 +190,7 @@ static void lobe(void) {
 static const float k_sun[3] = { 0.3f, 0.8f, -0.519615f };   /* unit */
 
 static void make_sun(prt_probe *p) {
+    quad_free();
     sky_desc sd = { .width = 1024, .sun_radius_deg = 0.5f, .sun_radiance = 34000 };
     memcpy(sd.sun_dir, k_sun, sizeof sd.sun_dir);
     prt_error err;
@@ -199,15 +211,20 @@ static void off_sun(double t, float d[3]) {
  * mode: 0 prefilter_lookup, 1..3 interpolation of the bracketing levels (l, l+1) in
  * log kappa, kappa, 1/sqrt kappa (computed here from prefilter_lookup_level). */
 static double sun_error(const prefilter_env *e, const prt_probe *p, float k, int mode, int l) {
-    double worst = 0, peak[3];
-    float d0[3];
-    off_sun(0, d0);
-    quad(p, d0, k, peak);
+    static float last_k = -1;       /* the truths of the last kappa (interp asks three times) */
+    static double truth[6][3];
+    double worst = 0, *peak = truth[0];
+    if (k != last_k)
+        for (int a = 0; a <= 5; a++) {
+            float d[3];
+            off_sun(0.5 * a / sqrt(k), d);
+            quad(p, d, k, truth[a]);
+        }
+    last_k = k;
     for (int a = 0; a <= 5; a++) {
         float d[3], o[3];
         off_sun(0.5 * a / sqrt(k), d);
-        double t[3];
-        quad(p, d, k, t);
+        const double *t = truth[a];
         if (mode == 0) prefilter_lookup(e, d, k, o);
         else {
             float ka, kb, x[3], y[3];
@@ -318,8 +335,8 @@ static void rotation(void) {
     prt_probe p, pr;
     prt_error err;
     CHECK(probe_parse_rotation("70,-35", g_R) == 0);
-    make_probe(lobe_fn, 2048, &p);
-    make_probe(rot_fn, 2048, &pr);      /* the probe rotated by R, built rotated */
+    make_probe(lobe_fn, 1024, &p);
+    make_probe(rot_fn, 1024, &pr);      /* the probe rotated by R, built rotated */
     prefilter_env *e = prefilter_create(&p, NULL, NULL, &err), *er = prefilter_create(&p, g_R, NULL, &err);
     prefilter_env *eb = prefilter_create(&pr, NULL, NULL, &err);
     CHECK(e && er && eb, "%s", err.msg);
@@ -457,5 +474,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(finite_values);
     CHECK_CASE(bad_desc);
     CHECK_CASE(cost);
+    quad_free();
     return check_summary();
 }
