@@ -3,9 +3,10 @@
  * Levels are cube maps in cubemap.h's layout. The convolution of a level gathers, for each
  * output texel direction d, the source texels of the cap {w : d.w >= 1 - PF_CUT / kappa}
  * (e^{-PF_CUT} = 1e-5 of the kernel's peak, laurijssen-2011 Eq. 1). On each face the cap is
- * found as a texel box: if the whole cap lies in front of the face's plane its gnomonic image
- * is an ellipse, bounded by projecting 32 points of its rim (plus a texel of margin); if it
- * reaches behind the plane the whole face is scanned (wide lobes, on small levels only); a
+ * found as a texel box: the cap's part in front of the face's plane has a convex gnomonic
+ * image, bounded by projecting 16 points of its rim (with d and the face centre when they
+ * belong, plus a texel and 5% of margin); caps over a hemisphere scan the whole face (the
+ * smallest levels only); a
  * face farther than the cap radius plus the face's half-diagonal angle is skipped. */
 #include "prefilter.h"
 #include "cubemap.h"
