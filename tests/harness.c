@@ -55,6 +55,19 @@ const char *check_tmpdir(void) {
     return dir;
 }
 
+char *check_read_file(const char *path, size_t *len) {
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    char *buf = NULL;
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    if (n >= 0 && fseek(f, 0, SEEK_SET) == 0 && (buf = malloc((size_t)n + 1)) != NULL &&
+        fread(buf, 1, (size_t)n, f) != (size_t)n) { free(buf); buf = NULL; }
+    fclose(f);
+    if (buf) buf[n] = 0;
+    if (buf && len) *len = (size_t)n;
+    return buf;
+}
+
 const char *check_prt_bin(void) {
     const char *b = getenv("PRT_BIN");
     return b && *b ? b : "build/prt";

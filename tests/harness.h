@@ -68,6 +68,9 @@ int check_wants(const char *name);
 int check_summary(void);
 /* A fresh scratch directory for this test binary (under build/tmp); path stays valid until exit. */
 const char *check_tmpdir(void);
+/* Reads a whole file into a NUL-terminated buffer (free()); *len (may be NULL) gets its size.
+ * NULL when it cannot be opened or read. */
+char *check_read_file(const char *path, size_t *len);
 /* Path of the built prt program (build/prt or $PRT_BIN). */
 const char *check_prt_bin(void);
 /* Runs a shell command, returns its exit status; captures up to cap-1 bytes of stdout+stderr into out (may be NULL). */

@@ -28,20 +28,6 @@
 static char g_data[PATH_MAX];     /* the repository's data/ folder */
 static char g_shared[PATH_MAX];   /* a shared/ folder holding data/models, or "" */
 
-static char *slurp(const char *path, size_t *len) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) { free(buf); buf = NULL; }
-    fclose(f);
-    if (buf) buf[n] = 0;
-    if (len) *len = (size_t)n;
-    return buf;
-}
-
 static bool exists(const char *path) { return access(path, R_OK) == 0; }
 
 /* snprintf that counts a truncated path as a failure rather than using it. */
@@ -127,7 +113,7 @@ static void shape_counts(const cJSON *m, int *nv, int *nt) {
 /* Reads what the JSON file says, with cJSON, independently of scene.c. */
 static int read_expect(const char *path, expect *e) {
     memset(e, 0, sizeof *e);
-    char *text = slurp(path, NULL);
+    char *text = check_read_file(path, NULL);
     cJSON *root = text ? cJSON_Parse(text) : NULL;
     free(text);
     if (!root) return -1;
@@ -191,13 +177,13 @@ static void listed(void) {
     CHECK(g_data[0], "data/ not found (run from the repository root)");
     if (!g_data[0]) return;
     for (int i = 0; i < NSCENES; i++) CHECK(exists(data_path(k_scenes[i])), "%s missing", data_path(k_scenes[i]));
-    char *readme = slurp(data_path("README.md"), NULL);
+    char *readme = check_read_file(data_path("README.md"), NULL);
     CHECK(readme != NULL, "data/README.md missing");
     glob_t g;
     CHECK(glob(data_path("*.json"), 0, NULL, &g) == 0 && g.gl_pathc >= (size_t)NSCENES, "data/*.json");
     for (size_t i = 0; i < g.gl_pathc; i++) {
         const char *base = strrchr(g.gl_pathv[i], '/') + 1;
-        char *text = slurp(g.gl_pathv[i], NULL);
+        char *text = check_read_file(g.gl_pathv[i], NULL);
         cJSON *root = text ? cJSON_Parse(text) : NULL;
         CHECK(root && cJSON_IsObject(root), "%s is not a JSON object", base);
         const cJSON *c = root ? cJSON_GetObjectItemCaseSensitive(root, "comment") : NULL;
@@ -233,7 +219,7 @@ static void procedural(void) {
         CHECK(s.mesh.ntris == e.ntris + ftris, "%s: %d triangles, want %d", base, s.mesh.ntris, e.ntris + ftris);
         /* Model k starts after the vertices of models 0..k-1 (counts from the JSON). */
         int first[16], at = 0, k = 0;
-        char *text = slurp(path, NULL);
+        char *text = check_read_file(path, NULL);
         cJSON *root = cJSON_Parse(text);
         const cJSON *m;
         cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "models")) {
@@ -402,7 +388,7 @@ static int demo_in_code(prt_scene *out, int floor_verts, prt_error *err) {
  * triangles and materials, bit for bit, at the default floor and another. */
 static void demo(void) {
     size_t len = 0;
-    char *text = slurp(data_path("demo.json"), &len);
+    char *text = check_read_file(data_path("demo.json"), &len);
     const char *builtin = scene_demo_json();
     CHECK(text && len == strlen(builtin) && !memcmp(text, builtin, len),
           "data/demo.json differs from the built-in demo (src/scene/scene.c k_demo_json): keep them identical");
@@ -443,7 +429,7 @@ static void bench_scenes(void) {
         }
         /* The JSON as shipped, with its model path pointed at the found file. */
         size_t len;
-        char *text = slurp(data_path(k[i].json), &len), *at = text ? strstr(text, "../../shared/data/models/") : NULL;
+        char *text = check_read_file(data_path(k[i].json), &len), *at = text ? strstr(text, "../../shared/data/models/") : NULL;
         CHECK(at != NULL, "%s names ../../shared/data/models/", k[i].json);
         if (!at) { free(text); continue; }
         char *fixed = malloc(len + strlen(g_shared) + 64);

@@ -173,17 +173,6 @@ static void check_same_transport(const prt_transport *s, const prt_transport *t,
     CHECK(!t->stage_count && !t->stage_idx && !t->stage_val);
 }
 
-static unsigned char *slurp(const char *path, size_t *n) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *n = (size_t)ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc(*n ? *n : 1);
-    if (fread(b, 1, *n, f) != *n) *n = 0;
-    fclose(f);
-    return b;
-}
 static void spit(const char *path, const void *b, size_t n) {
     FILE *f = fopen(path, "wb");
     fwrite(b, 1, n, f);
@@ -267,7 +256,7 @@ static void round_trip(void) {
         snprintf(path2, sizeof path2, "%s/rt%d_again.prt", dir, q);
         CHECK(prtfile_write(path2, &b, &err) == 0, "%s", err.msg);
         size_t n1 = 0, n2 = 0;
-        unsigned char *b1 = slurp(path, &n1), *b2 = slurp(path2, &n2);
+        unsigned char *b1 = (unsigned char *)check_read_file(path, &n1), *b2 = (unsigned char *)check_read_file(path2, &n2);
         CHECK(n1 == n2 && n1 > 0 && memcmp(b1, b2, n1) == 0, "re-written file identical (%d-bit)", q);
         free(b1);
         free(b2);
@@ -305,7 +294,7 @@ static void direct_set(void) {
 static void truncated_and_flipped(void) {
     char bad[512];
     size_t n = 0;
-    unsigned char *img = slurp(written(16), &n);
+    unsigned char *img = (unsigned char *)check_read_file(written(16), &n);
     CHECK(n > 200, "file size %zu", n);
     snprintf(bad, sizeof bad, "%s/bad.prt", check_tmpdir());
     size_t cuts[] = { 0, 1, 3, 4, 10, 16, 19, 20, 27, 100, n / 2, n - 5, n - 4, n - 1 };
@@ -333,7 +322,7 @@ static void header(void) {
     const char *dir = check_tmpdir();
     char bad[512];
     size_t n = 0;
-    unsigned char *img = slurp(written(16), &n);
+    unsigned char *img = (unsigned char *)check_read_file(written(16), &n);
     snprintf(bad, sizeof bad, "%s/bad.prt", dir);
     memcpy(img, "PRTX", 4);
     spit(bad, img, n);
@@ -368,7 +357,7 @@ static void header(void) {
 static void crafted(void) {
     char bad[512];
     size_t n = 0;
-    unsigned char *img = slurp(written(16), &n);
+    unsigned char *img = (unsigned char *)check_read_file(written(16), &n);
     snprintf(bad, sizeof bad, "%s/crafted.prt", check_tmpdir());
     size_t mesh = section(img, n, "MESH"), matl = section(img, n, "MATL"), haar = section(img, n, "HAAR");
     CHECK(mesh && matl && haar, "sections found");

@@ -215,18 +215,6 @@ static void make_data(prt_data *d, const transfer_ops *ops, int N, int qbits, in
     free(cube); free(T); free(c); free(scratch); free(ts);
 }
 
-static unsigned char *slurp(const char *path, size_t *n) {
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *n = (size_t)ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc(*n ? *n : 1);
-    if (fread(b, 1, *n, f) != *n) *n = 0;
-    fclose(f);
-    return b;
-}
-
 /* Write, read, compare the transfer field by field, re-write to identical bytes. */
 static void section_round_trip(const transfer_ops *ops, int N, int qbits, int order) {
     prt_error err;
@@ -253,7 +241,7 @@ static void section_round_trip(const transfer_ops *ops, int N, int qbits, int or
         CHECK(y->direct.nvecs == 0, "no direct set");
         CHECK(prtfile_write(path2, &b, &err) == 0, "%s", err.msg);
         size_t n1 = 0, n2 = 0;
-        unsigned char *b1 = slurp(path, &n1), *b2 = slurp(path2, &n2);
+        unsigned char *b1 = (unsigned char *)check_read_file(path, &n1), *b2 = (unsigned char *)check_read_file(path2, &n2);
         CHECK(n1 == n2 && n1 > 0 && !memcmp(b1, b2, n1), "%s re-written identically", ops->name);
         /* the section carries the representation's own tag */
         uint32_t tag = ops->tag;
@@ -302,7 +290,7 @@ static void version1(void) {
     CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
     prt_data_free(&a);
     size_t n = 0;
-    unsigned char *img = slurp(path, &n);
+    unsigned char *img = (unsigned char *)check_read_file(path, &n);
     uint32_t v;
     memcpy(&v, img + 4, 4);
     CHECK(v == PRTFILE_VERSION && PRTFILE_VERSION == 2, "written as version %u", v);

@@ -10,9 +10,8 @@
 #include "precompute.h"
 #include "probe.h"
 #include "prtfile.h"
-#include "relight.h"
+#include "runtime.h"
 #include "render.h"
-#include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -63,31 +62,23 @@ int cli_demo(int argc, char **argv) {
     /* Sun behind the objects and low (about 35 deg) so their long sharp shadows fall toward
      * the default camera; the sky adds the soft ones. */
     sky_desc sd = { .width = 1024, .sun_dir = { -0.45f, 0.57f, -0.69f }, .sun_radius_deg = 1.0f, .sun_radiance = 4000.f };
-    float (*L)[4] = NULL;
-    float *rgb = NULL;
-    relight_ctx *rc_ctx = NULL;
+    prt_runtime *rt = NULL;
     prt_image img = { 0 };
     if (probe_make_sky(&sd, &sky, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    if (cube) { probe_to_cube(&sky, CUBE_RES, NULL, 0, cube); L = transfer_light_vector(&d, cube); }
-    free(cube);
-    rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
-    rc_ctx = relight_create(&d, 0, &err);
-    if (!L || !rgb || !rc_ctx) { cli_error(k_cmd, "%s", rc_ctx ? "out of memory" : err.msg); goto done; }
     prt_camera cam;
     cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
-    relight_set_light(rc_ctx, L);
-    relight_view(rc_ctx, cam.eye, 0, rgb);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };
-    if (render_vertex_colors(&d.scene.mesh, rgb, &rd, &img, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
+    if (!(rt = runtime_create(&d, NULL, &err)) || runtime_set_light(rt, &sky, NULL, &err) ||
+        runtime_render(rt, &rd, &img, &err)) {
+        cli_error(k_cmd, "%s", err.msg);
+        goto done;
+    }
     image_desc idesc = { .exposure = exposure, .tonemap = 2 };
     if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
     if (!quiet) fprintf(stderr, "wrote %s (%dx%d) in %.1fs\n", out, w, h, prt_now() - t0);
     rc = 0;
 done:
-    relight_destroy(rc_ctx);
-    free(rgb);
-    free(L);
+    runtime_destroy(rt);
     image_free(&img);
     probe_free(&sky);
     prt_data_free(&d);

@@ -53,22 +53,7 @@ float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[
     return L;
 }
 
-typedef struct light_job {
-    const prt_transfer *tr;
-    const prt_transport *t;
-    const float (*L)[4];
-    float *g;
-} light_job;
-
-/* prt_parallel_for body: one chunk of vectors through the representation's kernel. */
-static void light_chunk(void *p, int begin, int end, int thread) {
-    const light_job *j = p;
-    j->tr->ops->light_range(j->t, j->L, j->g, begin, end);
-}
-
 void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
     PRT_CHECK(tr->ops->light_range != NULL);
-    light_job j = { tr, t, L, g };
-    /* the chunk size transport_light used: 2048 vectors keep both cores busy without contention */
-    prt_parallel_for(t->nvecs, 2048, nthreads, light_chunk, &j);
+    transport_light_with(t, L, g, nthreads, tr->ops->light_range);
 }

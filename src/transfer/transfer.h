@@ -153,6 +153,8 @@ float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[
 void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads);
 
 /* The shared pieces of the sparse family (transfer_sparse.c), for the modules' tables. */
+/* Fills and checks the family's fields of cfg: N (default 128) and qbits (default 8). 0 or -1. */
+int transfer_sparse_configure(transfer_config *cfg, prt_error *err);
 double transfer_sparse_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 void transfer_sparse_write(prt_writer *w, const prt_transfer *tr);
 bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why);

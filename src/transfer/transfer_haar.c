@@ -10,13 +10,9 @@
 
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 
-/* N default 128 (the paper's budget for a 64x64x6 cube), 8-bit values. */
+/* The sparse family's N and qbits; no order. */
 static int haar_configure(transfer_config *cfg, prt_error *err) {
-    if (cfg->N == 0) cfg->N = 128;
-    if (cfg->qbits == 0) cfg->qbits = 8;
-    if (cfg->N < 1 || cfg->N > CUBE_TEXELS) return prt_fail(err, "N = %d is out of range 1..%d", cfg->N, CUBE_TEXELS);
-    if (cfg->qbits != 8 && cfg->qbits != 16 && cfg->qbits != 32)
-        return prt_fail(err, "qbits = %d (must be 8, 16 or 32)", cfg->qbits);
+    if (transfer_sparse_configure(cfg, err)) return -1;
     if (cfg->order != 0) return prt_fail(err, "Haar wavelets take no order (got %d)", cfg->order);
     return 0;
 }

@@ -15,13 +15,10 @@
 #define SH_MAX 10
 #define SH_DEFAULT 6
 
+/* The sparse family's N and qbits, and the order (default SH_DEFAULT). */
 static int sh_configure(transfer_config *cfg, prt_error *err) {
-    if (cfg->N == 0) cfg->N = 128;
-    if (cfg->qbits == 0) cfg->qbits = 8;
+    if (transfer_sparse_configure(cfg, err)) return -1;
     if (cfg->order == 0) cfg->order = SH_DEFAULT;
-    if (cfg->N < 1 || cfg->N > CUBE_TEXELS) return prt_fail(err, "N = %d is out of range 1..%d", cfg->N, CUBE_TEXELS);
-    if (cfg->qbits != 8 && cfg->qbits != 16 && cfg->qbits != 32)
-        return prt_fail(err, "qbits = %d (must be 8, 16 or 32)", cfg->qbits);
     if (cfg->order < SH_MIN || cfg->order > SH_MAX)
         return prt_fail(err, "spherical-harmonic order = %d (must be %d..%d)", cfg->order, SH_MIN, SH_MAX);
     return 0;

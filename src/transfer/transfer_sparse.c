@@ -21,6 +21,16 @@
 
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 
+/* N default 128 (the paper's budget for a 64x64x6 cube), 8-bit values. */
+int transfer_sparse_configure(transfer_config *cfg, prt_error *err) {
+    if (cfg->N == 0) cfg->N = 128;
+    if (cfg->qbits == 0) cfg->qbits = 8;
+    if (cfg->N < 1 || cfg->N > CUBE_TEXELS) return prt_fail(err, "N = %d is out of range 1..%d", cfg->N, CUBE_TEXELS);
+    if (cfg->qbits != 8 && cfg->qbits != 16 && cfg->qbits != 32)
+        return prt_fail(err, "qbits = %d (must be 8, 16 or 32)", cfg->qbits);
+    return 0;
+}
+
 double transfer_sparse_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     return transport_store(t, i, r, g, b, scratch);
 }

@@ -363,17 +363,23 @@ void transport_light_range(const prt_transport *t, const float (*L)[4], float *g
     else light_range_wide(t, L, g, first, last);
 }
 
-typedef struct light_ctx { const prt_transport *t; const float (*L)[4]; float *g; } light_ctx;
+typedef struct light_ctx { const prt_transport *t; const float (*L)[4]; float *g; transport_light_fn kernel; } light_ctx;
 /* prt_parallel_for body: one chunk of vectors. */
 static void light_chunk(void *p, int begin, int end, int thread) {
     light_ctx *c = p;
-    transport_light_range(c->t, c->L, c->g, begin, end);
+    c->kernel(c->t, c->L, c->g, begin, end);
 }
 
-/* g for every vector on nthreads threads (0: all cores). */
-void transport_light(const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
-    light_ctx c = { t, L, g };
+/* g for every vector with kernel on nthreads threads (0: all cores); chunks of 2048 vectors keep
+ * both cores busy without contention. */
+void transport_light_with(const prt_transport *t, const float (*L)[4], float *g, int nthreads, transport_light_fn kernel) {
+    light_ctx c = { t, L, g, kernel };
     prt_parallel_for(t->nvecs, 2048, nthreads, light_chunk, &c);
+}
+
+/* g for every vector with this module's kernel. */
+void transport_light(const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
+    transport_light_with(t, L, g, nthreads, transport_light_range);
 }
 
 /* Frees every array; leaves a zeroed set. */

@@ -73,6 +73,9 @@ size_t transport_bytes(const prt_transport *t);
 void transport_light(const prt_transport *t, const float (*L)[4], float *g, int nthreads);
 /* The same for vectors [first, last) only (the runtime's inner kernel). */
 void transport_light_range(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
+/* transport_light with another kernel of that shape (a representation's, transfer.h), both cores. */
+typedef void (*transport_light_fn)(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
+void transport_light_with(const prt_transport *t, const float (*L)[4], float *g, int nthreads, transport_light_fn kernel);
 
 void transport_free(prt_transport *t);
 #endif
