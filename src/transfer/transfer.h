@@ -69,6 +69,10 @@ typedef struct transfer_config {
     int N;          /* coefficients kept per vector (sparse family); 0: 128 */
     int qbits;      /* 8 (default when 0), 16 or 32 (float) */
     int order;      /* size of the basis where it has one: SH bands 3..10 (0: 6); haar: 0 */
+    /* vmf (laurijssen-2011): */
+    int lobes;      /* I: lobes per set and reflection pass; 0: 2 */
+    int level;      /* geodesic view grid: icosahedron subdivided `level` times (10 * 4^level + 2 views) */
+    int samples;    /* rays per (vertex, view) set in the direct and gathering passes */
 } transfer_config;
 
 typedef struct transfer_ops transfer_ops;
@@ -81,7 +85,24 @@ typedef struct prt_transfer {
     prt_transport transport;    /* direct + every interreflection pass (what the runtime uses) */
     prt_transport direct;       /* optional (nvecs 0 when absent): the direct pass alone, kept by
                                  * `precompute --keep-direct` for the direct/bounces toggle */
+    void *priv;                 /* a non-linear representation's own data (vmf: lobe sets in a perfect
+                                 * hash); made by its precompute or read, freed by its release; NULL else */
 } prt_transfer;
+
+struct prt_scene;
+struct vis_scene;
+struct prefilter_env;
+
+/* What a non-projection representation's precompute gets (ops->precompute). */
+typedef struct transfer_precompute_in {
+    const struct prt_scene *scene;  /* the (refined) mesh and its materials */
+    const struct vis_scene *vis;    /* the mesh's Embree scene (visibility.h) */
+    int passes;                     /* reflection passes at most: 1 direct only, 1 + bounces */
+    float bounce_threshold;         /* stop when a pass carries less than this share of the direct energy */
+    int nthreads;                   /* 0: all cores */
+    prt_progress_fn progress;       /* may cancel: returning false stops with "cancelled" */
+    void *progress_user;
+} transfer_precompute_in;
 
 /* GLSL sources of a light kernel family, compiled by glrt (gpu/glrt.c). The kernel computes
  * g_i = scale_i * sum_c q_c L[index_c] for every vector i from glrt's buffers (first, words,
@@ -131,6 +152,18 @@ struct transfer_ops {
     void (*light_range)(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
     /* GLSL light kernels (NULL: no GL runtime for this representation yet). */
     const transfer_glsl *glsl;
+
+    /* ---- non-linear representations (vmf); NULL in the sparse family ----
+     * Precompute when the representation is not a projection of the transport cube: fills tr
+     * (tr->priv) for the vertices whose material is in tr->materials, every pass it stores. */
+    int (*precompute)(const transfer_precompute_in *in, prt_transfer *tr, prt_error *err);
+    /* CPU view change: ADDS to rgb[3 * nverts] the outgoing radiance toward eye of every vertex
+     * of tr's materials, lit by env (the probe prefiltered by vMF lobes, prefilter.h, its
+     * rotation set by the runtime); nthreads 0: all cores. */
+    void (*shade_vertices)(const struct prt_data *d, const prt_transfer *tr, const struct prefilter_env *env,
+                           const float eye[3], float *rgb, int nthreads);
+    /* Bytes tr holds (transport or priv), for `prt info` and the runtimes' timing. */
+    size_t (*bytes)(const prt_transfer *tr);
 };
 
 #define TRANSFER_TAG(a, b, c, d) ((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 | (uint32_t)(d) << 24)
