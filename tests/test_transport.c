@@ -4,6 +4,7 @@
 #include "harness.h"
 #include "transport.h"
 #include "haar.h"
+#include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -402,6 +403,82 @@ static void benchmark(void) {
     }
 }
 
+/* G(a, b) = integral over [0,a] x [0,b] of (1 + x^2 + y^2)^-2: the cosine-weighted solid angle
+ * of that rectangle on the plane y = 1 seen from the origin with normal +y (pi times the
+ * corner form factor of a parallel rectangle); odd in a and in b. */
+static double corner_integral(double a, double b) {
+    double sa = sqrt(1 + a * a), sb = sqrt(1 + b * b);
+    return 0.5 * (a / sa * atan(b / sa) + b / sb * atan(a / sb));
+}
+/* Exact integral of max(n.w, 0) dw over +Y face texel (i, j) for n = (0,1,0). */
+static double top_texel_exact(int i, int j) {
+    double h = 2.0 / CUBE_RES, x0 = i * h - 1, x1 = x0 + h, z0 = j * h - 1, z1 = z0 + h;
+    return corner_integral(x1, z1) - corner_integral(x0, z1) - corner_integral(x1, z0) + corner_integral(x0, z0);
+}
+
+/* One stored unoccluded up-facing vertex (Eq. 3 with 2x2 supersampling, as precompute's default
+ * visibility) under a one-texel sun at elevation 60 deg, turned in 1-degree steps through 90 deg
+ * (the top face's texels at that elevation): the ratio of T x L to the exact cosine integral over
+ * the sun's texel. Measured: texel measure 3.1% worst and 3.0% between neighbouring degrees;
+ * solid angle 0.53% worst, 0.41% between neighbours (N = 128, 8-bit). */
+static void sun_turning(void) {
+    enum { VR = 2 * CUBE_RES };
+    static float tex[T], coef[3][T], cube[3 * T], scr[TRANSFER_SCRATCH_FLOATS];
+    static _Alignas(64) float Lv[T][4];
+    for (int f = 0; f < 6; f++)
+        for (int j = 0; j < CUBE_RES; j++)
+            for (int i = 0; i < CUBE_RES; i++) {
+                double a = 0;
+                for (int q = 0; q < 4; q++) {
+                    float d[3];
+                    int si = 2 * i + (q & 1), sj = 2 * j + (q >> 1);
+                    cube_dir(VR, f, si + 0.5f, sj + 0.5f, d);
+                    if (d[1] > 0) a += d[1] * cube_texel_solid_angle(VR, si, sj);
+                }
+                tex[(f * CUBE_RES + j) * CUBE_RES + i] = (float)a;
+            }
+    void *tscr = malloc(transport_scratch_size());
+    for (int m = 0; m < 2; m++) {
+        transfer_config cfg = { .N = getenv("TN") ? atoi(getenv("TN")) : 128, .qbits = getenv("TQ") ? atoi(getenv("TQ")) : 8, .measure = m ? TRANSFER_MEASURE_SOLID_ANGLE : 0 };
+        prt_error err;
+        CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
+        transfer_haar.project_transport(&cfg, tex, coef[0], scr);
+        memcpy(coef[1], coef[0], sizeof coef[0]);
+        memcpy(coef[2], coef[0], sizeof coef[0]);
+        prt_transport t;
+        int one = 1;
+        CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
+        transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
+        CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+        double worst = 0, step = 0, prev = 0;
+        for (int deg = 0; deg <= 90; deg++) {
+            double az = deg * M_PI / 180, el = M_PI / 3;
+            float d[3] = { (float)(cos(el) * cos(az)), (float)sin(el), (float)(cos(el) * sin(az)) };
+            int s = cube_texel_index(CUBE_RES, d);
+            CHECK(s / (CUBE_RES * CUBE_RES) == 2, "the sun is on the +Y face");
+            memset(cube, 0, sizeof cube);
+            cube[3 * s] = cube[3 * s + 1] = cube[3 * s + 2] = 1000.f;
+            transfer_haar.project_light(&cfg, cube, Lv);
+            float g[3];
+            transport_light(&t, (const float (*)[4])Lv, g, 1);
+            int k = s % (CUBE_RES * CUBE_RES);
+            double ratio = g[0] / (1000.0 * top_texel_exact(k % CUBE_RES, k / CUBE_RES));
+            worst = fmax(worst, fabs(ratio - 1));
+            if (deg) step = fmax(step, fabs(ratio - prev));
+            prev = ratio;
+        }
+        printf("  %s measure: sun ratio off by at most %.2f%%, %.2f%% between neighbouring degrees\n",
+               m ? "solid-angle" : "texel", 100 * worst, 100 * step);
+        if (m) {
+            /* tolerance: 1%, against 3.1% for the texel measure (the paper's); neighbours 0.5% */
+            CHECK_LE(worst, 0.01, "solid-angle measure: the sun's texel within 1%% at every degree");
+            CHECK_LE(step, 0.005, "solid-angle measure: within 0.5%% between neighbouring degrees");
+        }
+        transport_free(&t);
+    }
+    free(tscr);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(bad_arguments);
@@ -411,6 +488,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(light_product);
     CHECK_CASE(free_zeroes_set);
     CHECK_CASE(index_runs);
+    CHECK_CASE(sun_turning);
     CHECK_CASE(benchmark);
     qsets_free();
     return check_summary();

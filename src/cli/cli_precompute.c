@@ -29,6 +29,8 @@ static void help(void) {
          "  --quant 8|16|32        coefficient quantization bits (default 8; 32 = float)\n"
          "  --vis-res R            visibility cube resolution: 64, 128 (default; 2x2 supersampling) or 256\n"
          "  --sh ORDER             spherical harmonics of ORDER (3..10) instead of Haar wavelets (baseline)\n"
+         "  --texel-measure        Haar wavelets of the texels with their solid angle (the paper's;\n"
+         "                         default: of the transport per steradian, steadier under a sun)\n"
          "interreflections (section 3.2, 4.2):\n"
          "  --bounces B            at most B interreflection passes (default 0)\n"
          "  --gather-res R         gathering cube resolution (default 32)\n"
@@ -142,6 +144,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--quant", &pd.qbits, 8, 32),
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
         CLI_I("--sh", &sh_bands, 3, 10),
+        CLI_B("--texel-measure", &pd.texel_measure),
         CLI_I("--bounces", &pd.bounces, 0, PRT_MAX_BOUNCES),
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
@@ -152,6 +155,7 @@ int cli_precompute(int argc, char **argv) {
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
     pd.param = (brdf_param)param;
+    if (sh_bands && pd.texel_measure) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
     if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
         pd.basis = "sh";
         pd.basis_order = sh_bands;

@@ -526,7 +526,8 @@ static int pc_factor(pc_run *r, prt_error *err) {
 static int pc_choose(pc_run *r, prt_error *err) {
     const transfer_ops *ops = transfer_find(r->d.basis ? r->d.basis : "haar");
     PRT_CHECK(ops != NULL);   /* pc_check_desc refused unknown names */
-    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order };
+    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order, 
+                           .measure = r->d.texel_measure || ops != &transfer_haar ? 0 : TRANSFER_MEASURE_SOLID_ANGLE };
     prt_error e2;
     if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
     int nm = r->out->scene.nmaterials;

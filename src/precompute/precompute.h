@@ -44,6 +44,7 @@ typedef struct precompute_desc {
     brdf_param param;       /* BRDF parameterization */
     const char *basis;      /* transfer representation (transfer.h): NULL = "haar" (the paper), "sh" (baseline) */
     int basis_order;        /* its order where it has one: SH bands 3..10 (0: 6) */
+    bool texel_measure;     /* Haar of the texels (the paper's) instead of the transport per steradian (transfer.h) */
     int bounces;            /* maximum interreflection passes; 0: none */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */

@@ -69,7 +69,14 @@ typedef struct transfer_config {
     int N;          /* coefficients kept per vector (sparse family); 0: 128 */
     int qbits;      /* 8 (default when 0), 16 or 32 (float) */
     int order;      /* size of the basis where it has one: SH bands 3..10 (0: 6); haar: 0 */
+    int measure;    /* haar: 0 the texels (the paper's), TRANSFER_MEASURE_SOLID_ANGLE; others: 0 */
 } transfer_config;
+
+/* What Haar coefficients approximate (transfer_haar.c says why): the texels T_j, which carry
+ * their solid angle (0: the paper's, and every file written before issue 10), or T_j / w_j,
+ * the transport per steradian, against a light vector of L_j w_j (what precompute makes
+ * unless told otherwise). The file stores which. */
+#define TRANSFER_MEASURE_SOLID_ANGLE 1
 
 typedef struct transfer_ops transfer_ops;
 
