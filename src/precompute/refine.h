@@ -76,14 +76,18 @@
 #include "scene.h"
 
 #define REFINE_THRESHOLD 0.005f   /* the paper's share of differing visibility entries */
-#define REFINE_BUDGET_FACTOR 3    /* default budget: this many times the input's vertices */
+#define REFINE_BUDGET_FACTOR 1.5  /* default budget: this many times the input's vertices */
 #define REFINE_MIN_COS 0.15f      /* directions compared: n.w above this for both vertices */
+
+enum { REFINE_FLOOR = 1, REFINE_ALL = 2 };   /* refine_desc.parts */
 
 typedef struct refine_desc {
     float threshold;    /* mark an edge whose masks differ in more than this share; 0: REFINE_THRESHOLD */
     int budget;         /* most vertices after refinement; 0: REFINE_BUDGET_FACTOR x the input's */
     int mask_res;       /* mask cube resolution, a multiple of 4 in 8..64; 0: 32 */
     int max_levels;     /* most iterations, 1..16; 0: 6 */
+    int parts;          /* REFINE_FLOOR: the floor's edges only; REFINE_ALL: models too;
+                         * 0: REFINE_FLOOR when the scene has a floor, else REFINE_ALL */
     int nthreads;       /* 0: all cores */
     prt_progress_fn progress;   /* per level's mask tracing ("refine level N"); false cancels */
     void *progress_user;
@@ -98,6 +102,7 @@ typedef struct refine_stats {
     bool budget_hit;                /* it stopped marked edges from being split */
     float threshold;                /* the threshold used */
     int mask_res;
+    int parts;                      /* REFINE_FLOOR or REFINE_ALL (after defaults) */
     long rays;                      /* mask rays traced */
     double seconds;                 /* wall time */
 } refine_stats;
