@@ -13,13 +13,14 @@
  * on which blocks the sun lands in: the floor's "mottling" and its shimmer as the light
  * turns. TRANSFER_MEASURE_SOLID_ANGLE (what precompute makes by default) transforms T_j / w_j instead, with
  * w_j = (2/res)^2 (1 + x^2 + y^2)^-3/2 the differential solid angle at the texel centre
- * (within 0.3% of the exact dw_j; any fixed positive weight keeps the product exact, since
+ * (within 0.025% of the exact dw_j; any fixed positive weight keeps the product exact, since
  * the light vector is built from L_j w_j: sum_j (L_j w_j)(T_j / w_j) = sum_j L_j T_j). The
  * transport per steradian is the cosine times the visibility and the BRDF, flat where the
- * texels were steep, so truncation keeps what varies with visibility. Measured on a floor
- * vertex under city.exr turned in 1-degree steps through 360 degrees (N = 128, 8-bit;
- * README "Shadows"): the ratio to the exact product has a spread (sd) of 0.15% instead of
- * 2.3%, and moves by at most 0.8% between neighbouring degrees instead of 3.6%.
+ * texels were steep, so truncation keeps what varies with visibility. Measured (README
+ * "Shadows"; N = 128, 8-bit): an unoccluded plane under city.exr turned in 1-degree steps
+ * (tools/shimmer.sh) keeps its ratio to the exact product within a spread (sd) of 0.13%
+ * instead of 2.27%, steps of at most 0.72% instead of 2.85%, but with a uniform -1% bias; on a
+ * reduced bunny over a floor the floor's sun-shadow error falls from 12.5% to 5.7%.
  * Files written before issue 10 have no measure flag: measure 0, the texels. */
 #include "transfer.h"
 #include "haar.h"
