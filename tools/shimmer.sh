@@ -32,7 +32,7 @@ for ((d = 0; d <= END; d += STEP)); do
   e=$(v0 "$W/exact.prt" $d); a=$(v0 "$W/sa.prt" $d); t=$(v0 "$W/texel.prt" $d)
   awk -v d=$d -v e="$e" -v a="$a" -v t="$t" 'BEGIN { printf "%7d  %20.4f  %12.4f\n", d, a / e, t / e }'
 done | tee "$W/ratios.txt"
-awk 'NR > 1 || 1 { for (c = 2; c <= 3; c++) { x = $c; s[c] += x; n[c]++; d = x > 1 ? x - 1 : 1 - x; if (d > w[c]) w[c] = d;
+awk '{ for (c = 2; c <= 3; c++) { x = $c; s[c] += x; n[c]++; d = x > 1 ? x - 1 : 1 - x; if (d > w[c]) w[c] = d;
        if (NR > 1) { j = x > p[c] ? x - p[c] : p[c] - x; if (j > st[c]) st[c] = j } p[c] = x } }
      END { split("- solid-angle(default) texel(paper)", nm, " ");
            for (c = 2; c <= 3; c++) printf "%s: mean %.4f, worst |ratio-1| %.2f%%, largest step %.2f%%\n", nm[c], s[c] / n[c], 100 * w[c], 100 * st[c] }' \
