@@ -13,6 +13,7 @@
  * input edge (2 inside, 1 on the boundary), inside edges once in each direction, no vertex
  * lies inside a refined edge (no T-junction), and the total area is the input's.
  * floor_order: the floor's vertices stay last and on the floor plane; model indices keep.
+ * parts: the floor's edges only by default where there is a floor, the models' too on request.
  * deterministic: two runs, and 1 vs 2 threads, give byte-identical meshes.
  * budget: a budget below what the marked edges want is met exactly, largest first.
  * precompute: the pipeline with refinement stores the refined mesh and says so in the plan.
@@ -258,6 +259,44 @@ static void floor_order(void) {
     scene_free(&s);
 }
 
+/* parts: with a floor the default refines the floor's edges only (the models keep their vertices
+ * and triangles), REFINE_ALL the models' too; REFINE_FLOOR without a floor and unknown parts are
+ * refused with one line, the scene unchanged. */
+static void parts(void) {
+    static const char json[] =
+        "{ \"models\": [ { \"box\": { \"min\": [-0.25, 0.3, -0.25], \"max\": [0.25, 0.5, 0.25], \"n\": 2 } },\n"
+        "                { \"sphere\": { \"center\": [0.6, 0.15, 0.6], \"radius\": 0.15, \"rings\": 8, \"segments\": 16 } } ],\n"
+        "  \"floor\": { \"vertices\": 400, \"size\": 2 } }";
+    prt_scene s = { 0 }, a = { 0 };
+    if (load(json, &s) || load(json, &a)) return;
+    prt_error err;
+    const int models0 = s.floor_first_vertex, tris0 = s.mesh.ntris;
+    int model_tris0 = 0;
+    for (int t = 0; t < tris0; t++) model_tris0 += (int)s.mesh.tris[3 * t] < models0;
+    refine_stats st, sa;
+    CHECK(refine_scene(&s, &(refine_desc){ .max_levels = 2 }, &st, &err) == 0, "%s", err.msg);
+    CHECK(st.parts == REFINE_FLOOR && st.floor_after > st.floor_before, "floor %d -> %d", st.floor_before, st.floor_after);
+    CHECK(s.floor_first_vertex == models0, "model vertices %d -> %d", models0, s.floor_first_vertex);
+    int model_tris = 0;
+    for (int t = 0; t < s.mesh.ntris; t++) model_tris += (int)s.mesh.tris[3 * t] < s.floor_first_vertex;
+    CHECK(model_tris == model_tris0, "model triangles %d -> %d", model_tris0, model_tris);
+    CHECK(refine_scene(&a, &(refine_desc){ .max_levels = 2, .parts = REFINE_ALL }, &sa, &err) == 0, "%s", err.msg);
+    CHECK(sa.parts == REFINE_ALL && a.floor_first_vertex > models0, "REFINE_ALL: model vertices %d -> %d", models0,
+          a.floor_first_vertex);
+    /* the floor-only run traces the floor's masks alone: fewer rays for as many floor levels */
+    CHECK(st.rays < sa.rays, "rays: floor only %ld, everything %ld", st.rays, sa.rays);
+    scene_free(&a);
+    prt_scene b = { 0 };
+    if (load(k_box_plane, &b)) { scene_free(&s); return; }
+    const int nv = b.mesh.nverts;
+    CHECK(refine_scene(&b, &(refine_desc){ .parts = REFINE_FLOOR }, NULL, &err) == -1 && strstr(err.msg, "no floor"),
+          "floor only without a floor: %s", err.msg);
+    CHECK(refine_scene(&s, &(refine_desc){ .parts = 9 }, NULL, &err) == -1 && strstr(err.msg, "parts"), "parts 9: %s", err.msg);
+    CHECK(b.mesh.nverts == nv, "the scene is unchanged after an error");
+    scene_free(&b);
+    scene_free(&s);
+}
+
 static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
     return a->nverts == b->nverts && a->ntris == b->ntris && !memcmp(a->pos, b->pos, 12 * (size_t)a->nverts) &&
            !memcmp(a->nrm, b->nrm, 12 * (size_t)a->nverts) && !memcmp(a->mat, b->mat, 2 * (size_t)a->nverts) &&
@@ -361,6 +400,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(box_shadow);
     CHECK_CASE(no_cracks);
     CHECK_CASE(floor_order);
+    CHECK_CASE(parts);
     CHECK_CASE(deterministic);
     CHECK_CASE(budget);
     CHECK_CASE(precompute);

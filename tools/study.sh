@@ -19,6 +19,11 @@
 #    the 64^2 lighting cube), no interreflection passes; the bounce sweep uses a
 #    gathering cube of 32^2 per face and the gather sweep one bounce.
 #  * "uncompressed" is N = 24,576 (every non-zero coefficient) with float storage.
+#  * Shadows (issue 10): the Haar measure (the default, wavelets of the transport per
+#    steradian, against the paper's --texel-measure) and the refinement threshold
+#    (--refine-threshold; 0 = no refinement, the default). A refined point's mesh has its own
+#    vertices, so its per-vertex reference is traced for it; the floor is refined exactly and
+#    the models are not, so the scene's reference image serves.
 #  * SH baseline: --sh ORDER (ORDER^2 coefficients, same pipeline and 8-bit storage)
 #    against Haar with N = ORDER^2, under a probe with a sun (city) and a soft one.
 #  * The reference (prt reference: path tracing with the analytic BRDFs and the
@@ -70,7 +75,7 @@ if [ "$QUICK" = 1 ]; then
   SIZE=200x150
   REF_SPP=64; REF_VSPP=256; FRAMES=10
   N_LIST="16 128 $UNC"; Q_LIST="8 32"; V_LIST="64 128"; K_LIST="1 4"
-  B_LIST="0 1"; G_LIST="8 32"; SH_LIST="3 5"; GB_LIST="0"
+  B_LIST="0 1"; G_LIST="8 32"; SH_LIST="3 5"; GB_LIST="0"; R_LIST="0 5"
 else
   WORK=build/study
   OUT=${STUDY_OUT:-docs/study}
@@ -78,6 +83,7 @@ else
   REF_SPP=${STUDY_REF_SPP:-1024}; REF_VSPP=${STUDY_REF_VSPP:-8192}; FRAMES=60
   N_LIST="16 32 64 128 256 512 $UNC"; Q_LIST="8 16 32"; V_LIST="64 128 256"; K_LIST="1 2 4 8 16"
   B_LIST="0 1 2 3"; G_LIST="8 16 32 64"; SH_LIST="3 4 5 6 7 8 9 10"; GB_LIST=${STUDY_GLOSSY_BOUNCES:-"0 1"}
+  R_LIST=${STUDY_REFINE:-"0 20 5 2"}   # refinement thresholds in thousandths (5 = the paper's 0.5%)
   BUNNY_VERTS=${STUDY_BUNNY_VERTS:-6000}; BUNNY_FLOOR=${STUDY_BUNNY_FLOOR:-4096}
   SPOT_FLOOR=${STUDY_SPOT_FLOOR:-2500}
 fi
@@ -117,12 +123,13 @@ else
 fi
 
 # --- the points ----------------------------------------------------------------------
-# A point is "scene N K quant vis bounces gather sh"; ids name its files. A point may
+# A point is "scene N K quant vis bounces gather sh refine measure" (refine: threshold in
+# thousandths, 0 none; measure: 1 for --texel-measure); ids name its files. A point may
 # belong to several sweeps (the default point to all); it is computed once.
 declare -A SWEEPS PROBES
 ORDER=()
-add() { # sweep scene N K Q V B G SH
-  local id="$2_n$3_k$4_q$5_v$6_b$7_g$8_sh$9"
+add() { # sweep scene N K Q V B G SH [REFINE [TEXEL]]
+  local id="$2_n$3_k$4_q$5_v$6_b$7_g$8_sh$9_r${10:-0}_m${11:-0}"
   if [ -z "${SWEEPS[$id]+x}" ]; then ORDER+=("$id"); SWEEPS[$id]="$1"; else SWEEPS[$id]="${SWEEPS[$id]};$1"; fi
   # Every point is measured under the sharp probe; direct-only points under the soft one too.
   if [ "$7" = 0 ]; then PROBES[$id]="$SHARP $SOFT"; else PROBES[$id]="$SHARP"; fi
@@ -136,6 +143,8 @@ for k in $K_LIST; do add K $G 128 $k 8 128 0 32 0; done
 for b in $B_LIST; do add bounces $D 128 4 8 128 $b 32 0; done
 for g in $G_LIST; do add gather $D 128 4 8 128 1 $g 0; done
 for b in $GB_LIST; do add bounces $G 128 4 8 128 $b 32 0; done
+for r in $R_LIST; do add refine $D 128 4 8 128 0 32 0 "$r"; done
+for s in $D $G; do add measure $s 128 4 8 128 0 32 0 0 0; add measure $s 128 4 8 128 0 32 0 0 1; done
 for o in $SH_LIST; do
   add sh $D $((o * o)) 4 8 128 0 32 "$o"
   add haar $D $((o * o)) 4 8 128 0 32 0
@@ -156,9 +165,11 @@ for s in $D $G; do say "  scene $s: ${SCENE_DESC[$s]}"; done
 # --- precompute one point (cached in $WORK/ID.prt + log) -----------------------------
 precompute() { # id
   local id=$1 f
-  IFS=_ read -r s n k q v b g sh <<< "$id"
-  n=${n#n}; k=${k#k}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}
+  IFS=_ read -r s n k q v b g sh r m <<< "$id"
+  n=${n#n}; k=${k#k}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}; r=${r#r}; m=${m#m}
   local args=(--terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
+  [ "$r" != 0 ] && args+=(--refine-threshold "$(awk -v r="$r" 'BEGIN { print r / 1000 }')")
+  [ "$m" = 1 ] && args+=(--texel-measure)
   if [ "$sh" != 0 ]; then args+=(--sh "$sh"); else args+=(--coeffs "$n"); fi
   if [ "$b" = 0 ]; then args+=(--no-bounces); else args+=(--bounces "$b" --force-bounces); fi
   f="$WORK/$id.prt"
@@ -175,9 +186,14 @@ precompute() { # id
 
 # --- references: once per scene, probe and bounce count --------------------------------
 declare -A REF_NOISE_V REF_NOISE_I
-reference() { # scene probe bounces base-id
+reference() { # scene probe bounces base-id [image-from]
   local s=$1 p=$2 b=$3 base=$4 r="$WORK/ref/$1-$2-b$3"
-  if [ ! -f "$r.csv" ] || [ ! -f "$r.exr" ]; then
+  if [ -n "${5:-}" ]; then   # a refined point: its own vertices, the scene's image
+    cp "$5.exr" "$r.exr"
+    [ -f "$r.csv" ] || nice "$PRT" reference "$WORK/$base.prt" --probe "$DATA/probes/$p.exr" --bounces "$b" --spp "$REF_SPP" \
+      --vertex-spp "$REF_VSPP" --no-image --vertices "$r.csv" --quiet 2> "$r.log" || { cat "$r.log" >&2; die "reference $s/$p/b$b failed"; }
+    grep -h '\.exr' "$5.log" >> "$r.log"
+  elif [ ! -f "$r.csv" ] || [ ! -f "$r.exr" ]; then
     say "reference $s / $p / $b bounce(s): $REF_VSPP spp per vertex, $REF_SPP spp per pixel at $SIZE"
     nice "$PRT" reference "$WORK/$base.prt" --probe "$DATA/probes/$p.exr" --bounces "$b" --spp "$REF_SPP" \
       --vertex-spp "$REF_VSPP" --size "$SIZE" --no-background --vertices "$r.csv" -o "$r.exr" --quiet \
@@ -208,14 +224,20 @@ reference() { # scene probe bounces base-id
 
 # --- measure one point -----------------------------------------------------------------
 CSV="$WORK/study.csv"
-echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,shadow_rel_rmse,ref_shadow_noise,id" > "$CSV"
+echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,shadow_rel_rmse,ref_shadow_noise,refine,texel_measure,verts,id" > "$CSV"
 summary_s() { awk -v k="$2" 'index($0, "  " k) == 1 { v = $NF; sub(/s$/, "", v); s += v } END { printf "%.2f", s }' "$1"; }
 
 measure() { # index id
   local i=$1 id=$2 f="$WORK/$2.prt"
-  IFS=_ read -r s n k q v b g sh <<< "$id"
-  n=${n#n}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}
-  local L="$WORK/log/$id"
+  IFS=_ read -r s n k q v b g sh rf m <<< "$id"
+  n=${n#n}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}; rf=${rf#r}; m=${m#m}
+  local L="$WORK/log/$id" rs=$s
+  if [ "$rf" != 0 ]; then   # a refined mesh: per-vertex references of its own
+    rs=$id
+    for p in ${PROBES[$id]}; do reference "$id" "$p" "$b" "$id" "$WORK/ref/$s-$p-b$b"; done
+  fi
+  local verts
+  verts=$(awk '/vertices/ { for (i = 1; i <= NF; i++) if ($i ~ /^[0-9,]+$/ && $(i+1) ~ /^vert/) { gsub(/,/, "", $i); print $i; exit } }' "$L.info")
   local pre_s cpu_s vis_s tr_s bo_s mb light view light_min view_min kk basis coeffs
   pre_s=$(summary_s "$L.pre" total); cpu_s=$(awk '/^cpu/ { printf "%.2f", $2 + $3 }' "$L.cpu"); vis_s=$(summary_s "$L.pre" visibility)
   tr_s=$(summary_s "$L.pre" transport); bo_s=$(summary_s "$L.pre" bounce)
@@ -232,7 +254,7 @@ measure() { # index id
   if [ "$sh" != 0 ]; then basis=sh; coeffs=$((sh * sh)); else basis=haar; coeffs=$n; fi
   local line="[$i/$NPTS] $id: precompute ${pre_s}s, $mb MB, light $light ms, view $view ms"
   for p in ${PROBES[$id]}; do
-    local o="$WORK/out/$id-$p" r="$WORK/ref/$s-$p-b$b" cv ci
+    local o="$WORK/out/$id-$p" r="$WORK/ref/$rs-$p-b$b" cv ci
     "$PRT" render "$f" --probe "$DATA/probes/$p.exr" --size "$SIZE" --no-background -o "$o.exr" --vertices "$o.csv" \
       2> "$o.render.log" || { cat "$o.render.log" >&2; die "prt render $id ($p) failed"; }
     awk -F, 'NR == FNR { keep[$1] = 1; next } FNR == 1 || ($1 in keep)' "$r.front.csv" "$o.csv" > "$o.front.csv"
@@ -244,7 +266,7 @@ measure() { # index id
     fi
     ci=$("$PRT" compare "$o.exr" "$r.exr" --error-image "$o.err.png" 2>/dev/null) || die "prt compare (image) $id ($p) failed"
     oiiotool "$o.exr" --mulc "$(cat "$r.scale")" --colorconvert linear sRGB -o "$o.png" 2>/dev/null || true
-    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$(kv "$cs" rel_rmse),$(kv "$cs" ref_noise),$id" >> "$CSV"
+    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$(kv "$cs" rel_rmse),$(kv "$cs" ref_noise),$rf,$m,$verts,$id" >> "$CSV"
     line="$line; $p: vertex err $(kv "$cv" rel_rmse), shadow $(kv "$cs" rel_rmse), image $(kv "$ci" rel_rmse)"
   done
   say "$line"
@@ -253,7 +275,7 @@ measure() { # index id
 # --- run -------------------------------------------------------------------------------
 # References first need one .prt of each scene (any point: the scene is the same).
 for s in $D $G; do
-  base="${s}_n128_k4_q8_v128_b0_g32_sh0"
+  base="${s}_n128_k4_q8_v128_b0_g32_sh0_r0_m0"
   say "precompute $base (default point, also the reference's scene)"
   precompute "$base"
   for id in "${ORDER[@]}"; do

@@ -38,6 +38,10 @@ KNOBS = {
     "bounces": ("interreflection bounces", "precompute_s", "precompute (s)", True, lambda r: f"{r['bounces']}b"),
     "gather": ("gathering cube resolution (1 bounce)", "bounce_s", "bounce pass (s)", True,
                lambda r: f"{r['gather_res']}^2"),
+    "measure": ("Haar measure (N = 128, same bytes)", "file_mb", "file size (MB)", False,
+                lambda r: "texel (paper)" if r.get("texel_measure") == "1" else "per sr"),
+    "refine": ("refinement threshold (floor)", "precompute_s", "precompute (s)", True,
+               lambda r: "off" if r.get("refine", "0") in ("0", "") else f"{int(r['refine']) / 10:g}% ({r['verts']} v)"),
 }
 
 
@@ -88,7 +92,8 @@ def read(out):
 
 def is_default(r):
     return (r["basis"] == "haar" and r["N"] == "128" and r["quant"] == "8" and r["vis_res"] == "128"
-            and r["bounces"] == "0" and r["K"] in ("1", "4"))
+            and r["bounces"] == "0" and r["K"] in ("1", "4") and r.get("refine", "0") in ("0", "")
+            and r.get("texel_measure", "0") in ("0", ""))
 
 
 def pct(x, d=2):
@@ -157,6 +162,10 @@ def short(r):
         s += f" v{int(r['vis_res']) // 64}x"
     if r["K"] not in ("1", "4"):
         s += f" K{r['K']}"
+    if r.get("refine", "0") not in ("0", ""):
+        s += f" r{int(r['refine']) / 10:g}%"
+    if r.get("texel_measure") == "1":
+        s += " texel"
     return s
 
 
@@ -341,16 +350,21 @@ def headline(rows, meta, work):
 
 
 def table(rows):
-    cols = ["scene", "probe", "sweeps", "basis", "coeffs", "K", "quant", "vis", "bounces", "gather", "precompute s",
+    cols = ["scene", "probe", "sweeps", "basis", "coeffs", "K", "quant", "vis", "bounces", "gather", "refine", "vertices",
+            "precompute s",
             "CPU s", "MB", "light ms (best)", "view ms (best)", "vertex err %", "(corr.)", "vertex max %", "shadow err %",
             "image err %", "(corr.)", "image max %", "ref noise v/i %"]
     out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for r in rows:
         coeffs = "all" if r["N"] == str(UNC) else r["coeffs"]
+        if r.get("texel_measure") == "1":
+            coeffs += " (texel)"
         q = {"8": "8-bit", "16": "16-bit", "32": "float"}[r["quant"]]
         out.append("| " + " | ".join([
             r["scene"], r["probe"], " ".join(r["sweeps"]), r["basis"], coeffs, r["K"], q,
-            f"{int(r['vis_res']) // 64}x", r["bounces"], r["gather_res"], f"{r['precompute_s']:.1f}",
+            f"{int(r['vis_res']) // 64}x", r["bounces"], r["gather_res"],
+            "-" if r.get("refine", "0") in ("0", "") else f"{int(r['refine']) / 10:g}%", r.get("verts", ""),
+            f"{r['precompute_s']:.1f}",
             f"{r['precompute_cpu_s']:.1f}", f"{r['file_mb']:.3g}", f"{r['light_ms']:.3g} ({r['light_best_ms']:.3g})",
             f"{r['view_ms']:.3g} ({r['view_best_ms']:.3g})",
             pct(r["vert_rel_rmse"]), pct(r["vert_rel_rmse_corr"]), pct(r["vert_max_rel_err"], 1),

@@ -29,6 +29,8 @@ static void help(void) {
          "  --quant 8|16|32        coefficient quantization bits (default 8; 32 = float)\n"
          "  --vis-res R            visibility cube resolution: 64, 128 (default; 2x2 supersampling) or 256\n"
          "  --sh ORDER             spherical harmonics of ORDER (3..10) instead of Haar wavelets (baseline)\n"
+         "  --texel-measure        Haar wavelets of the texels with their solid angle (the paper's;\n"
+         "                         default: of the transport per steradian, steadier under a sun)\n"
          "interreflections (section 3.2, 4.2):\n"
          "  --bounces B            at most B interreflection passes (default 0)\n"
          "  --gather-res R         gathering cube resolution (default 32)\n"
@@ -41,7 +43,8 @@ static void help(void) {
          "  --refine               before the transport, split the edges whose vertices' visibility\n"
          "                         masks differ in more than 0.5% of directions, iteratively\n"
          "  --refine-threshold F   that share, 0 < F < 1 (turns refinement on; 0: off)\n"
-         "  --refine-budget V      at most V vertices after refinement (default 3x the scene's; turns it on)\n"
+         "  --refine-budget V      at most V vertices after refinement (default 1.5x the scene's; turns it on)\n"
+         "  --refine-models        refine the models' edges too (default: the floor's, where there is one)\n"
          "  --no-refine            no refinement\n"
          "other:\n"
          "  --threads T            worker threads (default: all cores)\n"
@@ -121,6 +124,7 @@ int cli_precompute(int argc, char **argv) {
     bool quiet = false;
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0;
     float refine_thr = -1;
+    bool texel = false;
     const cli_option opts[] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
@@ -135,6 +139,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_SETV("--no-refine", &refine, -1),
         CLI_F("--refine-threshold", &refine_thr, 0, 1),
         CLI_I("--refine-budget", &pd.refine_budget, 4, 1 << 28),
+        CLI_SETV("--refine-models", &pd.refine_parts, REFINE_ALL),
         CLI_B("--quiet", &quiet),
         CLI_I("--terms", &pd.max_terms, 1, 64),
         CLI_F("--term-error", &pd.term_error, 1e-6, 1),
@@ -142,6 +147,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--quant", &pd.qbits, 8, 32),
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
         CLI_I("--sh", &sh_bands, 3, 10),
+        CLI_B("--texel-measure", &texel),
         CLI_I("--bounces", &pd.bounces, 0, PRT_MAX_BOUNCES),
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
@@ -152,6 +158,8 @@ int cli_precompute(int argc, char **argv) {
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
     pd.param = (brdf_param)param;
+    if (sh_bands && texel) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
+    pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* README "Shadows" */
     if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
         pd.basis = "sh";
         pd.basis_order = sh_bands;
@@ -161,7 +169,7 @@ int cli_precompute(int argc, char **argv) {
         return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;
     if (refine_thr >= 1) return cli_error(k_cmd, "--refine-threshold must be below 1 (a share of directions)") + 1;
     /* on when asked for by any refine flag; a threshold of 0 or --no-refine turns it off */
-    if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0))
+    if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0 || pd.refine_parts))
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }

@@ -481,7 +481,7 @@ typedef struct pc_run {
  * plan line. Returns 0 or -1. */
 static int pc_refine(pc_run *r, prt_error *err) {
     if (!(r->d.refine_threshold > 0)) return 0;
-    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .nthreads = r->nthreads,
+    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .parts = r->d.refine_parts, .nthreads = r->nthreads,
                        .progress = r->d.progress, .progress_user = r->d.progress_user };
     refine_stats st;
     if (refine_scene(&r->out->scene, &rd, &st, err)) return -1;
@@ -526,7 +526,8 @@ static int pc_factor(pc_run *r, prt_error *err) {
 static int pc_choose(pc_run *r, prt_error *err) {
     const transfer_ops *ops = transfer_find(r->d.basis ? r->d.basis : "haar");
     PRT_CHECK(ops != NULL);   /* pc_check_desc refused unknown names */
-    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order };
+    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order, 
+                           .measure = ops == &transfer_haar ? r->d.measure : 0 };
     prt_error e2;
     if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
     int nm = r->out->scene.nmaterials;

@@ -44,6 +44,10 @@ typedef struct precompute_desc {
     brdf_param param;       /* BRDF parameterization */
     const char *basis;      /* transfer representation (transfer.h): NULL = "haar" (the paper), "sh" (baseline) */
     int basis_order;        /* its order where it has one: SH bands 3..10 (0: 6) */
+    int measure;            /* Haar: 0 wavelets of the texels (the paper's), or TRANSFER_MEASURE_SOLID_ANGLE of the
+                             * transport per steradian (transfer.h; what `prt precompute` asks for unless
+                             * --texel-measure). 0 stays the library's default so that callers who build light
+                             * vectors with light_from_cube rather than transfer_light_vector keep working. */
     int bounces;            /* maximum interreflection passes; 0: none */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
@@ -51,7 +55,8 @@ typedef struct precompute_desc {
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
     float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose
                              * masks differ in more than this share; 0: no refinement (the default for now) */
-    int refine_budget;      /* with refinement, the most vertices after it; 0: 3x the scene's */
+    int refine_budget;      /* with refinement, the most vertices after it; 0: 1.5x the scene's */
+    int refine_parts;       /* refine.h's parts: 0 the floor's edges when there is a floor, REFINE_ALL models too */
     int nthreads;           /* 0: all cores */
     prt_progress_fn progress;
     void *progress_user;

@@ -37,6 +37,7 @@ typedef struct rf_ctx {
     uint64_t *vis, *up;     /* [nverts * W] escaping directions / directions above the horizon */
     float *dirs;            /* [3 * ndirs] unit texel-centre directions of the mask cube */
     int res, ndirs;
+    bool floor_only;        /* REFINE_FLOOR: only floor edges are compared, only floor vertices traced */
     const vis_scene *vs;
     uint8_t *bytes[RF_MAX_THREADS];   /* vis_cube output per thread */
     long rays[RF_MAX_THREADS];
@@ -100,12 +101,13 @@ static void rf_mask_range(void *ctx, int begin, int end, int thread) {
     for (int i = begin; i < end; i++) {
         const size_t v = (size_t)(c->first + i);
         const float *p = c->m.pos + 3 * v, *n = c->m.nrm + 3 * v;
-        long traced = 0;
-        vis_cube(c->vs, p, n, c->res, b, &traced, NULL);
-        c->rays[thread] += traced;
         uint64_t *mv = c->vis + v * (size_t)c->W, *mu = c->up + v * (size_t)c->W;
         memset(mv, 0, sizeof(uint64_t) * (size_t)c->W);
         memset(mu, 0, sizeof(uint64_t) * (size_t)c->W);
+        if (c->floor_only && !c->floor[v]) continue;   /* no edge of it is compared */
+        long traced = 0;
+        vis_cube(c->vs, p, n, c->res, b, &traced, NULL);
+        c->rays[thread] += traced;
         for (int d = 0; d < c->ndirs; d++) {
             const float *w = c->dirs + 3 * (size_t)d;
             const uint64_t bit = (uint64_t)1 << (d & 63);
@@ -124,6 +126,7 @@ static void rf_diff_range(void *ctx, int begin, int end, int thread) {
     const size_t W = (size_t)c->W;
     for (int e = begin; e < end; e++) {
         const size_t a = (size_t)(c->ekey[e] >> 32), b = (size_t)(c->ekey[e] & 0xffffffffu);
+        if (c->floor_only && !(c->floor[a] && c->floor[b])) { c->diff[e] = 0.f; continue; }
         const uint64_t *va = c->vis + a * W, *vb = c->vis + b * W, *ua = c->up + a * W, *ub = c->up + b * W;
         int nd = 0, nc = 0;
         for (size_t w = 0; w < W; w++) {
@@ -310,18 +313,23 @@ static int rf_iterate(rf_ctx *c, const refine_desc *d, int level, refine_stats *
 }
 
 /* Fills defaults into *d and validates it against the input mesh. Returns 0 or -1. */
-static int rf_check(const refine_desc *in, const prt_mesh *m, refine_desc *d, prt_error *err) {
+static int rf_check(const refine_desc *in, const prt_mesh *m, bool has_floor, refine_desc *d, prt_error *err) {
     *d = in ? *in : (refine_desc){ 0 };
     if (d->threshold == 0) d->threshold = REFINE_THRESHOLD;
     if (!(d->threshold > 0 && d->threshold < 1))
         return prt_fail(err, "refine: threshold %g is out of range (0, 1)", d->threshold);
     if (d->budget == 0)
-        d->budget = (int64_t)m->nverts * REFINE_BUDGET_FACTOR > INT32_MAX / 4 ? INT32_MAX / 4 : m->nverts * REFINE_BUDGET_FACTOR;
+        d->budget = (double)m->nverts * REFINE_BUDGET_FACTOR > INT32_MAX / 4 ? INT32_MAX / 4
+                                                                             : (int)(m->nverts * REFINE_BUDGET_FACTOR);
     if (d->budget < m->nverts)
         return prt_fail(err, "refine: the vertex budget %d is below the scene's %d vertices", d->budget, m->nverts);
     if (d->mask_res == 0) d->mask_res = 32;
     if (d->mask_res < 8 || d->mask_res > 64 || d->mask_res % 4)
         return prt_fail(err, "refine: mask_res %d (must be a multiple of 4 in 8..64)", d->mask_res);
+    if (d->parts == 0) d->parts = has_floor ? REFINE_FLOOR : REFINE_ALL;
+    if (d->parts != REFINE_FLOOR && d->parts != REFINE_ALL)
+        return prt_fail(err, "refine: parts %d (must be %d, the floor, or %d, everything)", d->parts, REFINE_FLOOR, REFINE_ALL);
+    if (d->parts == REFINE_FLOOR && !has_floor) return prt_fail(err, "refine: the floor only, but the scene has no floor");
     if (d->max_levels == 0) d->max_levels = 6;
     if (d->max_levels < 1 || d->max_levels > 16)
         return prt_fail(err, "refine: max_levels %d is out of range 1..16", d->max_levels);
@@ -345,6 +353,7 @@ static int rf_init(rf_ctx *c, const prt_scene *s, const refine_desc *d, prt_erro
     c->progress = d->progress;
     c->progress_user = d->progress_user;
     c->res = d->mask_res;
+    c->floor_only = d->parts == REFINE_FLOOR;
     c->ndirs = 6 * c->res * c->res;
     c->W = (c->ndirs + 63) / 64;
     c->dirs = prt_calloc(3 * (size_t)c->ndirs, sizeof(float), err);
@@ -394,9 +403,9 @@ static int rf_commit(rf_ctx *c, prt_scene *s, prt_error *err) {
 int refine_scene(prt_scene *s, const refine_desc *desc, refine_stats *stats, prt_error *err) {
     const double t0 = prt_now();
     refine_desc d;
-    if (rf_check(desc, &s->mesh, &d, err)) return -1;
+    if (rf_check(desc, &s->mesh, s->floor_first_vertex >= 0, &d, err)) return -1;
     refine_stats st = { .verts_before = s->mesh.nverts, .tris_before = s->mesh.ntris, .budget = d.budget,
-                        .threshold = d.threshold, .mask_res = d.mask_res };
+                        .threshold = d.threshold, .mask_res = d.mask_res, .parts = d.parts };
     st.floor_before = s->floor_first_vertex >= 0 ? s->mesh.nverts - s->floor_first_vertex : 0;
     rf_ctx *c = prt_calloc(1, sizeof *c, err);
     if (!c) return -1;
@@ -441,9 +450,9 @@ void refine_describe(const refine_stats *st, char *buf, size_t cap) {
     else
         snprintf(where, sizeof where, "no floor");
     snprintf(buf, cap,
-             "refinement: %d -> %d vertices (%s), %d -> %d triangles, %d level%s; edges whose %dx%dx6 visibility masks "
+             "refinement: %d -> %d vertices (%s), %d -> %d triangles, %d level%s; %s edges whose %dx%dx6 visibility masks "
              "differ in > %.2f%% of directions split, budget %d%s; %.1fM mask rays in %.1fs",
              st->verts_before, st->verts_after, where, st->tris_before, st->tris_after, st->levels,
-             st->levels == 1 ? "" : "s", st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
+             st->levels == 1 ? "" : "s", st->parts == REFINE_FLOOR ? "floor" : "all", st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
              st->budget_hit ? " (reached)" : "", st->rays / 1e6, st->seconds);
 }

@@ -51,22 +51,24 @@
  * vertices and the floor's come last, so floor_first_vertex still splits models from
  * floor (the model vertices' indices do not change).
  *
- * Defaults: threshold 0.005 (the paper), budget 3x the input's vertices, mask_res 32,
+ * Parts: with a floor, only the floor's edges are compared by default (REFINE_FLOOR; only floor
+ * vertices are traced), REFINE_ALL takes the models' too (the default without a floor). On the
+ * bunny + 31K floor at the paper's threshold, 94K of the 132K new vertices of an all-parts run
+ * went to the bunny, whose scanned surface differs from vertex to vertex; the floor is where
+ * a model's cast shadows are seen.
+ *
+ * Defaults: threshold 0.005 (the paper), budget 1.5x the input's vertices (the direct pass
+ * grows with the vertex count: issue 10 allows 120 s against 80 s unrefined), mask_res 32,
  * max_levels 6 (edges at most 64 times shorter than the input's; a contact line where a
  * model touches the floor stays marked at every level, so the budget and this cap end it).
  * precompute keeps refinement OFF unless asked for (precompute_desc.refine_threshold,
- * `prt precompute --refine`), because these defaults do not yet meet issue 10's targets.
- * Measured on the bunny + 31K floor (paper-phong, 2 cores): at the defaults 65,810 ->
- * 197,430 vertices (budget reached after 2 levels; 94K of the 132K new vertices on the
- * bunny, whose scanned surface differs from vertex to vertex), 27 s of refinement, and a
- * direct pass of 549 s on a shared machine; at threshold 0.02, 128,999 vertices (1.96x;
- * 27K new on the bunny, 36K on the floor) and a direct pass of 173 s against 81 s
- * unrefined. The masks' difference measures visibility change over all directions, which
- * falls with the distance to the occluder, so it follows the contact shadow and not a
- * sun's shadow far from the model: on a reduced bunny (5,843 + 4,096 floor vertices, city)
- * the image's relative RMS error went 7.47% -> 7.49% at the defaults. What the issue's
- * targets need next (not done): a criterion weighted by the light's energy, or a budget
- * steered to the floor.
+ * `prt precompute --refine`), because it does not yet meet issue 10's targets. Measured
+ * (README "Shadows"): on a reduced bunny (6,029 + 4,096 floor vertices, city) the floor went
+ * 4,096 -> 9,158 vertices in one level (budget reached) and the image's relative RMS error
+ * 6.68% -> 6.59%. The masks' difference measures visibility change over all directions,
+ * which falls with the distance to the occluder, so the budget fills the contact shadow
+ * before it reaches a sun's shadow edge farther out. Earlier, all parts at a 3x budget on the
+ * bunny + 31K floor: 65,810 -> 197,430 vertices, 27 s of refinement, a 549 s direct pass.
  * Errors (prt_error): a threshold outside (0, 1), a budget below the input's vertices,
  * a mask_res that is not a multiple of 4 in 8..64, max_levels outside 1..16, too many
  * vertices, out of memory, an Embree failure. On error the scene is unchanged. */
@@ -76,14 +78,18 @@
 #include "scene.h"
 
 #define REFINE_THRESHOLD 0.005f   /* the paper's share of differing visibility entries */
-#define REFINE_BUDGET_FACTOR 3    /* default budget: this many times the input's vertices */
+#define REFINE_BUDGET_FACTOR 1.5  /* default budget: this many times the input's vertices */
 #define REFINE_MIN_COS 0.15f      /* directions compared: n.w above this for both vertices */
+
+enum { REFINE_FLOOR = 1, REFINE_ALL = 2 };   /* refine_desc.parts */
 
 typedef struct refine_desc {
     float threshold;    /* mark an edge whose masks differ in more than this share; 0: REFINE_THRESHOLD */
     int budget;         /* most vertices after refinement; 0: REFINE_BUDGET_FACTOR x the input's */
     int mask_res;       /* mask cube resolution, a multiple of 4 in 8..64; 0: 32 */
     int max_levels;     /* most iterations, 1..16; 0: 6 */
+    int parts;          /* REFINE_FLOOR: the floor's edges only; REFINE_ALL: models too;
+                         * 0: REFINE_FLOOR when the scene has a floor, else REFINE_ALL */
     int nthreads;       /* 0: all cores */
     prt_progress_fn progress;   /* per level's mask tracing ("refine level N"); false cancels */
     void *progress_user;
@@ -98,6 +104,7 @@ typedef struct refine_stats {
     bool budget_hit;                /* it stopped marked edges from being split */
     float threshold;                /* the threshold used */
     int mask_res;
+    int parts;                      /* REFINE_FLOOR or REFINE_ALL (after defaults) */
     long rays;                      /* mask rays traced */
     double seconds;                 /* wall time */
 } refine_stats;

@@ -37,6 +37,8 @@ void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4
                 float x = src[3 * k];
                 face[k] = isfinite(x) ? x : 0.f;   /* a broken texel must not poison the whole face */
             }
+            if (desc && desc->face_weight)
+                for (int k = 0; k < NN; k++) face[k] *= desc->face_weight[k];
             haar_forward(face, R, tmp);
             float (*dst)[4] = L + (size_t)f * NN;
             for (int k = 0; k < NN; k++) dst[morton[k]][c] = face[k];

@@ -19,6 +19,8 @@
 typedef struct light_desc {
     float threshold;   /* relative energy threshold; 0: 1e-12 (keeps the sun's 34,000:1 range) */
     int qbits;         /* 16 (default when 0) or 32 */
+    const float *face_weight;  /* [CUBE_RES^2]: every face's texels are multiplied by these before
+                                * the transform (transfer_haar.c's solid-angle measure); NULL: 1 */
 } light_desc;
 
 typedef struct light_stats {

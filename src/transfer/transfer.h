@@ -73,7 +73,14 @@ typedef struct transfer_config {
     int lobes;      /* I: lobes per set and reflection pass; 0: 2 */
     int level;      /* geodesic view grid: icosahedron subdivided `level` times (10 * 4^level + 2 views) */
     int samples;    /* rays per (vertex, view) set in the direct and gathering passes */
+    int measure;    /* haar: 0 the texels (the paper's), TRANSFER_MEASURE_SOLID_ANGLE; others: 0 */
 } transfer_config;
+
+/* What Haar coefficients approximate (transfer_haar.c says why): the texels T_j, which carry
+ * their solid angle (0: the paper's, and every file written before issue 10), or T_j / w_j,
+ * the transport per steradian, against a light vector of L_j w_j (what precompute makes
+ * unless told otherwise). The file stores which. */
+#define TRANSFER_MEASURE_SOLID_ANGLE 1
 
 typedef struct transfer_ops transfer_ops;
 

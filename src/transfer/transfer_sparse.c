@@ -5,7 +5,9 @@
  * Section layout (little-endian; the tag is the module's):
  *     i32 N, i32 qbits, i32 order        the transfer_config
  *     u64 materials                      bit i: material i
- *     u8  has_direct                     1: the direct-only set follows the total
+ *     u8  flags                          bit 0: the direct-only set follows the total;
+ *                                        bit 1: Haar's solid-angle measure (transfer.h;
+ *                                        files before issue 10 have only bit 0)
  *     transport, [direct transport]      each: i32 nverts, nvecs, N, qbits; u64 ncoefs, nruns;
  *                                        vec_first, coef_first, run_first, runs, scale, then
  *                                        packed (8-bit) or offs + q16 / f32
@@ -68,7 +70,7 @@ void transfer_sparse_write(prt_writer *w, const prt_transfer *tr) {
     prtio_put_i32(w, tr->cfg.order);
     prtio_put_u64(w, tr->materials);
     bool direct = tr->direct.nvecs > 0;
-    prtio_put_u8(w, direct ? 1 : 0);
+    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE ? 2 : 0)));
     put_transport(w, &tr->transport);
     if (direct) put_transport(w, &tr->direct);
 }
@@ -110,9 +112,10 @@ bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why) {
     tr->cfg.qbits = prtio_get_i32(r);
     tr->cfg.order = prtio_get_i32(r);
     tr->materials = prtio_get_u64(r);
-    uint8_t direct = prtio_get_u8(r);
+    uint8_t flags = prtio_get_u8(r), direct = flags & 1;
     if (r->bad) return BAD(why, "transfer section too short");
-    if (direct > 1) return BAD(why, "bad direct-set flag %u", direct);
+    if (flags > 3) return BAD(why, "bad transfer flags %u", flags);
+    tr->cfg.measure = flags & 2 ? TRANSFER_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
     if (!get_transport(r, &tr->transport, why)) return false;
     if (direct && !get_transport(r, &tr->direct, why)) return false;
     if (r->pos != r->n) return BAD(why, "transfer section longer than its data");
