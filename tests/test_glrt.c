@@ -422,7 +422,7 @@ static void scene(void) {
     if (rc) { mesh_free(&sphere); return; }
     rc = scene_add_floor(&scene, 1600, 3, NULL, &err);
     CHECK(rc == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true };
+    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
     rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) { scene_free(&scene); return; }

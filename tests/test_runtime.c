@@ -44,7 +44,7 @@ static void setup(void) {
     if (rc == 0) rc = scene_from_mesh(&sphere, "phong:kd=0.4,0.25,0.15;ks=0.5;n=30", &scene, &err);
     if (rc == 0) rc = scene_add_floor(&scene, 900, 3, NULL, &err);
     precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1,
-                           .keep_direct = true, .gather_res = 16 };
+                           .keep_direct = true, .gather_res = 16, .glossy = PRECOMPUTE_GLOSSY_SVD };
     if (rc == 0) rc = precompute_run(&scene, &pd, &g_d, &err);
     CHECK(rc == 0, "%s", err.msg);
     CHECK(rc || (g_d.factors[0].K == 3 && g_d.transfers[0].direct.nvecs == g_d.transfers[0].transport.nvecs), "K %d, direct %d", g_d.factors[0].K,
