@@ -52,8 +52,7 @@ typedef struct vp_ctx {
     vp_thread th[VP_MAX_THREADS];
     double *energy;               /* per glossy vertex (direct) or per stored slice (gathering) */
     uint32_t *nactive;            /* per glossy vertex: its active views */
-    uint32_t *slot_v, *slot_j;    /* stored slices in (vertex, view) order, their slots */
-    size_t *slot;
+    uint32_t *slot_v, *slot_j;    /* stored slices in (vertex, view) order */
     size_t nslices;
     int pass, total;
     const char *stage;
@@ -287,6 +286,21 @@ static void vp_direct_range(void *ctx, int begin, int end, int thread) {
     vp_progress(c, end - begin);
 }
 
+/* Renumbers the entries in slot order (the validator's rule, vmf.h), moving their lobes. */
+static int vp_renumber(vmft_data *t, size_t per, prt_error *err) {
+    uint32_t *lobe = prt_calloc(t->hash.n ? t->hash.n * per : 1, sizeof(uint32_t), err);
+    if (!lobe) return -1;
+    uint32_t k = 0;
+    for (size_t s = 0; s < t->hash.size; s++) {
+        if (t->entry[s] == UINT32_MAX) continue;
+        memcpy(lobe + (size_t)k * per, t->lobe + (size_t)t->entry[s] * per, sizeof(uint32_t) * per);
+        t->entry[s] = k++;
+    }
+    free(t->lobe);
+    t->lobe = lobe;
+    return 0;
+}
+
 static int vp_entry_cmp(const void *a, const void *b) {
     const vp_entry *x = a, *y = b;
     return x->v != y->v ? (x->v < y->v ? -1 : 1) : x->j != y->j ? (x->j < y->j ? -1 : 1) : 0;
@@ -312,20 +326,23 @@ static int vp_build(vp_ctx *c, int R, prt_error *err) {
     vmft_data *t = c->t;
     c->slot_v = prt_calloc(n ? n : 1, sizeof(uint32_t), err);
     c->slot_j = c->slot_v ? prt_calloc(n ? n : 1, sizeof(uint32_t), err) : NULL;
-    c->slot = c->slot_j ? prt_calloc(n ? n : 1, sizeof(size_t), err) : NULL;
-    int rc = c->slot ? 0 : -1;
+    int rc = c->slot_j ? 0 : -1;
     for (size_t e = 0; rc == 0 && e < n; e++) c->slot_v[e] = all[e].v, c->slot_j[e] = all[e].j;
     if (rc == 0) rc = phash_build(c->slot_v, c->slot_j, n, t->nverts, t->nviews, &t->hash, err);
     size_t per = (size_t)R * t->lobes * VMFT_WORDS;
-    if (rc == 0) t->lobe = prt_calloc(t->hash.size ? t->hash.size * per : 1, sizeof(uint32_t), err);
-    if (rc == 0 && !t->lobe) rc = -1;
+    if (rc == 0) t->lobe = prt_calloc(n ? n * per : 1, sizeof(uint32_t), err);
+    if (rc == 0 && t->lobe) t->entry = prt_calloc(t->hash.size ? t->hash.size : 1, sizeof(uint32_t), err);
+    if (rc == 0 && !t->entry) rc = -1;
     t->passes = R;
+    for (size_t s = 0; rc == 0 && s < t->hash.size; s++) t->entry[s] = UINT32_MAX;
     for (size_t e = 0; rc == 0 && e < n; e++) {
+        memcpy(t->lobe + e * per, all[e].w, sizeof(uint32_t) * t->lobes * VMFT_WORDS);
         long s = phash_find(&t->hash, all[e].v, all[e].j);
         PRT_CHECK(s >= 0);
-        c->slot[e] = (size_t)s;
-        memcpy(t->lobe + (size_t)s * per, all[e].w, sizeof(uint32_t) * t->lobes * VMFT_WORDS);
+        t->entry[s] = (uint32_t)e;
     }
+    /* entries in slot order (vmf.h): renumber them by a pass over the slots */
+    if (rc == 0) rc = vp_renumber(t, per, err);
     c->nslices = n;
     free(all);
     return rc;
@@ -411,7 +428,9 @@ static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
     for (int i = 0; i < nr; i++)
         if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris)
             ni += vp_hit_items(c, &th->hits[i], th->tdirs + 3 * i, A, th->items + ni);
-    uint32_t *w = c->t->lobe + ((c->slot[e] * (size_t)c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
+    long s = phash_find(&c->t->hash, (uint32_t)v, (uint32_t)j);
+    PRT_CHECK(s >= 0);
+    uint32_t *w = c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
     c->energy[e] = vp_gather_merge(c, th->items, ni, w);
 }
 
@@ -505,7 +524,7 @@ static void vp_teardown(vp_ctx *c) {
         vp_thread *th = &c->th[i];
         free(th->dirs), free(th->tdirs), free(th->tidx), free(th->hits), free(th->blocked), free(th->items), free(th->list.e);
     }
-    free(c->gverts), free(c->dlobe), free(c->energy), free(c->nactive), free(c->slot_v), free(c->slot_j), free(c->slot);
+    free(c->gverts), free(c->dlobe), free(c->energy), free(c->nactive), free(c->slot_v), free(c->slot_j);
     pthread_mutex_destroy(&c->lock);
 }
 
@@ -513,8 +532,8 @@ static void vp_teardown(vp_ctx *c) {
 static void vp_compact(vmft_data *t, int R) {
     if (R == t->passes) return;
     size_t I3 = (size_t)t->lobes * VMFT_WORDS;
-    for (size_t s = 0; s < t->hash.size; s++)
-        memmove(t->lobe + s * R * I3, t->lobe + s * t->passes * I3, sizeof(uint32_t) * R * I3);
+    for (size_t e = 0; e < t->hash.n; e++)
+        memmove(t->lobe + e * R * I3, t->lobe + e * t->passes * I3, sizeof(uint32_t) * R * I3);
     t->passes = R;
 }
 

@@ -41,12 +41,13 @@ void vmft_free(vmft_data *t) {
     if (!t) return;
     phash_free(&t->hash);
     free(t->lobe);
+    free(t->entry);
     geogrid_destroy(t->grid);
     memset(t, 0, sizeof *t);
 }
 
 size_t vmft_bytes(const vmft_data *t) {
-    return 4 * ((size_t)t->nverts + t->hash.size + t->hash.size * (size_t)(t->passes * t->lobes * VMFT_WORDS));
+    return 4 * ((size_t)t->nverts + 2 * t->hash.size + t->hash.n * (size_t)(t->passes * t->lobes * VMFT_WORDS));
 }
 
 /* ---- the packed lobe ---------------------------------------------------------------------- */
@@ -93,7 +94,7 @@ void vmft_unpack(const uint32_t w[VMFT_WORDS], vmf_lobe *l, float alpha[3]) {
 const uint32_t *vmft_slice(const vmft_data *t, int v, int j, int p) {
     long s = phash_find(&t->hash, (uint32_t)v, (uint32_t)j);
     if (s < 0) return NULL;
-    return t->lobe + (((size_t)s * t->passes + (size_t)p) * t->lobes) * VMFT_WORDS;
+    return t->lobe + (((size_t)t->entry[s] * t->passes + (size_t)p) * t->lobes) * VMFT_WORDS;
 }
 
 /* ---- the BRDF's own lobe and Eq. 7 ----------------------------------------------------------- */
@@ -260,7 +261,7 @@ static void vmf_release(prt_transfer *tr) {
 /* ---- the file section -------------------------------------------------------------------
  * i32 lobes level samples, u64 material mask, i32 passes nverts nviews, f32 horizon, u64 slices,
  * f64 t_pass[4] energy[4]; per material of the mask its lobe fit (lobefit_table's fields);
- * u64 hash n and size, u32 offset[nverts], owner[size], lobe[size * passes * lobes * 3]. */
+ * u64 hash n and size, u32 offset[nverts], owner[size], entry[size], lobe[n * passes * lobes * 3]. */
 
 static void put_fit(prt_writer *w, const lobefit_table *f) {
     prtio_put_i32(w, (int32_t)f->type);
@@ -312,19 +313,21 @@ static void vmf_write(prt_writer *w, const prt_transfer *tr) {
     prtio_put_u64(w, t->hash.n), prtio_put_u64(w, t->hash.size);
     prtio_put_arr(w, t->hash.offset, (size_t)t->nverts, 4);
     prtio_put_arr(w, t->hash.owner, t->hash.size, 4);
-    prtio_put_arr(w, t->lobe, t->hash.size * (size_t)(t->passes * t->lobes * VMFT_WORDS), 4);
+    prtio_put_arr(w, t->entry, t->hash.size, 4);
+    prtio_put_arr(w, t->lobe, t->hash.n * (size_t)(t->passes * t->lobes * VMFT_WORDS), 4);
 }
 
 /* Sizes first (each bounded before anything is allocated), then the arrays. */
 static bool vmf_read_arrays(prt_reader *r, vmft_data *t, char *why) {
     uint64_t n = prtio_get_u64(r), size = prtio_get_u64(r);
     size_t per = (size_t)(t->passes * t->lobes * VMFT_WORDS);
-    if (r->bad || n > size || size > (uint64_t)UINT32_MAX || !prtio_need(r, (size_t)t->nverts + (size_t)size * (1 + per), 4))
+    if (r->bad || n > size || size > (uint64_t)UINT32_MAX || !prtio_need(r, (size_t)t->nverts + 2 * (size_t)size + (size_t)n * per, 4))
         return BAD(why, "vmf section too short for its hash table (%llu slots)", (unsigned long long)size);
     t->hash.nrows = t->nverts, t->hash.ncols = t->nviews, t->hash.n = n, t->hash.size = size;
     t->hash.offset = prtio_get_arr(r, (size_t)t->nverts, 4);
     t->hash.owner = prtio_get_arr(r, (size_t)size, 4);
-    t->lobe = prtio_get_arr(r, (size_t)size * per, 4);
+    t->entry = prtio_get_arr(r, (size_t)size, 4);
+    t->lobe = prtio_get_arr(r, (size_t)n * per, 4);
     t->hash.fill = size ? (double)n / (double)size : 1.0;
     return r->bad ? BAD(why, "vmf section too short") : true;
 }
@@ -376,7 +379,8 @@ static bool fits_ok(const prt_data *d, const vmft_data *t, char *why) {
 }
 
 /* The hash: offsets leave room for every column, owners name rows whose offset puts them there,
- * and whose material the transfer shades; n matches; every stored lobe finite with kappa, alpha >= 0. */
+ * and whose material the transfer shades; entries number the owned slots in slot order (so each
+ * names a distinct lobe set); n matches; every stored lobe finite with kappa, alpha >= 0. */
 static bool hash_ok(const prt_data *d, const vmft_data *t, char *why) {
     const phash_table *h = &t->hash;
     for (int v = 0; v < t->nverts; v++)
@@ -389,16 +393,19 @@ static bool hash_ok(const prt_data *d, const vmft_data *t, char *why) {
         if (s < h->offset[o - 1] || s - h->offset[o - 1] >= (size_t)t->nviews)
             return BAD(why, "vmf: hash slot %zu is outside vertex %u's row", s, o - 1);
         if (!((t->materials >> d->scene.mesh.mat[o - 1]) & 1)) return BAD(why, "vmf: vertex %u has lobes but another transfer's material", o - 1);
+        if (t->entry[s] != owned) return BAD(why, "vmf: hash slot %zu names entry %u, expected %zu", s, t->entry[s], owned);
         owned++;
-        for (size_t i = 0; i < per; i++) {
-            vmf_lobe l;
-            float a[3];
-            vmft_unpack(t->lobe + (s * per + i) * VMFT_WORDS, &l, a);
-            if (!isfinite(l.kappa) || l.kappa < 0 || !prtio_all_finite(a, 3) || a[0] < 0 || a[1] < 0 || a[2] < 0)
-                return BAD(why, "vmf: hash slot %zu has a bad lobe (kappa %g, alpha %g %g %g)", s, l.kappa, a[0], a[1], a[2]);
-        }
     }
+    for (size_t s = 0; s < h->size; s++)
+        if (!h->owner[s] && t->entry[s] != UINT32_MAX) return BAD(why, "vmf: free hash slot %zu names entry %u", s, t->entry[s]);
     if (owned != h->n) return BAD(why, "vmf: hash holds %zu slices, header says %zu", owned, h->n);
+    for (size_t i = 0; i < h->n * per; i++) {
+        vmf_lobe l;
+        float a[3];
+        vmft_unpack(t->lobe + i * VMFT_WORDS, &l, a);
+        if (!isfinite(l.kappa) || l.kappa < 0 || !prtio_all_finite(a, 3) || a[0] < 0 || a[1] < 0 || a[2] < 0)
+            return BAD(why, "vmf: slice %zu has a bad lobe (kappa %g, alpha %g %g %g)", i / per, l.kappa, a[0], a[1], a[2]);
+    }
     return true;
 }
 

@@ -25,14 +25,18 @@
  * nothing gathered either) is NOT stored; the BRDF's own lobe comes from the material's
  * one-lobe fit (lobefit.h, fit[material]) at the view in v's frame: vmft_brdf_lobe. The
  * stored slices go in a perfect hash by row displacement (phash.h), row = vertex, column =
- * view: slot s = hash.offset[v] + j holds (v, j) when hash.owner[s] == v + 1. An absent
+ * view: slot s = hash.offset[v] + j holds (v, j) when hash.owner[s] == v + 1, and its lobes
+ * are entry entry[s] of a compact lobe array (the hash's fill is ~50% on a small scene, so
+ * lobes per slot would double the bytes; the map costs 4 bytes a slot). An absent
  * slice means: pass 0 = the BRDF's own lobe as lobe 0 (lobes 1.. zero), passes >= 1 zero.
  *
  * Data layout (what a GPU backend uploads; all little-endian 32-bit words):
  *     hash.offset [nverts]            u32 O[v]
  *     hash.owner  [hash.size]         u32 v + 1 of the slice in slot s, 0 when free
- *     lobe        [hash.size][passes][lobes][VMFT_WORDS] u32: slot s, pass p, lobe i at
- *                                     ((s * passes + p) * lobes + i) * 3
+ *     entry       [hash.size]         u32 e: the slice's index in lobe (0xffffffff when free);
+ *                                     entries are in (vertex, view) order
+ *     lobe        [hash.n][passes][lobes][VMFT_WORDS] u32: entry e, pass p, lobe i at
+ *                                     ((e * passes + p) * lobes + i) * 3
  * and one packed lobe is 12 bytes (VMFT_WORDS = 3):
  *     word 0: mu, octahedral (Cigolle et al. 2014): u = x / (|x|+|y|+|z|), v likewise, folded
  *             for z < 0 (u, v) <- ((1 - |v|) sign u, (1 - |u|) sign v); snorm16 each,
@@ -89,7 +93,8 @@ typedef struct vmft_data {
     uint64_t materials;         /* bit m: fit[m] is filled (the transfer's materials) */
     float horizon;              /* view j is active at v when g_j . n_v > -horizon */
     phash_table hash;           /* rows vertices, columns views */
-    uint32_t *lobe;             /* [hash.size * passes * lobes * VMFT_WORDS] (layout above) */
+    uint32_t *entry;            /* [hash.size] slot -> entry (layout above) */
+    uint32_t *lobe;             /* [hash.n * passes * lobes * VMFT_WORDS] */
     lobefit_table fit[PRT_MAX_MATERIALS];   /* the BRDF's own lobe per view elevation */
     geogrid *grid;
     /* statistics (stored in the file, shown by `prt info`) */
@@ -104,7 +109,7 @@ const vmft_data *vmft_get(const struct prt_transfer *tr);
 int vmft_init(vmft_data *t, int level, int lobes, int nverts, prt_error *err);
 /* Frees the hash, lobes and grid and zeroes t. */
 void vmft_free(vmft_data *t);
-/* Bytes of the layout above (offsets, owners, lobes). */
+/* Bytes of the layout above (offsets, owners, entries, lobes). */
 size_t vmft_bytes(const vmft_data *t);
 
 /* Packs a lobe and colour into 3 words (layout above); unpacks them (alpha 0: an empty lobe). */
