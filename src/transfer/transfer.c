@@ -13,6 +13,7 @@
 static const transfer_ops *const k_transfers[] = {
     &transfer_haar,     /* Haar wavelets, N largest of 24,576, quantized (the paper) */
     &transfer_sh,       /* spherical harmonics of order 3..10 (the low-frequency baseline) */
+    &transfer_vmf,      /* vMF lobes per vertex and view, perfect-hashed (laurijssen-2011; issue 9) */
 };
 #define NTRANSFERS ((int)(sizeof k_transfers / sizeof k_transfers[0]))
 

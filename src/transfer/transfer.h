@@ -199,4 +199,5 @@ extern const transfer_glsl transfer_sparse_glsl;
 /* The modules' tables (listed in transfer.c). */
 extern const transfer_ops transfer_haar;
 extern const transfer_ops transfer_sh;
+extern const transfer_ops transfer_vmf;
 #endif
