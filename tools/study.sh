@@ -158,7 +158,8 @@ precompute() { # id
   local id=$1 f
   IFS=_ read -r s n k q v b g sh <<< "$id"
   n=${n#n}; k=${k#k}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}
-  local args=(--terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
+  # --glossy svd: the study sweeps the SVD path's knobs (K...); the vMF path is the plan's default since issue 9
+  local args=(--glossy svd --terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
   if [ "$sh" != 0 ]; then args+=(--sh "$sh"); else args+=(--coeffs "$n"); fi
   if [ "$b" = 0 ]; then args+=(--no-bounces); else args+=(--bounces "$b" --force-bounces); fi
   f="$WORK/$id.prt"

@@ -140,7 +140,8 @@ int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err);
  * PNG; nothing without a window context. */
 void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops);
 /* Direct-only lighting (true) or direct + bounces (false); -1 with err when the file keeps no direct
- * set. Takes effect at the next runtime_set_light. */
+ * set. Takes effect at the next runtime_set_light. It switches the sparse transfer only: a vmf
+ * transfer keeps all its passes (no op selects its passes yet). */
 int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err);
 /* BRDF terms used by the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax);
