@@ -252,6 +252,27 @@ static void vmf_shade_vertices(const prt_data *d, const prt_transfer *tr, const 
 
 static size_t vmf_bytes(const prt_transfer *tr) { return tr->priv ? vmft_bytes(vmft_get(tr)) : 0; }
 
+/* `prt info`'s lines: grid, lobes, passes, stored share, hash fill, bytes, each pass's energy and time. */
+static void vmf_summary(const prt_transfer *tr, char *buf, size_t cap) {
+    const vmft_data *t = vmft_get(tr);
+    size_t len = 0;
+#define OUT(...) (len += (size_t)snprintf(buf + len, len < cap ? cap - len : 0, __VA_ARGS__))
+    OUT("vmf           %d views (geodesic level %d), %d lobe%s per pass, %d pass%s stored, %d rays per slice\n", t->nviews,
+        t->level, t->lobes, t->lobes == 1 ? "" : "s", t->passes, t->passes == 1 ? "" : "es", t->samples);
+    OUT("              stored %zu of %llu slices (%.2f%%); hash %zu slots, fill %.1f%%; %.2f MB (%d bytes a lobe)\n",
+        t->hash.n, (unsigned long long)t->slices, t->slices ? 100.0 * (double)t->hash.n / (double)t->slices : 0.0,
+        t->hash.size, 100 * t->hash.fill, vmft_bytes(t) / 1e6, 4 * VMFT_WORDS);
+    OUT("              direct pass %.1fs", t->t_pass[0]);
+    for (int p = 1; p < t->passes; p++) OUT("; pass %d: %.2f%% of the direct energy, %.1fs", p, 100 * t->energy[p], t->t_pass[p]);
+    OUT("\n");
+    for (int m = 0; m < PRT_MAX_MATERIALS; m++)
+        if ((t->materials >> m) & 1)
+            OUT("              material %d: BRDF lobe fit %.1f%% mean, %.1f%% max error (16 view elevations)\n", m,
+                100 * t->fit[m].err_mean, 100 * t->fit[m].err_max);
+#undef OUT
+    if (len >= cap && cap) buf[cap - 1] = 0;
+}
+
 static void vmf_release(prt_transfer *tr) {
     if (tr->priv) vmft_free(tr->priv);
     free(tr->priv);
@@ -437,4 +458,5 @@ const transfer_ops transfer_vmf = {
     .precompute = vmf_precompute,
     .shade_vertices = vmf_shade_vertices,
     .bytes = vmf_bytes,
+    .summary = vmf_summary,
 };
