@@ -52,6 +52,19 @@ static void pack(void) {
     CHECK_LE(amax, 7e-5, "axis");
     CHECK_LE(kmax, 5e-4, "kappa");
     CHECK_LE(cmax, 5e-4, "alpha");
+    /* every half decodes as the compiler's own conversion does (the decoder is bit manipulation) */
+    int bad = 0;
+    for (uint32_t h = 0; h < 65536; h++) {
+        uint32_t ww[VMFT_WORDS] = { 0, h, 0 };
+        vmf_lobe l;
+        float al[3];
+        vmft_unpack(ww, &l, al);
+        uint16_t x = (uint16_t)h;
+        _Float16 f;
+        memcpy(&f, &x, 2);
+        bad += !((float)f == l.kappa || (isnan((float)f) && isnan(l.kappa)));
+    }
+    CHECK(bad == 0, "%d of 65,536 halves decode differently", bad);
     vmf_lobe big = { { 0, 0, -1 }, 1e6f }, o;
     float a[3] = { 0, 0, 0 }, b[3];
     uint32_t w[VMFT_WORDS];
