@@ -16,6 +16,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <zlib.h>
 
 #define PI 3.14159265358979323846
 
@@ -51,6 +52,19 @@ static void pack(void) {
     CHECK_LE(amax, 7e-5, "axis");
     CHECK_LE(kmax, 5e-4, "kappa");
     CHECK_LE(cmax, 5e-4, "alpha");
+    /* every half decodes as the compiler's own conversion does (the decoder is bit manipulation) */
+    int bad = 0;
+    for (uint32_t h = 0; h < 65536; h++) {
+        uint32_t ww[VMFT_WORDS] = { 0, h, 0 };
+        vmf_lobe l;
+        float al[3];
+        vmft_unpack(ww, &l, al);
+        uint16_t x = (uint16_t)h;
+        _Float16 f;
+        memcpy(&f, &x, 2);
+        bad += !((float)f == l.kappa || (isnan((float)f) && isnan(l.kappa)));
+    }
+    CHECK(bad == 0, "%d of 65,536 halves decode differently", bad);
     vmf_lobe big = { { 0, 0, -1 }, 1e6f }, o;
     float a[3] = { 0, 0, 0 }, b[3];
     uint32_t w[VMFT_WORDS];
@@ -266,7 +280,7 @@ static void pass_alpha(const vmft_data *t, const prt_mesh *m, int v, const float
 static void corner_bounce(void) {
     prt_data d;
     vis_scene *vs;
-    if (load_scene(k_corner, &d, &vs) || run_vmf(&d, vs, (transfer_config){ .level = 2, .samples = 128 }, 1, 3, 0)) {
+    if (load_scene(k_corner, &d, &vs) || run_vmf(&d, vs, (transfer_config){ .level = 2, .samples = 64 }, 1, 3, 0)) {
         CHECK(0, "set-up");
         return;
     }
@@ -317,11 +331,149 @@ static void determinism(void) {
     prt_data_free(&d1), prt_data_free(&d2);
 }
 
+/* ---- the file -------------------------------------------------------------------------------- */
+
+/* Writes n bytes to path; true on success. */
+static bool put_file(const char *path, const uint8_t *b, size_t n) {
+    FILE *f = fopen(path, "wb");
+    if (!f) return false;
+    bool ok = fwrite(b, 1, n, f) == n;
+    return fclose(f) == 0 && ok;
+}
+
+/* Offset of the body of the section tagged tag in a .prt image (walking the sections), or 0. */
+static size_t section_body(const uint8_t *b, size_t n, uint32_t tag) {
+    size_t pos = 16;
+    while (pos + 12 <= n - 4) {
+        uint32_t t;
+        uint64_t len;
+        memcpy(&t, b + pos, 4), memcpy(&len, b + pos + 4, 8);
+        if (t == tag) return pos + 12;
+        pos += 12 + (size_t)len;
+    }
+    return 0;
+}
+
+/* The corner precomputed (2 passes) and written; its path in path[512]. 0 or -1. */
+static int corner_file(prt_data *d, char *path) {
+    vis_scene *vs;
+    if (load_scene(k_corner, d, &vs) || run_vmf(d, vs, (transfer_config){ .level = 1, .samples = 16 }, 1, 2, 0)) return -1;
+    vis_destroy(vs);
+    d->vis_res = 128, d->gather_res = 32;
+    prt_error err;
+    snprintf(path, 512, "%s/corner.prt", check_tmpdir());
+    if (prtfile_write(path, d, &err)) return fprintf(stderr, "%s\n", err.msg), -1;
+    return 0;
+}
+
+/* Write, read, compare every array and statistic; write again: the same bytes; the same shading. */
+static void file_roundtrip(void) {
+    prt_data a, b;
+    char path[512], path2[600];
+    prt_error err;
+    if (corner_file(&a, path)) {
+        CHECK(0, "set-up");
+        return;
+    }
+    CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
+    if (b.ntransfers != 1 || b.transfers[0].ops != &transfer_vmf) {
+        CHECK(0, "one vmf transfer read");
+        prt_data_free(&a);
+        return;
+    }
+    const vmft_data *x = vmft_get(&a.transfers[0]), *y = vmft_get(&b.transfers[0]);
+    size_t per = (size_t)x->passes * x->lobes * VMFT_WORDS;
+    CHECK(x->hash.n > 0 && x->hash.n == y->hash.n && x->hash.size == y->hash.size && x->passes == y->passes && x->lobes == y->lobes &&
+          x->nviews == y->nviews && x->slices == y->slices && x->materials == y->materials, "sizes");
+    CHECK(!memcmp(&a.transfers[0].cfg, &b.transfers[0].cfg, sizeof a.transfers[0].cfg) && a.transfers[0].materials == 1, "config");
+    CHECK(!memcmp(x->hash.offset, y->hash.offset, 4 * (size_t)x->nverts) && !memcmp(x->hash.owner, y->hash.owner, 4 * x->hash.size) &&
+          !memcmp(x->entry, y->entry, 4 * x->hash.size) && !memcmp(x->lobe, y->lobe, 4 * x->hash.n * per), "hash and lobes");
+    CHECK(!memcmp(x->fit[0].lobe, y->fit[0].lobe, sizeof x->fit[0].lobe) && !memcmp(x->fit[0].alpha, y->fit[0].alpha, sizeof x->fit[0].alpha),
+          "lobe fit");
+    CHECK(!memcmp(x->energy, y->energy, sizeof x->energy) && !memcmp(x->t_pass, y->t_pass, sizeof x->t_pass), "statistics");
+    CHECK(transfer_vmf.bytes(&b.transfers[0]) == vmft_bytes(x) && vmft_bytes(x) > 0, "bytes");
+    snprintf(path2, sizeof path2, "%s/corner_again.prt", check_tmpdir());
+    CHECK(prtfile_write(path2, &b, &err) == 0, "%s", err.msg);
+    size_t n1, n2;
+    char *b1 = check_read_file(path, &n1), *b2 = check_read_file(path2, &n2);
+    CHECK(b1 && b2 && n1 == n2 && !memcmp(b1, b2, n1), "re-written identically");
+    free(b1), free(b2);
+    prt_probe p;
+    float white[3] = { 1, 0.5f, 0.25f }, eye[3] = { 0.3f, 1.5f, 2 };
+    CHECK(probe_make_constant(white, &p, &err) == 0);
+    prefilter_env *env = prefilter_create(&p, NULL, NULL, &err);
+    int nv = a.scene.mesh.nverts;
+    float *ra = calloc(3 * (size_t)nv, sizeof(float)), *rb = calloc(3 * (size_t)nv, sizeof(float));
+    transfer_vmf.shade_vertices(&a, &a.transfers[0], env, eye, ra, 1);
+    transfer_vmf.shade_vertices(&b, &b.transfers[0], env, eye, rb, 2);
+    CHECK(!memcmp(ra, rb, sizeof(float) * 3 * nv), "the same shading (1 and 2 threads)");
+    free(ra), free(rb);
+    prefilter_destroy(env);
+    probe_free(&p);
+    prt_data_free(&a), prt_data_free(&b);
+}
+
+/* A patch of the file at byte off (within the vmf section body when body is set): n bytes. */
+typedef struct patch { const char *what; size_t off; uint32_t value; int bytes; const char *want; } patch;
+
+/* Each corruption of the vmf section (CRC fixed, so the validators must catch it) fails with one
+ * line naming the file and the problem; nothing crashes (ASan run: make test SAN=1). */
+static void bad_input(void) {
+    prt_data a;
+    char path[512], bad[600];
+    if (corner_file(&a, path)) {
+        CHECK(0, "set-up");
+        return;
+    }
+    const vmft_data *t = vmft_get(&a.transfers[0]);
+    size_t n;
+    uint8_t *img = (uint8_t *)check_read_file(path, &n);
+    size_t body = img ? section_body(img, n, transfer_vmf.tag) : 0;
+    CHECK(body > 0, "vmf section found");
+    if (!body) return;
+    size_t fit = 108 + 36 + 40 * (size_t)t->fit[0].views, hash = body + fit + 16, owner = hash + 4 * (size_t)t->nverts;
+    size_t entry = owner + 4 * t->hash.size, lobe = entry + 4 * t->hash.size, first = 0;
+    while (first < t->hash.size && !t->hash.owner[first]) first++;
+    patch P[] = {
+        { "lobe count", body + 0, 9, 4, "bad lobe count 9" },
+        { "grid level", body + 4, 9, 4, "bad grid level 9" },
+        { "pass count", body + 20, 0, 4, "bad pass count 0" },
+        { "view count", body + 28, (uint32_t)t->nviews + 1, 4, "views for grid level" },
+        { "vertex count", body + 24, (uint32_t)t->nverts - 1, 4, "corrupt" },
+        { "fit kappa", body + 108 + 12 + 16, 0x7fc00000u, 4, "lobe fit has a bad lobe" },
+        { "hash size", body + fit + 8, (uint32_t)t->hash.size + 100000, 4, "too short for its hash table" },
+        { "offset", hash, 0xffffffffu, 4, "hash offset" },
+        { "owner", owner + 4 * first, (uint32_t)t->nverts + 7, 4, "names vertex" },
+        { "entry", entry + 4 * first, (uint32_t)t->hash.n + 3, 4, "names entry" },
+        { "kappa NaN", lobe + 4, 0x7e00, 2, "bad lobe" },
+        { "alpha negative", lobe + 6, 0xbc00, 2, "bad lobe" },
+    };
+    for (size_t k = 0; k < sizeof P / sizeof P[0]; k++) {
+        uint8_t *c = malloc(n);
+        memcpy(c, img, n);
+        memcpy(c + P[k].off, &P[k].value, (size_t)P[k].bytes);
+        uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), c, (uInt)(n - 4));
+        memcpy(c + n - 4, &crc, 4);
+        snprintf(bad, sizeof bad, "%s/bad%zu.prt", check_tmpdir(), k);
+        CHECK(put_file(bad, c, n), "write %s", bad);
+        prt_data d;
+        prt_error err = { { 0 } };
+        int rc = prtfile_read(bad, &d, &err);
+        CHECK(rc == -1 && strstr(err.msg, bad) && strstr(err.msg, P[k].want) && !strchr(err.msg, '\n'), "%s: '%s'", P[k].what, err.msg);
+        if (rc == 0) prt_data_free(&d);
+        free(c);
+    }
+    free(img);
+    prt_data_free(&a);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(pack);
     CHECK_CASE(unoccluded_sphere);
     CHECK_CASE(corner_bounce);
     CHECK_CASE(determinism);
+    CHECK_CASE(file_roundtrip);
+    CHECK_CASE(bad_input);
     return check_summary();
 }

@@ -236,8 +236,11 @@ static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32
     vmf_lobe l[VMFT_MAX_LOBES] = { { { 0, 0, 1 }, 0 } };
     float a[VMFT_MAX_LOBES][3] = { { 0 } };
     int k = ni ? vp_cluster(th->items, ni, 0, c->I) : 0;
-    if (k == 1) vp_refit_one(th, S, nb, &L, A, &l[0], a[0]);
-    for (int q = 0; k > 1 && q < k; q++) vp_merge(th->items, ni, q, &l[q], a[q]);
+    /* the control variate's error is the blocked rays' noise over the unblocked count: it wins
+     * while fewer than half the rays are blocked, the plain mean (Eq. 2) beyond */
+    bool cv = k == 1 && 2 * nb < S;
+    if (cv) vp_refit_one(th, S, nb, &L, A, &l[0], a[0]);
+    for (int q = 0; !cv && q < k; q++) vp_merge(th->items, ni, q, &l[q], a[q]);
     vp_sort(l, a, k);
     vp_pack(l, (const float (*)[3])a, c->I, w);
     *e = 0;

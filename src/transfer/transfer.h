@@ -164,6 +164,9 @@ struct transfer_ops {
                            const float eye[3], float *rgb, int nthreads);
     /* Bytes tr holds (transport or priv), for `prt info` and the runtimes' timing. */
     size_t (*bytes)(const prt_transfer *tr);
+    /* Optional (NULL: none): lines for `prt info` about tr's data (vmf: views, lobes, passes, hash
+     * fill, bytes), each ending in a newline, into buf[cap]. */
+    void (*summary)(const prt_transfer *tr, char *buf, size_t cap);
 };
 
 #define TRANSFER_TAG(a, b, c, d) ((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 | (uint32_t)(d) << 24)

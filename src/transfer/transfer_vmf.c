@@ -59,11 +59,23 @@ static uint16_t half_bits(float x) {
     return u;
 }
 
+/* Half to float by bit manipulation (Giesen's half_to_float_fast5: exact for every half, zero,
+ * subnormal, inf and NaN included): gcc's _Float16 conversion calls libgcc's soft-float
+ * __extendhfsf2, which took 7% of a frame (perf); -march=x86-64-v2 has no F16C. */
 static float half_value(uint32_t bits) {
-    uint16_t u = (uint16_t)bits;
-    _Float16 h;
-    memcpy(&h, &u, 2);
-    return (float)h;
+    uint32_t h = bits & 0xffffu, o = (h & 0x7fffu) << 13, exp = o & (0x7c00u << 13);
+    o += (127 - 15) << 23;
+    float f;
+    if (exp == 0x7c00u << 13) o += (128 - 16) << 23;   /* inf, NaN */
+    else if (exp == 0) {                              /* zero, subnormal: renormalize */
+        o += 1 << 23;
+        memcpy(&f, &o, 4);
+        f -= 6.103515625e-05f;                        /* 2^-14 */
+        memcpy(&o, &f, 4);
+    }
+    o |= (h & 0x8000u) << 16;
+    memcpy(&f, &o, 4);
+    return f;
 }
 
 static int16_t snorm16(float x) { return (int16_t)lrintf((x > 1 ? 1 : x < -1 ? -1 : x) * 32767.f); }
@@ -135,20 +147,25 @@ static void acc_result(const interp_acc *acc, vmf_lobe *out, float alpha[3]) {
     out->kappa = ok ? (float)(acc->kappa / acc->a) : 0.f;
 }
 
-void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, const int *view, const float *w,
-                 int p, const float *exact_wo, const float *exact_n, vmf_lobe *out, float (*alpha)[3]) {
+/* Eq. 7 over n pairs whose entries (lobe sets, -1 when absent) are known (vmft_interp). */
+static void interp_entries(const vmft_data *t, const prt_mesh *m, int n, const int *vert, const int *view, const long *ent,
+                           const float *w, int p, const float *exact_wo, const float *exact_n, vmf_lobe *out, float (*alpha)[3]) {
     interp_acc acc[VMFT_MAX_LOBES];
     memset(acc, 0, sizeof acc);
     bool any = false;
+    size_t stride = (size_t)t->passes * t->lobes * VMFT_WORDS;
     for (int k = 0; k < n; k++) {
-        const uint32_t *s = w[k] > 0 ? vmft_slice(t, vert[k], view[k], p) : NULL;
-        for (int i = 0; s && i < t->lobes; i++) {
+        if (ent[k] < 0 || !(w[k] > 0)) continue;
+        const uint32_t *s = t->lobe + (size_t)ent[k] * stride + (size_t)p * t->lobes * VMFT_WORDS;
+        for (int i = 0; i < t->lobes; i++) {
+            const uint32_t *q = s + VMFT_WORDS * i;
+            if (!(q[1] >> 16) && !q[2]) continue;   /* alpha +0: an empty lobe (most later-pass slots) */
             vmf_lobe l;
             float a[3];
-            vmft_unpack(s + VMFT_WORDS * i, &l, a);
+            vmft_unpack(q, &l, a);
             acc_add(&acc[i], &l, a, w[k]);
         }
-        any |= s != NULL;
+        any = true;
     }
     if (p == 0 && !any && exact_wo) {   /* nothing stored around: exactly the BRDF's own lobe */
         for (int i = 0; i < t->lobes; i++) alpha[i][0] = alpha[i][1] = alpha[i][2] = 0, out[i] = (vmf_lobe){ { 0, 0, 1 }, 0 };
@@ -159,13 +176,37 @@ void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, 
         return;
     }
     for (int k = 0; p == 0 && k < n; k++) {   /* absent pairs: the BRDF lobe at their grid view */
-        if (!(w[k] > 0) || vmft_slice(t, vert[k], view[k], 0)) continue;
+        if (!(w[k] > 0) || ent[k] >= 0) continue;
         vmf_lobe l;
         float a[3];
         vmft_brdf_lobe(&t->fit[m->mat[vert[k]]], m->nrm + 3 * (size_t)vert[k], geogrid_dir(t->grid, view[k]), &l, a);
         acc_add(&acc[0], &l, a, w[k]);
     }
     for (int i = 0; i < t->lobes; i++) acc_result(&acc[i], &out[i], alpha[i]);
+}
+
+/* The entry (lobe set index) of slice (v, j), or -1 when it is not stored. */
+static long entry_of(const vmft_data *t, int v, int j) {
+    long s = phash_find(&t->hash, (uint32_t)v, (uint32_t)j);
+    return s < 0 ? -1 : (long)t->entry[s];
+}
+
+void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, const int *view, const float *w,
+                 int p, const float *exact_wo, const float *exact_n, vmf_lobe *out, float (*alpha)[3]) {
+    long ent[16];
+    PRT_CHECK(n >= 1 && n <= 16);
+    for (int k = 0; k < n; k++) ent[k] = w[k] > 0 ? entry_of(t, vert[k], view[k]) : -1;
+    interp_entries(t, m, n, vert, view, ent, w, p, exact_wo, exact_n, out, alpha);
+}
+
+/* Adds sum alpha E(mu, kappa) over lobes to rgb. */
+static void add_lobes(const prefilter_env *env, const vmf_lobe *l, const float (*a)[3], int n, float rgb[3]) {
+    for (int i = 0; i < n; i++) {
+        if (!(lum3(a[i]) > 0)) continue;
+        float e[3];
+        prefilter_lookup(env, l[i].mu, l[i].kappa, e);
+        for (int k = 0; k < 3; k++) rgb[k] += a[i][k] * e[k];
+    }
 }
 
 void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[3], const prefilter_env *env, float rgb[3]) {
@@ -181,16 +222,19 @@ void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[
     int views[3], verts[3] = { v, v, v };
     float gw[3];
     geogrid_locate(t->grid, w, views, gw);
+    long ent[3];
+    bool any = false;
+    for (int k = 0; k < 3; k++) ent[k] = gw[k] > 0 ? entry_of(t, v, views[k]) : -1, any |= ent[k] >= 0;
+    vmf_lobe l[VMFT_MAX_LOBES];
+    float a[VMFT_MAX_LOBES][3];
+    if (!any) {   /* the common case: the BRDF's own lobe at the exact view, one lookup */
+        vmft_brdf_lobe(&t->fit[m->mat[v]], n, w, &l[0], a[0]);
+        add_lobes(env, l, (const float (*)[3])a, 1, rgb);
+        return;
+    }
     for (int p = 0; p < t->passes; p++) {
-        vmf_lobe l[VMFT_MAX_LOBES];
-        float a[VMFT_MAX_LOBES][3];
-        vmft_interp(t, m, 3, verts, views, gw, p, w, n, l, a);
-        for (int i = 0; i < t->lobes; i++) {
-            if (!(lum3(a[i]) > 0)) continue;
-            float e[3];
-            prefilter_lookup(env, l[i].mu, l[i].kappa, e);
-            for (int k = 0; k < 3; k++) rgb[k] += a[i][k] * e[k];
-        }
+        interp_entries(t, m, 3, verts, views, ent, gw, p, w, n, l, a);
+        add_lobes(env, l, (const float (*)[3])a, t->lobes, rgb);
     }
 }
 
@@ -251,6 +295,27 @@ static void vmf_shade_vertices(const prt_data *d, const prt_transfer *tr, const 
 }
 
 static size_t vmf_bytes(const prt_transfer *tr) { return tr->priv ? vmft_bytes(vmft_get(tr)) : 0; }
+
+/* `prt info`'s lines: grid, lobes, passes, stored share, hash fill, bytes, each pass's energy and time. */
+static void vmf_summary(const prt_transfer *tr, char *buf, size_t cap) {
+    const vmft_data *t = vmft_get(tr);
+    size_t len = 0;
+#define OUT(...) (len += (size_t)snprintf(buf + len, len < cap ? cap - len : 0, __VA_ARGS__))
+    OUT("vmf           %d views (geodesic level %d), %d lobe%s per pass, %d pass%s stored, %d rays per slice\n", t->nviews,
+        t->level, t->lobes, t->lobes == 1 ? "" : "s", t->passes, t->passes == 1 ? "" : "es", t->samples);
+    OUT("              stored %zu of %llu slices (%.2f%%); hash %zu slots, fill %.1f%%; %.2f MB (%d bytes a lobe)\n",
+        t->hash.n, (unsigned long long)t->slices, t->slices ? 100.0 * (double)t->hash.n / (double)t->slices : 0.0,
+        t->hash.size, 100 * t->hash.fill, vmft_bytes(t) / 1e6, 4 * VMFT_WORDS);
+    OUT("              direct pass %.1fs", t->t_pass[0]);
+    for (int p = 1; p < t->passes; p++) OUT("; pass %d: %.2f%% of the direct energy, %.1fs", p, 100 * t->energy[p], t->t_pass[p]);
+    OUT("\n");
+    for (int m = 0; m < PRT_MAX_MATERIALS; m++)
+        if ((t->materials >> m) & 1)
+            OUT("              material %d: BRDF lobe fit %.1f%% mean, %.1f%% max error (16 view elevations)\n", m,
+                100 * t->fit[m].err_mean, 100 * t->fit[m].err_max);
+#undef OUT
+    if (len >= cap && cap) buf[cap - 1] = 0;
+}
 
 static void vmf_release(prt_transfer *tr) {
     if (tr->priv) vmft_free(tr->priv);
@@ -437,4 +502,5 @@ const transfer_ops transfer_vmf = {
     .precompute = vmf_precompute,
     .shade_vertices = vmf_shade_vertices,
     .bytes = vmf_bytes,
+    .summary = vmf_summary,
 };
