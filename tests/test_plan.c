@@ -80,6 +80,7 @@ static void lone_sphere(void) {
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
     precompute_desc d = base;
     d.bounces = 2;
+    d.glossy = PRECOMPUTE_GLOSSY_SVD;   /* the K of the SVD path is what this checks */
     CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
     CHECK(out.stats.hit_fraction < 0.005, "convex sphere hit fraction %g", out.stats.hit_fraction);
     CHECK(out.stats.bounces == 0, "convex sphere: %d bounce passes", out.stats.bounces);
@@ -199,6 +200,7 @@ static void terms(void) {
     precompute_desc d;
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
     d = base;
+    d.glossy = PRECOMPUTE_GLOSSY_SVD;   /* K on the SVD path */
     d.max_terms = 2;
     CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
     CHECK(out.factors[0].K == 2, "max_terms 2: K = %d", out.factors[0].K);
@@ -207,6 +209,7 @@ static void terms(void) {
 
     CHECK(make_sphere_scene(&sc, "phong:kd=0.4;ks=0.3;n=20", &err) == 0, "%s", err.msg);
     d = base;
+    d.glossy = PRECOMPUTE_GLOSSY_SVD;   /* K on the SVD path */
     d.max_terms = 8;
     d.term_error = 0.2f;
     CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
