@@ -184,17 +184,14 @@ static bool transfers_ok(const prt_data *d, char *why) {
     int nm = d->scene.nmaterials;
     if (d->ntransfers < 1 || d->ntransfers > PRT_MAX_TRANSFERS) return BAD(why, "bad transfer count %d", d->ntransfers);
     uint64_t all = nm >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << nm) - 1, covered = 0;
-    int sparse = 0;
     for (int i = 0; i < d->ntransfers; i++) {
         const prt_transfer *tr = &d->transfers[i];
         if (!tr->ops) return BAD(why, "transfer %d has no representation", i);
-        sparse += tr->ops->light_range != NULL;
         if (tr->materials & ~all) return BAD(why, "%s transfer names materials beyond the %d there are", tr->ops->name, nm);
         covered |= tr->materials;
     }
     for (int m = 0; m < nm; m++)
         if (!((covered >> m) & 1)) return BAD(why, "material %d has no transfer", m);
-    if (!sparse) return BAD(why, "no transfer with a light kernel (haar or sh)");
     for (int i = 0; i < d->ntransfers; i++)
         if (!d->transfers[i].ops->validate(d, &d->transfers[i], why)) return false;
     return true;
@@ -494,11 +491,10 @@ void prt_data_free(prt_data *d) {
     d->scene.floor_first_vertex = -1;
 }
 
-/* The first transfer with a light kernel (see prtfile.h). */
+/* The first transfer with a light kernel, or NULL (see prtfile.h). */
 const prt_transfer *prt_data_transfer(const prt_data *d) {
     for (int i = 0; i < d->ntransfers; i++)
         if (d->transfers[i].ops && d->transfers[i].ops->light_range) return &d->transfers[i];
-    PRT_CHECK(!"a prt_data without a sparse transfer");
     return NULL;
 }
 

@@ -59,10 +59,11 @@ typedef struct prt_data {
 int prtfile_write(const char *path, const prt_data *d, prt_error *err);
 int prtfile_read(const char *path, prt_data *out, prt_error *err);
 void prt_data_free(prt_data *d);
-/* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range). Precompute
- * makes exactly one, covering every material (a material on the vMF path keeps only its kd/pi
- * factor there, its specular lobes being in the vmf transfer), and a file must hold at least one
- * (PRT_CHECKed here, validated when read). Code that shades iterates d->transfers instead. */
+/* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range), or NULL when
+ * there is none (a file holding only a vmf transfer, as its tests write: valid, but the runtimes
+ * refuse it with one line). Precompute makes exactly one, covering every material (a material on
+ * the vMF path keeps only its kd/pi factor there, its specular lobes being in the vmf transfer).
+ * Code that shades iterates d->transfers instead. */
 const prt_transfer *prt_data_transfer(const prt_data *d);
 /* Appends a transfer of ops with cfg (NULL: defaults unfilled, zero) for materials (bit i:
  * material i) and returns it, its transport sets empty; the caller fills them. PRT_CHECKs room. */

@@ -47,7 +47,7 @@ void transfer_names(char *buf, size_t cap) {
 
 float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[4] {
     const prt_transfer *tr = prt_data_transfer(d);
-    PRT_CHECK(tr->ops->project_light != NULL);
+    PRT_CHECK(tr != NULL && tr->ops->project_light != NULL);
     float (*L)[4] = light_alloc();
     if (!L) return NULL;
     tr->ops->project_light(&tr->cfg, cube_rgb, L);
