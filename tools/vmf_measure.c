@@ -116,7 +116,7 @@ int main(int argc, char **argv) {
     if (o.spp > 0) {
         ref_ctx *rc = ref_create(&d.scene, &probe, NULL, &err);
         float *ref = calloc(3 * (size_t)m->nverts, sizeof(float)), *se = calloc(3 * (size_t)m->nverts, sizeof(float));
-        ref_desc rd = { .spp = o.spp, .bounces = o.passes - 1, .seed = 1 };
+        ref_desc rd = { .spp = o.spp, .bounces = getenv("REF_BOUNCES") ? atoi(getenv("REF_BOUNCES")) : o.passes - 1, .seed = 1 };
         t0 = prt_now();
         if (!rc || ref_render_vertices(rc, eye, NULL, m->nverts, &rd, ref, se, NULL, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
         double num = 0, den = 0, noise = 0, cn[2] = { 0, 0 }, cd[2] = { 0, 0 }, sa[2] = { 0, 0 }, sb[2] = { 0, 0 };
