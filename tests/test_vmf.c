@@ -398,6 +398,14 @@ static void file_roundtrip(void) {
     char *b1 = check_read_file(path, &n1), *b2 = check_read_file(path2, &n2);
     CHECK(b1 && b2 && n1 == n2 && !memcmp(b1, b2, n1), "re-written identically");
     free(b1), free(b2);
+    /* prt info shows the section: views, lobes, passes, stored share, hash fill, bytes */
+    char cmd[1200], out[8192], want[160];
+    snprintf(cmd, sizeof cmd, "%s info %s", check_prt_bin(), path);
+    int rc = check_run(cmd, out, sizeof out);
+    snprintf(want, sizeof want, "stored %zu of %llu slices", x->hash.n, (unsigned long long)x->slices);
+    CHECK(rc == 0 && strstr(out, "vmf           42 views (geodesic level 1), 2 lobes per pass, 2 passes stored") &&
+          strstr(out, want) && strstr(out, "fill") && strstr(out, "MB (12 bytes a lobe)") && strstr(out, "pass 1:"),
+          "prt info: rc %d\n%s", rc, out);
     prt_probe p;
     float white[3] = { 1, 0.5f, 0.25f }, eye[3] = { 0.3f, 1.5f, 2 };
     CHECK(probe_make_constant(white, &p, &err) == 0);
