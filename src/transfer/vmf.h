@@ -145,7 +145,7 @@ void vmft_brdf_lobe(const lobefit_table *fit, const float n[3], const float wo[3
  * vert[0]'s material and its colour scaled by sum w[k]. Every vert[k]'s material must be fitted. */
 void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, const int *view, const float *w,
                  int p, const float *exact_wo, const float *exact_n, vmf_lobe *out, float (*alpha)[3]);
-/* Adds to rgb the radiance of vertex v toward unit world wo (every pass), lit by env. */
+/* Adds to rgb the radiance of vertex v (of a fitted material) toward unit world wo (every pass), lit by env. */
 void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[3], const struct prefilter_env *env,
                    float rgb[3]);
 #endif
