@@ -73,6 +73,26 @@ static void pack(void) {
     CHECK(o.kappa == VMFT_KAPPA_MAX && o.mu[2] < -0.9999f && b[0] == 0, "kappa clamped to half's largest, -z kept");
 }
 
+/* configure: defaults (I = 2, level 2, 64 rays) and one line per refusal. */
+static void configure(void) {
+    prt_error err;
+    transfer_config c = { 0 };
+    CHECK(transfer_vmf.configure(&c, &err) == 0 && c.lobes == VMFT_DEFAULT_LOBES && c.level == VMFT_DEFAULT_LEVEL &&
+          c.samples == VMFT_DEFAULT_SAMPLES, "defaults");
+    char line[256];
+    transfer_vmf.describe(&c, line, sizeof line);
+    CHECK(strstr(line, "vMF lobes (2 per pass, 162 views, 64 rays per slice)") != NULL, "'%s'", line);
+    struct { transfer_config c; const char *want; } bad[] = {
+        { { .lobes = 5 }, "lobes = 5" }, { { .level = 7 }, "level = 7" }, { { .samples = 3 }, "samples = 3" },
+        { { .samples = 5000 }, "samples = 5000" }, { { .N = 128 }, "do not apply" }, { { .lobes = -1 }, "lobes = -1" },
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        err.msg[0] = 0;
+        CHECK(transfer_vmf.configure(&bad[i].c, &err) == -1 && strstr(err.msg, bad[i].want) && !strchr(err.msg, '\n'), "refusal %zu: '%s'", i,
+              err.msg);
+    }
+}
+
 /* ---- scenes --------------------------------------------------------------------------------- */
 
 /* d from JSON scene text, vis built; 0 or -1. */
@@ -331,6 +351,31 @@ static void determinism(void) {
     prt_data_free(&d1), prt_data_free(&d2);
 }
 
+/* A progress callback that says stop: the precompute fails with "cancelled" and leaves no data. */
+static bool stop_at_half(void *user, const char *stage, double fraction) {
+    (*(int *)user)++;
+    return !(fraction >= 0.5 && !strcmp(stage, "vmf direct"));
+}
+
+static void cancel(void) {
+    prt_data d;
+    vis_scene *vs;
+    if (load_scene(k_corner, &d, &vs)) {
+        CHECK(0, "set-up");
+        return;
+    }
+    transfer_config cfg = { .level = 1, .samples = 16 };
+    prt_error err = { { 0 } };
+    CHECK(transfer_vmf.configure(&cfg, &err) == 0);
+    prt_transfer *tr = prt_data_add_transfer(&d, &transfer_vmf, &cfg, 1);
+    int calls = 0;
+    transfer_precompute_in in = { .scene = &d.scene, .vis = vs, .passes = 2, .progress = stop_at_half, .progress_user = &calls };
+    CHECK(transfer_vmf.precompute(&in, tr, &err) == -1 && strstr(err.msg, "cancelled") && tr->priv == NULL, "'%s', %d calls", err.msg,
+          calls);
+    vis_destroy(vs);
+    prt_data_free(&d);
+}
+
 /* ---- the file -------------------------------------------------------------------------------- */
 
 /* Writes n bytes to path; true on success. */
@@ -398,6 +443,14 @@ static void file_roundtrip(void) {
     char *b1 = check_read_file(path, &n1), *b2 = check_read_file(path2, &n2);
     CHECK(b1 && b2 && n1 == n2 && !memcmp(b1, b2, n1), "re-written identically");
     free(b1), free(b2);
+    /* prt info shows the section: views, lobes, passes, stored share, hash fill, bytes */
+    char cmd[1200], out[8192], want[160];
+    snprintf(cmd, sizeof cmd, "%s info %s", check_prt_bin(), path);
+    int rc = check_run(cmd, out, sizeof out);
+    snprintf(want, sizeof want, "stored %zu of %llu slices", x->hash.n, (unsigned long long)x->slices);
+    CHECK(rc == 0 && strstr(out, "vmf           42 views (geodesic level 1), 2 lobes per pass, 2 passes stored") &&
+          strstr(out, want) && strstr(out, "fill") && strstr(out, "MB (12 bytes a lobe)") && strstr(out, "pass 1:"),
+          "prt info: rc %d\n%s", rc, out);
     prt_probe p;
     float white[3] = { 1, 0.5f, 0.25f }, eye[3] = { 0.3f, 1.5f, 2 };
     CHECK(probe_make_constant(white, &p, &err) == 0);
@@ -470,9 +523,11 @@ static void bad_input(void) {
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(pack);
+    CHECK_CASE(configure);
     CHECK_CASE(unoccluded_sphere);
     CHECK_CASE(corner_bounce);
     CHECK_CASE(determinism);
+    CHECK_CASE(cancel);
     CHECK_CASE(file_roundtrip);
     CHECK_CASE(bad_input);
     return check_summary();

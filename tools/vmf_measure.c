@@ -116,7 +116,7 @@ int main(int argc, char **argv) {
     if (o.spp > 0) {
         ref_ctx *rc = ref_create(&d.scene, &probe, NULL, &err);
         float *ref = calloc(3 * (size_t)m->nverts, sizeof(float)), *se = calloc(3 * (size_t)m->nverts, sizeof(float));
-        ref_desc rd = { .spp = o.spp, .bounces = o.passes - 1, .seed = 1 };
+        ref_desc rd = { .spp = o.spp, .bounces = getenv("REF_BOUNCES") ? atoi(getenv("REF_BOUNCES")) : o.passes - 1, .seed = 1 };
         t0 = prt_now();
         if (!rc || ref_render_vertices(rc, eye, NULL, m->nverts, &rd, ref, se, NULL, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
         double num = 0, den = 0, noise = 0, cn[2] = { 0, 0 }, cd[2] = { 0, 0 }, sa[2] = { 0, 0 }, sb[2] = { 0, 0 };
@@ -143,7 +143,8 @@ int main(int argc, char **argv) {
         }
         printf("reference %d spp, %d bounce(s), %.1f s: specular per-vertex relative RMS %.2f%% (reference noise %.2f%%)\n", o.spp,
                o.passes - 1, prt_now() - t0, 100 * sqrt(num / den), 100 * sqrt(noise / den));
-        printf("  vertices whose 3 views are all unstored: %.2f%% (%.0f%% of the energy); with a stored one: %.2f%% (sums: %.3f, %.3f of the reference's)\n",
+        if (cd[1] > 0)
+            printf("  vertices whose 3 views are all unstored: %.2f%% (%.0f%% of the energy); with a stored one: %.2f%% (sums: %.3f, %.3f of the reference's)\n",
                100 * sqrt(cn[0] / cd[0]), 100 * cd[0] / den, 100 * sqrt(cn[1] / cd[1]), sa[0] / sb[0], sa[1] / sb[1]);
         ref_destroy(rc);
         free(ref), free(se);

@@ -213,7 +213,6 @@ static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32
     const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v, *g = geogrid_dir(c->t->grid, j);
     *e = 0;
     if (!vp_active(c, v, j)) return false;
-    (void)g;
     vmf_lobe L;
     float A[3];
     vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, g, &L, A);
@@ -367,13 +366,13 @@ static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const
     for (int q = 0; q < 3; q++) nh[q] /= nl;
     vmf_lobe l[VMFT_MAX_LOBES + 1];
     float a[VMFT_MAX_LOBES + 1][3];
-    int vert[9], view[9], np = 0, nl_ = 0, gv[3];
+    int vert[9], view[9], np = 0, nlb = 0, gv[3];
     float w[9], gw[3];
     geogrid_locate(c->t->grid, wo, gv, gw);
     for (int k = 0; k < 3; k++)
         for (int q = 0; q < 3 && ((c->t->materials >> m->mat[tri[k]]) & 1); q++)
             vert[np] = (int)tri[k], view[np] = gv[q], w[np++] = b[k] * gw[q];
-    if (np) vmft_interp(c->t, m, np, vert, view, w, c->pass - 1, wo, nh, l, a), nl_ = c->t->lobes;
+    if (np) vmft_interp(c->t, m, np, vert, view, w, c->pass - 1, wo, nh, l, a), nlb = c->t->lobes;
     if (c->pass == 1) {   /* the corners' direct diffuse lobes, Eq. 7 over the triangle */
         double mu[3] = { 0, 0, 0 }, kap = 0, aw = 0, al[3] = { 0, 0, 0 };
         for (int k = 0; k < 3; k++) {
@@ -384,12 +383,12 @@ static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const
         }
         double ml = sqrt(mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2]);
         if (aw > 0 && ml > 0) {
-            for (int q = 0; q < 3; q++) l[nl_].mu[q] = (float)(mu[q] / ml), a[nl_][q] = (float)al[q];
-            l[nl_++].kappa = (float)(kap / aw);
+            for (int q = 0; q < 3; q++) l[nlb].mu[q] = (float)(mu[q] / ml), a[nlb][q] = (float)al[q];
+            l[nlb++].kappa = (float)(kap / aw);
         }
     }
     int ni = 0;
-    for (int i = 0; i < nl_; i++) {
+    for (int i = 0; i < nlb; i++) {
         if (!(lum3(a[i]) > 0)) continue;
         vp_item *it = &out[ni++];
         double r = vmf_mean_length(l[i].kappa);
