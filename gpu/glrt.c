@@ -28,7 +28,7 @@ struct glrt {
     bool own_ctx;
     const gl_api *gl;
     const prt_data *d;
-    const prt_transfer *tr;     /* the file's one transfer: its transport and light kernels */
+    const prt_transfer *tr;     /* the file's sparse transfer: its transport and light kernels */
     gldraw draw;
     int nverts, nvecs, kmax_all, nmat, qbits;
     size_t ncoefs, transport_bytes, other_bytes;
@@ -39,7 +39,7 @@ struct glrt {
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
     GLuint prog_view[2];
-    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, ebo;
+    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, ebo;
     GLuint query;
     GLint mat_info[PRT_MAX_MATERIALS][4];
     float bg_R[9];
@@ -132,6 +132,7 @@ static const char *k_view_vs =
     "layout(location = 1) in vec3 a_nrm;\n"
     "layout(location = 2) in uvec2 a_vec;\n"
     "layout(location = 3) in uint a_mat;\n"
+    "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -139,7 +140,7 @@ static const char *k_view_vs =
     "#if PER_VERTEX\n"
     "out vec3 v_col;\n"
     "#else\n"
-    "out vec3 v_pos, v_nrm;\n"
+    "out vec3 v_pos, v_nrm, v_add;\n"
     "out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
     "#endif\n"
@@ -147,10 +148,10 @@ static const char *k_view_vs =
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
-    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax);\n"
+    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add;\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
-    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat);\n"
+    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add;\n"
     "#endif\n"
     "    gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
     "}\n";
@@ -163,13 +164,13 @@ static const char *k_view_fs =
     "in vec3 v_col;\n"
     "void main() { o_color = vec4(v_col, 1.0); }\n"
     "#else\n"
-    "in vec3 v_pos, v_nrm;\n"
+    "in vec3 v_pos, v_nrm, v_add;\n"
     "in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
     "void main() {\n"
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = v_g[k];\n"
-    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax), 1.0);\n"
+    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax) + v_add, 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -358,6 +359,10 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     rt->vbo_mat = make_buffer(gl, mat, sizeof(uint32_t) * (size_t)m->nverts, GL_STATIC_DRAW);
     free(vec);
     free(mat);
+    float *zero = prt_calloc(3 * (size_t)m->nverts + 3, sizeof(float), err);
+    if (!zero) return -1;
+    rt->vbo_add = make_buffer(gl, zero, sizeof(float) * 3 * (size_t)m->nverts, GL_DYNAMIC_DRAW);
+    free(zero);
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_pos);
     gl->EnableVertexAttribArray(0);
     gl->VertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, 0);
@@ -370,12 +375,15 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_mat);
     gl->EnableVertexAttribArray(3);
     gl->VertexAttribIPointer(3, 1, GL_UNSIGNED_INT, 0, 0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_add);
+    gl->EnableVertexAttribArray(4);
+    gl->VertexAttribPointer(4, 3, GL_FLOAT, GL_FALSE, 0, 0);
     gl->GenBuffers(1, &rt->ebo);
     gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, rt->ebo);
     gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), m->tris, GL_STATIC_DRAW);
     gl->BindVertexArray(0);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-    rt->other_bytes += sizeof(float) * 8 * (size_t)m->nverts + sizeof(uint32_t) * 3 * (size_t)m->ntris;
+    rt->other_bytes += sizeof(float) * 11 * (size_t)m->nverts + sizeof(uint32_t) * 3 * (size_t)m->ntris;
     return glctx_check(gl, "uploading the mesh", err);
 }
 
@@ -550,8 +558,10 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
 /* See glrt.h. The caller owns the runtime (glrt_destroy); d must outlive it. */
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
-    if (d->ntransfers != 1 || !d->transfers[0].ops)
-        return prt_fail(err, "GL runtime: the data has %d transfers (one expected)", d->ntransfers), NULL;
+    int nsparse = 0;
+    for (int i = 0; i < d->ntransfers; i++) nsparse += d->transfers[i].ops && d->transfers[i].ops->light_range;
+    if (nsparse != 1)
+        return prt_fail(err, "GL runtime: the data has %d sparse transfers (one supported)", nsparse), NULL;
     const prt_transfer *tr = prt_data_transfer(d);
     if (!tr->ops->glsl)
         return prt_fail(err, "GL runtime: the %s transfer has no GL kernel (use the CPU backend)", tr->ops->name), NULL;
@@ -625,7 +635,7 @@ void glrt_destroy(glrt *rt) {
     if (rt->gl && current(rt, NULL) == 0) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
-                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->ebo };
+                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo };
         GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
                           rt->frag_tex };
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
@@ -715,6 +725,20 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->GetQueryObjectui64v(rt->query, GL_QUERY_RESULT, &ns);
     rt->timing.view_gpu_ms = 1e-6 * (double)ns;
     return glctx_check(gl, "view change", err);
+}
+
+/* Uploads the per-vertex radiance added to every vertex (rgb[3 * nverts], NULL: zeros); -1 with err. */
+int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
+    size_t bytes = sizeof(float) * 3 * (size_t)rt->nverts;
+    float *zero = rgb ? NULL : prt_calloc(3 * (size_t)rt->nverts + 3, sizeof(float), err);
+    if (!rgb && !zero) return -1;
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_add);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)bytes, rgb ? rgb : zero);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    free(zero);
+    return glctx_check(gl, "uploading the added vertex radiance", err);
 }
 
 /* CPU-computed colours drawn into the float target, finished and timed; -1 with err. */

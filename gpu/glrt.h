@@ -47,6 +47,11 @@
  * on a GPU the compute kernels are expected to win. glrt_render_image, a single
  * light change, skips the timing and uses the fragment kernel.
  *
+ * Several transfers: glrt draws the data's one sparse transfer (prt_data_transfer; a file with
+ * more than one is refused) and adds, per vertex, a radiance computed elsewhere
+ * (glrt_set_vertex_add: the vmf transfer's lobes from ops->shade_vertices on the CPU, per view
+ * change; a GLSL lobe lookup per pixel is not written yet).
+ *
  * Contexts: with desc->ctx NULL, glrt makes its own headless context (OSMesa, or
  * EGL on an NVIDIA machine; $PRT_GL=osmesa|egl overrides) and owns it; with a
  * caller's context (the viewer's window) glrt makes it current in every call
@@ -106,6 +111,10 @@ void glrt_set_background_rotation(glrt *rt, const float R[9]);
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err);
 /* The same target, with per-vertex colours rgb[3*nverts] computed elsewhere (the CPU runtime). */
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
+/* Radiance added to every vertex's shading in both view modes (rgb[3 * nverts], interpolated across
+ * triangles; NULL: zeros, the default): the non-linear transfers' part, computed elsewhere
+ * (runtime_gl.c: ops->shade_vertices per view change). */
+int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err);
 /* Reads the target back (linear RGB, top row first; allocated here). */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err);
 /* glrt_draw + glrt_read. */

@@ -5,6 +5,11 @@
  * per pixel (the default) or per vertex. Images are read back from glrt's float
  * target; runtime_present blits it to the caller's window.
  *
+ * Non-linear transfers (vmf): per vertex on the CPU through their ops->shade_vertices
+ * at every view change (toward the camera's eye), the colours uploaded to glrt
+ * (glrt_set_vertex_add) and added to the sparse transfer's shading per pixel or per
+ * vertex; their time is part of view_ms. A GLSL lobe lookup per pixel is not written yet.
+ *
  * Vertex colours: the GPU has no per-vertex output buffer here, so the K-vectors
  * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
  * CPU by relight_view (relight_set_gvec): the per-vertex model, so the colours
@@ -13,6 +18,7 @@
 #include "runtime.h"
 #include "glrt.h"
 #include "relight.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -23,6 +29,10 @@ typedef struct gl_rt {
     bool direct;
     relight_ctx *finish;        /* vertex colours: made on first use */
     float *g;                   /* [3*nvecs] read back */
+    int sparse;                 /* index of the sparse transfer in d->transfers */
+    bool nonlinear;             /* some transfer has ops->shade_vertices */
+    const struct prefilter_env *env;    /* the last light's prefiltered probe (the runtime's) */
+    float *add;                 /* [3*nverts] the non-linear transfers' radiance of the last view */
     const prt_probe *bg;        /* the probe uploaded as background (and its pixels) */
     const float *bg_pixels;
     bool bg_set, has_frame;
@@ -36,6 +46,7 @@ static void gl_destroy(void *self) {
     glrt_destroy(g->rt);
     relight_destroy(g->finish);
     free(g->g);
+    free(g->add);
     free(g);
 }
 
@@ -68,6 +79,12 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
     g->nthreads = desc->threads;
     g->rt = glrt_create(d, &gd, err);
     if (!g->rt) { gl_destroy(g); return NULL; }
+    g->sparse = (int)(prt_data_transfer(d) - d->transfers);
+    for (int i = 0; i < d->ntransfers; i++) g->nonlinear |= d->transfers[i].ops->shade_vertices != NULL;
+    if (g->nonlinear) {
+        g->add = prt_calloc(3 * (size_t)d->scene.mesh.nverts + 3, sizeof(float), err);
+        if (!g->add) { gl_destroy(g); return NULL; }
+    }
     if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) {
         if (glrt_use_direct(g->rt, true, err)) { gl_destroy(g); return NULL; }
         g->direct = true;
@@ -75,10 +92,25 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
     return g;
 }
 
-/* Light change on the GPU (timed by glrt, finished). */
-static int gl_set_light(void *self, const float (*L)[4], prt_error *err) {
+/* Light change on the GPU (timed by glrt, finished); the prefiltered probe kept for the view changes. */
+static int gl_set_light(void *self, const runtime_light *light, prt_error *err) {
     gl_rt *g = self;
-    return glrt_set_light(g->rt, L, err);
+    g->env = light->env;
+    return glrt_set_light(g->rt, light->L[g->sparse], err);
+}
+
+/* Adds every non-linear transfer's radiance toward eye (ops->shade_vertices) to rgb, non-finite
+ * values written as 0; -1 with err before a light change. */
+static int add_nonlinear(gl_rt *g, const float eye[3], float *rgb, prt_error *err) {
+    for (int i = 0; i < g->d->ntransfers; i++) {
+        const prt_transfer *tr = &g->d->transfers[i];
+        if (!tr->ops->shade_vertices) continue;
+        if (!g->env) return prt_fail(err, "gl runtime: the %s transfer needs a light change first", tr->ops->name);
+        tr->ops->shade_vertices(g->d, tr, g->env, eye, rgb, g->nthreads);
+    }
+    for (size_t k = 0; k < 3 * (size_t)g->d->scene.mesh.nverts; k++)
+        if (!(rgb[k] >= 0) || !isfinite(rgb[k])) rgb[k] = 0;
+    return 0;
 }
 
 /* Read back g, finish h . g per vertex on the CPU (see the header comment). */
@@ -93,6 +125,7 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     if (glrt_read_gvec(g->rt, g->g, err)) return -1;
     relight_set_gvec(g->finish, g->g);
     relight_view(g->finish, eye, kmax, rgb);
+    if (g->nonlinear && add_nonlinear(g, eye, rgb, err)) return -1;
     g->view_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
@@ -107,10 +140,16 @@ static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err
         g->bg_pixels = p ? p->img.data : NULL;
         g->bg_set = true;
     } else glrt_set_background_rotation(g->rt, rd->background_rotation);
+    double t0 = prt_now();
+    if (g->nonlinear) {   /* the vMF lobes per vertex on the CPU, added on the GPU */
+        memset(g->add, 0, sizeof(float) * 3 * (size_t)g->d->scene.mesh.nverts);
+        if (add_nonlinear(g, rd->camera.eye, g->add, err) || glrt_set_vertex_add(g->rt, g->add, err)) return -1;
+    }
+    double t_add = 1e3 * (prt_now() - t0);
     if (glrt_draw(g->rt, &rd->camera, rd->width, rd->height, kmax, err)) return -1;
     glrt_timing t;
     glrt_get_timing(g->rt, &t);
-    g->view_ms = t.view_ms;
+    g->view_ms = t.view_ms + t_add;
     g->raster_ms = 0;
     g->has_frame = true;
     return 0;

@@ -244,7 +244,7 @@ static void interreflections(void) {
     snprintf(dcsv, sizeof dcsv, "%s/direct.csv", D);
     snprintf(d2csv, sizeof d2csv, "%s/direct2.csv", D);
     snprintf(args, sizeof args, "%s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --bounces 1 --force-bounces "
-             "--gather-res 16 --keep-direct --quiet && %s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --quiet", check_prt_bin(), D, bprt,
+             "--gather-res 16 --keep-direct --quiet && %s precompute %s/ell.obj --material lambert:kd=0.8 -o %s --vis-res 64 --bounces 0 --quiet", check_prt_bin(), D, bprt,
              check_prt_bin(), D, dprt);
     rc = check_run(args, buf, sizeof buf);
     CHECK(rc == 0, "box precompute: %s", buf);

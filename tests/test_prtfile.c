@@ -444,6 +444,23 @@ static void failed_writes(void) {
     prt_data_free(&a);
 }
 
+
+/* Several transfers (issue 9): prt_data_transfer is the first transfer with a light kernel; a file
+ * holding only a non-linear one (vmf) is valid (its tests write one), and then it is NULL. */
+static void transfers_rule(void) {
+    const transfer_ops *vmf = transfer_find("vmf");
+    prt_data a;
+    make_data(&a, 8);
+    CHECK(prt_data_transfer(&a) == &a.transfers[0], "the sparse transfer is the first with a light kernel");
+    const transfer_ops *keep = a.transfers[0].ops;
+    if (vmf) {
+        a.transfers[0].ops = vmf;
+        CHECK(prt_data_transfer(&a) == NULL, "no sparse transfer: NULL");
+        a.transfers[0].ops = keep;
+    }
+    prt_data_free(&a);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(round_trip);
@@ -452,5 +469,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(header);
     CHECK_CASE(crafted);
     CHECK_CASE(failed_writes);
+    CHECK_CASE(transfers_rule);
     return check_summary();
 }

@@ -23,28 +23,38 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* The table: both representations, by index, name and tag; nothing else. */
+/* The table: the three representations, by index, name and tag; nothing else. */
 static void table(void) {
-    CHECK(transfer_count() == 2, "%d representations", transfer_count());
-    CHECK(transfer_at(0) == &transfer_haar && transfer_at(1) == &transfer_sh, "haar, then sh");
-    CHECK(transfer_find("haar") == &transfer_haar && transfer_find("sh") == &transfer_sh, "by name");
-    CHECK(transfer_find("vmf") == NULL && transfer_find("") == NULL && transfer_find(NULL) == NULL, "unknown names refused");
+    CHECK(transfer_count() == 3, "%d representations", transfer_count());
+    CHECK(transfer_at(0) == &transfer_haar && transfer_at(1) == &transfer_sh && transfer_at(2) == &transfer_vmf, "haar, sh, vmf");
+    CHECK(transfer_find("haar") == &transfer_haar && transfer_find("sh") == &transfer_sh && transfer_find("vmf") == &transfer_vmf,
+          "by name");
+    CHECK(transfer_find("sg") == NULL && transfer_find("") == NULL && transfer_find(NULL) == NULL, "unknown names refused");
     CHECK(transfer_find("HAAR") == NULL, "names are case-sensitive");
-    CHECK(transfer_by_tag(transfer_haar.tag) == &transfer_haar && transfer_by_tag(transfer_sh.tag) == &transfer_sh, "by tag");
+    CHECK(transfer_by_tag(transfer_haar.tag) == &transfer_haar && transfer_by_tag(transfer_sh.tag) == &transfer_sh &&
+          transfer_by_tag(transfer_vmf.tag) == &transfer_vmf, "by tag");
     CHECK(transfer_by_tag(0) == NULL && transfer_by_tag(TRANSFER_TAG('M', 'E', 'S', 'H')) == NULL, "no section tags");
-    CHECK(transfer_haar.tag != transfer_sh.tag, "distinct tags");
+    CHECK(transfer_haar.tag != transfer_sh.tag && transfer_vmf.tag != transfer_haar.tag && transfer_vmf.tag != transfer_sh.tag,
+          "distinct tags");
     char names[64];
     transfer_names(names, sizeof names);
-    CHECK(!strcmp(names, "haar, sh"), "names: %s", names);
+    CHECK(!strcmp(names, "haar, sh, vmf"), "names: %s", names);
     transfer_names(names, 6);
     CHECK(!strcmp(names, "haar,"), "truncated: %s", names);
     for (int i = 0; i < transfer_count(); i++) {
         const transfer_ops *o = transfer_at(i);
+        if (!o->project_transport) continue;   /* a non-linear representation: below */
         CHECK(o->name && o->title && o->configure && o->describe && o->project_transport && o->compress &&
               o->project_light && o->write && o->read && o->validate && o->release && o->light_range && o->glsl,
               "%s fills every op of the sparse family", o->name);
         CHECK(o->glsl->decode && o->glsl->fragment && o->glsl->buffers && o->glsl->thread && o->glsl->warp, "%s GLSL", o->name);
+        CHECK(!o->precompute && !o->shade_vertices, "%s: no non-linear ops", o->name);
     }
+    const transfer_ops *v = &transfer_vmf;
+    CHECK(v->configure && v->describe && v->write && v->read && v->validate && v->release && v->precompute &&
+          v->shade_vertices && v->bytes, "vmf fills the non-linear ops and its file section");
+    CHECK(!v->project_transport && !v->compress && !v->project_light && !v->light_range && !v->glsl,
+          "vmf leaves the projection ops NULL (transfer.h)");
 }
 
 /* configure: defaults, and one line for each refusal. */

@@ -137,7 +137,7 @@ static void setup(void) {
     }
     snprintf(cmd, sizeof cmd,
              "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --terms 2 --floor 1500 --coeffs 64 "
-             "--vis-res 64 --bounces 1 --force-bounces --keep-direct --quiet -o %s",
+             "--vis-res 64 --bounces 1 --force-bounces --keep-direct --glossy svd --quiet -o %s",
              prt, g_obj, g_scene);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 0, "precompute failed (%d): %s", rc, out);

@@ -20,7 +20,7 @@ echo "   machine: $(nproc) cores, $(awk '/MemTotal/{printf "%.0f GB", $2/1e6}' /
 echo
 echo "-- direct pass: prt precompute (timing summary below)"
 /usr/bin/env time -f "%e s wall, %M KB peak RSS" "$PRT" precompute "$DATA/models/stanford-bunny.obj" --material "$MAT" \
-  --floor 31000 --terms 4 --coeffs 128 --no-bounces -o "$OUT/bunny.prt" 2> "$OUT/precompute.log"
+  --floor 31000 --glossy svd --terms 4 --coeffs 128 --no-bounces -o "$OUT/bunny.prt" 2> "$OUT/precompute.log"
 rc=$?
 tr '\r' '\n' < "$OUT/precompute.log" | grep -v -E 'ETA|^\s*$' | tail -n 24
 [ $rc -eq 0 ] || { echo "bench: precompute failed"; exit 1; }
@@ -43,7 +43,7 @@ if [ "${BENCH_BOUNCES:-2}" != 0 ]; then
   echo
   echo "-- interreflections: prt precompute --bounces 2 --force-bounces (gather cube 6x32x32)"
   /usr/bin/env time -f "%e s wall, %M KB peak RSS" "$PRT" precompute "$DATA/models/stanford-bunny.obj" --material "$MAT" \
-    --floor 31000 --terms 4 --coeffs 128 --bounces 2 --force-bounces -o "$OUT/bunny-b2.prt" 2> "$OUT/bounce.log"
+    --floor 31000 --glossy svd --terms 4 --coeffs 128 --bounces 2 --force-bounces -o "$OUT/bunny-b2.prt" 2> "$OUT/bounce.log"
   rc=$?
   tr '\r' '\n' < "$OUT/bounce.log" | grep -v -E 'ETA|^\s*$' | tail -n 24
   [ $rc -eq 0 ] || { echo "bench: bounce precompute failed"; exit 1; }

@@ -26,7 +26,7 @@ case "$in" in
     tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
     for k in 1 4; do
         echo "precomputing $in with K=$k ..." >&2
-        "$PRT" precompute "$in" --material paper-phong --floor 31000 --terms $k --quiet -o "$tmp/k$k.prt"
+        "$PRT" precompute "$in" --material paper-phong --floor 31000 --glossy svd --no-bounces --terms $k --quiet -o "$tmp/k$k.prt"
     done
     k4="$tmp/k4.prt"; k1="$tmp/k1.prt" ;;
 *) k4=$in ;;

@@ -167,7 +167,8 @@ precompute() { # id
   local id=$1 f
   IFS=_ read -r s n k q v b g sh r m <<< "$id"
   n=${n#n}; k=${k#k}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}; r=${r#r}; m=${m#m}
-  local args=(--terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
+  local args=(--glossy svd --terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
+  # --glossy svd: the study sweeps the SVD path's knobs (K...); the vMF path is the plan's default since issue 9
   [ "$r" != 0 ] && args+=(--refine-threshold "$(awk -v r="$r" 'BEGIN { print r / 1000 }')")
   [ "$m" = 1 ] && args+=(--texel-measure)
   if [ "$sh" != 0 ]; then args+=(--sh "$sh"); else args+=(--coeffs "$n"); fi

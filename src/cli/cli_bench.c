@@ -130,6 +130,13 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     int kuse = a->kmax && a->kmax < K ? a->kmax : K;
     printf("file %s: %d vertices, %d vectors (max K = %d), N = %d, %d-bit\n", a->in, d->scene.mesh.nverts,
            prt_data_transfer(d)->transport.nvecs, kuse, prt_data_transfer(d)->transport.N, prt_data_transfer(d)->transport.qbits);
+    for (int i = 0; i < d->ntransfers; i++) {   /* several transfers (issue 9): each one's materials and bytes */
+        const prt_transfer *tr = &d->transfers[i];
+        char desc[256];
+        tr->ops->describe(&tr->cfg, desc, sizeof desc);
+        printf("transfer %d: %s; material mask 0x%llx%s", i, desc, (unsigned long long)tr->materials, tr->ops->bytes ? "" : "\n");
+        if (tr->ops->bytes) printf(", %.2f MB\n", tr->ops->bytes(tr) / 1e6);
+    }
     printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
            tm->detail, tm->detail[0] ? ")" : "");
     printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);

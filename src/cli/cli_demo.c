@@ -49,7 +49,8 @@ int cli_demo(int argc, char **argv) {
     if (!quiet) fprintf(stderr, "demo scene: %d vertices, %d triangles, %d materials\n", scene.mesh.nverts, scene.mesh.ntris, scene.nmaterials);
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
-    precompute_desc pd = { .bounces = bounces, .progress = prt_bar_report, .progress_user = &bar, .quiet = quiet };
+    /* bounces 0: none (the library's 0 means its default) */
+    precompute_desc pd = { .bounces = bounces, .force_bounces = bounces == 0 ? -1 : 0, .progress = prt_bar_report, .progress_user = &bar, .quiet = quiet };
     prt_data d;
     memset(&d, 0, sizeof d);
     if (precompute_run(&scene, &pd, &d, &err)) { prt_bar_done(&bar); scene_free(&scene); return cli_error(k_cmd, "%s", err.msg); }

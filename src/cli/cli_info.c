@@ -27,8 +27,11 @@ int cli_info(int argc, char **argv) {
     struct stat st;
     double mb = stat(in, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_scene *s = &d.scene;
-    const prt_transfer *tr = prt_data_transfer(&d);
-    const prt_transport *t = &tr->transport;
+    /* The sparse transfer (Haar or SH) when there is one: its transport lines; every transfer's
+     * basis line, and the summary of those that have one (vmf). */
+    const prt_transfer *tr = NULL;
+    for (int i = 0; i < d.ntransfers && !tr; i++)
+        if (d.transfers[i].ops->project_transport) tr = &d.transfers[i];
     const prt_stats *ps = &d.stats;
     printf("file          %s (%.2f MB, format version %d)\n", in, mb, PRTFILE_VERSION);
     printf("geometry      %d vertices, %d triangles%s\n", s->mesh.nverts, s->mesh.ntris,
@@ -38,13 +41,26 @@ int cli_info(int argc, char **argv) {
                s->floor_first_vertex);
     printf("bounds        [%g %g %g] - [%g %g %g]\n", s->bmin[0], s->bmin[1], s->bmin[2], s->bmax[0], s->bmax[1],
            s->bmax[2]);
-    char basis[256];
-    tr->ops->describe(&tr->cfg, basis, sizeof basis);
-    printf("basis         %s\n", basis);
-    printf("transport     %d vectors, N = %d kept per vector, %s, %zu coefficients, %zu block runs, %.2f MB\n",
-           t->nvecs, t->N, t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t),
-           transport_nruns(t), transport_bytes(t) / 1e6);
-    printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
+    for (int i = 0; i < d.ntransfers; i++) {
+        char basis[256];
+        d.transfers[i].ops->describe(&d.transfers[i].cfg, basis, sizeof basis);
+        printf("%s%s", i ? "              " : "basis         ", basis);
+        if (d.ntransfers > 1) printf(" (material mask 0x%llx)", (unsigned long long)d.transfers[i].materials);
+        printf("\n");
+    }
+    if (tr) {
+        const prt_transport *t = &tr->transport;
+        printf("transport     %d vectors, N = %d kept per vector, %s, %zu coefficients, %zu block runs, %.2f MB\n",
+               t->nvecs, t->N, t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t),
+               transport_nruns(t), transport_bytes(t) / 1e6);
+        printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
+    }
+    for (int i = 0; i < d.ntransfers; i++)
+        if (d.transfers[i].ops->summary) {
+            char buf[2048];
+            d.transfers[i].ops->summary(&d.transfers[i], buf, sizeof buf);
+            fputs(buf, stdout);
+        }
     printf("visibility    %dx%dx6 cube, 2x2 box-filtered to 64x64x6; %.1f%% of rays hit geometry\n", d.vis_res,
            d.vis_res, 100 * ps->hit_fraction);
     printf("materials     %d\n", s->nmaterials);
@@ -63,7 +79,7 @@ int cli_info(int argc, char **argv) {
         printf("\n");
     }
     printf("interreflect  %d pass(es), gather cube %dx%dx6%s\n", ps->bounces, d.gather_res, d.gather_res,
-           tr->direct.nvecs ? "; direct-only transport kept too" : "");
+           tr && tr->direct.nvecs ? "; direct-only transport kept too" : "");
     for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++)
         printf("              pass %d: %.3f%% of the direct energy, %.1fs\n", b + 1, 100 * ps->bounce_energy[b],
                ps->t_bounce[b]);

@@ -31,8 +31,16 @@ static void help(void) {
          "  --sh ORDER             spherical harmonics of ORDER (3..10) instead of Haar wavelets (baseline)\n"
          "  --texel-measure        Haar wavelets of the texels with their solid angle (the paper's;\n"
          "                         default: of the transport per steradian, steadier under a sun)\n"
+         "glossy materials (the effects plan prints each material's path and why):\n"
+         "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
+         "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
+         "                         vmf: vMF lobes wherever a lobe fit exists (phong, blinn, ggx, beckmann)\n"
+         "  --lobes I              vMF lobes per view and reflection pass (default 2)\n"
+         "  --view-level L         geodesic view grid: icosahedron subdivided L times\n"
+         "  --lobe-samples S       rays per (vertex, view) in the vMF passes\n"
          "interreflections (section 3.2, 4.2):\n"
-         "  --bounces B            at most B interreflection passes (default 0)\n"
+         "  --bounces B            at most B interreflection passes (default 3, stopped by the energy\n"
+         "                         threshold; 0: none)\n"
          "  --gather-res R         gathering cube resolution (default 32)\n"
          "  --bounce-threshold T   stop when a pass carries < T of the direct energy (default 0.01)\n"
          "  --force-bounces        do all B passes even if the plan would skip them\n"
@@ -67,11 +75,16 @@ static void summary(const char *out, const prt_data *data, double t_load, double
         snprintf(name, sizeof name, "bounce %d (%.2f%% energy)", b + 1, 100 * s->bounce_energy[b]);
         fprintf(stderr, "  %-28s %9.2fs\n", name, s->t_bounce[b]);
     }
+    if (s->t_vmf > 0) fprintf(stderr, "  %-28s %9.2fs\n", "vMF lobes (all passes)", s->t_vmf);
     fprintf(stderr, "  %-28s %9.2fs\n", "writing", s->t_write);
     fprintf(stderr, "  %-28s %9.2fs\n", "total", prt_now() - t0);
     const prt_transport *t = &prt_data_transfer(data)->transport;
-    fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit\n", out, mb, t->nverts,
+    fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit", out, mb, t->nverts,
             t->nvecs, t->N, t->qbits);
+    for (int i = 0; i < data->ntransfers; i++)
+        if (data->transfers[i].ops->bytes && !data->transfers[i].ops->light_range)
+            fprintf(stderr, "; %s %.1f MB", data->transfers[i].ops->name, data->transfers[i].ops->bytes(&data->transfers[i]) / 1e6);
+    fputc('\n', stderr);
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file. Returns the exit status. */
@@ -122,7 +135,8 @@ int cli_precompute(int argc, char **argv) {
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
-    int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0;
+    int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
+    const char *glossy = NULL;
     float refine_thr = -1;
     bool texel = false;
     const cli_option opts[] = {
@@ -148,7 +162,11 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
-        CLI_I("--bounces", &pd.bounces, 0, PRT_MAX_BOUNCES),
+        { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
+        CLI_S("--glossy", &glossy),
+        CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
+        CLI_I("--view-level", &pd.vmf.level, 0, 6),
+        CLI_I("--lobe-samples", &pd.vmf.samples, 1, 1 << 20),
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
@@ -164,6 +182,11 @@ int cli_precompute(int argc, char **argv) {
         pd.basis = "sh";
         pd.basis_order = sh_bands;
     }
+    if (glossy && !strcmp(glossy, "svd")) pd.glossy = PRECOMPUTE_GLOSSY_SVD;
+    else if (glossy && !strcmp(glossy, "vmf")) pd.glossy = PRECOMPUTE_GLOSSY_VMF;
+    else if (glossy && strcmp(glossy, "auto")) return cli_error(k_cmd, "--glossy must be auto, svd or vmf (got '%s')", glossy) + 1;
+    /* --bounces 0 turns interreflections off (the library's 0 means its default, 3) */
+    if (bounces_seen && pd.bounces == 0 && pd.force_bounces == 0) pd.force_bounces = -1;
     if (pd.qbits && pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
     if (pd.vis_res && pd.vis_res != 64 && pd.vis_res != 128 && pd.vis_res != 256)
         return cli_error(k_cmd, "--vis-res must be 64, 128 or 256") + 1;

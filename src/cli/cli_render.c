@@ -144,7 +144,7 @@ int cli_render(int argc, char **argv) {
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     prt_camera cam;
-    if (a.direct_only && d.stats.bounces > 0 && prt_data_transfer(&d)->direct.nvecs == 0)
+    if (a.direct_only && d.stats.bounces > 0 && prt_data_transfer(&d) && prt_data_transfer(&d)->direct.nvecs == 0)
         cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", a.in);
     else if (cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam) == 0 &&
              cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) == 0)

@@ -491,10 +491,11 @@ void prt_data_free(prt_data *d) {
     d->scene.floor_first_vertex = -1;
 }
 
+/* The first transfer with a light kernel, or NULL (see prtfile.h). */
 const prt_transfer *prt_data_transfer(const prt_data *d) {
-    PRT_CHECK_EQ(d->ntransfers, 1);
-    PRT_CHECK(d->transfers[0].ops != NULL);
-    return &d->transfers[0];
+    for (int i = 0; i < d->ntransfers; i++)
+        if (d->transfers[i].ops && d->transfers[i].ops->light_range) return &d->transfers[i];
+    return NULL;
 }
 
 prt_transfer *prt_data_add_transfer(prt_data *d, const transfer_ops *ops, const transfer_config *cfg, uint64_t materials) {

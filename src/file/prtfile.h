@@ -29,6 +29,7 @@
 
 typedef struct prt_stats {
     double t_refine;            /* adaptive refinement (refine.h; 0 when off; not stored: the plan line has it) */
+    double t_vmf;               /* the vmf transfer's passes (0 without one; not stored: the plan line has it) */
     double t_brdf;              /* BRDF tabulation + SVD */
     double t_visibility;        /* ray casting */
     double t_transport;         /* transport evaluation, Haar, selection, quantization */
@@ -58,8 +59,11 @@ typedef struct prt_data {
 int prtfile_write(const char *path, const prt_data *d, prt_error *err);
 int prtfile_read(const char *path, prt_data *out, prt_error *err);
 void prt_data_free(prt_data *d);
-/* The one transfer today's runtimes shade with: precompute makes exactly one, covering every
- * material (PRT_CHECKed; a later runtime that sums several iterates d->transfers instead). */
+/* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range), or NULL when
+ * there is none (a file holding only a vmf transfer, as its tests write: valid, but the runtimes
+ * refuse it with one line). Precompute makes exactly one, covering every material (a material on
+ * the vMF path keeps only its kd/pi factor there, its specular lobes being in the vmf transfer).
+ * Code that shades iterates d->transfers instead. */
 const prt_transfer *prt_data_transfer(const prt_data *d);
 /* Appends a transfer of ops with cfg (NULL: defaults unfilled, zero) for materials (bit i:
  * material i) and returns it, its transport sets empty; the caller fills them. PRT_CHECKs room. */

@@ -49,6 +49,7 @@
 #include "cubemap.h"
 #include "gather.h"
 #include "haar.h"
+#include "lobefit.h"
 #include "refine.h"
 #include "transfer.h"
 #include "visibility.h"
@@ -398,6 +399,12 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
     return count ? secs / count : 0;
 }
 
+/* The vmf representation when the table has one that can precompute, else NULL. */
+static const transfer_ops *pc_vmf_ops(void) {
+    const transfer_ops *ops = transfer_find("vmf");
+    return ops && ops->precompute && ops->shade_vertices ? ops : NULL;
+}
+
 /* Validates desc and fills defaults into *d. Returns 0 or -1. */
 static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_error *err) {
     *d = in ? *in : (precompute_desc){ 0 };
@@ -414,13 +421,22 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->vis_res == 0) d->vis_res = 128;
     if (d->vis_res != 64 && d->vis_res != 128 && d->vis_res != 256)
         return prt_fail(err, "precompute: vis_res = %d (must be 64, 128 or 256)", d->vis_res);
-    if (d->basis && !transfer_find(d->basis)) {
-        char names[128];
-        transfer_names(names, sizeof names);
+    const transfer_ops *bops = d->basis ? transfer_find(d->basis) : NULL;
+    if (d->basis && (!bops || !bops->project_transport)) {
+        /* only the projection bases (the sparse family); vMF lobes are the glossy path's, not a basis */
+        char names[128] = "";
+        for (int i = 0, n = 0; i < transfer_count() && n < (int)sizeof names; i++)
+            if (transfer_at(i)->project_transport)
+                n += snprintf(names + n, sizeof names - (size_t)n, "%s%s", n ? ", " : "", transfer_at(i)->name);
         return prt_fail(err, "precompute: unknown basis '%s' (one of %s)", d->basis, names);
     }
     if (d->bounces < 0 || d->bounces > PRT_MAX_BOUNCES)
         return prt_fail(err, "precompute: bounces = %d is out of range 0..%d", d->bounces, PRT_MAX_BOUNCES);
+    if (d->bounces == 0) d->bounces = PRECOMPUTE_DEFAULT_BOUNCES;
+    if (d->glossy < PRECOMPUTE_GLOSSY_AUTO || d->glossy > PRECOMPUTE_GLOSSY_VMF)
+        return prt_fail(err, "precompute: unknown glossy path %d", (int)d->glossy);
+    if (d->glossy == PRECOMPUTE_GLOSSY_VMF && !pc_vmf_ops())
+        return prt_fail(err, "precompute: the vMF path was asked for, but this build has no vmf transfer representation");
     if (d->gather_res == 0) d->gather_res = 32;
     if (d->gather_res < 4 || d->gather_res > 256)
         return prt_fail(err, "precompute: gather_res = %d is out of range 4..256", d->gather_res);
@@ -464,7 +480,8 @@ typedef struct pc_run {
     char *plan;
     size_t pcap;
     int nthreads, kmax;
-    prt_transfer *tr;           /* the one transfer this run makes (in out, filled by finish) */
+    prt_transfer *tr;           /* the sparse transfer (every material; in out, filled by finish) */
+    prt_transfer *vtr;          /* the vmf transfer (the materials on the vMF path), or NULL */
     vis_scene *vs;
     float *vdir, *vdw, *ldir;   /* texel direction tables (pc_ctx) */
     int *order, *nvec;
@@ -520,24 +537,116 @@ static int pc_factor(pc_run *r, prt_error *err) {
     return 0;
 }
 
-/* Stage choose: the transfer representation of every material and the plan's basis line with the
- * reason. Today one representation serves every material: the one asked for (desc.basis), else
- * Haar wavelets, the paper's all-frequency basis (SH is the low-frequency baseline). Returns 0 or -1. */
+/* Mean of n floats. */
+static double pc_mean(const float *x, int n) {
+    double s = 0;
+    for (int i = 0; i < n; i++) s += x[i];
+    return n > 0 ? s / n : 0;
+}
+
+/* See precompute.h: the path of one material with the plan's reason. Auto measures both in the lobe
+ * fit's measure (relative L2 error over the whole slice f cos, mean over view elevations; lobefit.h):
+ * the SVD at f's K, and one vMF lobe per view. */
+int precompute_choose_path(const brdf_params *p, const brdf_factor *f, precompute_glossy mode, bool have_vmf,
+                           precompute_path *path, char *why, size_t cap, prt_error *err) {
+    const char *name = brdf_type_name(p->type);
+    *path = PRECOMPUTE_PATH_SVD;
+    if (f->lambertian || p->type == BRDF_LAMBERT)
+        return *path = PRECOMPUTE_PATH_LAMBERT, snprintf(why, cap, "the sparse transfer, K = 1 (Lambertian)"), 0;
+    if (mode == PRECOMPUTE_GLOSSY_SVD) return snprintf(why, cap, "SVD, K = %d (asked for: glossy svd)", f->K), 0;
+    if (!lobefit_supported(p->type))
+        return snprintf(why, cap, "SVD, K = %d (%s: %s)", f->K, name,
+                        p->type == BRDF_AS ? "anisotropic, and no ASG fit exists here" : "no lobe fit for this model"), 0;
+    if (!have_vmf) return snprintf(why, cap, "SVD, K = %d (this build has no vmf transfer representation)", f->K), 0;
+    lobefit_table t;
+    if (lobefit_fit(p, &(lobefit_desc){ 0 }, &t, err)) return -1;
+    float e[LOBEFIT_MAX_VIEWS];
+    lobefit_factor_error(&t, p, f, f->K, e);
+    double svd = pc_mean(e, t.views), lobe = t.err_whole_mean;
+    const char *measure = "rel. L2 over the whole slice f cos";
+    if (mode == PRECOMPUTE_GLOSSY_VMF) {
+        *path = PRECOMPUTE_PATH_VMF;
+        snprintf(why, cap, "Haar K = 1 diffuse + vMF specular (asked for: glossy vmf; SVD K = %d %.1f%%, one vMF lobe %.1f%%, %s)",
+                 f->K, 100 * svd, 100 * lobe, measure);
+    } else if (svd <= PRECOMPUTE_SVD_SMALL) {
+        snprintf(why, cap, "SVD, K = %d: its error %.1f%% <= %.0f%% (one vMF lobe %.1f%%; %s)", f->K, 100 * svd,
+                 100 * PRECOMPUTE_SVD_SMALL, 100 * lobe, measure);
+    } else if (lobe >= svd) {
+        snprintf(why, cap, "SVD, K = %d: error %.1f%%, but one vMF lobe is no better (%.1f%%; %s)", f->K, 100 * svd, 100 * lobe, measure);
+    } else {
+        *path = PRECOMPUTE_PATH_VMF;
+        snprintf(why, cap, "Haar K = 1 diffuse + vMF specular: SVD K = %d error %.1f%% > %.0f%%, one vMF lobe %.1f%% (%s)", f->K,
+                 100 * svd, 100 * PRECOMPUTE_SVD_SMALL, 100 * lobe, measure);
+    }
+    return 0;
+}
+
+/* Material i on the vMF path: its factor becomes the K = 1 factor of kd/pi alone (the sparse transfer
+ * then holds the diffuse part), and the constant light map of it. Returns 0 or -1. */
+static int pc_diffuse_factor(pc_run *r, int i, prt_error *err) {
+    brdf_params lp = { .type = BRDF_LAMBERT };
+    memcpy(lp.kd, r->out->scene.materials[i].kd, sizeof lp.kd);
+    brdf_factor_desc fd = { .max_terms = 1, .param = r->d.param };
+    brdf_factor f;
+    if (brdf_factorize(&lp, &fd, &f, err)) return -1;
+    PRT_CHECK(f.K == 1 && f.lambertian);
+    brdf_factor_free(&r->out->factors[i]);
+    r->out->factors[i] = f;
+    float up[3] = { 0, 0, 1 }, g[BRDF_MAX_SIGMA * 3];
+    brdf_factor_light(&f, up, g);
+    memcpy(r->c.lambert_g[i], g, sizeof(float) * 3);
+    return 0;
+}
+
+/* The vmf transfer for the materials in mask, configured from desc.vmf, and its plan line. Returns 0 or -1. */
+static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
+    const transfer_ops *ops = pc_vmf_ops();
+    PRT_CHECK(ops != NULL);
+    transfer_config cfg = r->d.vmf;
+    prt_error e2;
+    if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
+    r->vtr = prt_data_add_transfer(r->out, ops, &cfg, mask);
+    char line[256];
+    ops->describe(&cfg, line, sizeof line);
+    plan_add(r->plan, r->pcap, "  specular: %s for the materials on the vMF path\n", line);
+    return 0;
+}
+
+/* Stage choose: the path of every material with the reason (see precompute.h), then the sparse
+ * transfer (desc.basis, else Haar wavelets, the paper's all-frequency basis; SH is the low-frequency
+ * baseline) over every material and, when some material took the vMF path, the vmf transfer over
+ * those. Returns 0 or -1. */
 static int pc_choose(pc_run *r, prt_error *err) {
+    int nm = r->out->scene.nmaterials;
+    uint64_t vmask = 0;
+    plan_add(r->plan, r->pcap, "  paths:\n");
+    for (int i = 0; i < nm; i++) {
+        const brdf_params *p = &r->out->scene.materials[i];
+        char why[384];
+        precompute_path path;
+        if (precompute_choose_path(p, &r->out->factors[i], r->d.glossy, pc_vmf_ops() != NULL, &path, why, sizeof why, err))
+            return -1;
+        bool vmf = path == PRECOMPUTE_PATH_VMF;
+        if (vmf && pc_diffuse_factor(r, i, err)) return -1;
+        if (vmf) vmask |= (uint64_t)1 << i;
+        plan_add(r->plan, r->pcap, "    material %d %s: %s\n", i, brdf_type_name(p->type), why);
+    }
+    r->kmax = 1;
+    for (int i = 0; i < nm; i++)
+        if (r->out->factors[i].K > r->kmax) r->kmax = r->out->factors[i].K;
     const transfer_ops *ops = transfer_find(r->d.basis ? r->d.basis : "haar");
     PRT_CHECK(ops != NULL);   /* pc_check_desc refused unknown names */
     transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order, 
                            .measure = ops == &transfer_haar ? r->d.measure : 0 };
     prt_error e2;
     if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
-    int nm = r->out->scene.nmaterials;
     uint64_t all = nm >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << nm) - 1;
     r->tr = prt_data_add_transfer(r->out, ops, &cfg, all);
     char line[256];
     ops->describe(&cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
-    return 0;
+    return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
 /* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
@@ -600,14 +709,11 @@ static void plan_bounce_line(pc_run *r) {
     } else if (hit < PC_HIT_MIN) {
         plan_add(r->plan, r->pcap, "  interreflections: none: only %.2f%% of visibility rays hit geometry (< %.1f%%: surfaces do not see each other)\n",
                  100 * hit, 100 * PC_HIT_MIN);
-    } else if (d->bounces == 0) {
-        plan_add(r->plan, r->pcap, "  interreflections: none (bounces 0); %.1f%% of rays hit geometry, so bounces would add interreflections\n",
-                 100 * hit);
     } else {
         plan_add(r->plan, r->pcap, "  interreflections: up to %d pass%s while a pass carries >= %.1f%% of the direct energy (%.1f%% of rays hit geometry)\n",
                  d->bounces, d->bounces == 1 ? "" : "es", 100 * d->bounce_threshold, 100 * hit);
     }
-    r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && d->bounces > 0 && hit >= PC_HIT_MIN);
+    r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && hit >= PC_HIT_MIN);
 }
 
 /* Stage plan: the planning sample (a strided set of vertices computed first and kept), the
@@ -678,7 +784,7 @@ static int pc_direct(pc_run *r, prt_error *err) {
     st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
     for (int t = 0; t < r->nthreads; t++) pc_scratch_free(&r->scratch[t]);
     if (transport_finish(&r->direct, err)) return -1;
-    if (r->d.force_bounces == 0 && r->d.bounces > 0) {
+    if (r->d.force_bounces == 0) {
         bool full = st->hit_fraction >= PC_HIT_MIN;
         if (full != r->plan_bounces) {
             plan_add(r->plan, r->pcap, "  after the direct pass: %.2f%% of all rays hit geometry, so interreflections are %s\n",
@@ -721,6 +827,24 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         plan_add(r->plan, r->pcap, "%s", line);
         if (stop) break;
     }
+    return 0;
+}
+
+/* Stage vmf: the vmf transfer's passes (its ops->precompute: direct and gathering, laurijssen-2011
+ * section 5) over the same scene and Embree scene, with as many reflection passes at most as the
+ * sparse transfer was allowed (1 + bounces, none when the plan has no interreflections) and the same
+ * threshold; its time and size go into the plan. Returns 0 or -1. */
+static int pc_vmf(pc_run *r, prt_error *err) {
+    if (!r->vtr) return 0;
+    transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
+                                  .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
+                                  .progress = r->d.progress, .progress_user = r->d.progress_user };
+    double t0 = prt_now();
+    if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
+    r->out->stats.t_vmf = prt_now() - t0;
+    size_t bytes = r->vtr->ops->bytes ? r->vtr->ops->bytes(r->vtr) : 0;
+    plan_add(r->plan, r->pcap, "  vmf: %d reflection pass%s at most, %.1fs, %.1f MB\n", in.passes, in.passes == 1 ? "" : "es",
+             r->out->stats.t_vmf, bytes / 1e6);
     return 0;
 }
 
@@ -774,7 +898,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     atomic_init(&r->c.done, 0);
     pthread_mutex_init(&r->c.lock, NULL);
     r->have_lock = true;
-    if (pc_plan(r, err) || pc_direct(r, err) || pc_bounces(r, err)) goto done;
+    if (pc_plan(r, err) || pc_direct(r, err) || pc_bounces(r, err) || pc_vmf(r, err)) goto done;
     pc_finish(r);
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();

@@ -16,14 +16,26 @@
  * transfer.h), the N largest coefficients kept, quantized.
  *
  * Effects plan (printed to stderr unless quiet, kept in out->plan for `prt info`):
- * the transfer representation per material with the reason (desc.basis when given,
- * else Haar wavelets; out gets one transfer covering every material); K per material from its singular values (Lambertian: 1; glossy: the smallest
- * K meeting term_error, else max_terms); interreflections only if at least 0.5%
- * of the visibility rays of a 200-vertex sample hit geometry (re-checked on the
- * full pass), passes continuing while one carries >= bounce_threshold of the
+ * K per material from its singular values (Lambertian: 1; glossy: the smallest K meeting
+ * term_error, else max_terms); then the path of every material, with the reason:
+ *   - Lambert: the sparse transfer (desc.basis, else Haar) with K = 1;
+ *   - glossy (glossy auto): the SVD path when its error at that K, in the lobe fit's measure
+ *     (lobefit_factor_error, whole slice), is at most PRECOMPUTE_SVD_SMALL, or when one vMF
+ *     lobe (lobefit_fit) is no better; else Haar diffuse + vMF specular: the material's factor
+ *     becomes the K = 1 factor of its kd/pi alone (so the sparse transfer holds the diffuse
+ *     part, all-frequency shadows kept) and a second transfer, "vmf", holds its specular lobes
+ *     (filled by that representation's ops->precompute after the sparse passes);
+ *   - Ashikhmin-Shirley and Lafortune stay SVD (no ASG or multi-lobe fit exists here);
+ *   - glossy svd forces the SVD path, glossy vmf the vMF path wherever a lobe fit exists;
+ *     a build whose table has no "vmf" says so and uses the SVD (auto; vmf asked for fails).
+ * out gets the sparse transfer (every material) and, when some material took the vMF path,
+ * the vmf transfer (those materials). Interreflections only if at least 0.5% of the
+ * visibility rays of a 200-vertex sample hit geometry (re-checked on the full pass), up to
+ * bounces (default 3) passes continuing while one carries >= bounce_threshold of the
  * direct energy (gather_energy ratio; the pass that falls below is still added);
- * force_bounces 1 does max(bounces, 1) passes regardless, -1 none. A time
- * estimate comes from the sample, which is computed first and kept.
+ * force_bounces 1 does max(bounces, 1) passes regardless, -1 none (`--bounces 0`). The vmf
+ * transfer gets the same number of reflection passes at most (1 + bounces) and the same
+ * threshold. A time estimate comes from the sample, which is computed first and kept.
  *
  * Refinement (refine_threshold > 0, stage refine, before everything else): the scene's
  * mesh is refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1),
@@ -34,6 +46,19 @@
 #ifndef PRT_PRECOMPUTE_H
 #define PRT_PRECOMPUTE_H
 #include "prtfile.h"
+
+/* Where glossy materials go (the effects plan, per material; Lambert always gets Haar K = 1). */
+typedef enum precompute_glossy {
+    PRECOMPUTE_GLOSSY_AUTO = 0, /* measured per material: SVD when its error at the allowed K is small, else vMF */
+    PRECOMPUTE_GLOSSY_SVD,      /* the separable factorization for every glossy material (the paper's) */
+    PRECOMPUTE_GLOSSY_VMF,      /* vMF lobes for every material with a lobe fit (the others stay SVD) */
+} precompute_glossy;
+
+/* A glossy material whose SVD error at the allowed K (lobefit_factor_error: the whole slice, relative
+ * L2, mean over view elevations) is at most this stays on the SVD path (auto). */
+#define PRECOMPUTE_SVD_SMALL 0.10f
+/* Interreflection passes at most when precompute_desc.bounces is 0 (the adaptive stop decides). */
+#define PRECOMPUTE_DEFAULT_BOUNCES 3
 
 typedef struct precompute_desc {
     int N;                  /* coefficients per vector; 0: 128 */
@@ -48,7 +73,7 @@ typedef struct precompute_desc {
                              * transport per steradian (transfer.h; what `prt precompute` asks for unless
                              * --texel-measure). 0 stays the library's default so that callers who build light
                              * vectors with light_from_cube rather than transfer_light_vector keep working. */
-    int bounces;            /* maximum interreflection passes; 0: none */
+    int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
@@ -57,11 +82,26 @@ typedef struct precompute_desc {
                              * masks differ in more than this share; 0: no refinement (the default for now) */
     int refine_budget;      /* with refinement, the most vertices after it; 0: 1.5x the scene's */
     int refine_parts;       /* refine.h's parts: 0 the floor's edges when there is a floor, REFINE_ALL models too */
+    precompute_glossy glossy; /* auto (default), svd or vmf */
+    transfer_config vmf;    /* the vmf transfer's lobes / level / samples (zero: its defaults) */
     int nthreads;           /* 0: all cores */
     prt_progress_fn progress;
     void *progress_user;
     bool quiet;             /* do not print the plan */
 } precompute_desc;
+
+/* The path of one material (stage choose; precompute_run prints it per material). */
+typedef enum precompute_path {
+    PRECOMPUTE_PATH_LAMBERT = 0,    /* Lambertian: the sparse transfer with K = 1 */
+    PRECOMPUTE_PATH_SVD,            /* the sparse transfer with the material's K-term SVD (Eq. 5) */
+    PRECOMPUTE_PATH_VMF,            /* the sparse transfer with kd/pi alone (K = 1) + the vmf transfer's lobes */
+} precompute_path;
+
+/* Decides material p's path (f: its factorization at the K the plan allows) under mode, as the
+ * header comment says; have_vmf: the table has a vmf representation. why gets the plan's clause
+ * (the measured errors). Returns 0, or -1 with err when the lobe fit fails. Pure: no globals. */
+int precompute_choose_path(const brdf_params *p, const brdf_factor *f, precompute_glossy mode, bool have_vmf,
+                           precompute_path *path, char *why, size_t cap, prt_error *err);
 
 /* Runs the pipeline. Takes ownership of *scene (zeroed on return). Returns 0 or -1. */
 int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out, prt_error *err);

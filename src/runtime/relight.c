@@ -21,6 +21,7 @@
  * Per-vertex data is packed into one 48-byte record (position and the frame s,
  * t, n) so the view loop streams a single array. */
 #include "relight.h"
+#include "check.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,34 +33,44 @@ typedef struct relight_vert {
     float pos[3], s[3], t[3], n[3];
 } relight_vert;
 
+/* One sparse transfer's part: its light-dependent K-vectors. */
+typedef struct relight_part {
+    const prt_transfer *tr;
+    int index;                    /* in d->transfers */
+    int nvecs;
+    float *g;                     /* [3 * nvecs] light-dependent K-vectors (Eq. 5's T x L) */
+} relight_part;
+
 struct relight_ctx {
     const prt_data *d;
-    const prt_transfer *tr;       /* the file's one transfer (prt_data_transfer) */
+    relight_part part[PRT_MAX_TRANSFERS];   /* the sparse transfers (ops->light_range), in d's order */
+    int nparts;
     int nthreads;
     bool use_direct;       /* light changes use d->direct (see relight_use_direct) */
-    int nverts, nvecs;
+    int nverts;
     relight_vert *verts;          /* [nverts] */
-    float *g;                     /* [3 * nvecs] light-dependent K-vectors (Eq. 5's T x L) */
     float lambert_h[PRT_MAX_MATERIALS][3];   /* constant view map of Lambertian factors */
 };
 
 /* Validates d and precomputes frames; returns a context (free with relight_destroy) or NULL with err set. */
 relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     const prt_mesh *m = &d->scene.mesh;
-    if (d->ntransfers != 1 || !d->transfers[0].ops) {
-        prt_fail(err, "relight: the data has %d transfers (one expected)", d->ntransfers);
-        return NULL;
-    }
-    const prt_transfer *tr = prt_data_transfer(d);
-    const prt_transport *t = &tr->transport;
     const char *bad = NULL;
     char why[256];
-    if (!tr->ops->light_range) bad = "the transfer has no CPU light kernel";
-    else if (!t->coef_first || !t->vec_first) bad = "the transport set is not finished";
-    else if (t->nverts != m->nverts) {
-        snprintf(why, sizeof why, "transport has %d vertices but the mesh has %d", t->nverts, m->nverts);
-        bad = why;
-    } else if (m->nverts > 0 && (!m->pos || !m->nrm)) bad = "the mesh has no positions or normals";
+    int nsparse = 0;
+    for (int i = 0; !bad && i < d->ntransfers; i++) {
+        const prt_transfer *tr = &d->transfers[i];
+        if (!tr->ops) bad = "a transfer has no representation";
+        else if (!tr->ops->light_range) continue;   /* non-linear: the runtime calls its shade_vertices */
+        else if (!tr->transport.coef_first || !tr->transport.vec_first) bad = "the transport set is not finished";
+        else if (tr->transport.nverts != m->nverts) {
+            snprintf(why, sizeof why, "transport has %d vertices but the mesh has %d", tr->transport.nverts, m->nverts);
+            bad = why;
+        }
+        nsparse++;
+    }
+    if (!bad && nsparse == 0) bad = "the data has no transfer with a CPU light kernel";
+    else if (!bad && m->nverts > 0 && (!m->pos || !m->nrm)) bad = "the mesh has no positions or normals";
     else if (d->scene.nmaterials < 1 || d->scene.nmaterials > PRT_MAX_MATERIALS) {
         snprintf(why, sizeof why, "bad material count %d", d->scene.nmaterials);
         bad = why;
@@ -84,15 +95,19 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     relight_ctx *rc = prt_calloc(1, sizeof *rc, err);
     if (!rc) return NULL;
     rc->d = d;
-    rc->tr = tr;
     rc->nthreads = nthreads;
     rc->nverts = m->nverts;
-    rc->nvecs = t->nvecs;
     rc->verts = prt_calloc((size_t)m->nverts, sizeof *rc->verts, err);
-    rc->g = prt_calloc(3 * (size_t)t->nvecs, sizeof *rc->g, err);
-    if (!rc->verts || !rc->g) {
-        relight_destroy(rc);
-        return NULL;
+    if (!rc->verts) { relight_destroy(rc); return NULL; }
+    for (int i = 0; i < d->ntransfers; i++) {
+        const prt_transfer *tr = &d->transfers[i];
+        if (!tr->ops->light_range) continue;
+        relight_part *pt = &rc->part[rc->nparts++];
+        pt->tr = tr;
+        pt->index = i;
+        pt->nvecs = tr->transport.nvecs;
+        pt->g = prt_calloc(3 * (size_t)pt->nvecs + 3, sizeof *pt->g, err);
+        if (!pt->g) { relight_destroy(rc); return NULL; }
     }
     for (int v = 0; v < m->nverts; v++) {
         relight_vert *rv = &rc->verts[v];
@@ -115,40 +130,47 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
 void relight_destroy(relight_ctx *rc) {
     if (!rc) return;
     free(rc->verts);
-    free(rc->g);
+    for (int i = 0; i < rc->nparts; i++) free(rc->part[i].g);
     free(rc);
 }
 
-/* Light change: g = T x L for every vector (Eq. 5) with the representation's kernel, on rc->nthreads threads. */
-void relight_set_light(relight_ctx *rc, const float (*L)[4]) {
-    const prt_transport *t = rc->use_direct && rc->tr->direct.nvecs ? &rc->tr->direct : &rc->tr->transport;
-    transfer_light(rc->tr, t, L, rc->g, rc->nthreads);
+/* Light change of one part: g = T x L for every vector (Eq. 5) with its kernel, on rc->nthreads threads. */
+static void part_light(const relight_ctx *rc, const relight_part *pt, const float (*L)[4]) {
+    const prt_transport *t = rc->use_direct && pt->tr->direct.nvecs ? &pt->tr->direct : &pt->tr->transport;
+    transfer_light(pt->tr, t, L, pt->g, rc->nthreads);
 }
 
-/* Chooses the direct-only set (when the file keeps one) or the total; true if the choice is available. */
+/* Light change of the first sparse transfer (prt_data_transfer). */
+void relight_set_light(relight_ctx *rc, const float (*L)[4]) { part_light(rc, &rc->part[0], L); }
+
+/* Light change of transfer i of the data (a sparse one). */
+void relight_set_light_at(relight_ctx *rc, int i, const float (*L)[4]) {
+    for (int p = 0; p < rc->nparts; p++)
+        if (rc->part[p].index == i) { part_light(rc, &rc->part[p], L); return; }
+    PRT_CHECK(!"relight_set_light_at: not a sparse transfer");
+}
+
+/* Chooses the direct-only set (when the first sparse transfer keeps one) or the total; true if available. */
 bool relight_use_direct(relight_ctx *rc, bool direct) {
-    if (direct && !rc->tr->direct.nvecs) return false;
+    if (direct && !rc->part[0].tr->direct.nvecs) return false;
     rc->use_direct = direct;
     return true;
 }
 
-/* The cached K-vectors, [3 * nvecs]; owned by rc. */
-const float *relight_gvec(const relight_ctx *rc) { return rc->g; }
+/* The first sparse transfer's cached K-vectors, [3 * nvecs]; owned by rc. */
+const float *relight_gvec(const relight_ctx *rc) { return rc->part[0].g; }
 
-/* h . g of vertex v for local view direction wl (unit), clamped to >= 0 and finite. */
-static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, float rgb[3]) {
-    const prt_data *d = rc->d;
-    int mi = d->scene.mesh.mat ? d->scene.mesh.mat[v] : 0;
-    const brdf_factor *f = &d->factors[mi];
-    const uint32_t *vf = rc->tr->transport.vec_first;
+/* h . g of vertex v (material mi) in one part for local view direction wl (unit), added to acc. */
+static void shade_part(const relight_ctx *rc, const relight_part *pt, int v, int mi, const float wl[3], int kmax, float acc[3]) {
+    const brdf_factor *f = &rc->d->factors[mi];
+    const uint32_t *vf = pt->tr->transport.vec_first;
     uint32_t v0 = vf[v], nk = vf[v + 1] - v0;
     int K = (int)nk < f->K ? (int)nk : f->K;
     if (kmax > 0 && kmax < K) K = kmax;
-    const float *g = rc->g + 3 * (size_t)v0;
-    float acc[3] = { 0, 0, 0 };
+    const float *g = pt->g + 3 * (size_t)v0;
     if (K > 0) {
         if (f->lambertian) {
-            for (int c = 0; c < 3; c++) acc[c] = rc->lambert_h[mi][c] * g[c];
+            for (int c = 0; c < 3; c++) acc[c] += rc->lambert_h[mi][c] * g[c];
         } else {
             float h[BRDF_MAX_SIGMA * 3], w[3] = { wl[0], wl[1], wl[2] };
             if (w[2] < RELIGHT_MIN_COS) {
@@ -164,6 +186,14 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
                 for (int c = 0; c < 3; c++) acc[c] += h[3 * k + c] * g[3 * k + c];
         }
     }
+}
+
+/* Sum over the sparse transfers whose mask holds v's material, clamped to >= 0 and finite. */
+static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, float rgb[3]) {
+    int mi = rc->d->scene.mesh.mat ? rc->d->scene.mesh.mat[v] : 0;
+    float acc[3] = { 0, 0, 0 };
+    for (int p = 0; p < rc->nparts; p++)
+        if ((rc->part[p].tr->materials >> mi) & 1) shade_part(rc, &rc->part[p], v, mi, wl, kmax, acc);
     for (int c = 0; c < 3; c++) rgb[c] = acc[c] > 0 && isfinite(acc[c]) ? acc[c] : 0.f;
 }
 
@@ -205,4 +235,6 @@ void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb) {
 }
 
 /* Copies externally computed K-vectors into the cache. */
-void relight_set_gvec(relight_ctx *rc, const float *g) { memcpy(rc->g, g, sizeof(float) * 3 * (size_t)rc->nvecs); }
+void relight_set_gvec(relight_ctx *rc, const float *g) {
+    memcpy(rc->part[0].g, g, sizeof(float) * 3 * (size_t)rc->part[0].nvecs);
+}

@@ -8,7 +8,14 @@
  *
  * The light-dependent K-vectors g are cached between calls, so a view change
  * costs only the view-map lookups and a K-term dot product per vertex. kmax
- * limits the terms used (0: all). Lambertian materials skip the lookups. */
+ * limits the terms used (0: all). Lambertian materials skip the lookups.
+ *
+ * Several transfers: relight handles the sparse ones (ops->light_range), each
+ * with its own g and its own light vector (relight_set_light_at); a vertex's
+ * colour is the sum over the sparse transfers whose mask holds its material.
+ * Non-linear transfers (vmf) are not relight's: the runtime adds their
+ * ops->shade_vertices. relight_set_light, relight_use_direct and the gvec calls
+ * concern the first sparse transfer (prt_data_transfer), the only one today. */
 #ifndef PRT_RELIGHT_H
 #define PRT_RELIGHT_H
 #include "prtfile.h"
@@ -17,8 +24,10 @@ typedef struct relight_ctx relight_ctx;
 
 relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err);
 void relight_destroy(relight_ctx *rc);
-/* L: [CUBE_TEXELS][4] light vector (light.h). */
+/* L: [CUBE_TEXELS][4] light vector (light.h) of the first sparse transfer. */
 void relight_set_light(relight_ctx *rc, const float (*L)[4]);
+/* The light change of transfer i of the data (index in d->transfers; PRT_CHECKed to be sparse). */
+void relight_set_light_at(relight_ctx *rc, int i, const float (*L)[4]);
 /* Light changes from now on use the direct-only transport (true; only when the file keeps
  * one, prt_data_transfer(d)->direct.nvecs > 0) or direct + bounces (false, the default). Returns false when
  * the direct set is asked for but absent. Call relight_set_light again to see the change. */

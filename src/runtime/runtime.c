@@ -1,11 +1,15 @@
 /* runtime.c - the runtime seam (runtime.h): the list of every backend, and what
- * all of them share: argument checks, the light vector (probe -> rotated cube
- * -> the transfer representation's light vector, transfer.h), its timing, and
- * the number of BRDF terms view changes use. Each backend module implements
- * the runtime_backend operations; nothing here knows what a backend does. */
+ * all of them share: argument checks, the light (probe -> rotated cube -> each
+ * transfer's light vector, transfer.h; and the probe prefiltered by vMF lobes
+ * for the non-linear transfers, prefilter.h, kept per probe and only rotated),
+ * its timing, and the number of BRDF terms view changes use. Each backend
+ * module implements the runtime_backend operations; nothing here knows what a
+ * backend does, nor which representation a transfer is (it asks the ops). */
 #include "runtime.h"
 #include "check.h"
 #include "cubemap.h"
+#include "light.h"
+#include "prefilter.h"
 #include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
@@ -20,6 +24,9 @@ struct prt_runtime {
     const prt_data *d;
     int kmax;
     double light_vector_ms;
+    prefilter_env *env;         /* the last probe prefiltered (non-linear transfers), or NULL */
+    const prt_probe *env_probe; /* which probe (pointer and pixels) env was made from */
+    const float *env_pixels;
 };
 
 /* The backend called name, or NULL. */
@@ -56,22 +63,58 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
 void runtime_destroy(prt_runtime *rt) {
     if (!rt) return;
     rt->be->destroy(rt->self);
+    prefilter_destroy(rt->env);
     free(rt);
 }
 
-/* Light vector of the probe rotated by R (timed), then the backend's light change. */
+/* light->L[i] for every transfer with a light projection, from the cube (allocated: rt_light_free). */
+static int rt_light_vectors(const prt_runtime *rt, const float *cube, runtime_light *light, prt_error *err) {
+    for (int i = 0; i < rt->d->ntransfers; i++) {
+        const prt_transfer *tr = &rt->d->transfers[i];
+        if (!tr->ops->project_light) continue;
+        float (*L)[4] = light_alloc();
+        if (!L) return prt_fail(err, "out of memory");
+        tr->ops->project_light(&tr->cfg, cube, L);
+        light->L[i] = (const float (*)[4])L;
+    }
+    return 0;
+}
+
+/* light->env when some transfer shades with the prefiltered probe: made for a new probe (pointer or
+ * pixels), else only rotated. -1 with err. */
+static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], runtime_light *light, prt_error *err) {
+    bool need = false;
+    for (int i = 0; i < rt->d->ntransfers; i++) need |= rt->d->transfers[i].ops->shade_vertices != NULL;
+    if (!need) return 0;
+    if (rt->env && rt->env_probe == p && rt->env_pixels == p->img.data) {
+        prefilter_set_rotation(rt->env, R);
+    } else {
+        prefilter_destroy(rt->env);
+        rt->env_probe = NULL;
+        rt->env = prefilter_create(p, R, &(prefilter_desc){ 0 }, err);
+        if (!rt->env) return -1;
+        rt->env_probe = p;
+        rt->env_pixels = p->img.data;
+    }
+    light->env = rt->env;
+    return 0;
+}
+
+/* The light (timed: cube, light vectors, prefiltering), then the backend's light change. */
 int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err) {
     PRT_CHECK(rt != NULL && p != NULL);
     double t0 = prt_now();
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     if (!cube) return prt_fail(err, "out of memory");
     probe_to_cube(p, CUBE_RES, R, 0, cube);
-    float (*L)[4] = transfer_light_vector(rt->d, cube);
+    runtime_light light;
+    memset(&light, 0, sizeof light);
+    int rc = rt_light_vectors(rt, cube, &light, err);
     free(cube);
-    if (!L) return prt_fail(err, "out of memory");
+    if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
     rt->light_vector_ms = 1e3 * (prt_now() - t0);
-    int rc = rt->be->set_light(rt->self, (const float (*)[4])L, err);
-    free(L);
+    if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);
+    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free((void *)light.L[i]);
     return rc;
 }
 

@@ -24,11 +24,26 @@
  * ones. Adding a backend is one module (runtime_NAME.c, a runtime_backend
  * table) and one line in runtime.c's list; nothing else switches on it.
  *
- * The light: runtime_set_light resamples the probe to the 6x64x64 cube
- * (probe_to_cube, rotated by R so that a light at d appears at R d) and asks
- * the file's transfer representation for its light vector (transfer.h); the
- * backend then runs its light-change kernel. The probe is only read during the
- * call. Images show rd->background (rotated by rd->background_rotation) behind
+ * Several transfers: a file holds one or more transfers (prtfile.h), each over
+ * the materials of its mask, and a vertex's radiance is the sum over the
+ * transfers whose mask holds its material: a sparse transfer (haar, sh) gives
+ * h(view) . (T x L) with the material's factors (Eq. 5), a non-linear one (vmf:
+ * ops->shade_vertices) its own view-dependent sum of lobes looked up in the
+ * prefiltered probe. Lambert-only and SVD-only files have one sparse transfer
+ * and shade exactly as before.
+ *
+ * The light: runtime_set_light makes a runtime_light and hands it to the
+ * backend's light change: the probe resampled once to the 6x64x64 cube
+ * (probe_to_cube, rotated by R so that a light at d appears at R d), then per
+ * transfer with ops->project_light its light vector (transfer.h); and when
+ * some transfer has ops->shade_vertices, the probe prefiltered by vMF lobes
+ * (prefilter.h), made once per probe (~1 s: prefilter_create) and only rotated
+ * (prefilter_set_rotation: free) while the probe stays the same (pointer and
+ * pixels), so rotating the light stays interactive. The runtime owns the
+ * prefiltered probe; a backend may keep the pointer until the next light
+ * change or runtime_destroy. The backend then runs its light-change kernels.
+ * A new representation needs nothing here: its ops say which of the two it
+ * takes. The probe is only read during the call. Images show rd->background (rotated by rd->background_rotation) behind
  * the scene; a backend that keeps the background on the GPU uploads it again
  * only when the probe (pointer or pixels) differs from the last one drawn, so a
  * caller that changes a probe's pixels in place must pass another prt_probe.
@@ -43,8 +58,9 @@
  * view change) and the raster happens when an image is asked for (out, or
  * runtime_read), so `prt bench` times each backend's own view change.
  *
- * Timings (runtime_timing): wall clock of the last light vector, light change,
- * view change and raster, finished (GL calls glFinish); GPU timer queries where
+ * Timings (runtime_timing): wall clock of the last light vector (with the
+ * prefiltering of a new probe), light change (every sparse T x L), view change
+ * (h . g and every non-linear transfer's shade_vertices) and raster, finished (GL calls glFinish); GPU timer queries where
  * the backend has them (0 otherwise); the bytes the backend holds for the
  * scene; the backend's name, light kernel and device in words.
  *
@@ -111,7 +127,7 @@ typedef struct prt_runtime prt_runtime;
 prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_error *err);
 /* Frees the runtime and what it owns; NULL is fine. */
 void runtime_destroy(prt_runtime *rt);
-/* Light change: probe p rotated by R (row-major 3x3, NULL: none) through the file's representation. */
+/* Light change: probe p rotated by R (row-major 3x3, NULL: none) through every transfer of the file. */
 int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err);
 /* View change as vertex colours: rgb[3*nverts] = radiance of every vertex toward eye, clamped >= 0. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err);
@@ -124,7 +140,8 @@ int runtime_read(prt_runtime *rt, prt_image *out, prt_error *err);
  * PNG; nothing without a window context. */
 void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops);
 /* Direct-only lighting (true) or direct + bounces (false); -1 with err when the file keeps no direct
- * set. Takes effect at the next runtime_set_light. */
+ * set. Takes effect at the next runtime_set_light. It switches the sparse transfer only: a vmf
+ * transfer keeps all its passes (no op selects its passes yet). */
 int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err);
 /* BRDF terms used by the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax);
@@ -140,13 +157,24 @@ const char *runtime_backend_name(const prt_runtime *rt);
  * validates arguments, computes the light vector, times it and holds kmax;
  * the ops see a valid self. Optional ops may be NULL (the call then fails with
  * one line naming the backend). */
+struct prefilter_env;
+/* What a backend's light change gets (made by runtime_set_light, valid during the call; env until the
+ * next light change or runtime_destroy). Indexed like d->transfers. */
+typedef struct runtime_light {
+    const float (*L[PRT_MAX_TRANSFERS])[4]; /* transfer i's light vector ([CUBE_TEXELS][4], ops->project_light);
+                                             * NULL where the transfer has none (non-linear) */
+    const struct prefilter_env *env;        /* the probe prefiltered by vMF lobes, rotated as the light; NULL
+                                             * when no transfer has ops->shade_vertices */
+} runtime_light;
+
 typedef struct runtime_backend {
     const char *name;           /* found by runtime_create by this name */
     /* Creates the state; desc is complete (backend resolved). NULL with err. */
     void *(*create)(const prt_data *d, const runtime_desc *desc, prt_error *err);
     void (*destroy)(void *self);
-    /* Light change with the representation's light vector L ([CUBE_TEXELS][4]). */
-    int (*set_light)(void *self, const float (*L)[4], prt_error *err);
+    /* Light change: every sparse transfer's T x L with light->L[i]; keeps light->env for the
+     * non-linear transfers' view changes. */
+    int (*set_light)(void *self, const runtime_light *light, prt_error *err);
     int (*shade_vertices)(void *self, const float eye[3], int kmax, float *rgb, prt_error *err);
     /* Draws a frame into the target (size resolved, > 0). */
     int (*render)(void *self, const render_desc *rd, int kmax, prt_error *err);

@@ -1,8 +1,10 @@
 /* runtime_cpu.c - the "cpu" runtime backend (runtime.h) over relight.h.
  *
- * Light change: relight_set_light, the sparse T x L of Eq. 5 on every thread.
+ * Light change: relight_set_light_at per sparse transfer, the T x L of Eq. 5 on
+ * every thread; the prefiltered probe is kept for the non-linear transfers.
  * View change: relight_view, h(view) . g per vertex (the per-vertex model; the
- * paper's CPU path). Images are those colours drawn with Gouraud interpolation:
+ * paper's CPU path), plus ops->shade_vertices of every non-linear transfer
+ * (vmf: its lobes looked up in the prefiltered probe), non-finite sums written as 0. Images are those colours drawn with Gouraud interpolation:
  * headless through render_vertex_colors (OSMesa, a context per image, exactly
  * what `prt render` always did, so its output is unchanged), or into the
  * caller's context (the viewer's window) through a gldraw of our own, whose
@@ -10,6 +12,7 @@
  * the image to be asked for (see runtime.h: bench times the view change alone). */
 #include "runtime.h"
 #include "check.h"
+#include <math.h>
 #include "gldraw.h"
 #include "relight.h"
 #include <stdlib.h>
@@ -28,7 +31,9 @@ typedef struct cpu_rt {
     render_desc frame;          /* headless: the last frame asked for, rasterized at read */
     float frame_R[9];
     bool has_frame;
+    const struct prefilter_env *env;    /* the last light's prefiltered probe (the runtime's), or NULL */
     double light_ms, view_ms, raster_ms;
+    double nonlinear_ms;        /* the non-linear transfers' part of the last view change */
 } cpu_rt;
 
 /* Frees the relight context, the colours and the GL objects made in the caller's context. */
@@ -70,20 +75,39 @@ static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *
     return c;
 }
 
-/* Light change: g = T x L on every thread (Eq. 5), timed. */
-static int cpu_set_light(void *self, const float (*L)[4], prt_error *err) {
+/* Light change: g = T x L of every sparse transfer on every thread (Eq. 5), timed; the env kept. */
+static int cpu_set_light(void *self, const runtime_light *light, prt_error *err) {
     cpu_rt *c = self;
     double t0 = prt_now();
-    relight_set_light(c->rc, L);
+    for (int i = 0; i < c->d->ntransfers; i++)
+        if (c->d->transfers[i].ops->light_range) {
+            PRT_CHECK(light->L[i] != NULL);
+            relight_set_light_at(c->rc, i, light->L[i]);
+        }
+    c->env = light->env;
     c->light_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
 
-/* View change: h(view) . g per vertex into rgb, timed. */
+/* View change: h(view) . g per vertex into rgb, plus every non-linear transfer's lobes, timed.
+ * -1 with err when a non-linear transfer is asked to shade before any light change. */
 static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
     cpu_rt *c = self;
     double t0 = prt_now();
     relight_view(c->rc, eye, kmax, rgb);
+    double t1 = prt_now();
+    bool added = false;
+    for (int i = 0; i < c->d->ntransfers; i++) {
+        const prt_transfer *tr = &c->d->transfers[i];
+        if (!tr->ops->shade_vertices) continue;
+        if (!c->env) return prt_fail(err, "cpu runtime: the %s transfer needs a light change first", tr->ops->name);
+        tr->ops->shade_vertices(c->d, tr, c->env, eye, rgb, c->nthreads);
+        added = true;
+    }
+    if (added)   /* no NaN or Inf reaches an output, whatever a representation returns */
+        for (size_t k = 0; k < 3 * (size_t)c->d->scene.mesh.nverts; k++)
+            if (!(rgb[k] >= 0) || !isfinite(rgb[k])) rgb[k] = 0;
+    c->nonlinear_ms = 1e3 * (prt_now() - t1);
     c->view_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
@@ -161,10 +185,19 @@ static void cpu_get_timing(const void *self, runtime_timing *t) {
     t->light_ms = c->light_ms;
     t->view_ms = c->view_ms;
     t->raster_ms = c->raster_ms;
-    /* Its own memory: the K-vector cache and the per-vertex position + frame records (relight.c). */
-    t->bytes = sizeof(float) * (3 * (size_t)prt_data_transfer(c->d)->transport.nvecs + 12 * (size_t)c->d->scene.mesh.nverts);
+    /* Its own memory: the K-vector caches and the per-vertex position + frame records (relight.c), and
+     * what the non-linear transfers hold (ops->bytes: read at every view change). */
+    size_t bytes = sizeof(float) * 12 * (size_t)c->d->scene.mesh.nverts;
+    for (int i = 0; i < c->d->ntransfers; i++) {
+        const prt_transfer *tr = &c->d->transfers[i];
+        if (tr->ops->light_range) bytes += sizeof(float) * 3 * (size_t)tr->transport.nvecs;
+        else if (tr->ops->bytes) bytes += tr->ops->bytes(tr);
+    }
+    t->bytes = bytes;
     t->kernel = "sparse";
     snprintf(t->device, sizeof t->device, "%d threads", prt_thread_count(c->nthreads));
+    if (c->nonlinear_ms > 0)
+        snprintf(t->detail, sizeof t->detail, "view change: non-linear transfers (vMF lobes) %.2f ms of it", c->nonlinear_ms);
 }
 
 const runtime_backend runtime_cpu = {

@@ -1,11 +1,16 @@
 /* phash.c - row-displacement perfect hash (laurijssen-2011 section 6.2).
  *
  * Entries are bucketed by row (counting sort), rows ordered by decreasing count
- * (counting sort again), and each row placed by first fit on a byte map of used
- * slots that grows by doubling. The lowest free slot is tracked so that dense,
- * early-filled prefixes are never rescanned: a row's offset o must put its first
- * column on a free slot, so o >= first_free - col0. Placement is O(size * k) per row
- * in the worst case but settles quickly on the sparse tables the transfer makes. */
+ * (counting sort again), and each row placed by first fit. Free slots are kept as
+ * "next free slot" pointers (union-find with path halving), so a collision of a column
+ * jumps the candidate offset straight past the used run it hit, and the lowest free slot
+ * is found without rescanning: a row's offset o must put its first column on a free
+ * slot, so o >= first_free - col0. A row that found no gap in PH_MAX_TRIES candidates
+ * goes past every used slot. Measured on the vMF teapot + floor (228,570 entries, 3,241
+ * rows of up to 162 columns): the first version (offsets one by one over a byte map, no
+ * bound) built it in 4.3 s of a 9.3 s direct pass at 54.8% fill; jumps alone 3.2 s; jumps
+ * and the bound 1.0 s at 46.5% fill (256 tries: 0.24 s, 45.5%). The random tables of
+ * tests/test_phash.c keep their fill (two of three identical, 49.5% -> 45.1% on the third). */
 #include "phash.h"
 #include <stdlib.h>
 #include <string.h>
@@ -15,25 +20,47 @@ static int cmp_u32(const void *a, const void *b) {
     return (x > y) - (x < y);
 }
 
-/* Grows the used map to at least need bytes (zeroed). Returns 0 or -1 with err. */
-static int ph_grow(uint8_t **used, size_t *cap, size_t need, prt_error *err) {
+/* Free slots as "next free slot" pointers (union-find with path halving): nx[s] == s when s is
+ * free; a used slot points further. Grows to at least need slots, the new ones free. 0 or -1. */
+static int ph_grow(size_t **nx, size_t *cap, size_t need, prt_error *err) {
     if (need <= *cap) return 0;
     size_t nc = *cap ? *cap : 1024;
     while (nc < need) nc *= 2;
-    uint8_t *u = realloc(*used, nc);
+    size_t *u = realloc(*nx, nc * sizeof *u);
     if (!u) return prt_fail(err, "phash: out of memory for %zu slots", nc);
-    memset(u + *cap, 0, nc - *cap);
-    *used = u, *cap = nc;
+    for (size_t i = *cap; i < nc; i++) u[i] = i;
+    *nx = u, *cap = nc;
     return 0;
 }
 
-/* First offset >= lo where every column of c[0..k) lands on a free slot. */
-static size_t ph_place(uint8_t **used, size_t *cap, const uint32_t *c, size_t k, size_t lo, prt_error *err, int *rc) {
-    for (size_t o = lo;; o++) {
-        if (ph_grow(used, cap, o + c[k - 1] + 1, err)) { *rc = -1; return 0; }
+/* The lowest free slot >= x (x < cap; the last slot is always kept free by the caller). */
+static size_t ph_free_from(size_t *nx, size_t x) {
+    while (nx[x] != x) {
+        nx[x] = nx[nx[x]];
+        x = nx[x];
+    }
+    return x;
+}
+
+/* First offset >= lo where every column of c[0..k) lands on a free slot. A collision of column t
+ * at slot o + c[t] moves o straight to the next free slot for that column: every offset in between
+ * collides there too, so the result is the plain first fit's, without visiting those offsets; after
+ * PH_MAX_TRIES such candidates the row goes where its first column lands at `end` (every slot from
+ * end on is free), which bounds the build at some loss of fill. */
+#define PH_MAX_TRIES 16384
+static size_t ph_place(size_t **nx, size_t *cap, const uint32_t *c, size_t k, size_t lo, size_t end, prt_error *err, int *rc) {
+    size_t o = lo;
+    for (int tries = 0;; tries++) {
+        if (tries == PH_MAX_TRIES && end > c[0] + o) o = end - c[0];   /* give up on gaps: past every used slot */
+        if (ph_grow(nx, cap, o + c[k - 1] + 2, err)) { *rc = -1; return 0; }
         size_t t = 0;
-        while (t < k && !(*used)[o + c[t]]) t++;
+        while (t < k) {
+            size_t f = ph_free_from(*nx, o + c[t]);
+            if (f != o + c[t]) break;
+            t++;
+        }
         if (t == k) return o;
+        o = ph_free_from(*nx, o + c[t]) - c[t];
     }
 }
 
@@ -79,7 +106,7 @@ int phash_build(const uint32_t *row, const uint32_t *col, size_t n, int nrows, i
     out->nrows = nrows, out->ncols = ncols, out->n = n;
     size_t *first = NULL, cap = 0, size = 0, lowest = 0;
     uint32_t *cols = NULL;
-    uint8_t *used = NULL;
+    size_t *nx = NULL;
     int *ord = NULL, rc = 0;
     out->offset = prt_calloc((size_t)nrows + 1, sizeof *out->offset, err);
     if (!out->offset || ph_bucket(row, col, n, nrows, ncols, &first, &cols, err) || !(ord = ph_order(first, nrows, ncols, err))) {
@@ -90,13 +117,13 @@ int phash_build(const uint32_t *row, const uint32_t *col, size_t n, int nrows, i
         int i = ord[r];
         size_t b = first[i], k = first[i + 1] - b;
         if (k == 0) break;                               /* the rest are empty: offset 0 */
-        while (lowest < cap && used[lowest]) lowest++;
+        if (lowest < cap) lowest = ph_free_from(nx, lowest);
         size_t lo = lowest > cols[b] ? lowest - cols[b] : 0;
-        size_t o = ph_place(&used, &cap, cols + b, k, lo, err, &rc);
+        size_t o = ph_place(&nx, &cap, cols + b, k, lo, size, err, &rc);
         if (rc) break;
         PRT_CHECK_LE(o, (size_t)UINT32_MAX - (size_t)ncols);
         out->offset[i] = (uint32_t)o;
-        for (size_t t = 0; t < k; t++) used[o + cols[b + t]] = 1;
+        for (size_t t = 0; t < k; t++) nx[o + cols[b + t]] = o + cols[b + t] + 1;   /* used: points on */
         if (o + cols[b + k - 1] + 1 > size) size = o + cols[b + k - 1] + 1;
     }
     if (rc == 0) {
@@ -108,7 +135,7 @@ int phash_build(const uint32_t *row, const uint32_t *col, size_t n, int nrows, i
         out->fill = size ? (double)n / (double)size : 1.0;
     }
 done:
-    free(first), free(cols), free(used), free(ord);
+    free(first), free(cols), free(nx), free(ord);
     if (rc) phash_free(out);
     return rc;
 }

@@ -19,7 +19,8 @@
  *
  * Build: rows are placed in decreasing order of occupancy, each at the first offset
  * where all its columns are free (first-fit decreasing), starting from the lowest free
- * slot minus the row's first column. fill = n / size is what it achieved.
+ * slot minus the row's first column, past every used slot when 16,384 candidates found
+ * no gap (phash.c: bounds the build). fill = n / size is what it achieved.
  *
  * Ownership: the table owns offset and owner; phash_free releases them.
  * Errors: phash_build fails (-1, err set) only when out of memory. Entries outside

@@ -13,6 +13,7 @@
 static const transfer_ops *const k_transfers[] = {
     &transfer_haar,     /* Haar wavelets, N largest of 24,576, quantized (the paper) */
     &transfer_sh,       /* spherical harmonics of order 3..10 (the low-frequency baseline) */
+    &transfer_vmf,      /* vMF lobes per vertex and view, perfect-hashed (laurijssen-2011; issue 9) */
 };
 #define NTRANSFERS ((int)(sizeof k_transfers / sizeof k_transfers[0]))
 
@@ -46,7 +47,7 @@ void transfer_names(char *buf, size_t cap) {
 
 float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[4] {
     const prt_transfer *tr = prt_data_transfer(d);
-    PRT_CHECK(tr->ops->project_light != NULL);
+    PRT_CHECK(tr != NULL && tr->ops->project_light != NULL);
     float (*L)[4] = light_alloc();
     if (!L) return NULL;
     tr->ops->project_light(&tr->cfg, cube_rgb, L);

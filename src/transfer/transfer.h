@@ -31,17 +31,16 @@
  * the light vector (and SH keeps only indices < order^2, which its validator checks).
  * Those shared pieces live in transfer_sparse.c; a module's table points at them.
  *
- * How the next two slot in (design, not code yet):
- *   - vMF lobes (laurijssen-2011) for highly glossy materials: per vertex and per view
- *     direction a set of von Mises-Fisher lobes fitted to the transport, kept in a
- *     perfect hash (vertex, view bin) -> lobes, evaluated against a prefiltered
- *     environment. Fills name/title/tag, configure (lobes per set, view bins),
- *     describe, its section (write/read/validate/release) and project_light (builds the
- *     prefiltered environment into its own light buffer instead of L's index space).
- *     project_transport/compress/light_range stay NULL (nothing is linear in L per
- *     vertex; the fit is a per-vertex precompute hook and the shading a per-view
- *     evaluation, both added with it), glsl NULL until its view shader exists. Its
- *     mask holds the glossy materials, beside a Haar K = 1 transfer for their diffuse part.
+ * The non-linear ones:
+ *   - vMF lobes (laurijssen-2011, transfer_vmf.c, vmf.h): per vertex and per geodesic view a
+ *     set of von Mises-Fisher lobes per reflection pass, kept in a perfect hash (vertex, view)
+ *     -> lobes, evaluated against the probe prefiltered by vMF lobes (prefilter.h, made by the
+ *     runtime). Fills name/title/tag, configure (lobes, level, samples), describe, its section
+ *     (write/read/validate/release), precompute, shade_vertices, bytes and summary;
+ *     project_transport/compress/project_light/light_range stay NULL (nothing is linear in L
+ *     per vertex), glsl NULL (its view shader is the GL runtime's). Its mask holds the glossy
+ *     materials, beside a Haar K = 1 transfer for their diffuse part.
+ * Designed, not code yet:
  *   - spherical-Gaussian virtual lights (tokuyoshi): per frame, no precompute and no
  *     file section: tag 0 (transfer_by_tag never finds it), configure and describe only,
  *     everything else NULL; it is created by the runtime for local lights, not by the
@@ -171,6 +170,9 @@ struct transfer_ops {
                            const float eye[3], float *rgb, int nthreads);
     /* Bytes tr holds (transport or priv), for `prt info` and the runtimes' timing. */
     size_t (*bytes)(const prt_transfer *tr);
+    /* Optional (NULL: none): lines for `prt info` about tr's data (vmf: views, lobes, passes, hash
+     * fill, bytes), each ending in a newline, into buf[cap]. */
+    void (*summary)(const prt_transfer *tr, char *buf, size_t cap);
 };
 
 #define TRANSFER_TAG(a, b, c, d) ((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 | (uint32_t)(d) << 24)
@@ -206,4 +208,5 @@ extern const transfer_glsl transfer_sparse_glsl;
 /* The modules' tables (listed in transfer.c). */
 extern const transfer_ops transfer_haar;
 extern const transfer_ops transfer_sh;
+extern const transfer_ops transfer_vmf;
 #endif

@@ -1,0 +1,592 @@
+/* vmfpass.c - the direct and gathering passes of the vMF lobe transfer (vmfpass.h,
+ * laurijssen-2011 section 5). Why the work is laid out this way: the direct pass runs per
+ * vertex (all its active views share one ray origin, so Embree's packets stay coherent) and
+ * emits only the slices that differ from the BRDF's own lobe, into per-thread lists; those
+ * are sorted by (vertex, view) (so the hash and file do not depend on the thread count),
+ * hashed (phash.h) and become the rows every gathering pass fills: the gathering rays are the
+ * direct pass's rays again (same seeds), so only slices with a blocked ray can gather. */
+#include "vmfpass.h"
+#include "check.h"
+#include "scene.h"
+#include "visibility.h"
+#include "vmf.h"
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define VP_MAX_THREADS 64
+#define VP_BROAD_KAPPA 8.0f      /* lobes wider than this are "diffuse" light (the last lobe) */
+#define VP_DIFFUSE_RAYS 64
+#define VP_MAX_ITEMS_PER_HIT (VMFT_MAX_LOBES + 1)
+
+static float lum3(const float a[3]) { return 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2]; }
+
+/* One thing to merge: a mean unnormalized direction r (Eq. 2), weight w, colour c. */
+typedef struct vp_item { float r[3]; float w; float c[3]; float kappa; int cluster; } vp_item;
+
+/* A stored slice made by the direct pass: (vertex, view) and its I packed lobes. */
+typedef struct vp_entry { uint32_t v, j; uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS]; } vp_entry;
+
+typedef struct vp_list { vp_entry *e; size_t n, cap; bool oom; } vp_list;
+
+typedef struct vp_thread {
+    float *dirs;          /* [3 S] the slice's sampled directions */
+    float *tdirs;         /* [3 S] those traced (above the horizon) */
+    int *tidx;            /* [S] their sample index */
+    vis_hit *hits;        /* [S] */
+    vp_item *items;       /* [S * VP_MAX_ITEMS_PER_HIT] */
+    uint8_t *blocked;     /* [S] */
+    vp_list list;
+} vp_thread;
+
+typedef struct vp_ctx {
+    const transfer_precompute_in *in;
+    const prt_mesh *m;
+    vmft_data *t;
+    int S, I;
+    float eps;
+    int *gverts, ngverts;         /* vertices of the transfer's materials */
+    float (*dlobe)[7];            /* [nverts] diffuse lobe: mu, kappa, alpha rgb (alpha 0: none) */
+    vp_thread th[VP_MAX_THREADS];
+    double *energy;               /* per glossy vertex (direct) or per stored slice (gathering) */
+    uint32_t *nactive;            /* per glossy vertex: its active views */
+    uint32_t *slot_v, *slot_j;    /* stored slices in (vertex, view) order */
+    size_t nslices;
+    int pass, total;
+    const char *stage;
+    atomic_int done;
+    atomic_bool cancel;
+    pthread_mutex_t lock;
+} vp_ctx;
+
+/* ---- sampling ------------------------------------------------------------------------------ */
+
+static uint64_t splitmix(uint64_t x) {
+    x += 0x9E3779B97F4A7C15ull;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+
+/* The S directions of slice (v, j) drawn from lobe L (Eq. 8): a rank-1 lattice, rotated by a hash. */
+static void vp_samples(const vmf_lobe *L, uint32_t v, uint32_t j, int S, float *dirs) {
+    uint64_t h = splitmix(((uint64_t)v << 20) ^ j);
+    double r1 = (double)(h >> 40) / 16777216.0, r2 = (double)(h & 0xffffff) / 16777216.0;
+    for (int i = 0; i < S; i++) {
+        double u1 = (i + 0.5) / S + r1, u2 = i * 0.6180339887498949 + r2;
+        u1 -= floor(u1), u2 -= floor(u2);
+        vmf_sample(L, (float)u1, (float)u2, dirs + 3 * i);
+    }
+}
+
+/* Traces slice directions above n's horizon from p; returns how many were traced (tidx, hits). */
+static int vp_trace(const vp_ctx *c, vp_thread *th, const float *p, const float *n, int S) {
+    int nr = 0;
+    for (int i = 0; i < S; i++) {
+        const float *d = th->dirs + 3 * i;
+        if (n[0] * d[0] + n[1] * d[1] + n[2] * d[2] <= 0) continue;
+        memcpy(th->tdirs + 3 * nr, d, 3 * sizeof(float));
+        th->tidx[nr++] = i;
+    }
+    float org[3] = { p[0] + c->eps * n[0], p[1] + c->eps * n[1], p[2] + c->eps * n[2] };
+    if (nr) vis_closest_many(c->in->vis, org, th->tdirs, nr, c->eps, th->hits);
+    return nr;
+}
+
+/* ---- clustering (laurijssen-2010 section 5) ------------------------------------------------- */
+
+/* Dispersion sum w - |sum w r| of cluster k (sums into r). */
+static double vp_dispersion(const vp_item *it, int n, int k, double r[3], double *w) {
+    r[0] = r[1] = r[2] = 0, *w = 0;
+    for (int i = 0; i < n; i++)
+        if (it[i].cluster == k) {
+            for (int c = 0; c < 3; c++) r[c] += (double)it[i].w * it[i].r[c];
+            *w += it[i].w;
+        }
+    return *w - sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+}
+
+/* Tries to split cluster k into k and nk by 2-means; keeps it when the dispersion halves. */
+static bool vp_split(vp_item *it, int n, int k, int nk) {
+    double r[3], w, d1 = vp_dispersion(it, n, k, r, &w);
+    int a = -1, b = -1;
+    for (int i = 0; i < n; i++)
+        if (it[i].cluster == k && (a < 0 || it[i].w > it[a].w)) a = i;
+    double lo = 2;
+    for (int i = 0; i < n; i++) {
+        double d = it[i].r[0] * it[a].r[0] + it[i].r[1] * it[a].r[1] + it[i].r[2] * it[a].r[2];
+        if (it[i].cluster == k && d / (sqrt(it[i].r[0] * it[i].r[0] + it[i].r[1] * it[i].r[1] + it[i].r[2] * it[i].r[2]) + 1e-30) < lo)
+            lo = d / (sqrt(it[i].r[0] * it[i].r[0] + it[i].r[1] * it[i].r[1] + it[i].r[2] * it[i].r[2]) + 1e-30), b = i;
+    }
+    if (b < 0 || b == a || !(d1 > 0)) return false;
+    double ca[3] = { it[a].r[0], it[a].r[1], it[a].r[2] }, cb[3] = { it[b].r[0], it[b].r[1], it[b].r[2] };
+    for (int iter = 0; iter < 8; iter++) {
+        for (int i = 0; i < n; i++) {
+            if (it[i].cluster != k && it[i].cluster != nk) continue;
+            double da = ca[0] * it[i].r[0] + ca[1] * it[i].r[1] + ca[2] * it[i].r[2];
+            double db = cb[0] * it[i].r[0] + cb[1] * it[i].r[1] + cb[2] * it[i].r[2];
+            it[i].cluster = db > da ? nk : k;
+        }
+        double wa, wb;
+        vp_dispersion(it, n, k, ca, &wa), vp_dispersion(it, n, nk, cb, &wb);
+        double la = sqrt(ca[0] * ca[0] + ca[1] * ca[1] + ca[2] * ca[2]), lb = sqrt(cb[0] * cb[0] + cb[1] * cb[1] + cb[2] * cb[2]);
+        for (int c = 0; c < 3; c++) ca[c] /= la > 0 ? la : 1, cb[c] /= lb > 0 ? lb : 1;
+    }
+    double wa, wb, d2 = vp_dispersion(it, n, k, r, &wa) + vp_dispersion(it, n, nk, r, &wb);
+    if (wa > 0 && wb > 0 && d2 < 0.5 * d1) return true;
+    for (int i = 0; i < n; i++)
+        if (it[i].cluster == nk) it[i].cluster = k;
+    return false;
+}
+
+/* Clusters items whose cluster is `first` into clusters first..first+maxk-1; returns the count. */
+static int vp_cluster(vp_item *it, int n, int first, int maxk) {
+    int k = 1;
+    while (k < maxk) {
+        int worst = -1;
+        double wd = 0;
+        for (int c = first; c < first + k; c++) {
+            double r[3], w, d = vp_dispersion(it, n, c, r, &w);
+            if (d > wd) wd = d, worst = c;
+        }
+        if (worst < 0 || !vp_split(it, n, worst, first + k)) break;
+        k++;
+    }
+    return k;
+}
+
+/* Merges cluster k (Eq. 10-11) into lobe l, colour a; false when it is empty. */
+static bool vp_merge(const vp_item *it, int n, int k, vmf_lobe *l, float a[3]) {
+    double r[3], w;
+    vp_dispersion(it, n, k, r, &w);
+    double c[3] = { 0, 0, 0 };
+    for (int i = 0; i < n; i++)
+        if (it[i].cluster == k)
+            for (int ch = 0; ch < 3; ch++) c[ch] += it[i].c[ch];
+    if (!(w > 0)) return false;
+    double m[3] = { r[0] / w, r[1] / w, r[2] / w };
+    vmf_from_mean(m, l);
+    for (int ch = 0; ch < 3; ch++) a[ch] = (float)c[ch];
+    return lum3(a) > 0;
+}
+
+/* Sorts n lobes by decreasing luminance (the runtime's correspondence between views, vmf.h). */
+static void vp_sort(vmf_lobe *l, float (*a)[3], int n) {
+    for (int i = 1; i < n; i++)
+        for (int k = i; k > 0 && lum3(a[k]) > lum3(a[k - 1]); k--) {
+            vmf_lobe tl = l[k];
+            l[k] = l[k - 1], l[k - 1] = tl;
+            for (int ch = 0; ch < 3; ch++) { float x = a[k][ch]; a[k][ch] = a[k - 1][ch], a[k - 1][ch] = x; }
+        }
+}
+
+/* Packs I lobes (alpha 0: empty). */
+static void vp_pack(const vmf_lobe *l, const float (*a)[3], int I, uint32_t *w) {
+    for (int i = 0; i < I; i++) vmft_pack(&l[i], a[i], w + VMFT_WORDS * i);
+}
+
+/* ---- the direct pass (Eq. 8-9) -------------------------------------------------------------- */
+
+/* One cluster refitted with the control variate of vmfpass.h: the whole lobe's exact mean minus the
+ * blocked rays. */
+static void vp_refit_one(const vp_thread *th, int S, int nb, const vmf_lobe *L, const float A[3], vmf_lobe *l, float a[3]) {
+    double m = S * vmf_mean_length(L->kappa), r[3];
+    for (int k = 0; k < 3; k++) r[k] = m * L->mu[k];
+    for (int i = 0; i < S; i++)
+        if (th->blocked[i])
+            for (int k = 0; k < 3; k++) r[k] -= th->dirs[3 * i + k];
+    for (int k = 0; k < 3; k++) r[k] /= (S - nb);
+    vmf_from_mean(r, l);
+    for (int k = 0; k < 3; k++) a[k] = A[k] * (float)(S - nb) / (float)S;
+}
+
+static bool vp_active(const vp_ctx *c, int v, int j) {
+    const float *n = c->m->nrm + 3 * (size_t)v, *g = geogrid_dir(c->t->grid, j);
+    return n[0] * g[0] + n[1] * g[1] + n[2] * g[2] > -c->t->horizon;
+}
+
+/* Slice (v, j) of the direct pass: false when view j is inactive at v or no ray is blocked (the slice
+ * is the BRDF's own lobe); else its I lobes packed into w. *e gets the slice's energy (alpha luminance). */
+static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32_t *w, double *e) {
+    const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v, *g = geogrid_dir(c->t->grid, j);
+    *e = 0;
+    if (!vp_active(c, v, j)) return false;
+    vmf_lobe L;
+    float A[3];
+    vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, g, &L, A);
+    *e = lum3(A);
+    int S = c->S, nb = 0;
+    vp_samples(&L, (uint32_t)v, (uint32_t)j, S, th->dirs);
+    int nr = vp_trace(c, th, p, n, S);
+    memset(th->blocked, 0, (size_t)S);
+    for (int i = 0; i < nr; i++)
+        if (th->hits[i].tri >= 0) th->blocked[th->tidx[i]] = 1, nb++;
+    if (nb == 0) return false;
+    int ni = 0;
+    for (int i = 0; i < S; i++)
+        if (!th->blocked[i]) {
+            vp_item *it = &th->items[ni++];
+            memcpy(it->r, th->dirs + 3 * i, sizeof it->r);
+            it->w = 1, it->cluster = 0;
+            for (int k = 0; k < 3; k++) it->c[k] = A[k] / (float)S;
+        }
+    vmf_lobe l[VMFT_MAX_LOBES] = { { { 0, 0, 1 }, 0 } };
+    float a[VMFT_MAX_LOBES][3] = { { 0 } };
+    int k = ni ? vp_cluster(th->items, ni, 0, c->I) : 0;
+    /* the control variate's error is the blocked rays' noise over the unblocked count: it wins
+     * while fewer than half the rays are blocked, the plain mean (Eq. 2) beyond */
+    bool cv = k == 1 && 2 * nb < S;
+    if (cv) vp_refit_one(th, S, nb, &L, A, &l[0], a[0]);
+    for (int q = 0; !cv && q < k; q++) vp_merge(th->items, ni, q, &l[q], a[q]);
+    vp_sort(l, a, k);
+    vp_pack(l, (const float (*)[3])a, c->I, w);
+    *e = 0;
+    for (int q = 0; q < k; q++) *e += lum3(a[q]);
+    return true;
+}
+
+static bool vp_list_push(vp_list *L, uint32_t v, uint32_t j, const uint32_t *w) {
+    if (L->n == L->cap) {
+        size_t cap = L->cap ? 2 * L->cap : 1024;
+        vp_entry *e = realloc(L->e, cap * sizeof *e);
+        if (!e) return L->oom = true, false;
+        L->e = e, L->cap = cap;
+    }
+    vp_entry *e = &L->e[L->n++];
+    e->v = v, e->j = j;
+    memcpy(e->w, w, sizeof e->w);
+    return true;
+}
+
+/* Reports a finished chunk of `count` items; sets cancel when the callback says stop. */
+static void vp_progress(vp_ctx *c, int count) {
+    int done = atomic_fetch_add(&c->done, count) + count;
+    if (!c->in->progress) return;
+    pthread_mutex_lock(&c->lock);
+    if (!atomic_load(&c->cancel) && !c->in->progress(c->in->progress_user, c->stage, (double)done / c->total))
+        atomic_store(&c->cancel, true);
+    pthread_mutex_unlock(&c->lock);
+}
+
+static void vp_direct_range(void *ctx, int begin, int end, int thread) {
+    vp_ctx *c = ctx;
+    vp_thread *th = &c->th[thread];
+    for (int gi = begin; gi < end && !atomic_load(&c->cancel); gi++) {
+        int v = c->gverts[gi];
+        double ev = 0, e;
+        uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS] = { 0 }, na = 0;
+        for (int j = 0; j < c->t->nviews; j++) {
+            if (vp_direct_slice(c, th, v, j, w, &e)) vp_list_push(&th->list, (uint32_t)v, (uint32_t)j, w);
+            ev += e;
+            na += e > 0 || vp_active(c, v, j);
+        }
+        c->energy[gi] = ev;
+        c->nactive[gi] = na;
+    }
+    vp_progress(c, end - begin);
+}
+
+/* Renumbers the entries in slot order (the validator's rule, vmf.h), moving their lobes. */
+static int vp_renumber(vmft_data *t, size_t per, prt_error *err) {
+    uint32_t *lobe = prt_calloc(t->hash.n ? t->hash.n * per : 1, sizeof(uint32_t), err);
+    if (!lobe) return -1;
+    uint32_t k = 0;
+    for (size_t s = 0; s < t->hash.size; s++) {
+        if (t->entry[s] == UINT32_MAX) continue;
+        memcpy(lobe + (size_t)k * per, t->lobe + (size_t)t->entry[s] * per, sizeof(uint32_t) * per);
+        t->entry[s] = k++;
+    }
+    free(t->lobe);
+    t->lobe = lobe;
+    return 0;
+}
+
+static int vp_entry_cmp(const void *a, const void *b) {
+    const vp_entry *x = a, *y = b;
+    return x->v != y->v ? (x->v < y->v ? -1 : 1) : x->j != y->j ? (x->j < y->j ? -1 : 1) : 0;
+}
+
+/* The threads' stored slices, sorted by (vertex, view), into the hash, the slot list and pass 0's
+ * lobes of an R-pass lobe array. Returns 0 or -1 (OOM). */
+static int vp_build(vp_ctx *c, int R, prt_error *err) {
+    size_t n = 0;
+    for (int i = 0; i < VP_MAX_THREADS; i++) {
+        if (c->th[i].list.oom) return prt_fail(err, "vmf precompute: out of memory (stored slices)");
+        n += c->th[i].list.n;
+    }
+    vp_entry *all = prt_calloc(n ? n : 1, sizeof *all, err);
+    if (!all) return -1;
+    for (int i = 0, k = 0; i < VP_MAX_THREADS; i++) {
+        if (c->th[i].list.n) memcpy(all + k, c->th[i].list.e, c->th[i].list.n * sizeof *all);
+        k += (int)c->th[i].list.n;
+        free(c->th[i].list.e);
+        c->th[i].list = (vp_list){ 0 };
+    }
+    qsort(all, n, sizeof *all, vp_entry_cmp);
+    vmft_data *t = c->t;
+    c->slot_v = prt_calloc(n ? n : 1, sizeof(uint32_t), err);
+    c->slot_j = c->slot_v ? prt_calloc(n ? n : 1, sizeof(uint32_t), err) : NULL;
+    int rc = c->slot_j ? 0 : -1;
+    for (size_t e = 0; rc == 0 && e < n; e++) c->slot_v[e] = all[e].v, c->slot_j[e] = all[e].j;
+    if (rc == 0) rc = phash_build(c->slot_v, c->slot_j, n, t->nverts, t->nviews, &t->hash, err);
+    size_t per = (size_t)R * t->lobes * VMFT_WORDS;
+    if (rc == 0) t->lobe = prt_calloc(n ? n * per : 1, sizeof(uint32_t), err);
+    if (rc == 0 && t->lobe) t->entry = prt_calloc(t->hash.size ? t->hash.size : 1, sizeof(uint32_t), err);
+    if (rc == 0 && !t->entry) rc = -1;
+    t->passes = R;
+    for (size_t s = 0; rc == 0 && s < t->hash.size; s++) t->entry[s] = UINT32_MAX;
+    for (size_t e = 0; rc == 0 && e < n; e++) {
+        memcpy(t->lobe + e * per, all[e].w, sizeof(uint32_t) * t->lobes * VMFT_WORDS);
+        long s = phash_find(&t->hash, all[e].v, all[e].j);
+        PRT_CHECK(s >= 0);
+        t->entry[s] = (uint32_t)e;
+    }
+    /* entries in slot order (vmf.h): renumber them by a pass over the slots */
+    if (rc == 0) rc = vp_renumber(t, per, err);
+    c->nslices = n;
+    free(all);
+    return rc;
+}
+
+/* ---- gathering (section 5.2) ------------------------------------------------------------------ */
+
+/* The lobes hit h of direction s gives toward the slice's vertex, as items of colour A alpha / S
+ * (vmfpass.h): Eq. 7 over the hit triangle's fitted corners and the grid views of -s (pass - 1),
+ * and in pass 1 the corners' diffuse lobes. Returns the item count. */
+static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const float A[3], vp_item *out) {
+    const prt_mesh *m = c->m;
+    const uint32_t *tri = m->tris + 3 * (size_t)h->tri;
+    float b[3] = { 1 - h->u - h->v, h->u, h->v }, nh[3] = { 0, 0, 0 }, wo[3] = { -s[0], -s[1], -s[2] };
+    for (int k = 0; k < 3; k++)
+        for (int q = 0; q < 3; q++) nh[q] += b[k] * m->nrm[3 * (size_t)tri[k] + q];
+    float nl = sqrtf(nh[0] * nh[0] + nh[1] * nh[1] + nh[2] * nh[2]);
+    if (!(nl > 0) || nh[0] * wo[0] + nh[1] * wo[1] + nh[2] * wo[2] <= 0) return 0;   /* seen from behind */
+    for (int q = 0; q < 3; q++) nh[q] /= nl;
+    vmf_lobe l[VMFT_MAX_LOBES + 1];
+    float a[VMFT_MAX_LOBES + 1][3];
+    int vert[9], view[9], np = 0, nlb = 0, gv[3];
+    float w[9], gw[3];
+    geogrid_locate(c->t->grid, wo, gv, gw);
+    for (int k = 0; k < 3; k++)
+        for (int q = 0; q < 3 && ((c->t->materials >> m->mat[tri[k]]) & 1); q++)
+            vert[np] = (int)tri[k], view[np] = gv[q], w[np++] = b[k] * gw[q];
+    if (np) vmft_interp(c->t, m, np, vert, view, w, c->pass - 1, wo, nh, l, a), nlb = c->t->lobes;
+    if (c->pass == 1) {   /* the corners' direct diffuse lobes, Eq. 7 over the triangle */
+        double mu[3] = { 0, 0, 0 }, kap = 0, aw = 0, al[3] = { 0, 0, 0 };
+        for (int k = 0; k < 3; k++) {
+            const float *d = c->dlobe[tri[k]];
+            double x = b[k] * lum3(d + 4);
+            for (int q = 0; q < 3; q++) mu[q] += x * d[q], al[q] += b[k] * d[4 + q];
+            kap += x * d[3], aw += x;
+        }
+        double ml = sqrt(mu[0] * mu[0] + mu[1] * mu[1] + mu[2] * mu[2]);
+        if (aw > 0 && ml > 0) {
+            for (int q = 0; q < 3; q++) l[nlb].mu[q] = (float)(mu[q] / ml), a[nlb][q] = (float)al[q];
+            l[nlb++].kappa = (float)(kap / aw);
+        }
+    }
+    int ni = 0;
+    for (int i = 0; i < nlb; i++) {
+        if (!(lum3(a[i]) > 0)) continue;
+        vp_item *it = &out[ni++];
+        double r = vmf_mean_length(l[i].kappa);
+        for (int q = 0; q < 3; q++) it->r[q] = (float)(r * l[i].mu[q]), it->c[q] = A[q] * a[i][q] / (float)c->S;
+        it->w = lum3(it->c), it->kappa = l[i].kappa, it->cluster = 0;
+    }
+    return ni;
+}
+
+/* Merges a slice's gathered items into I lobes: broad ones into the last lobe (I >= 2), sharp
+ * ones clustered into the others, sorted; returns the energy. */
+static double vp_gather_merge(const vp_ctx *c, vp_item *it, int ni, uint32_t *w) {
+    int I = c->I, broad = I >= 2 ? I - 1 : -1;
+    for (int i = 0; i < ni; i++) it[i].cluster = broad >= 0 && it[i].kappa < VP_BROAD_KAPPA ? broad : 0;
+    vmf_lobe l[VMFT_MAX_LOBES];
+    float a[VMFT_MAX_LOBES][3];
+    for (int i = 0; i < I; i++) l[i] = (vmf_lobe){ { 0, 0, 1 }, 0 }, a[i][0] = a[i][1] = a[i][2] = 0;
+    int ks = 0;
+    for (int i = 0; i < ni && !ks; i++) ks = it[i].cluster == 0;
+    if (ks) ks = vp_cluster(it, ni, 0, broad >= 0 ? I - 1 : I);
+    for (int q = 0; q < ks; q++) vp_merge(it, ni, q, &l[q], a[q]);
+    vp_sort(l, a, ks);
+    if (broad >= 0) vp_merge(it, ni, broad, &l[broad], a[broad]);
+    vp_pack(l, (const float (*)[3])a, I, w);
+    double e = 0;
+    for (int q = 0; q < I; q++) e += lum3(a[q]);
+    return e;
+}
+
+/* Stored slice e (pass c->pass): the direct pass's rays again, their hits gathered and merged. */
+static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
+    int v = (int)c->slot_v[e], j = (int)c->slot_j[e];
+    const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v;
+    vmf_lobe L;
+    float A[3];
+    vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, geogrid_dir(c->t->grid, j), &L, A);
+    vp_samples(&L, (uint32_t)v, (uint32_t)j, c->S, th->dirs);
+    int nr = vp_trace(c, th, p, n, c->S), ni = 0;
+    for (int i = 0; i < nr; i++)
+        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris)
+            ni += vp_hit_items(c, &th->hits[i], th->tdirs + 3 * i, A, th->items + ni);
+    long s = phash_find(&c->t->hash, (uint32_t)v, (uint32_t)j);
+    PRT_CHECK(s >= 0);
+    uint32_t *w = c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
+    c->energy[e] = vp_gather_merge(c, th->items, ni, w);
+}
+
+static void vp_gather_range(void *ctx, int begin, int end, int thread) {
+    vp_ctx *c = ctx;
+    for (int e = begin; e < end && !atomic_load(&c->cancel); e++) vp_gather_slice(c, &c->th[thread], (size_t)e);
+    vp_progress(c, end - begin);
+}
+
+/* ---- diffuse lobes of the hit surfaces ------------------------------------------------------- */
+
+/* Vertex v's direct diffuse radiance as a lobe (vmfpass.h): cosine-distributed rays, the unblocked
+ * ones' mean direction, colour kd * unblocked share. */
+static void vp_diffuse_vertex(const vp_ctx *c, vp_thread *th, int v) {
+    float *out = c->dlobe[v];
+    const float *kd = c->in->scene->materials[c->m->mat[v]].kd, *n = c->m->nrm + 3 * (size_t)v;
+    memset(out, 0, 7 * sizeof(float));
+    if (!(lum3(kd) > 0)) return;
+    float s[3], t[3];
+    brdf_frame(n, s, t);
+    uint64_t h = splitmix(~(uint64_t)v);
+    double r1 = (double)(h >> 40) / 16777216.0, r2 = (double)(h & 0xffffff) / 16777216.0;
+    for (int i = 0; i < VP_DIFFUSE_RAYS; i++) {
+        double u1 = (i + 0.5) / VP_DIFFUSE_RAYS + r1, u2 = i * 0.6180339887498949 + r2;
+        u1 -= floor(u1), u2 -= floor(u2);
+        double st = sqrt(u1), ct = sqrt(1 - u1), ph = 2 * M_PI * u2;
+        for (int k = 0; k < 3; k++) th->dirs[3 * i + k] = (float)(st * cos(ph) * s[k] + st * sin(ph) * t[k] + ct * n[k]);
+    }
+    int nr = vp_trace(c, th, c->m->pos + 3 * (size_t)v, n, VP_DIFFUSE_RAYS), nv = 0;
+    double r[3] = { 0, 0, 0 };
+    for (int i = 0; i < nr; i++)
+        if (th->hits[i].tri < 0)
+            for (int k = 0; k < 3; k++) r[k] += th->tdirs[3 * i + k];
+    for (int i = 0; i < nr; i++) nv += th->hits[i].tri < 0;
+    if (!nv) return;
+    for (int k = 0; k < 3; k++) r[k] /= nv;
+    vmf_lobe l;
+    vmf_from_mean(r, &l);
+    for (int k = 0; k < 3; k++) out[k] = l.mu[k], out[4 + k] = kd[k] * (float)nv / VP_DIFFUSE_RAYS;
+    out[3] = l.kappa;
+}
+
+static void vp_diffuse_range(void *ctx, int begin, int end, int thread) {
+    vp_ctx *c = ctx;
+    for (int v = begin; v < end && !atomic_load(&c->cancel); v++) vp_diffuse_vertex(c, &c->th[thread], v);
+    vp_progress(c, end - begin);
+}
+
+/* ---- the run ---------------------------------------------------------------------------------- */
+
+/* One stage over n items in chunks of grain: fn through prt_parallel_for, progress as `stage`. */
+static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, prt_error *err) {
+    c->stage = stage, c->total = n > 0 ? n : 1;
+    atomic_store(&c->done, 0);
+    prt_parallel_for(n, grain, c->in->nthreads, fn, c);
+    if (atomic_load(&c->cancel)) return prt_fail(err, "vmf precompute: cancelled");
+    return 0;
+}
+
+/* The transfer's materials fitted (lobefit.h), its vertices listed, the scratch allocated. */
+static int vp_setup(vp_ctx *c, const prt_transfer *tr, prt_error *err) {
+    const prt_scene *sc = c->in->scene;
+    for (int mi = 0; mi < sc->nmaterials; mi++) {
+        if (!((tr->materials >> mi) & 1)) continue;
+        prt_error e2;
+        if (lobefit_fit(&sc->materials[mi], &(lobefit_desc){ 0 }, &c->t->fit[mi], &e2))
+            return prt_fail(err, "vmf precompute: material %d (%s): %s", mi, sc->material_spec[mi], e2.msg);
+    }
+    c->gverts = prt_calloc((size_t)c->m->nverts + 1, sizeof(int), err);
+    c->dlobe = c->gverts ? prt_calloc((size_t)c->m->nverts + 1, sizeof *c->dlobe, err) : NULL;
+    if (!c->dlobe) return -1;
+    for (int v = 0; v < c->m->nverts; v++)
+        if ((tr->materials >> c->m->mat[v]) & 1) c->gverts[c->ngverts++] = v;
+    c->energy = prt_calloc((size_t)c->ngverts + 1, sizeof(double), err);
+    c->nactive = c->energy ? prt_calloc((size_t)c->ngverts + 1, sizeof(uint32_t), err) : NULL;
+    if (!c->nactive) return -1;
+    int nt = prt_thread_count(c->in->nthreads), S = c->S > VP_DIFFUSE_RAYS ? c->S : VP_DIFFUSE_RAYS;
+    for (int i = 0; i < nt && i < VP_MAX_THREADS; i++) {
+        vp_thread *th = &c->th[i];
+        th->dirs = malloc(sizeof(float) * 3 * S), th->tdirs = malloc(sizeof(float) * 3 * S);
+        th->tidx = malloc(sizeof(int) * S), th->hits = malloc(sizeof(vis_hit) * S), th->blocked = malloc((size_t)S);
+        th->items = malloc(sizeof(vp_item) * (size_t)S * VP_MAX_ITEMS_PER_HIT);
+        if (!th->dirs || !th->tdirs || !th->tidx || !th->hits || !th->blocked || !th->items)
+            return prt_fail(err, "vmf precompute: out of memory");
+    }
+    return 0;
+}
+
+static void vp_teardown(vp_ctx *c) {
+    for (int i = 0; i < VP_MAX_THREADS; i++) {
+        vp_thread *th = &c->th[i];
+        free(th->dirs), free(th->tdirs), free(th->tidx), free(th->hits), free(th->blocked), free(th->items), free(th->list.e);
+    }
+    free(c->gverts), free(c->dlobe), free(c->energy), free(c->nactive), free(c->slot_v), free(c->slot_j);
+    pthread_mutex_destroy(&c->lock);
+}
+
+/* Keeps the first R of t's passes (the lobe array re-laid out for R). */
+static void vp_compact(vmft_data *t, int R) {
+    if (R == t->passes) return;
+    size_t I3 = (size_t)t->lobes * VMFT_WORDS;
+    for (size_t e = 0; e < t->hash.n; e++)
+        memmove(t->lobe + e * R * I3, t->lobe + e * t->passes * I3, sizeof(uint32_t) * R * I3);
+    t->passes = R;
+}
+
+/* Gathering passes 1..R-1 until one carries less than the threshold (vmfpass.h). Returns 0 or -1. */
+static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
+    vmft_data *t = c->t;
+    int done = 1;
+    free(c->energy);
+    c->energy = prt_calloc(c->nslices + 1, sizeof(double), err);
+    if (!c->energy) return -1;
+    static const char *stages[VMFT_MAX_PASSES] = { "vmf direct", "vmf pass 1", "vmf pass 2", "vmf pass 3" };
+    for (int p = 1; p < R; p++) {
+        double t0 = prt_now();
+        c->pass = p;
+        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, err)) return -1;
+        double e = 0;
+        for (size_t i = 0; i < c->nslices; i++) e += c->energy[i];
+        t->energy[p] = e0 > 0 ? e / e0 : 0;
+        t->t_pass[p] = prt_now() - t0;
+        done = p + 1;
+        if (t->energy[p] < c->in->bounce_threshold) break;
+    }
+    vp_compact(t, done);
+    return 0;
+}
+
+int vmfpass_run(const transfer_precompute_in *in, prt_transfer *tr, prt_error *err) {
+    PRT_CHECK(in->scene && in->vis && tr->cfg.lobes >= 1 && tr->cfg.samples >= 1);
+    vp_ctx *c = calloc(1, sizeof *c);
+    vmft_data *t = calloc(1, sizeof *t);
+    if (!c || !t) return free(c), free(t), prt_fail(err, "vmf precompute: out of memory");
+    const prt_mesh *m = &in->scene->mesh;
+    *c = (vp_ctx){ .in = in, .m = m, .t = t, .S = tr->cfg.samples, .I = tr->cfg.lobes, .eps = vis_eps(in->vis) };
+    pthread_mutex_init(&c->lock, NULL);
+    int R = in->passes < 1 ? 1 : in->passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : in->passes, rc = -1;
+    if (vmft_init(t, tr->cfg.level, tr->cfg.lobes, m->nverts, err) || (t->samples = c->S, t->materials = tr->materials, 0) ||
+        vp_setup(c, tr, err))
+        goto done;
+    double t0 = prt_now();
+    if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, err)) goto done;
+    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, err) || vp_build(c, R, err)) goto done;
+    double e0 = 0;
+    for (int i = 0; i < c->ngverts; i++) e0 += c->energy[i], t->slices += c->nactive[i];
+    t->energy[0] = 1;
+    t->t_pass[0] = prt_now() - t0;
+    if (vp_gather_passes(c, e0, R, err)) goto done;
+    rc = 0;
+done:
+    vp_teardown(c);
+    free(c);
+    if (rc) vmft_free(t), free(t);
+    else tr->priv = t;
+    return rc;
+}
