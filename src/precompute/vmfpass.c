@@ -345,6 +345,7 @@ static int vp_build(vp_ctx *c, int R, prt_error *err) {
     }
     /* entries in slot order (vmf.h): renumber them by a pass over the slots */
     if (rc == 0) rc = vp_renumber(t, per, err);
+    if (rc == 0) rc = vmft_index(t, err);   /* the gathering passes' lookups (vmft_interp) use it */
     c->nslices = n;
     free(all);
     return rc;

@@ -37,8 +37,23 @@ int vmft_init(vmft_data *t, int level, int lobes, int nverts, prt_error *err) {
     return 0;
 }
 
+int vmft_index(vmft_data *t, prt_error *err) {
+    free(t->stored);
+    t->words = (t->nviews + 63) / 64;
+    t->stored = prt_calloc((size_t)t->nverts * t->words + 1, sizeof(uint64_t), err);
+    if (!t->stored) return -1;
+    for (size_t s = 0; s < t->hash.size; s++) {
+        uint32_t o = t->hash.owner[s];
+        if (!o || o > (uint32_t)t->nverts || s < t->hash.offset[o - 1] || s - t->hash.offset[o - 1] >= (size_t)t->nviews) continue;
+        size_t j = s - t->hash.offset[o - 1];
+        t->stored[(size_t)(o - 1) * t->words + j / 64] |= (uint64_t)1 << (j % 64);
+    }
+    return 0;
+}
+
 void vmft_free(vmft_data *t) {
     if (!t) return;
+    free(t->stored);
     phash_free(&t->hash);
     free(t->lobe);
     free(t->entry);
@@ -185,10 +200,20 @@ static void interp_entries(const vmft_data *t, const prt_mesh *m, int n, const i
     for (int i = 0; i < t->lobes; i++) acc_result(&acc[i], &out[i], alpha[i]);
 }
 
-/* The entry (lobe set index) of slice (v, j), or -1 when it is not stored. */
+/* Whether row v has any stored slice (t->stored). */
+static bool row_any(const vmft_data *t, int v) {
+    const uint64_t *b = t->stored + (size_t)v * t->words;
+    uint64_t any = 0;
+    for (int k = 0; k < t->words; k++) any |= b[k];
+    return any != 0;
+}
+
+/* The entry (lobe set index) of slice (v, j), or -1 when it is not stored: the bitmap first (the
+ * common absent case touches neither owner nor entry), then the slot's entry. */
 static long entry_of(const vmft_data *t, int v, int j) {
-    long s = phash_find(&t->hash, (uint32_t)v, (uint32_t)j);
-    return s < 0 ? -1 : (long)t->entry[s];
+    PRT_CHECK(t->stored != NULL && j >= 0 && j < t->nviews);
+    if (!((t->stored[(size_t)v * t->words + j / 64] >> (j % 64)) & 1)) return -1;
+    return (long)t->entry[(size_t)t->hash.offset[v] + (size_t)j];
 }
 
 void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, const int *view, const float *w,
@@ -221,10 +246,13 @@ void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[
     }
     int views[3], verts[3] = { v, v, v };
     float gw[3];
-    geogrid_locate(t->grid, w, views, gw);
     long ent[3];
-    bool any = false;
-    for (int k = 0; k < 3; k++) ent[k] = gw[k] > 0 ? entry_of(t, v, views[k]) : -1, any |= ent[k] >= 0;
+    bool any = row_any(t, v);   /* a row with nothing stored needs no grid location either */
+    if (any) {
+        geogrid_locate(t->grid, w, views, gw);
+        any = false;
+        for (int k = 0; k < 3; k++) ent[k] = gw[k] > 0 ? entry_of(t, v, views[k]) : -1, any |= ent[k] >= 0;
+    }
     vmf_lobe l[VMFT_MAX_LOBES];
     float a[VMFT_MAX_LOBES][3];
     if (!any) {   /* the common case: the BRDF's own lobe at the exact view, one lookup */
@@ -394,7 +422,10 @@ static bool vmf_read_arrays(prt_reader *r, vmft_data *t, char *why) {
     t->entry = prtio_get_arr(r, (size_t)size, 4);
     t->lobe = prtio_get_arr(r, (size_t)n * per, 4);
     t->hash.fill = size ? (double)n / (double)size : 1.0;
-    return r->bad ? BAD(why, "vmf section too short") : true;
+    if (r->bad) return BAD(why, "vmf section too short");
+    prt_error e;
+    if (vmft_index(t, &e)) return r->bad = r->oom = true, BAD(why, "vmf: out of memory");
+    return true;
 }
 
 static bool vmf_read(prt_reader *r, prt_transfer *tr, char *why) {

@@ -116,6 +116,9 @@ typedef struct vmft_data {
     uint32_t *lobe;             /* [hash.n * passes * lobes * VMFT_WORDS] */
     lobefit_table fit[PRT_MAX_MATERIALS];   /* the BRDF's own lobe per view elevation */
     geogrid *grid;
+    uint64_t *stored;           /* [nverts * words] derived, not in the file (vmft_index): bit j of row v
+                                 * = slice (v, j) is stored, so an absent view costs no hash probe */
+    int words;                  /* (nviews + 63) / 64 */
     /* statistics (stored in the file, shown by `prt info`) */
     uint64_t slices;            /* active (vertex, view) slices computed */
     double t_pass[VMFT_MAX_PASSES];   /* seconds per pass */
@@ -128,6 +131,9 @@ const vmft_data *vmft_get(const struct prt_transfer *tr);
 int vmft_init(vmft_data *t, int level, int lobes, int nverts, prt_error *err);
 /* Frees the hash, lobes and grid and zeroes t. */
 void vmft_free(vmft_data *t);
+/* Builds t->stored from the hash (after it is filled or read; owners outside their row are skipped,
+ * the validator names them). -1 and err when out of memory. */
+int vmft_index(vmft_data *t, prt_error *err);
 /* Bytes of the layout above (offsets, owners, entries, lobes). */
 size_t vmft_bytes(const vmft_data *t);
 
