@@ -57,6 +57,10 @@
  * is the BRDF's own lobe at the exact w_o instead (so an unoccluded vertex is exactly the
  * lobe fit); where some are, absent pairs give the BRDF lobe at their grid view, which keeps
  * Eq. 7 exact for mirror lobes (the mirror direction is linear in w_o, geogrid.h).
+ * Measured against interpolating radiance instead (sum w_k alpha_k E(mu_k, kappa_k) over the three
+ * views, an absent view's lobe at the exact w_o; teapot + floor under city, 3 passes, against
+ * the path tracer at 1,024 spp, 3.6% noise): 20.4% per vertex (27.8% where a view is stored)
+ * against Eq. 7's 18.2% (24.6%), and 3 lookups instead of 1: Eq. 7 stays.
  * Views below the horizon: w_o (and any view) with n.w_o < VMFT_MIN_COS is shaded at the
  * grazing direction of the same azimuth (as the SVD runtime does, relight.c).
  *
