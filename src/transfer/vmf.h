@@ -79,13 +79,18 @@
  * 28% of stored slices are fully blocked, only 8% have 1-2 blocked rays of 64), hash fill
  * 46.5% (phash.c), 20.4 MB (the Haar file of the scene: 9.0 MB); CPU shading 0.9-2.0 us a glossy vertex on one core depending on the
  * machine's load (0.28 us on the unoccluded sphere, where every vertex takes the one-lookup
- * path). After the shading and gathering changes of vmf2 (tools/vmf_measure.sh, median frame of
- * one thread's CPU time; the 2-core machine shared, load 4-6): the bunny in paper-phong alone
- * (34,834 glossy vertices, 39% of 3.7 M slices stored, 72 MB) 0.36 us a vertex (12.4 ms a frame,
- * 6.2 ms on 2 cores; it was 0.78 us: 30% of a frame waited on entry and lobe cache misses, 25%
- * went to the tangent frame's doubles, see shade_range and vmft_brdf_lobe); teapot + floor 0.68
- * us. Precompute of teapot + floor, 3 passes: 16.1 s (direct 5.7, pass 1 6.4, pass 2 3.5; it was
- * 19.6 s in the same session) beside `prt precompute --no-bounces` (Haar direct) 14.9 s. Diffuse hits (vmfpass.h): without pass 1 the stored teapot vertices have 59% of the
+ * path). After the shading and gathering changes of branch vmf2 (tools/vmf_measure.sh
+ * --save/--load, the same file shaded by the library before and after, back to back, load 2-4
+ * on this 2-core machine): the bunny in paper-phong alone (34,834 glossy vertices, 39% of 3.7 M
+ * slices stored, 72 MB), one thread's median frame 17.6-17.8 ms CPU before, 10.4-11.4 ms after
+ * (0.30-0.33 us a vertex); both cores' wall median 17.7-22.5 ms before, 11.4-11.6 ms (86-88
+ * fps) after. perf had 30% of a frame waiting on the entry and lobe cache misses (shade_range
+ * now prefetches a block's); the BRDF lobe no longer builds a tangent frame in doubles
+ * (vmft_brdf_lobe); teapot + floor 0.63 us a glossy vertex. Precompute of teapot + floor, 3 passes: 19.0 s before,
+ * 16.6 s after (direct 6.2, pass 1 6.7, pass 2 3.2 s: pass 2 skips the slices that hit no fitted
+ * triangle in pass 1) beside `prt precompute --no-bounces` (Haar direct) 16.5 s; the paper-phong
+ * sphere 10.8 s before, 0.66 s after (vmfpass.c vp_open: nothing above the tangent plane).
+ * Diffuse hits (vmfpass.h): without pass 1 the stored teapot vertices have 59% of the
  * reference's 1-bounce energy (25.9% error); with the floor's diffuse lobes gathered, 100.6%
  * (16.2%), so they are kept.
  *
