@@ -51,6 +51,7 @@ typedef struct vp_ctx {
     float (*dlobe)[7];            /* [nverts] diffuse lobe: mu, kappa, alpha rgb (alpha 0: none) */
     vp_thread th[VP_MAX_THREADS];
     double *energy;               /* per glossy vertex (direct) or per stored slice (gathering) */
+    uint8_t *hitfit;              /* per stored slice: a ray hit a fitted triangle in pass 1 */
     uint32_t *nactive;            /* per glossy vertex: its active views */
     uint32_t *slot_v, *slot_j;    /* stored slices in (vertex, view) order */
     size_t nslices;
@@ -270,6 +271,28 @@ static void vp_progress(vp_ctx *c, int count) {
     pthread_mutex_unlock(&c->lock);
 }
 
+/* Whether nothing of the scene lies above v's tangent plane: every traced ray leaves from p + eps n
+ * with n.d > 0, so a hit point y has n.(y - p) >= eps, and a triangle whose corners are all below
+ * eps / 2 of the plane cannot be hit. Such a vertex (a convex hull's, most of a sphere's) needs no
+ * sampling or tracing: each active slice is the BRDF's own lobe. One pass over the vertices, leaving
+ * at the first above (most occluded vertices leave early); small beside 162 x 64 rays. */
+static bool vp_open(const vp_ctx *c, int v) {
+    const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v, *x = c->m->pos;
+    float lim = n[0] * p[0] + n[1] * p[1] + n[2] * p[2] + 0.5f * c->eps;
+    for (int i = 0; i < c->m->nverts; i++)
+        if (n[0] * x[3 * i] + n[1] * x[3 * i + 1] + n[2] * x[3 * i + 2] >= lim) return false;
+    return true;
+}
+
+/* The energy (alpha luminance) of slice (v, j) when nothing can block it: its BRDF lobe's, 0 inactive. */
+static double vp_open_slice(const vp_ctx *c, int v, int j) {
+    if (!vp_active(c, v, j)) return 0;
+    vmf_lobe L;
+    float A[3];
+    vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], c->m->nrm + 3 * (size_t)v, geogrid_dir(c->t->grid, j), &L, A);
+    return lum3(A);
+}
+
 static void vp_direct_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
     vp_thread *th = &c->th[thread];
@@ -277,8 +300,10 @@ static void vp_direct_range(void *ctx, int begin, int end, int thread) {
         int v = c->gverts[gi];
         double ev = 0, e;
         uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS] = { 0 }, na = 0;
+        bool open = vp_open(c, v);
         for (int j = 0; j < c->t->nviews; j++) {
-            if (vp_direct_slice(c, th, v, j, w, &e)) vp_list_push(&th->list, (uint32_t)v, (uint32_t)j, w);
+            if (open) e = vp_open_slice(c, v, j);
+            else if (vp_direct_slice(c, th, v, j, w, &e)) vp_list_push(&th->list, (uint32_t)v, (uint32_t)j, w);
             ev += e;
             na += e > 0 || vp_active(c, v, j);
         }
@@ -345,6 +370,7 @@ static int vp_build(vp_ctx *c, int R, prt_error *err) {
     }
     /* entries in slot order (vmf.h): renumber them by a pass over the slots */
     if (rc == 0) rc = vp_renumber(t, per, err);
+    if (rc == 0) rc = vmft_index(t, err);   /* the gathering passes' lookups (vmft_interp) use it */
     c->nslices = n;
     free(all);
     return rc;
@@ -368,8 +394,10 @@ static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const
     float a[VMFT_MAX_LOBES + 1][3];
     int vert[9], view[9], np = 0, nlb = 0, gv[3];
     float w[9], gw[3];
-    geogrid_locate(c->t->grid, wo, gv, gw);
-    for (int k = 0; k < 3; k++)
+    bool fitted = false;   /* a hit on other materials only (a Lambert floor) needs no grid location */
+    for (int k = 0; k < 3; k++) fitted |= (c->t->materials >> m->mat[tri[k]]) & 1;
+    if (fitted) geogrid_locate(c->t->grid, wo, gv, gw);
+    for (int k = 0; k < 3 && fitted; k++)
         for (int q = 0; q < 3 && ((c->t->materials >> m->mat[tri[k]]) & 1); q++)
             vert[np] = (int)tri[k], view[np] = gv[q], w[np++] = b[k] * gw[q];
     if (np) vmft_interp(c->t, m, np, vert, view, w, c->pass - 1, wo, nh, l, a), nlb = c->t->lobes;
@@ -421,15 +449,23 @@ static double vp_gather_merge(const vp_ctx *c, vp_item *it, int ni, uint32_t *w)
 /* Stored slice e (pass c->pass): the direct pass's rays again, their hits gathered and merged. */
 static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
     int v = (int)c->slot_v[e], j = (int)c->slot_j[e];
+    /* passes >= 2 gather only the fitted corners' previous pass (diffuse lobes are pass 1's): a
+     * slice none of whose rays hit a fitted triangle in pass 1 gathers nothing again (same rays) */
+    if (c->pass >= 2 && !c->hitfit[e]) { c->energy[e] = 0; return; }
     const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v;
     vmf_lobe L;
     float A[3];
     vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, geogrid_dir(c->t->grid, j), &L, A);
     vp_samples(&L, (uint32_t)v, (uint32_t)j, c->S, th->dirs);
     int nr = vp_trace(c, th, p, n, c->S), ni = 0;
+    bool fit = false;
     for (int i = 0; i < nr; i++)
-        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris)
+        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris) {
             ni += vp_hit_items(c, &th->hits[i], th->tdirs + 3 * i, A, th->items + ni);
+            const uint32_t *tri = c->m->tris + 3 * (size_t)th->hits[i].tri;
+            for (int k = 0; k < 3; k++) fit |= (c->t->materials >> c->m->mat[tri[k]]) & 1;
+        }
+    if (c->pass == 1) c->hitfit[e] = fit;
     long s = phash_find(&c->t->hash, (uint32_t)v, (uint32_t)j);
     PRT_CHECK(s >= 0);
     uint32_t *w = c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
@@ -526,7 +562,7 @@ static void vp_teardown(vp_ctx *c) {
         vp_thread *th = &c->th[i];
         free(th->dirs), free(th->tdirs), free(th->tidx), free(th->hits), free(th->blocked), free(th->items), free(th->list.e);
     }
-    free(c->gverts), free(c->dlobe), free(c->energy), free(c->nactive), free(c->slot_v), free(c->slot_j);
+    free(c->gverts), free(c->dlobe), free(c->energy), free(c->hitfit), free(c->nactive), free(c->slot_v), free(c->slot_j);
     pthread_mutex_destroy(&c->lock);
 }
 
@@ -545,7 +581,8 @@ static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
     int done = 1;
     free(c->energy);
     c->energy = prt_calloc(c->nslices + 1, sizeof(double), err);
-    if (!c->energy) return -1;
+    c->hitfit = c->energy ? prt_calloc(c->nslices + 1, 1, err) : NULL;
+    if (!c->hitfit) return -1;
     static const char *stages[VMFT_MAX_PASSES] = { "vmf direct", "vmf pass 1", "vmf pass 2", "vmf pass 3" };
     for (int p = 1; p < R; p++) {
         double t0 = prt_now();

@@ -57,6 +57,10 @@
  * is the BRDF's own lobe at the exact w_o instead (so an unoccluded vertex is exactly the
  * lobe fit); where some are, absent pairs give the BRDF lobe at their grid view, which keeps
  * Eq. 7 exact for mirror lobes (the mirror direction is linear in w_o, geogrid.h).
+ * Measured against interpolating radiance instead (sum w_k alpha_k E(mu_k, kappa_k) over the three
+ * views, an absent view's lobe at the exact w_o; teapot + floor under city, 3 passes, against
+ * the path tracer at 1,024 spp, 3.6% noise): 20.4% per vertex (27.8% where a view is stored)
+ * against Eq. 7's 18.2% (24.6%), and 3 lookups instead of 1: Eq. 7 stays.
  * Views below the horizon: w_o (and any view) with n.w_o < VMFT_MIN_COS is shaded at the
  * grazing direction of the same azimuth (as the SVD runtime does, relight.c).
  *
@@ -75,7 +79,18 @@
  * 28% of stored slices are fully blocked, only 8% have 1-2 blocked rays of 64), hash fill
  * 46.5% (phash.c), 20.4 MB (the Haar file of the scene: 9.0 MB); CPU shading 0.9-2.0 us a glossy vertex on one core depending on the
  * machine's load (0.28 us on the unoccluded sphere, where every vertex takes the one-lookup
- * path). Diffuse hits (vmfpass.h): without pass 1 the stored teapot vertices have 59% of the
+ * path). After the shading and gathering changes of branch vmf2 (tools/vmf_measure.sh
+ * --save/--load, the same file shaded by the library before and after, back to back, load 2-4
+ * on this 2-core machine): the bunny in paper-phong alone (34,834 glossy vertices, 39% of 3.7 M
+ * slices stored, 72 MB), one thread's median frame 17.6-17.8 ms CPU before, 10.4-11.4 ms after
+ * (0.30-0.33 us a vertex); both cores' wall median 17.7-22.5 ms before, 11.4-11.6 ms (86-88
+ * fps) after. perf had 30% of a frame waiting on the entry and lobe cache misses (shade_range
+ * now prefetches a block's); the BRDF lobe no longer builds a tangent frame in doubles
+ * (vmft_brdf_lobe); teapot + floor 0.63 us a glossy vertex. Precompute of teapot + floor, 3 passes: 19.0 s before,
+ * 16.6 s after (direct 6.2, pass 1 6.7, pass 2 3.2 s: pass 2 skips the slices that hit no fitted
+ * triangle in pass 1) beside `prt precompute --no-bounces` (Haar direct) 16.5 s; the paper-phong
+ * sphere 10.8 s before, 0.66 s after (vmfpass.c vp_open: nothing above the tangent plane).
+ * Diffuse hits (vmfpass.h): without pass 1 the stored teapot vertices have 59% of the
  * reference's 1-bounce energy (25.9% error); with the floor's diffuse lobes gathered, 100.6%
  * (16.2%), so they are kept.
  *
@@ -116,6 +131,9 @@ typedef struct vmft_data {
     uint32_t *lobe;             /* [hash.n * passes * lobes * VMFT_WORDS] */
     lobefit_table fit[PRT_MAX_MATERIALS];   /* the BRDF's own lobe per view elevation */
     geogrid *grid;
+    uint64_t *stored;           /* [nverts * words] derived, not in the file (vmft_index): bit j of row v
+                                 * = slice (v, j) is stored, so an absent view costs no hash probe */
+    int words;                  /* (nviews + 63) / 64 */
     /* statistics (stored in the file, shown by `prt info`) */
     uint64_t slices;            /* active (vertex, view) slices computed */
     double t_pass[VMFT_MAX_PASSES];   /* seconds per pass */
@@ -128,6 +146,9 @@ const vmft_data *vmft_get(const struct prt_transfer *tr);
 int vmft_init(vmft_data *t, int level, int lobes, int nverts, prt_error *err);
 /* Frees the hash, lobes and grid and zeroes t. */
 void vmft_free(vmft_data *t);
+/* Builds t->stored from the hash (after it is filled or read; owners outside their row are skipped,
+ * the validator names them). -1 and err when out of memory. */
+int vmft_index(vmft_data *t, prt_error *err);
 /* Bytes of the layout above (offsets, owners, entries, lobes). */
 size_t vmft_bytes(const vmft_data *t);
 
