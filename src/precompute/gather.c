@@ -501,6 +501,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
     free(cnt);
     if (rc) { memset(next, 0, sizeof *next); return -1; }
+    next->solid_angle = prev->solid_angle;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
 
     gather_ctx c;
@@ -598,6 +599,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     int rc = transport_init(out, a->nverts, cnt, a->N, a->qbits, err);
     free(cnt);
     if (rc) { memset(out, 0, sizeof *out); return -1; }
+    out->solid_angle = a->solid_angle;
     int nth = prt_thread_count(nthreads);
     sum_ctx c = { .a = a, .b = b, .out = out };
     c.plane = prt_calloc((size_t)nth, sizeof(float *), err);

@@ -672,6 +672,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
         r->nvec[v] = (r->tr->materials >> mat) & 1 ? r->out->factors[mat].K : 0;
     }
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
+    r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
     for (int t = 0; t < r->nthreads; t++)

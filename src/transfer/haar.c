@@ -18,6 +18,7 @@
  * a 64x64 face is 1,365 block operations (about 2 us; the Morton scatter of a
  * whole cube adds a few more). */
 #include "haar.h"
+#include <math.h>
 #include <string.h>
 #ifdef __SSE2__
 #include <emmintrin.h>
@@ -182,4 +183,22 @@ void haar_cube_inverse(const float *wavelet, int res, float *texels, float *tmp)
         morton_to_face(wavelet + f * nn, res, texels + f * nn);
         haar_inverse(texels + f * nn, res, tmp);
     }
+}
+
+void haar_face_solid_angle(float *w, int res, bool inverse) {
+    const float h = 2.f / (float)res, a = h * h;
+    for (int j = 0; j < res; j++)
+        for (int i = 0; i < res; i++) {
+            float x = ((float)i + 0.5f) * h - 1.f, y = ((float)j + 0.5f) * h - 1.f, r2 = 1.f + x * x + y * y;
+            float r3 = r2 * sqrtf(r2);
+            w[j * res + i] = inverse ? r3 / a : a / r3;
+        }
+}
+
+/* Transformed in a row-major face (tmp), then reordered by morton index into W. */
+void haar_face_solid_angle_coeffs(float *W, int res, float *tmp) {
+    haar_face_solid_angle(tmp, res, false);
+    haar_forward(tmp, res, W);
+    for (int j = 0; j < res; j++)
+        for (int i = 0; i < res; i++) W[haar_morton((uint32_t)i, (uint32_t)j)] = tmp[j * res + i];
 }

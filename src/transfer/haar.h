@@ -33,4 +33,13 @@ void haar_unmorton(uint32_t m, uint32_t *i, uint32_t *j);
 void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp);
 /* Wavelet-index order -> row-major texels. */
 void haar_cube_inverse(const float *wavelet, int res, float *texels, float *tmp);
+
+/* The differential solid angle of a res x res cube face at each texel centre, row-major
+ * (the same on every face): w[j*res+i] = (2/res)^2 (1 + x^2 + y^2)^-3/2, within 0.025% of
+ * the texel's exact solid angle at res 64; its reciprocal when inverse is set. */
+void haar_face_solid_angle(float *w, int res, bool inverse);
+/* The Haar coefficients of haar_face_solid_angle (not inverted) in morton order:
+ * W[m] = <w, psi_m>, so a face's wavelet coefficients c of T/w integrate to
+ * sum_j T_j = sum_m c_m W[m]. tmp holds res*res floats. */
+void haar_face_solid_angle_coeffs(float *W, int res, float *tmp);
 #endif

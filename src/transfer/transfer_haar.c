@@ -21,6 +21,9 @@
  * (tools/shimmer.sh) keeps its ratio to the exact product within a spread (sd) of 0.13%
  * instead of 2.27%, steps of at most 0.72% instead of 2.85%, but with a uniform -1% bias; on a
  * reduced bunny over a floor the floor's sun-shadow error falls from 12.5% to 5.7%.
+ * Truncation also drops a share of each face's integral (W's details correlate with T/w's):
+ * transport_store puts it back into the face's scaling coefficient (transport.h, solid_angle),
+ * which moves that bias to -0.64%.
  * Files written before issue 10 have no measure flag: measure 0, the texels. */
 #include "transfer.h"
 #include "haar.h"
@@ -47,18 +50,6 @@ static void haar_describe(const transfer_config *cfg, char *buf, size_t cap) {
              haar_solid_angle(cfg) ? ", per steradian" : "");
 }
 
-/* w[j*res+i] = (2/res)^2 (1 + x^2 + y^2)^-3/2 at texel (i, j)'s centre (the same on every face):
- * the differential solid angle, or its inverse when inverse is set. */
-static void haar_face_weights(float *w, bool inverse) {
-    const float h = 2.f / CUBE_RES, a = h * h;
-    for (int j = 0; j < CUBE_RES; j++)
-        for (int i = 0; i < CUBE_RES; i++) {
-            float x = (i + 0.5f) * h - 1.f, y = (j + 0.5f) * h - 1.f, r2 = 1.f + x * x + y * y;
-            float r3 = r2 * sqrtf(r2);
-            w[j * CUBE_RES + i] = inverse ? r3 / a : a / r3;
-        }
-}
-
 /* Each face transformed on its own (section 4.1.1), wavelet-index order (haar.h); with the
  * solid-angle measure the texels are divided by w_j first (see the header comment). */
 static void haar_project_transport(const transfer_config *cfg, const float *texels, float *coeffs, float *scratch) {
@@ -68,7 +59,7 @@ static void haar_project_transport(const transfer_config *cfg, const float *texe
     }
     enum { NN = CUBE_RES * CUBE_RES };
     float inv[NN];
-    haar_face_weights(inv, true);
+    haar_face_solid_angle(inv, CUBE_RES, true);
     for (int f = 0; f < 6; f++) {
         for (int k = 0; k < NN; k++) scratch[k] = texels[f * NN + k] * inv[k];
         haar_forward(scratch, CUBE_RES, scratch + NN);
@@ -84,7 +75,7 @@ static void haar_project_light(const transfer_config *cfg, const float *cube_rgb
     float w[CUBE_RES * CUBE_RES];
     light_desc d = { 0 };
     if (haar_solid_angle(cfg)) {
-        haar_face_weights(w, false);
+        haar_face_solid_angle(w, CUBE_RES, false);
         d.face_weight = w;
     }
     light_from_cube(cube_rgb, &d, L, NULL);

@@ -33,6 +33,8 @@ typedef struct prt_transport {
     int nverts, nvecs;
     int N;                  /* coefficients kept per vector (max) */
     int qbits;              /* 8, 16 or 32 (float) */
+    bool solid_angle;       /* Haar of T/w (transfer_haar's solid-angle measure): transport_store keeps
+                             * each face's solid-angle integral (set after transport_init; 0 = off) */
     uint32_t *vec_first;    /* [nverts+1] */
     uint32_t *coef_first;   /* [nvecs+1] */
     uint32_t *run_first;    /* [nvecs+1] */
@@ -56,6 +58,11 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
  * Returns the L2 error squared of the stored approximation (truncation + quantization). */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 size_t transport_scratch_size(void);
+/* With t->solid_angle, the per-face correction transport_store applies to vector (r, g, b) with
+ * the kept indices idx[0..n): adj[f][ch] is added to face f's scaling coefficient so that
+ * sum_m c~_m W_m = sum_m c_m W_m (haar.h), 0 where the face's scaling coefficient is not kept.
+ * W: the face's solid-angle coefficients (haar_face_solid_angle_coeffs). */
+void transport_face_integrals(const float *const ch[3], const uint32_t *idx, int n, const float *W, float adj[6][3]);
 /* Compacts staged vectors into the final arrays. Returns 0 or -1 (OOM). */
 int transport_finish(prt_transport *t, prt_error *err);
 
