@@ -83,6 +83,8 @@ demo: all
 
 bench: all
 	@tools/bench.sh $(BUILD)/prt
+	@echo
+	@tools/bench_glossy.sh $(BUILD)/prt
 
 study: all
 	@tools/study.sh $(BUILD)/prt
