@@ -69,6 +69,7 @@
 #include "render.h"
 
 #define GLRT_MAX_TERMS 16
+#define GLRT_PF_LEVELS 13   /* prefilter ladder levels the per-pixel program samples (prefilter.h's default) */
 
 typedef enum glrt_light_method {
     GLRT_LIGHT_AUTO = 0, GLRT_LIGHT_FRAGMENT, GLRT_LIGHT_THREAD, GLRT_LIGHT_WARP, GLRT_LIGHT_COUNT
@@ -115,6 +116,11 @@ int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const
  * triangles; NULL: zeros, the default): the non-linear transfers' part, computed elsewhere
  * (runtime_gl.c: ops->shade_vertices per view change). */
 int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err);
+/* Per-pixel mode: the prefiltered probe (prefilter.h) the transfer with ops->glsl_view is looked up in
+ * (its levels uploaded as seamless cube maps, its rotation as a uniform); NULL, or a ladder of more than
+ * GLRT_PF_LEVELS levels: none, every pixel takes the per-vertex radiance. Call it after each light change. */
+struct prefilter_env;
+int glrt_set_prefilter(glrt *rt, const struct prefilter_env *env, prt_error *err);
 /* Reads the target back (linear RGB, top row first; allocated here). */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err);
 /* glrt_draw + glrt_read. */

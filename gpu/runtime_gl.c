@@ -96,6 +96,7 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
 static int gl_set_light(void *self, const runtime_light *light, prt_error *err) {
     gl_rt *g = self;
     g->env = light->env;
+    if (g->nonlinear && glrt_set_prefilter(g->rt, g->env, err)) return -1;
     return glrt_set_light(g->rt, light->L[g->sparse], err);
 }
 
