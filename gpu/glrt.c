@@ -200,16 +200,17 @@ static const char *k_pf_glsl =
     "uniform mat3 u_pf_Rt;\n"
     "uniform samplerBuffer t_tv;\n"
     "float pf_k(int l) { return u_pf_kappa[l / 4][l % 4]; }\n"
-    "PF_LEVEL\n"   /* vec3 pf_level(int l, vec3 d): an if chain (GLSL 3.3 indexes samplers by constants only) */
+    "PF_LEVEL\n"   /* vec3 pf_pair(int l, vec3 d, float t): levels l and l + 1 mixed by t, one if chain
+                      * (GLSL 3.3 indexes samplers by constants only) */
     "vec3 pf_lookup(vec3 dir, float kappa) {\n"
     "    vec3 d = normalize(u_pf_Rt * dir);\n"
     "    int last = u_pf_n - 1;\n"
-    "    if (kappa >= pf_k(0)) return pf_level(0, d);\n"
-    "    if (!(kappa > 0.0)) return pf_level(last, d);\n"
+    "    if (kappa >= pf_k(0)) return pf_pair(0, d, 0.0);\n"
+    "    if (!(kappa > 0.0)) return pf_pair(last, d, 0.0);\n"
     "    int l = 0;\n"
     "    while (l + 1 < last && pf_k(l + 1) > kappa) l++;\n"
     "    float t = l + 1 < last ? log(pf_k(l) / kappa) / log(pf_k(l) / pf_k(l + 1)) : 1.0 - kappa / pf_k(l);\n"
-    "    return mix(pf_level(l, d), pf_level(l + 1, d), t);\n"
+    "    return pf_pair(l, d, t);\n"
     "}\n";
 
 static const char *k_fullscreen_vs =
@@ -487,13 +488,15 @@ static int build_light_programs(glrt *rt, prt_error *err) {
  * then the transfer's tv_radiance (malloc'd; NULL on OOM). */
 static char *tv_source(const glrt *rt) {
     const char *src = rt->tv->ops->glsl_view->source;
-    size_t cap = strlen(k_pf_glsl) + strlen(src) + 128 * GLRT_PF_LEVELS + 256;
+    size_t cap = strlen(k_pf_glsl) + strlen(src) + 256 * GLRT_PF_LEVELS + 256;
     char *chain = malloc(cap), *out = malloc(cap);
     if (!chain || !out) { free(chain); free(out); return NULL; }
-    size_t n = (size_t)snprintf(chain, cap, "vec3 pf_level(int l, vec3 d) {\n");
-    for (int l = 0; l < GLRT_PF_LEVELS; l++)
-        n += (size_t)snprintf(chain + n, cap - n, "    if (l == %d) return textureLod(t_pf[%d], d, 0.0).rgb;\n", l, l);
-    snprintf(chain + n, cap - n, "    return vec3(0.0);\n}\n");
+    size_t n = (size_t)snprintf(chain, cap, "vec3 pf_pair(int l, vec3 d, float t) {\n");
+    for (int l = 0; l + 1 < GLRT_PF_LEVELS; l++)   /* t = 0 at the last level: level l + 1 is unused (or unbound) */
+        n += (size_t)snprintf(chain + n, cap - n,
+                              "    if (l == %d) return t > 0.0 ? mix(textureLod(t_pf[%d], d, 0.0).rgb, textureLod(t_pf[%d], d, 0.0).rgb, t)"
+                              " : textureLod(t_pf[%d], d, 0.0).rgb;\n", l, l, l + 1, l);
+    snprintf(chain + n, cap - n, "    return textureLod(t_pf[%d], d, 0.0).rgb;\n}\n", GLRT_PF_LEVELS - 1);
     const char *mark = strstr(k_pf_glsl, "PF_LEVEL\n");
     snprintf(out, cap, "%.*s%s%s%s", (int)(mark - k_pf_glsl), k_pf_glsl, chain, mark + 9, src);
     free(chain);
