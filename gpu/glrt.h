@@ -59,7 +59,8 @@
  * Measured (tests/test_runtime.c, vmf_pixel: paper-phong sphere, 24 x 48, smooth sky with an 8-degree
  * sun): per pixel 0.7% from quadrature at 18 pixels where the per-vertex image is 12.7% off.
  * Cost on llvmpipe (2 shared cores, 400x400, the 8,066-vertex sphere under city): view change 68 ms
- * median against 20 ms before (per-vertex vMF), the 13-branch level chain per lookup dominating.
+ * median against 16-20 ms before (per-vertex vMF); not profiled yet (one level chain per lookup instead
+ * of two changed nothing measurable).
  *
  * Contexts: with desc->ctx NULL, glrt makes its own headless context (OSMesa, or
  * EGL on an NVIDIA machine; $PRT_GL=osmesa|egl overrides) and owns it; with a
