@@ -17,6 +17,7 @@
  * The 8-bit layout is the paper's (4.1.2): a 4-byte word per coefficient plus
  * its block byte, 5 bytes in all. */
 #include "glrt.h"
+#include "prefilter.h"
 #include "gldraw.h"
 #include "vec3.h"
 #include <math.h>
@@ -39,7 +40,11 @@ struct glrt {
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
     GLuint prog_view[2];
-    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, ebo;
+    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, ebo;
+    const prt_transfer *tv;     /* the transfer shaded per pixel (ops->glsl_view), or NULL */
+    GLuint buf_tv, tex_tv, tex_pf[GLRT_PF_LEVELS];
+    int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
+    float pf_kappa[16], pf_Rt[9];
     GLuint query;
     GLint mat_info[PRT_MAX_MATERIALS][4];
     float bg_R[9];
@@ -48,6 +53,10 @@ struct glrt {
     glrt_light_method method;
     glrt_timing timing;
 };
+
+/* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level. */
+#define GLRT_UNIT_TV 2
+#define GLRT_UNIT_PF 3
 
 /* Static name of a light kernel. */
 const char *glrt_light_method_name(glrt_light_method m) {
@@ -133,6 +142,7 @@ static const char *k_view_vs =
     "layout(location = 2) in uvec2 a_vec;\n"
     "layout(location = 3) in uint a_mat;\n"
     "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
+    "layout(location = 5) in float a_pix;\n"  /* 1: shaded per pixel by tv_radiance (glsl_view) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -141,6 +151,7 @@ static const char *k_view_vs =
     "out vec3 v_col;\n"
     "#else\n"
     "out vec3 v_pos, v_nrm, v_add;\n"
+    "out float v_pix;\n"
     "out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
     "#endif\n"
@@ -151,7 +162,7 @@ static const char *k_view_vs =
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add;\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
-    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add;\n"
+    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix;\n"
     "#endif\n"
     "    gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
     "}\n";
@@ -165,14 +176,42 @@ static const char *k_view_fs =
     "void main() { o_color = vec4(v_col, 1.0); }\n"
     "#else\n"
     "in vec3 v_pos, v_nrm, v_add;\n"
+    "in float v_pix;\n"
     "in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
     "void main() {\n"
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = v_g[k];\n"
-    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax) + v_add, 1.0);\n"
+    "    vec3 add = v_add;\n"
+    "#if HAS_TV\n"   /* all three corners exact per pixel: the pixel's own view replaces the vertices' */
+    "    if (u_pf_n > 0 && v_pix > 0.999) add = max(tv_radiance(v_mat, normalize(v_nrm), normalize(u_eye - v_pos)), vec3(0.0));\n"
+    "#endif\n"
+    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax) + add, 1.0);\n"
     "}\n"
     "#endif\n";
+
+/* prefilter_lookup (prefilter.h) on the GPU: one seamless cube map per ladder level (bilinear
+ * within, GL's seamless corner filtering instead of the CPU's extrapolated tap), log kappa between
+ * vMF levels, kappa towards the kappa-0 level, R^T applied to the direction. */
+static const char *k_pf_glsl =
+    "uniform samplerCube t_pf[PF_LEVELS];\n"
+    "uniform vec4 u_pf_kappa[4];\n"
+    "uniform int u_pf_n;\n"
+    "uniform mat3 u_pf_Rt;\n"
+    "uniform samplerBuffer t_tv;\n"
+    "float pf_k(int l) { return u_pf_kappa[l / 4][l % 4]; }\n"
+    "PF_LEVEL\n"   /* vec3 pf_pair(int l, vec3 d, float t): levels l and l + 1 mixed by t, one if chain
+                      * (GLSL 3.3 indexes samplers by constants only) */
+    "vec3 pf_lookup(vec3 dir, float kappa) {\n"
+    "    vec3 d = normalize(u_pf_Rt * dir);\n"
+    "    int last = u_pf_n - 1;\n"
+    "    if (kappa >= pf_k(0)) return pf_pair(0, d, 0.0);\n"
+    "    if (!(kappa > 0.0)) return pf_pair(last, d, 0.0);\n"
+    "    int l = 0;\n"
+    "    while (l + 1 < last && pf_k(l + 1) > kappa) l++;\n"
+    "    float t = l + 1 < last ? log(pf_k(l) / kappa) / log(pf_k(l) / pf_k(l + 1)) : 1.0 - kappa / pf_k(l);\n"
+    "    return pf_pair(l, d, t);\n"
+    "}\n";
 
 static const char *k_fullscreen_vs =
     "#version 330 core\n"
@@ -387,6 +426,32 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
+/* The per-pixel transfer's data (rt->tv, ops->glsl_view): its material table as a buffer texture
+ * and attribute 5, 1 at the vertices it shades exactly per pixel; nothing without one. -1 with err. */
+static int upload_tv(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (!rt->tv) return 0;
+    const transfer_glsl_view *gv = rt->tv->ops->glsl_view;
+    float (*rows)[4] = prt_calloc((size_t)rt->nmat * gv->rows, sizeof *rows, err);
+    float *pix = prt_calloc((size_t)rt->nverts + 1, sizeof(float), err);
+    if (!rows || !pix) { free(rows); free(pix); return -1; }
+    for (int m = 0; m < rt->nmat; m++) gv->material_rows(rt->tv, m, rows + (size_t)m * gv->rows);
+    for (int v = 0; v < rt->nverts; v++) pix[v] = gv->vertex_per_pixel(rt->tv, v) ? 1.f : 0.f;
+    rt->buf_tv = make_buffer(gl, rows, sizeof *rows * (size_t)rt->nmat * gv->rows, GL_STATIC_DRAW);
+    rt->tex_tv = make_texbuf(gl, rt->buf_tv, GL_RGBA32F);
+    gl->BindVertexArray(rt->vao);
+    rt->vbo_pix = make_buffer(gl, pix, sizeof(float) * (size_t)rt->nverts, GL_STATIC_DRAW);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_pix);
+    gl->EnableVertexAttribArray(5);
+    gl->VertexAttribPointer(5, 1, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    rt->other_bytes += sizeof *rows * (size_t)rt->nmat * gv->rows + sizeof(float) * (size_t)rt->nverts;
+    free(rows);
+    free(pix);
+    return glctx_check(gl, "uploading the per-pixel transfer", err);
+}
+
 /* Compiles the light kernels this context can run for the current qbits (replacing any); -1 with err. */
 static int build_light_programs(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
@@ -419,6 +484,25 @@ static int build_light_programs(glrt *rt, prt_error *err) {
     return 0;
 }
 
+/* The per-pixel program's extra fragment source: the prefilter lookup with its pf_level chain,
+ * then the transfer's tv_radiance (malloc'd; NULL on OOM). */
+static char *tv_source(const glrt *rt) {
+    const char *src = rt->tv->ops->glsl_view->source;
+    size_t cap = strlen(k_pf_glsl) + strlen(src) + 256 * GLRT_PF_LEVELS + 256;
+    char *chain = malloc(cap), *out = malloc(cap);
+    if (!chain || !out) { free(chain); free(out); return NULL; }
+    size_t n = (size_t)snprintf(chain, cap, "vec3 pf_pair(int l, vec3 d, float t) {\n");
+    for (int l = 0; l + 1 < GLRT_PF_LEVELS; l++)   /* t = 0 at the last level: level l + 1 is unused (or unbound) */
+        n += (size_t)snprintf(chain + n, cap - n,
+                              "    if (l == %d) return t > 0.0 ? mix(textureLod(t_pf[%d], d, 0.0).rgb, textureLod(t_pf[%d], d, 0.0).rgb, t)"
+                              " : textureLod(t_pf[%d], d, 0.0).rgb;\n", l, l, l + 1, l);
+    snprintf(chain + n, cap - n, "    return textureLod(t_pf[%d], d, 0.0).rgb;\n}\n", GLRT_PF_LEVELS - 1);
+    const char *mark = strstr(k_pf_glsl, "PF_LEVEL\n");
+    snprintf(out, cap, "%.*s%s%s%s", (int)(mark - k_pf_glsl), k_pf_glsl, chain, mark + 9, src);
+    free(chain);
+    return out;
+}
+
 /* Compiles the light kernels (build_light_programs) and both view programs; -1 with err. */
 static int build_programs(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
@@ -426,8 +510,10 @@ static int build_programs(glrt *rt, prt_error *err) {
     if (build_light_programs(rt, err)) return -1;
     /* View programs. */
     for (int pv = 0; pv < 2; pv++) {
-        snprintf(head, sizeof head, "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n",
-                 rt->kmax_all, rt->nmat, pv);
+        snprintf(head, sizeof head,
+                 "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n"
+                 "#define TV_ROWS %d\n#define PF_LEVELS %d\n",
+                 rt->kmax_all, rt->nmat, pv, pv == 0 && rt->tv, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS);
         char *vs = build_src(head, k_view_vs, "", "");
         char *vfs = build_src(head, k_view_fs, "", "");
         size_t cv = strlen(k_view_common);
@@ -439,7 +525,14 @@ static int build_programs(glrt *rt, prt_error *err) {
         /* head, then the common view functions, then the stage body. */
         size_t hl = strlen(head);
         sprintf(vs2, "%s%s%s", head, k_view_common, vs + hl);
-        sprintf(fs2, "%s%s%s", head, k_view_common, vfs + hl);
+        char *tv = pv == 0 && rt->tv ? tv_source(rt) : NULL;
+        if (tv) {
+            char *f3 = realloc(fs2, strlen(vfs) + cv + strlen(tv) + 1);
+            if (f3) fs2 = f3;
+            if (f3) sprintf(fs2, "%s%s%s%s", head, k_view_common, tv, vfs + hl);
+            free(tv);
+            if (!f3) { free(vs); free(vfs); free(vs2); free(fs2); return prt_fail(err, "out of memory"); }
+        } else sprintf(fs2, "%s%s%s", head, k_view_common, vfs + hl);
         rt->prog_view[pv] = glctx_program(gl, vs2, fs2, pv ? "view (per vertex)" : "view (per pixel)", err);
         free(vs); free(vfs); free(vs2); free(fs2);
         if (!rt->prog_view[pv]) return -1;
@@ -448,6 +541,14 @@ static int build_programs(glrt *rt, prt_error *err) {
         gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
+        if (pv == 0 && rt->tv) {
+            gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
+            for (int l = 0; l < GLRT_PF_LEVELS; l++) {
+                char name[32];
+                snprintf(name, sizeof name, "t_pf[%d]", l);
+                gl->Uniform1i(gl->GetUniformLocation(p, name), GLRT_UNIT_PF + l);
+            }
+        }
     }
     gl->UseProgram(0);
     return glctx_check(gl, "building the shaders", err);
@@ -593,6 +694,8 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->nmat = nmat;
     rt->kmax_all = kmax;
     rt->view_mode = dd.view;
+    for (int i = 0; i < d->ntransfers && !rt->tv; i++)
+        if (d->transfers[i].ops->glsl_view) rt->tv = &d->transfers[i];
     if (dd.ctx) rt->ctx = dd.ctx;
     else {
         rt->ctx = glctx_create(GLCTX_AUTO, NULL, err);
@@ -609,7 +712,8 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
         return NULL;
     }
     if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || upload_transport(rt, t, err) ||
-        make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || build_programs(rt, err)) {
+        make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || upload_tv(rt, err) ||
+        build_programs(rt, err)) {
         glrt_destroy(rt);
         return NULL;
     }
@@ -635,9 +739,10 @@ void glrt_destroy(glrt *rt) {
     if (rt->gl && current(rt, NULL) == 0) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
-                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo };
+                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv };
         GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
-                          rt->frag_tex };
+                          rt->frag_tex, rt->tex_tv };
+        gl->DeleteTextures(GLRT_PF_LEVELS, rt->tex_pf);
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
             if (bufs[i]) gl->DeleteBuffers(1, &bufs[i]);
         for (size_t i = 0; i < sizeof texs / sizeof texs[0]; i++)
@@ -689,6 +794,21 @@ void glrt_set_background_rotation(glrt *rt, const float R[9]) {
     if (R) memcpy(rt->bg_R, R, sizeof rt->bg_R);
 }
 
+/* The per-pixel transfer's textures and uniforms on program p (in use); unit 1 stays active. */
+static void bind_tv(glrt *rt, GLuint p) {
+    const gl_api *gl = rt->gl;
+    gl->Uniform1i(gl->GetUniformLocation(p, "u_pf_n"), rt->pf_n);
+    gl->Uniform4fv(gl->GetUniformLocation(p, "u_pf_kappa"), 4, rt->pf_kappa);
+    gl->UniformMatrix3fv(gl->GetUniformLocation(p, "u_pf_Rt"), 1, GL_TRUE, rt->pf_Rt);
+    gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_TV);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_tv);
+    for (int l = 0; l < GLRT_PF_LEVELS; l++) {
+        gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_PF + l);
+        gl->BindTexture(GL_TEXTURE_CUBE_MAP, rt->tex_pf[l]);
+    }
+    gl->ActiveTexture(GL_TEXTURE1);
+}
+
 /* View change into the float target, finished and timed; -1 with err. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
@@ -708,6 +828,7 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_view);
     gl->ActiveTexture(GL_TEXTURE1);
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
+    if (p == rt->prog_view[0] && rt->tv) bind_tv(rt, p);
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);
@@ -725,6 +846,38 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->GetQueryObjectui64v(rt->query, GL_QUERY_RESULT, &ns);
     rt->timing.view_gpu_ms = 1e-6 * (double)ns;
     return glctx_check(gl, "view change", err);
+}
+
+/* The ladder's levels as seamless cube maps (faces in cubemap.h's order, which is GL's) and its
+ * kappas and rotation as uniforms; see glrt.h. -1 with err. */
+int glrt_set_prefilter(glrt *rt, const prefilter_env *env, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    if (current(rt, err)) return -1;
+    rt->pf_n = 0;
+    if (!rt->tv || !env || prefilter_level_count(env) > GLRT_PF_LEVELS) return 0;
+    int n = prefilter_level_count(env);
+    if (!rt->tex_pf[0]) gl->GenTextures(GLRT_PF_LEVELS, rt->tex_pf);
+    gl->Enable(GL_TEXTURE_CUBE_MAP_SEAMLESS);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    memset(rt->pf_kappa, 0, sizeof rt->pf_kappa);
+    for (int l = 0; l < n; l++) {
+        int res;
+        prefilter_level_info(env, l, &rt->pf_kappa[l], &res);
+        const float *tx = prefilter_level_texels(env, l);
+        gl->BindTexture(GL_TEXTURE_CUBE_MAP, rt->tex_pf[l]);
+        for (int f = 0; f < 6; f++)
+            gl->TexImage2D(GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, 0, GL_RGB32F, res, res, 0, GL_RGB, GL_FLOAT,
+                           tx + (size_t)3 * f * res * res);
+        gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_MAX_LEVEL, 0);
+        gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    }
+    gl->BindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    prefilter_rotation_t(env, rt->pf_Rt);
+    rt->pf_n = n;
+    return glctx_check(gl, "uploading the prefiltered probe", err);
 }
 
 /* Uploads the per-vertex radiance added to every vertex (rgb[3 * nverts], NULL: zeros); -1 with err. */

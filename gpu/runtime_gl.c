@@ -8,7 +8,9 @@
  * Non-linear transfers (vmf): per vertex on the CPU through their ops->shade_vertices
  * at every view change (toward the camera's eye), the colours uploaded to glrt
  * (glrt_set_vertex_add) and added to the sparse transfer's shading per pixel or per
- * vertex; their time is part of view_ms. A GLSL lobe lookup per pixel is not written yet.
+ * vertex; their time is part of view_ms. Per pixel, a transfer with ops->glsl_view is also
+ * looked up per pixel on the GPU where its vertices allow (glrt.h): the prefiltered probe is
+ * uploaded at every light change (glrt_set_prefilter).
  *
  * Vertex colours: the GPU has no per-vertex output buffer here, so the K-vectors
  * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
@@ -96,6 +98,7 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
 static int gl_set_light(void *self, const runtime_light *light, prt_error *err) {
     gl_rt *g = self;
     g->env = light->env;
+    if (g->nonlinear && glrt_set_prefilter(g->rt, g->env, err)) return -1;
     return glrt_set_light(g->rt, light->L[g->sparse], err);
 }
 

@@ -311,6 +311,13 @@ void prefilter_level_info(const prefilter_env *e, int l, float *kappa, int *res)
     if (res) *res = e->lv[l].res;
 }
 
+const float *prefilter_level_texels(const prefilter_env *e, int l) {
+    PRT_CHECK(l >= 0 && l < e->nlevels);
+    return e->lv[l].rgb;
+}
+
+void prefilter_rotation_t(const prefilter_env *e, float Rt[9]) { memcpy(Rt, e->Rt, sizeof e->Rt); }
+
 /* ---- lookup -------------------------------------------------------------------------------- */
 
 /* Texel (i, j) of face f, or for i, j one beyond an edge, the neighbouring face's texel

@@ -89,6 +89,11 @@ void prefilter_lookup(const prefilter_env *e, const float dir[3], float kappa, f
 int prefilter_level_count(const prefilter_env *e);
 /* Level l's kappa and cube resolution (the last level: kappa 0, res 1). */
 void prefilter_level_info(const prefilter_env *e, int l, float *kappa, int *res);
+/* Level l's texels (6 res^2 RGB floats, cubemap.h's face order = OpenGL's, unrotated probe frame),
+ * owned by the env: what a GPU runtime uploads as one cube map per level (gpu/glrt.c). */
+const float *prefilter_level_texels(const prefilter_env *e, int l);
+/* R^T (row-major): the lookup's world -> probe-frame rotation, for a GPU port of prefilter_lookup. */
+void prefilter_rotation_t(const prefilter_env *e, float Rt[9]);
 /* Bilinear lookup of level l alone at world direction dir (for the tests and GLSL ports). */
 void prefilter_lookup_level(const prefilter_env *e, int l, const float dir[3], float rgb[3]);
 #endif

@@ -38,7 +38,8 @@
  *     runtime). Fills name/title/tag, configure (lobes, level, samples), describe, its section
  *     (write/read/validate/release), precompute, shade_vertices, bytes and summary;
  *     project_transport/compress/project_light/light_range stay NULL (nothing is linear in L
- *     per vertex), glsl NULL (its view shader is the GL runtime's). Its mask holds the glossy
+ *     per vertex), glsl NULL; glsl_view (transfer_vmf_glsl.c) shades per pixel the vertices with
+ *     nothing stored (the BRDF's own lobe at the pixel's view). Its mask holds the glossy
  *     materials, beside a Haar K = 1 transfer for their diffuse part.
  * Designed, not code yet:
  *   - spherical-Gaussian virtual lights (tokuyoshi): per frame, no precompute and no
@@ -82,6 +83,23 @@ typedef struct transfer_config {
 #define TRANSFER_MEASURE_SOLID_ANGLE 1
 
 typedef struct transfer_ops transfer_ops;
+struct prt_transfer;
+
+/* A non-linear representation's per-pixel view shading in GLSL (gpu/glrt.c compiles it into its
+ * per-pixel view program; NULL in transfer_ops: per vertex on the CPU only). `source` defines
+ *     vec3 tv_radiance(int mat, vec3 n, vec3 wo)    // n, wo: unit world normal and view
+ * and may call glrt's vec3 pf_lookup(vec3 dir, float kappa) (prefilter_lookup on the GPU) and read
+ * its material table `uniform samplerBuffer t_tv` (RGBA float, TV_ROWS texels per material, from
+ * material_rows). A pixel uses it where vertex_per_pixel holds at all three corners of its
+ * triangle, and the per-vertex radiance (shade_vertices) elsewhere. */
+typedef struct transfer_glsl_view {
+    const char *source;
+    int rows;   /* TV_ROWS */
+    /* Fills rows[TV_ROWS][4] for material m (zeros where tr does not shade it). */
+    void (*material_rows)(const struct prt_transfer *tr, int m, float (*rows)[4]);
+    /* True when vertex v is shaded exactly by tv_radiance (vmf: nothing stored for its row). */
+    bool (*vertex_per_pixel)(const struct prt_transfer *tr, int v);
+} transfer_glsl_view;
 
 /* One representation's data in a prt_data. */
 typedef struct prt_transfer {
@@ -173,6 +191,8 @@ struct transfer_ops {
     /* Optional (NULL: none): lines for `prt info` about tr's data (vmf: views, lobes, passes, hash
      * fill, bytes), each ending in a newline, into buf[cap]. */
     void (*summary)(const prt_transfer *tr, char *buf, size_t cap);
+    /* Optional (NULL: none): the per-pixel GLSL view shading (transfer_glsl_view above). */
+    const transfer_glsl_view *glsl_view;
 };
 
 #define TRANSFER_TAG(a, b, c, d) ((uint32_t)(a) | (uint32_t)(b) << 8 | (uint32_t)(c) << 16 | (uint32_t)(d) << 24)
@@ -209,4 +229,5 @@ extern const transfer_glsl transfer_sparse_glsl;
 extern const transfer_ops transfer_haar;
 extern const transfer_ops transfer_sh;
 extern const transfer_ops transfer_vmf;
+extern const transfer_glsl_view transfer_vmf_glsl_view;
 #endif

@@ -583,4 +583,5 @@ const transfer_ops transfer_vmf = {
     .shade_vertices = vmf_shade_vertices,
     .bytes = vmf_bytes,
     .summary = vmf_summary,
+    .glsl_view = &transfer_vmf_glsl_view,
 };
