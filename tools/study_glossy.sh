@@ -92,9 +92,11 @@ reference() { # scene probe bounces prt-file: traced once per (scene, probe, bou
 }
 
 CSV="$WORK/glossy.csv"
-echo "scene,probe,path,K,view_level,bounces,ref_bounces,precompute_s,vmf_s,file_mb,vmf_mb,light_ms,view_ms,vert_rel_rmse,img_rel_rmse,ref_vert_noise,ref_img_noise,load1,id" > "$CSV"
+# A resumed run appends to the CSV and skips the rows it already has (scene lists may differ).
+[ "${STUDY_RESUME:-0}" = 1 ] && [ -f "$CSV" ] || echo "scene,probe,path,K,view_level,bounces,ref_bounces,precompute_s,vmf_s,file_mb,vmf_mb,light_ms,view_ms,vert_rel_rmse,img_rel_rmse,ref_vert_noise,ref_img_noise,load1,id" > "$CSV"
 measure() { # scene id path K level bounces ref-bounces probe
   local s=$1 id=$2 path=$3 k=$4 lv=$5 b=$6 rb=$7 p=$8 f="$WORK/$2.prt" L="$WORK/log/$2"
+  grep -q ",$id\$" "$CSV" && grep -q "^$s,$p,.*,$id\$" "$CSV" && return 0
   reference "$s" "$p" "$rb" "$f"
   local r="$WORK/ref/$s-$p-b$rb" o="$WORK/out/$id-$p"
   local pre vs mb vmb light view cv ci
@@ -137,9 +139,9 @@ done
 RUNTIME=$(( $(date +%s) - T_START ))
 cp "$CSV" "$OUT/glossy.csv"
 {
-  echo "date: $(date -u '+%Y-%m-%d %H:%M UTC'); runtime ${RUNTIME}s; $(nproc) cores; load at start $LOAD_START, at end $(cut -d' ' -f1-3 /proc/loadavg)"
+  echo "date: $(date -u '+%Y-%m-%d %H:%M UTC'); runtime ${RUNTIME}s (this invocation; resumed: ${STUDY_RESUME:-0}); $(nproc) cores; load at start $LOAD_START, at end $(cut -d' ' -f1-3 /proc/loadavg)"
   echo "prt: $(git rev-parse --short HEAD 2> /dev/null); quick=$QUICK; reference $SPP spp/pixel, $VSPP spp/vertex, image $SIZE"
-  for s in $SCENES; do echo "plan for $s (defaults):"; cat "$WORK/log/$s.plan"; done
+  for s in $(tail -n +2 "$CSV" | cut -d, -f1 | sort -u); do echo "plan for $s (defaults):"; cat "$WORK/log/$s.plan"; done
 } > "$OUT/meta.txt"
 /usr/bin/python3 "$HERE/study_glossy_plot.py" "$OUT/glossy.csv" "$OUT" "$OUT/meta.txt" || die "plots failed"
 say "done: $OUT/glossy.csv, $OUT/results.md, $OUT/error_time.png, $OUT/error_mb.png"
