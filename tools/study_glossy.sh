@@ -57,7 +57,15 @@ else
   SPP=${GLOSSY_SPP:-256}; VSPP=${GLOSSY_VSPP:-1024}
   SCENES=${GLOSSY_SCENES:-"sphere-phong teapot-floor spot-floor"}; FOREST_SCENE=${GLOSSY_FOREST_SCENE:-sphere-phong}
 fi
-scene_file() { if [ "$1" = quick ]; then echo "$WORK/quick.json"; else echo "data/$1.json"; fi; }
+# data/*.json name their models relative to the main checkout (../../shared/data/...): the
+# study runs them from a copy whose paths point at $DATA, so that any worktree can run it.
+DATA_ABS=$(cd "$DATA" && pwd)
+scene_file() { if [ "$1" = quick ]; then echo "$WORK/quick.json"; else echo "$WORK/scene-$1.json"; fi; }
+mkdir -p "$WORK"
+for s in $SCENES; do
+  [ "$s" = quick ] || [ ! -f "data/$s.json" ] \
+    || sed "s#\"[./]*/shared/data/#\"$DATA_ABS/#g" "data/$s.json" > "$WORK/scene-$s.json"
+done
 for s in $SCENES; do [ -f "$(scene_file "$s")" ] || die "$(scene_file "$s") not found"; done
 [ "${STUDY_RESUME:-0}" = 1 ] || rm -rf "$WORK/log" "$WORK/ref" "$WORK/out" "$WORK"/*.prt
 mkdir -p "$WORK/log" "$WORK/ref" "$WORK/out" "$OUT"
