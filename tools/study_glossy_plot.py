@@ -37,6 +37,8 @@ def table(rows):
     """Markdown table of one scene and probe."""
     out = ["| configuration | bounces | precompute s | vMF s | file MB | light ms | view ms | vertex rel_rmse | image rel_rmse | load |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    order = {"svd": 0, "vmf": 1, "svd-default": 2, "auto-default": 3}
+    rows = sorted(rows, key=lambda r: (order[r["path"]], num(r["K"]) or 0, num(r["view_level"]) or 0))
     for r in rows:
         out.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             label(r), r["bounces"], r["precompute_s"], r["vmf_s"], r["file_mb"], r["light_ms"], r["view_ms"],
