@@ -88,7 +88,7 @@ bench: all
 study: all
 	@tools/study.sh $(BUILD)/prt
 
-# issue 9: vMF against SVD K = 1..16 (~30 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
+# issue 9: vMF against SVD K = 1..16 (about 35 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
 study-glossy: all
 	@tools/study_glossy.sh $(BUILD)/prt
 

@@ -4,7 +4,7 @@
 # precompute time and file size. Not a test: it measures, and a failed step stops it with
 # a message rather than writing a made-up number.
 #
-#   tools/study_glossy.sh [build/prt]   full run (needs ../shared/data; ~25 min on 2 cores)
+#   tools/study_glossy.sh [build/prt]   full run (needs ../shared/data; about 35 min on 2 cores)
 #   STUDY_QUICK=1                       one tiny procedural scene, K = 1 and 4, view level 1
 #                                       (about a minute), written to docs/study/glossy/quick/
 #   GLOSSY_SCENES="sphere-phong ..."    scenes of data/ (default sphere-phong teapot-floor spot-floor)
