@@ -4,6 +4,7 @@
 #   make demo       build and run `prt demo` (writes demo.png)
 #   make bench      benchmarks on ../shared/data (not tests)
 #   make study      accuracy-versus-time study (docs/study/)
+#   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++
@@ -41,7 +42,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench study clean
+.PHONY: all deps test demo bench study study-glossy clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -88,6 +89,10 @@ bench: all
 
 study: all
 	@tools/study.sh $(BUILD)/prt
+
+# issue 9: vMF against SVD K = 1..16 (about 35 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
+study-glossy: all
+	@tools/study_glossy.sh $(BUILD)/prt
 
 clean:
 	rm -rf build
