@@ -449,7 +449,8 @@ static void file_roundtrip(void) {
     int rc = check_run(cmd, out, sizeof out);
     snprintf(want, sizeof want, "stored %zu of %llu slices", x->hash.n, (unsigned long long)x->slices);
     CHECK(rc == 0 && strstr(out, "vmf           42 views (geodesic level 1), 2 lobes per pass, 2 passes stored") &&
-          strstr(out, want) && strstr(out, "fill") && strstr(out, "MB (12 bytes a lobe)") && strstr(out, "pass 1:"),
+          strstr(out, want) && strstr(out, "fill") && strstr(out, "MB (12 bytes a lobe)") && strstr(out, "pass 1:") &&
+          strstr(out, "its specular lobe: vMF lobes (the factor above is the diffuse kd/pi part)"),
           "prt info: rc %d\n%s", rc, out);
     prt_probe p;
     float white[3] = { 1, 0.5f, 0.25f }, eye[3] = { 0.3f, 1.5f, 2 };

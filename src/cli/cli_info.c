@@ -77,6 +77,11 @@ int cli_info(int argc, char **argv) {
         printf("\n      singular values (R):");
         for (int k = 0; k < f->nsigma && k < 8; k++) printf(" %.4g", f->sigma[0][k]);
         printf("\n");
+        /* A material on a non-linear transfer's path (vmf): the factor above is its kd/pi part only. */
+        for (int i = 0; i < d.ntransfers; i++)
+            if (&d.transfers[i] != tr && (d.transfers[i].materials >> m & 1))
+                printf("      its specular lobe: %s (the factor above is the diffuse kd/pi part)\n",
+                       d.transfers[i].ops->title);
     }
     printf("interreflect  %d pass(es), gather cube %dx%dx6%s\n", ps->bounces, d.gather_res, d.gather_res,
            tr && tr->direct.nvecs ? "; direct-only transport kept too" : "");
