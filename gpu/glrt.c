@@ -880,6 +880,11 @@ int glrt_set_prefilter(glrt *rt, const prefilter_env *env, prt_error *err) {
     return glctx_check(gl, "uploading the prefiltered probe", err);
 }
 
+/* The rotation of the uploaded ladder from env (the same probe as the last glrt_set_prefilter). */
+void glrt_set_prefilter_rotation(glrt *rt, const prefilter_env *env) {
+    if (rt->pf_n && env) prefilter_rotation_t(env, rt->pf_Rt);
+}
+
 /* Uploads the per-vertex radiance added to every vertex (rgb[3 * nverts], NULL: zeros); -1 with err. */
 int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err) {
     const gl_api *gl = rt->gl;

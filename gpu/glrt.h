@@ -128,9 +128,11 @@ int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const
 int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err);
 /* Per-pixel mode: the prefiltered probe (prefilter.h) the transfer with ops->glsl_view is looked up in
  * (its levels uploaded as seamless cube maps, its rotation as a uniform); NULL, or a ladder of more than
- * GLRT_PF_LEVELS levels: none, every pixel takes the per-vertex radiance. Call it after each light change. */
+ * GLRT_PF_LEVELS levels: none, every pixel takes the per-vertex radiance. Call it once per probe. */
 struct prefilter_env;
 int glrt_set_prefilter(glrt *rt, const struct prefilter_env *env, prt_error *err);
+/* Takes env's rotation for the ladder uploaded last (same probe, turned): no upload. */
+void glrt_set_prefilter_rotation(glrt *rt, const struct prefilter_env *env);
 /* Reads the target back (linear RGB, top row first; allocated here). */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err);
 /* glrt_draw + glrt_read. */

@@ -10,7 +10,7 @@
  * (glrt_set_vertex_add) and added to the sparse transfer's shading per pixel or per
  * vertex; their time is part of view_ms. Per pixel, a transfer with ops->glsl_view is also
  * looked up per pixel on the GPU where its vertices allow (glrt.h): the prefiltered probe is
- * uploaded at every light change (glrt_set_prefilter).
+ * uploaded once per probe (glrt_set_prefilter); a rotation only updates a uniform.
  *
  * Vertex colours: the GPU has no per-vertex output buffer here, so the K-vectors
  * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
@@ -98,7 +98,9 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
 static int gl_set_light(void *self, const runtime_light *light, prt_error *err) {
     gl_rt *g = self;
     g->env = light->env;
-    if (g->nonlinear && glrt_set_prefilter(g->rt, g->env, err)) return -1;
+    /* The ladder's texels go to the GPU once per probe; a rotation only is one uniform. */
+    if (g->nonlinear && light->env_new && glrt_set_prefilter(g->rt, g->env, err)) return -1;
+    if (g->nonlinear && !light->env_new) glrt_set_prefilter_rotation(g->rt, g->env);
     return glrt_set_light(g->rt, light->L[g->sparse], err);
 }
 

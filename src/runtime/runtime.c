@@ -95,6 +95,7 @@ static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], r
         if (!rt->env) return -1;
         rt->env_probe = p;
         rt->env_pixels = p->img.data;
+        light->env_new = true;
     }
     light->env = rt->env;
     return 0;

@@ -165,6 +165,8 @@ typedef struct runtime_light {
                                              * NULL where the transfer has none (non-linear) */
     const struct prefilter_env *env;        /* the probe prefiltered by vMF lobes, rotated as the light; NULL
                                              * when no transfer has ops->shade_vertices */
+    bool env_new;                           /* env was made in this call (a new probe); false: only its
+                                             * rotation changed, so a backend's copy of its texels still holds */
 } runtime_light;
 
 typedef struct runtime_backend {
