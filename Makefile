@@ -25,7 +25,7 @@ DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopene
             zlib1g-dev libcjson-dev xvfb xauth
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
-SRC_DIRS := src/core src/scene src/image src/transfer src/precompute src/file src/runtime src/reference
+SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
 INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf -Igpu
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
