@@ -42,7 +42,7 @@ struct glrt {
     GLuint prog_view[2];
     GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, ebo;
     const prt_transfer *tv;     /* the transfer shaded per pixel (ops->glsl_view), or NULL */
-    GLuint buf_tv, tex_tv, tex_pf[GLRT_PF_LEVELS];
+    GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
     int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
     float pf_kappa[16], pf_Rt[9];
     GLuint query;
@@ -54,9 +54,10 @@ struct glrt {
     glrt_timing timing;
 };
 
-/* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level. */
+/* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level, then t_tvu. */
 #define GLRT_UNIT_TV 2
 #define GLRT_UNIT_PF 3
+#define GLRT_UNIT_TVU (GLRT_UNIT_PF + GLRT_PF_LEVELS)
 
 /* Static name of a light kernel. */
 const char *glrt_light_method_name(glrt_light_method m) {
@@ -142,7 +143,7 @@ static const char *k_view_vs =
     "layout(location = 2) in uvec2 a_vec;\n"
     "layout(location = 3) in uint a_mat;\n"
     "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
-    "layout(location = 5) in float a_pix;\n"  /* 1: shaded per pixel by tv_radiance (glsl_view) */
+    "layout(location = 5) in float a_pix;\n"  /* 1: a vertex of the per-pixel transfer's materials (glsl_view) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -183,8 +184,11 @@ static const char *k_view_fs =
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = v_g[k];\n"
     "    vec3 add = v_add;\n"
-    "#if HAS_TV\n"   /* all three corners exact per pixel: the pixel's own view replaces the vertices' */
-    "    if (u_pf_n > 0 && v_pix > 0.999) add = max(tv_radiance(v_mat, normalize(v_nrm), normalize(u_eye - v_pos)), vec3(0.0));\n"
+    "#if HAS_TV\n"   /* a corner of the transfer's materials: its radiance per pixel (the CPU left it out of v_add) */
+    "    if (u_pf_n > 0 && v_pix > 0.0) {\n"
+    "        vec3 r = tv_radiance(gl_PrimitiveID, v_pos, normalize(u_eye - v_pos));\n"
+    "        for (int c = 0; c < 3; c++) add[c] += isnan(r[c]) || isinf(r[c]) || r[c] < 0.0 ? 0.0 : r[c];\n"   /* as the CPU */
+    "    }\n"
     "#endif\n"
     "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax) + add, 1.0);\n"
     "}\n"
@@ -426,19 +430,32 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
-/* The per-pixel transfer's data (rt->tv, ops->glsl_view): its material table as a buffer texture
- * and attribute 5, 1 at the vertices it shades exactly per pixel; nothing without one. -1 with err. */
+/* The per-pixel transfer's data (rt->tv, ops->glsl_view): its two arrays as buffer textures (t_tv
+ * RGBA32F, t_tvu R32UI) and attribute 5, 1 at the vertices of its materials. Where the context
+ * cannot hold them (buffer-texture size, texture units) rt->tv is dropped: the CPU shades its
+ * vertices as before. -1 with err (OOM, GL error). */
 static int upload_tv(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (!rt->tv) return 0;
-    const transfer_glsl_view *gv = rt->tv->ops->glsl_view;
-    float (*rows)[4] = prt_calloc((size_t)rt->nmat * gv->rows, sizeof *rows, err);
+    float (*f)[4] = NULL;
+    uint32_t *u = NULL;
+    size_t nf = 0, nu = 0;
+    if (rt->tv->ops->glsl_view->data(rt->d, rt->tv, &f, &nf, &u, &nu, err)) return -1;
+    GLint maxtb = 0, units = 0;
+    gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
+    gl->GetIntegerv(GL_MAX_TEXTURE_IMAGE_UNITS, &units);
     float *pix = prt_calloc((size_t)rt->nverts + 1, sizeof(float), err);
-    if (!rows || !pix) { free(rows); free(pix); return -1; }
-    for (int m = 0; m < rt->nmat; m++) gv->material_rows(rt->tv, m, rows + (size_t)m * gv->rows);
-    for (int v = 0; v < rt->nverts; v++) pix[v] = gv->vertex_per_pixel(rt->tv, v) ? 1.f : 0.f;
-    rt->buf_tv = make_buffer(gl, rows, sizeof *rows * (size_t)rt->nmat * gv->rows, GL_STATIC_DRAW);
+    if (!pix || nf >= (size_t)maxtb || nu >= (size_t)maxtb || nu >= (size_t)INT32_MAX || units <= GLRT_UNIT_TVU) {
+        free(f), free(u);
+        rt->tv = NULL;
+        return pix ? (free(pix), 0) : -1;
+    }
+    const prt_mesh *m = &rt->d->scene.mesh;
+    for (int v = 0; v < rt->nverts; v++) pix[v] = (rt->tv->materials >> (m->mat ? m->mat[v] : 0)) & 1 ? 1.f : 0.f;
+    rt->buf_tv = make_buffer(gl, f, sizeof *f * nf, GL_STATIC_DRAW);
     rt->tex_tv = make_texbuf(gl, rt->buf_tv, GL_RGBA32F);
+    rt->buf_tvu = make_buffer(gl, u, sizeof *u * nu, GL_STATIC_DRAW);
+    rt->tex_tvu = make_texbuf(gl, rt->buf_tvu, GL_R32UI);
     gl->BindVertexArray(rt->vao);
     rt->vbo_pix = make_buffer(gl, pix, sizeof(float) * (size_t)rt->nverts, GL_STATIC_DRAW);
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_pix);
@@ -446,9 +463,8 @@ static int upload_tv(glrt *rt, prt_error *err) {
     gl->VertexAttribPointer(5, 1, GL_FLOAT, GL_FALSE, 0, 0);
     gl->BindVertexArray(0);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-    rt->other_bytes += sizeof *rows * (size_t)rt->nmat * gv->rows + sizeof(float) * (size_t)rt->nverts;
-    free(rows);
-    free(pix);
+    rt->other_bytes += sizeof *f * nf + sizeof *u * nu + sizeof(float) * (size_t)rt->nverts;
+    free(f), free(u), free(pix);
     return glctx_check(gl, "uploading the per-pixel transfer", err);
 }
 
@@ -543,6 +559,7 @@ static int build_programs(glrt *rt, prt_error *err) {
         gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
         if (pv == 0 && rt->tv) {
             gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
+            gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
             for (int l = 0; l < GLRT_PF_LEVELS; l++) {
                 char name[32];
                 snprintf(name, sizeof name, "t_pf[%d]", l);
@@ -739,9 +756,10 @@ void glrt_destroy(glrt *rt) {
     if (rt->gl && current(rt, NULL) == 0) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
-                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv };
+                          rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv,
+                          rt->buf_tvu };
         GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
-                          rt->frag_tex, rt->tex_tv };
+                          rt->frag_tex, rt->tex_tv, rt->tex_tvu };
         gl->DeleteTextures(GLRT_PF_LEVELS, rt->tex_pf);
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
             if (bufs[i]) gl->DeleteBuffers(1, &bufs[i]);
@@ -806,6 +824,8 @@ static void bind_tv(glrt *rt, GLuint p) {
         gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_PF + l);
         gl->BindTexture(GL_TEXTURE_CUBE_MAP, rt->tex_pf[l]);
     }
+    gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_TVU);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_tvu);
     gl->ActiveTexture(GL_TEXTURE1);
 }
 
@@ -878,6 +898,11 @@ int glrt_set_prefilter(glrt *rt, const prefilter_env *env, prt_error *err) {
     prefilter_rotation_t(env, rt->pf_Rt);
     rt->pf_n = n;
     return glctx_check(gl, "uploading the prefiltered probe", err);
+}
+
+/* See glrt.h: the per-pixel program shades tr's vertices in the current view mode. */
+bool glrt_shades_per_pixel(const glrt *rt, const prt_transfer *tr) {
+    return rt->tv && rt->tv == tr && rt->pf_n > 0 && rt->view_mode == GLRT_VIEW_PIXEL;
 }
 
 /* The rotation of the uploaded ladder from env (the same probe as the last glrt_set_prefilter). */

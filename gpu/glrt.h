@@ -51,16 +51,18 @@
  * more than one is refused) and adds, per vertex, a radiance computed elsewhere
  * (glrt_set_vertex_add: the vmf transfer's lobes from ops->shade_vertices on the CPU, per view
  * change). Per pixel (GLRT_VIEW_PIXEL), a transfer with ops->glsl_view (vmf) is evaluated in the
- * fragment shader instead wherever all three corners of a triangle are exact per pixel
- * (glsl_view->vertex_per_pixel: vmf rows with nothing stored, i.e. the BRDF's own lobe at the
- * pixel's own view, Eq. 7 over the fit's elevations), looked up in the prefiltered probe uploaded by
- * glrt_set_prefilter (one seamless cube map per ladder level, GLRT_PF_LEVELS at most); other
- * triangles keep the per-vertex radiance (the hash, entries and geodesic grid are not in GLSL yet).
- * Measured (tests/test_runtime.c, vmf_pixel: paper-phong sphere, 24 x 48, smooth sky with an 8-degree
- * sun): per pixel 0.7% from quadrature at 18 pixels where the per-vertex image is 12.7% off.
- * Cost on llvmpipe (2 shared cores, 400x400, the 8,066-vertex sphere under city): view change 68 ms
- * median against 16-20 ms before (per-vertex vMF); not profiled yet (one level chain per lookup instead
- * of two changed nothing measurable).
+ * fragment shader instead, on every triangle with a corner of its materials: its GLSL
+ * (tv_radiance: vmft_radiance_point, vmf.h, i.e. laurijssen-2011 Eq. 7 over the pixel's triangle
+ * and grid views, stored slices from the perfect hash) reads the transfer's data as two buffer
+ * textures (glsl_view->data) and looks lobes up in the prefiltered probe uploaded by
+ * glrt_set_prefilter (one seamless cube map per ladder level, GLRT_PF_LEVELS at most); the caller
+ * then leaves that transfer out of glrt_set_vertex_add (glrt_shades_per_pixel). A context whose
+ * buffer textures or texture units cannot hold the data (17 units are used) keeps the per-vertex
+ * radiance for every vertex.
+ * Measured (tests/test_runtime.c): vmf_pixel, paper-phong sphere, 24 x 48, smooth sky with an 8-degree
+ * sun: per pixel 0.7% from quadrature at 18 pixels where the per-vertex image is 12.7% off;
+ * vmf_pixel_point: per pixel against vmft_radiance_point on the CPU at every pixel of a glossy sphere
+ * over a floor with stored slices (see the case for the figures).
  *
  * Contexts: with desc->ctx NULL, glrt makes its own headless context (OSMesa, or
  * EGL on an NVIDIA machine; $PRT_GL=osmesa|egl overrides) and owns it; with a
@@ -131,6 +133,9 @@ int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err);
  * GLRT_PF_LEVELS levels: none, every pixel takes the per-vertex radiance. Call it once per probe. */
 struct prefilter_env;
 int glrt_set_prefilter(glrt *rt, const struct prefilter_env *env, prt_error *err);
+/* True when the per-pixel program shades tr in the current view mode (so its per-vertex radiance
+ * must not be added too): tr has glsl_view, its data fit the context, a ladder is uploaded, per pixel. */
+bool glrt_shades_per_pixel(const glrt *rt, const prt_transfer *tr);
 /* Takes env's rotation for the ladder uploaded last (same probe, turned): no upload. */
 void glrt_set_prefilter_rotation(glrt *rt, const struct prefilter_env *env);
 /* Reads the target back (linear RGB, top row first; allocated here). */

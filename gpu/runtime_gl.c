@@ -8,9 +8,10 @@
  * Non-linear transfers (vmf): per vertex on the CPU through their ops->shade_vertices
  * at every view change (toward the camera's eye), the colours uploaded to glrt
  * (glrt_set_vertex_add) and added to the sparse transfer's shading per pixel or per
- * vertex; their time is part of view_ms. Per pixel, a transfer with ops->glsl_view is also
- * looked up per pixel on the GPU where its vertices allow (glrt.h): the prefiltered probe is
- * uploaded once per probe (glrt_set_prefilter); a rotation only updates a uniform.
+ * vertex; their time is part of view_ms. Per pixel, a transfer with ops->glsl_view is shaded
+ * per pixel on the GPU instead (glrt.h) and not on the CPU (glrt_shades_per_pixel): the
+ * prefiltered probe is uploaded once per probe (glrt_set_prefilter); a rotation only updates a
+ * uniform.
  *
  * Vertex colours: the GPU has no per-vertex output buffer here, so the K-vectors
  * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
@@ -105,11 +106,12 @@ static int gl_set_light(void *self, const runtime_light *light, prt_error *err) 
 }
 
 /* Adds every non-linear transfer's radiance toward eye (ops->shade_vertices) to rgb, non-finite
- * values written as 0; -1 with err before a light change. */
-static int add_nonlinear(gl_rt *g, const float eye[3], float *rgb, prt_error *err) {
+ * values written as 0, but for those glrt shades per pixel when pixel is set; -1 with err before a
+ * light change. */
+static int add_nonlinear(gl_rt *g, const float eye[3], bool pixel, float *rgb, prt_error *err) {
     for (int i = 0; i < g->d->ntransfers; i++) {
         const prt_transfer *tr = &g->d->transfers[i];
-        if (!tr->ops->shade_vertices) continue;
+        if (!tr->ops->shade_vertices || (pixel && glrt_shades_per_pixel(g->rt, tr))) continue;
         if (!g->env) return prt_fail(err, "gl runtime: the %s transfer needs a light change first", tr->ops->name);
         tr->ops->shade_vertices(g->d, tr, g->env, eye, rgb, g->nthreads);
     }
@@ -130,7 +132,7 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     if (glrt_read_gvec(g->rt, g->g, err)) return -1;
     relight_set_gvec(g->finish, g->g);
     relight_view(g->finish, eye, kmax, rgb);
-    if (g->nonlinear && add_nonlinear(g, eye, rgb, err)) return -1;
+    if (g->nonlinear && add_nonlinear(g, eye, false, rgb, err)) return -1;
     g->view_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
@@ -146,9 +148,9 @@ static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err
         g->bg_set = true;
     } else glrt_set_background_rotation(g->rt, rd->background_rotation);
     double t0 = prt_now();
-    if (g->nonlinear) {   /* the vMF lobes per vertex on the CPU, added on the GPU */
+    if (g->nonlinear) {   /* the vMF lobes per vertex on the CPU, added on the GPU (unless per pixel) */
         memset(g->add, 0, sizeof(float) * 3 * (size_t)g->d->scene.mesh.nverts);
-        if (add_nonlinear(g, rd->camera.eye, g->add, err) || glrt_set_vertex_add(g->rt, g->add, err)) return -1;
+        if (add_nonlinear(g, rd->camera.eye, true, g->add, err) || glrt_set_vertex_add(g->rt, g->add, err)) return -1;
     }
     double t_add = 1e3 * (prt_now() - t0);
     if (glrt_draw(g->rt, &rd->camera, rd->width, rd->height, kmax, err)) return -1;

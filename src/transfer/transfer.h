@@ -38,8 +38,8 @@
  *     runtime). Fills name/title/tag, configure (lobes, level, samples), describe, its section
  *     (write/read/validate/release), precompute, shade_vertices, bytes and summary;
  *     project_transport/compress/project_light/light_range stay NULL (nothing is linear in L
- *     per vertex), glsl NULL; glsl_view (transfer_vmf_glsl.c) shades per pixel the vertices with
- *     nothing stored (the BRDF's own lobe at the pixel's view). Its mask holds the glossy
+ *     per vertex), glsl NULL; glsl_view (transfer_vmf_glsl.c) shades per pixel (Eq. 7 over the
+ *     pixel's triangle and grid views, the hash and lobes uploaded as buffer textures). Its mask holds the glossy
  *     materials, beside a Haar K = 1 transfer for their diffuse part.
  * Designed, not code yet:
  *   - spherical-Gaussian virtual lights (tokuyoshi): per frame, no precompute and no
@@ -87,18 +87,18 @@ struct prt_transfer;
 
 /* A non-linear representation's per-pixel view shading in GLSL (gpu/glrt.c compiles it into its
  * per-pixel view program; NULL in transfer_ops: per vertex on the CPU only). `source` defines
- *     vec3 tv_radiance(int mat, vec3 n, vec3 wo)    // n, wo: unit world normal and view
- * and may call glrt's vec3 pf_lookup(vec3 dir, float kappa) (prefilter_lookup on the GPU) and read
- * its material table `uniform samplerBuffer t_tv` (RGBA float, TV_ROWS texels per material, from
- * material_rows). A pixel uses it where vertex_per_pixel holds at all three corners of its
- * triangle, and the per-vertex radiance (shade_vertices) elsewhere. */
+ *     vec3 tv_radiance(int tri, vec3 pos, vec3 wo)   // triangle index, world position, unit view
+ * and may call glrt's vec3 pf_lookup(vec3 dir, float kappa) (prefilter_lookup on the GPU) and
+ * frame(n, s, t) (brdf_frame), and read its data from `uniform samplerBuffer t_tv` (RGBA32F
+ * texels) and `uniform usamplerBuffer t_tvu` (R32UI words), which `data` builds. A pixel of a
+ * triangle with a corner of the transfer's materials adds tv_radiance to its shading; the CPU then
+ * does not shade those vertices (runtime_gl.c). */
 typedef struct transfer_glsl_view {
     const char *source;
-    int rows;   /* TV_ROWS */
-    /* Fills rows[TV_ROWS][4] for material m (zeros where tr does not shade it). */
-    void (*material_rows)(const struct prt_transfer *tr, int m, float (*rows)[4]);
-    /* True when vertex v is shaded exactly by tv_radiance (vmf: nothing stored for its row). */
-    bool (*vertex_per_pixel)(const struct prt_transfer *tr, int v);
+    int rows;   /* TV_ROWS: texels of t_tv per material at its start (the source's #define) */
+    /* The two arrays (malloc'd here, freed by the caller); -1 with err when out of memory. */
+    int (*data)(const struct prt_data *d, const struct prt_transfer *tr, float (**f)[4], size_t *nf, uint32_t **u, size_t *nu,
+                prt_error *err);
 } transfer_glsl_view;
 
 /* One representation's data in a prt_data. */

@@ -249,22 +249,27 @@ static void add_lobes(const prefilter_env *env, const vmf_lobe *l, const float (
  * prefetches before any is used overlaps them instead of paying them one after another. */
 typedef struct vmft_view { float w[3], gw[3]; int views[3]; long ent[3]; bool any; } vmft_view;
 
-/* Step 1: the view moved above the grazing limit, located on the grid when the row stores anything;
- * prefetches the entries of its stored views. */
-static void view_locate(const vmft_data *t, const prt_mesh *m, int v, const float wo[3], vmft_view *q) {
-    const float *n = m->nrm + 3 * (size_t)v;
-    float *w = q->w, c = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
-    memcpy(w, wo, sizeof q->w);
-    if (c < VMFT_MIN_COS) {   /* locate the grazing view of the same azimuth (vmft_brdf_lobe's rule) */
+/* w = wo, or below VMFT_MIN_COS above the tangent plane of n the grazing view of the same azimuth
+ * (vmft_brdf_lobe's rule), to be located on the grid. */
+static void view_grazing(const float n[3], const float wo[3], float w[3]) {
+    float c = n[0] * wo[0] + n[1] * wo[1] + n[2] * wo[2];
+    memcpy(w, wo, sizeof(float) * 3);
+    if (c < VMFT_MIN_COS) {
         float tx[3], r = 0;
         for (int k = 0; k < 3; k++) tx[k] = w[k] - c * n[k], r += tx[k] * tx[k];
         r = sqrtf(r);
         if (r > 1e-12f)
             for (int k = 0; k < 3; k++) w[k] = tx[k] / r * sqrtf(1 - VMFT_MIN_COS * VMFT_MIN_COS) + VMFT_MIN_COS * n[k];
     }
+}
+
+/* Step 1: the view moved above the grazing limit, located on the grid when the row stores anything;
+ * prefetches the entries of its stored views. */
+static void view_locate(const vmft_data *t, const prt_mesh *m, int v, const float wo[3], vmft_view *q) {
+    view_grazing(m->nrm + 3 * (size_t)v, wo, q->w);
     q->any = row_any(t, v);   /* a row with nothing stored needs no grid location either */
     if (!q->any) return;
-    geogrid_locate(t->grid, w, q->views, q->gw);
+    geogrid_locate(t->grid, q->w, q->views, q->gw);
     for (int k = 0; k < 3; k++) __builtin_prefetch(t->entry + t->hash.offset[v] + q->views[k]);
 }
 
@@ -301,6 +306,48 @@ void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[
     view_locate(t, m, v, wo, &q);
     view_entries(t, v, &q);
     view_shade(t, m, v, &q, env, rgb);
+}
+
+/* The per-pixel rule (vmf.h "Per pixel"): Eq. 7 over the 3 grid views of the pixel's view and the
+ * triangle's fitted corners, weighted b_k w_q; gl's tv_radiance (transfer_vmf_glsl.c) is this in GLSL. */
+void vmft_radiance_point(const vmft_data *t, const prt_mesh *m, const int tri[3], const float bary[3], const float wo[3],
+                         const prefilter_env *env, float rgb[3]) {
+    float b[3], s = 0, n[3] = { 0, 0, 0 };
+    for (int k = 0; k < 3; k++) b[k] = bary[k] > 0 ? bary[k] : 0, s += b[k];
+    if (!(s > 0)) return;
+    for (int k = 0; k < 3; k++) {
+        b[k] /= s;
+        for (int q = 0; q < 3; q++) n[q] += b[k] * m->nrm[3 * (size_t)tri[k] + q];
+    }
+    float nl = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(nl > 0)) return;
+    for (int q = 0; q < 3; q++) n[q] /= nl;
+    vmft_view view;
+    int vert[9], views[9], np = 0;
+    float w[9];
+    long ent[9];
+    bool rows = false;
+    view_grazing(n, wo, view.w);
+    for (int k = 0; k < 3; k++) rows |= ((t->materials >> m->mat[tri[k]]) & 1) && b[k] > 0 && row_any(t, tri[k]);
+    if (rows) geogrid_locate(t->grid, view.w, view.views, view.gw);
+    else view.views[0] = view.views[1] = view.views[2] = 0, view.gw[0] = 1, view.gw[1] = view.gw[2] = 0;
+    bool any = false;
+    for (int k = 0; k < 3; k++) {
+        if (!((t->materials >> m->mat[tri[k]]) & 1) || !(b[k] > 0)) continue;
+        for (int q = 0; q < 3; q++) {
+            vert[np] = tri[k], views[np] = view.views[q], w[np] = b[k] * view.gw[q];
+            ent[np] = rows && w[np] > 0 ? entry_of(t, tri[k], views[np]) : -1;
+            any |= ent[np++] >= 0;
+        }
+    }
+    if (!np) return;
+    vmf_lobe l[VMFT_MAX_LOBES];
+    float a[VMFT_MAX_LOBES][3], e[3] = { 0, 0, 0 };
+    for (int p = 0; p < (any ? t->passes : 1); p++) {
+        interp_entries(t, m, np, vert, views, ent, w, p, view.w, n, l, a);
+        add_lobes(env, l, (const float (*)[3])a, t->lobes, e);
+    }
+    for (int k = 0; k < 3; k++) rgb[k] += isfinite(e[k]) && e[k] > 0 ? e[k] : 0.f;
 }
 
 /* ---- ops ----------------------------------------------------------------------------------- */

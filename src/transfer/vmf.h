@@ -107,6 +107,7 @@
 #include "scene.h"
 
 struct prt_transfer;
+struct prt_data;
 struct prefilter_env;
 
 #define VMFT_WORDS 3             /* u32 words per packed lobe */
@@ -169,4 +170,16 @@ void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, 
 /* Adds to rgb the radiance of vertex v (of a fitted material) toward unit world wo (every pass), lit by env. */
 void vmft_radiance(const vmft_data *t, const prt_mesh *m, int v, const float wo[3], const struct prefilter_env *env,
                    float rgb[3]);
+/* Adds to rgb the radiance of the point of triangle tri (vertex ids) at barycentrics bary, toward unit world wo,
+ * lobes per pixel (header, "Per pixel"; negatives clamped to 0, the weights renormalized); the corners of
+ * other materials take no part. What gl's per-pixel view program evaluates (transfer_vmf_glsl.c). */
+void vmft_radiance_point(const vmft_data *t, const prt_mesh *m, const int tri[3], const float bary[3], const float wo[3],
+                         const struct prefilter_env *env, float rgb[3]);
+/* The per-pixel program's data (transfer_vmf_glsl.c's file comment gives the layout): u as R32UI
+ * words, f as RGBA32F texels, both malloc'd (vmft_glsl_free). -1 with err when out of memory. */
+#define VMFT_GLSL_HEADER 16
+#define VMFT_GLSL_MAGIC 0x564d4631u   /* "VMF1" */
+typedef struct vmft_glsl_arrays { uint32_t *u; size_t nu; float (*f)[4]; size_t nf; } vmft_glsl_arrays;
+int vmft_glsl_data(const struct prt_data *d, const struct prt_transfer *tr, vmft_glsl_arrays *out, prt_error *err);
+void vmft_glsl_free(vmft_glsl_arrays *a);
 #endif
