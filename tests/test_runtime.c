@@ -31,6 +31,7 @@
 #include "light.h"
 #include "prefilter.h"
 #include "transfer.h"
+#include "vmf.h"
 #include "mesh.h"
 #include "precompute.h"
 #include "probe.h"
@@ -651,6 +652,181 @@ static void vmf_pixel(void) {
     prt_data_free(&d);
 }
 
+/* Möller-Trumbore: the nearest triangle of m hit by the ray o + t dir, its barycentrics (of corners 0,
+ * 1, 2) in b; -1 when none. Brute force over every triangle (the independent truth of rasterization). */
+static int ray_hit(const prt_mesh *m, const float o[3], const float dir[3], float b[3]) {
+    double best = INFINITY;
+    int hit = -1;
+    for (int f = 0; f < m->ntris; f++) {
+        const float *p0 = m->pos + 3 * (size_t)m->tris[3 * f], *p1 = m->pos + 3 * (size_t)m->tris[3 * f + 1];
+        const float *p2 = m->pos + 3 * (size_t)m->tris[3 * f + 2];
+        double e1[3], e2[3], s[3], p[3], q[3];
+        for (int k = 0; k < 3; k++) e1[k] = p1[k] - p0[k], e2[k] = p2[k] - p0[k], s[k] = o[k] - p0[k];
+        p[0] = dir[1] * e2[2] - dir[2] * e2[1], p[1] = dir[2] * e2[0] - dir[0] * e2[2], p[2] = dir[0] * e2[1] - dir[1] * e2[0];
+        double det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+        if (fabs(det) < 1e-14) continue;
+        double u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) / det;
+        q[0] = s[1] * e1[2] - s[2] * e1[1], q[1] = s[2] * e1[0] - s[0] * e1[2], q[2] = s[0] * e1[1] - s[1] * e1[0];
+        double v = (dir[0] * q[0] + dir[1] * q[1] + dir[2] * q[2]) / det, t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) / det;
+        if (u < 0 || v < 0 || u + v > 1 || t <= 1e-6 || t >= best) continue;
+        best = t, hit = f, b[0] = (float)(1 - u - v), b[1] = (float)u, b[2] = (float)v;
+    }
+    return hit;
+}
+
+/* The per-pixel rule at a vertex is the per-vertex one: vmft_radiance_point at barycentrics (1, 0, 0)
+ * equals vmft_radiance (measured: within 3e-6, the float rounding of renormalizing the normal; 1,609
+ * of 2,160 bit for bit; asserted 1e-4) at every glossy vertex of the sphere over the floor (stored
+ * slices included), toward an eye that sees some of them below their horizon. */
+static void vmf_point_vertex(void) {
+    if (!g_vok) return;
+    prt_error err = { { 0 } };
+    const prt_mesh *m = &g_v.scene.mesh;
+    const vmft_data *t = vmft_get(&g_v.transfers[1]);
+    prefilter_env *env = prefilter_create(&g_smooth, NULL, &(prefilter_desc){ 0 }, &err);
+    CHECK(env != NULL, "%s", err.msg);
+    if (!env) return;
+    int n = 0, bad = 0, stored = 0;
+    double worst = 0;
+    for (int f = 0; f < m->ntris; f++)
+        for (int k = 0; k < 3; k++) {
+            int v = (int)m->tris[3 * f + k], tri[3] = { (int)m->tris[3 * f], (int)m->tris[3 * f + 1], (int)m->tris[3 * f + 2] };
+            if (!((t->materials >> m->mat[v]) & 1)) continue;
+            float b[3] = { 0, 0, 0 }, wo[3], l = 0, a[3] = { 0, 0, 0 }, c[3] = { 0, 0, 0 };
+            b[k] = 1;
+            for (int q = 0; q < 3; q++) wo[q] = g_cam.eye[q] - m->pos[3 * v + q], l += wo[q] * wo[q];
+            for (int q = 0; q < 3; q++) wo[q] /= sqrtf(l);
+            vmft_radiance_point(t, m, tri, b, wo, env, a);
+            vmft_radiance(t, m, v, wo, env, c);
+            for (int q = 0; q < 3; q++) c[q] = isfinite(c[q]) && c[q] > 0 ? c[q] : 0;
+            for (int q = 0; q < 3; q++) worst = fmax(worst, fabs(a[q] - c[q]) / fmax(fabs(c[q]), 1e-3));
+            bad += memcmp(a, c, sizeof a) != 0;
+            for (int w = 0; w < t->words; w++) stored += t->stored[(size_t)v * t->words + w] != 0 ? 1 : 0;
+            n++;
+        }
+    CHECK(n > 1000 && stored > 100, "corners %d, with stored rows %d", n, stored);
+    fprintf(stderr, "test_runtime: vmf per-pixel rule at %d vertices: %d not bit-equal to the per-vertex one, worst %.2e\n", n, bad, worst);
+    CHECK_LE(worst, 1e-4, "the per-pixel rule at a vertex against the per-vertex one");
+    prefilter_destroy(env);
+}
+
+/* The per-pixel program's arrays read back as its GLSL reads them (transfer_vmf_glsl.c's layout): every
+ * (vertex, view) slot lookup gives vmft_slice's lobes, the vertex words and texels the mesh, and the
+ * start cube + walk gives geogrid_locate's views and weights for 5,000 random directions. */
+static void vmf_layout(void) {
+    if (!g_vok) return;
+    prt_error err = { { 0 } };
+    const prt_mesh *m = &g_v.scene.mesh;
+    const vmft_data *t = vmft_get(&g_v.transfers[1]);
+    vmft_glsl_arrays a;
+    if (vmft_glsl_data(&g_v, &g_v.transfers[1], &a, &err)) { CHECK(false, "%s", err.msg); return; }
+    const uint32_t *u = a.u, per = u[4] * u[5] * VMFT_WORDS;
+    CHECK(u[13] == VMFT_GLSL_MAGIC && (int)u[4] == t->passes && (int)u[5] == t->lobes && (int)u[6] == t->nviews, "header");
+    int bad = 0, found = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        bad += memcmp(a.f[u[9] + 2 * v], m->pos + 3 * v, 12) != 0 || memcmp(a.f[u[9] + 2 * v + 1], m->nrm + 3 * v, 12) != 0;
+        bad += (int)((u[u[1] + 2 * v + 1] >> 8) & 255) != m->mat[v];
+        for (int j = 0; j < t->nviews; j++) {
+            uint32_t slot = u[u[1] + 2 * v] + (uint32_t)j;
+            const uint32_t *mine = slot < u[12] && u[u[2] + 2 * slot] == (uint32_t)v + 1 ? u + u[3] + u[u[2] + 2 * slot + 1] * per : NULL;
+            const uint32_t *truth = vmft_slice(t, v, j, 0);
+            bad += (mine == NULL) != (truth == NULL) || (mine && memcmp(mine, truth, per * 4) != 0);
+            found += truth != NULL;
+        }
+    }
+    for (int f = 0; f < 3 * m->ntris; f++) bad += u[u[0] + f] != m->tris[f];
+    CHECK(bad == 0 && found > 1000, "%d mismatches (%d stored slices)", bad, found);
+    uint64_t rng = 7;
+    int wrong = 0, R = (int)u[11];
+    for (int i = 0; i < 5000; i++) {
+        float d[3], l = 0, gw[3], w[3] = { 1, 0, 0 }, dd[3];
+        for (int k = 0; k < 3; k++) rng = rng * 6364136223846793005ull + 1442695040888963407ull, d[k] = (float)((rng >> 11) * 0x1p-53 * 2 - 1), l += d[k] * d[k];
+        for (int k = 0; k < 3; k++) d[k] /= sqrtf(l);
+        int g[3], ax = fabsf(d[0]) >= fabsf(d[1]) && fabsf(d[0]) >= fabsf(d[2]) ? 0 : fabsf(d[1]) >= fabsf(d[2]) ? 1 : 2;
+        float s = d[ax], p = d[(ax + 1) % 3] / fabsf(s), q = d[(ax + 2) % 3] / fabsf(s);
+        int ci = (int)floorf((p + 1) * 0.5f * R), cj = (int)floorf((q + 1) * 0.5f * R);
+        ci = ci < 0 ? 0 : ci >= R ? R - 1 : ci, cj = cj < 0 ? 0 : cj >= R ? R - 1 : cj;
+        int f = (int)a.f[u[10] + ((2 * ax + (s < 0)) * R + ci) * R + cj][0];
+        for (int it = 0; it < 8; it++) {
+            const float (*r)[4] = a.f + u[7] + 5 * f;
+            for (int e = 0; e < 3; e++) dd[e] = r[2 + e][0] * d[0] + r[2 + e][1] * d[1] + r[2 + e][2] * d[2];
+            if ((dd[0] >= 0 && dd[1] >= 0 && dd[2] >= 0) || it == 7) break;
+            f = (int)r[1][dd[0] <= dd[1] && dd[0] <= dd[2] ? 0 : dd[1] <= dd[2] ? 1 : 2];
+        }
+        float sum = 0;
+        for (int e = 0; e < 3; e++) dd[e] = dd[e] > 0 ? dd[e] : 0, sum += dd[e];
+        geogrid_locate(t->grid, d, g, gw);
+        for (int e = 0; e < 3; e++) {
+            w[e] = sum > 0 ? dd[e] / sum : e == 0;
+            wrong += (int)a.f[u[7] + 5 * f][e] != g[e] && gw[e] > 1e-5f;   /* on an edge either face is right */
+            wrong += fabsf(w[e] - gw[e]) > 1e-5f;
+        }
+    }
+    CHECK(wrong == 0, "%d view/weight mismatches of 5,000 directions against geogrid_locate", wrong);
+    vmft_glsl_free(&a);
+}
+
+/* gl per pixel = the CPU's per-pixel rule: at every pixel of a triangle with a glossy corner (the
+ * sphere over the floor, its stored slices included), the gl image against the sparse part (relight,
+ * interpolated by the ray's barycentrics: Lambert K = 1 is linear in them) plus vmft_radiance_point,
+ * the triangle and barycentrics found by brute-force ray casting. */
+static void vmf_pixel_point(void) {
+    if (!g_vok) return;
+    prt_error err = { { 0 } };
+    const prt_mesh *m = &g_v.scene.mesh;
+    const vmft_data *t = vmft_get(&g_v.transfers[1]);
+    render_desc rd = { .width = W, .height = H, .camera = g_cam };
+    prt_image ip = { 0 };
+    size_t n3 = VN(&g_v);
+    float *sp = calloc(n3, sizeof(float)), *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    float (*L)[4] = light_alloc();
+    relight_ctx *rc = relight_create(&g_v, 0, &err);
+    prefilter_env *env = prefilter_create(&g_smooth, NULL, &(prefilter_desc){ 0 }, &err);
+    prt_runtime *glp = lit_on(&g_v, "gl", RUNTIME_VIEW_PIXEL, &g_smooth, NULL);
+    if (glp && rc && env && sp && cube && L && runtime_render(glp, &rd, &ip, &err) == 0) {
+        probe_to_cube(&g_smooth, CUBE_RES, NULL, 0, cube);
+        g_v.transfers[0].ops->project_light(&g_v.transfers[0].cfg, cube, L);
+        relight_set_light(rc, (const float (*)[4])L);
+        relight_view(rc, g_cam.eye, 0, sp);
+        double se = 0, st = 0, worst = 0;
+        int npix = 0, nstored = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                float dir[3], b[3], e[3] = { 0, 0, 0 };
+                camera_ray(&g_cam, W, H, x + 0.5f, y + 0.5f, dir);
+                int f = ray_hit(m, g_cam.eye, dir, b);
+                if (f < 0 || fminf(b[0], fminf(b[1], b[2])) < 0.02f) continue;   /* misses, or near an edge */
+                int tri[3] = { (int)m->tris[3 * f], (int)m->tris[3 * f + 1], (int)m->tris[3 * f + 2] }, fit = 0, rows = 0;
+                for (int k = 0; k < 3; k++) {
+                    fit += (t->materials >> m->mat[tri[k]]) & 1;
+                    for (int w = 0; w < t->words; w++) rows += t->stored[(size_t)tri[k] * t->words + w] != 0;
+                }
+                if (!fit) continue;
+                float wo[3] = { -dir[0], -dir[1], -dir[2] };
+                vmft_radiance_point(t, m, tri, b, wo, env, e);
+                for (int k = 0; k < 3; k++)
+                    for (int ch = 0; ch < 3; ch++) e[ch] += b[k] * sp[3 * tri[k] + ch];
+                const float *a = ip.data + 3 * ((size_t)y * W + x);
+                double d2 = 0, t2 = 0;
+                for (int ch = 0; ch < 3; ch++) d2 += (a[ch] - e[ch]) * (a[ch] - e[ch]), t2 += e[ch] * e[ch];
+                se += d2, st += t2, npix++, nstored += rows > 0;
+                worst = fmax(worst, sqrt(d2 / fmax(t2, 1e-6)));
+            }
+        double rel = st > 0 ? sqrt(se / st) : 1;
+        fprintf(stderr, "test_runtime: vmf gl per pixel vs cpu per-pixel rule: %d pixels (%d by stored rows), rel RMS %.3f%%, worst pixel %.2f%%\n",
+                npix, nstored, 100 * rel, 100 * worst);
+        CHECK(npix > 1000 && nstored > 200, "pixels %d, by stored rows %d", npix, nstored);
+        CHECK_LE(rel, 0.01, "gl per-pixel vmf image against the cpu per-pixel rule");
+    } else CHECK(false, "%s", err.msg);
+    image_free(&ip);
+    runtime_destroy(glp);
+    prefilter_destroy(env);
+    relight_destroy(rc);
+    free(L);
+    free(cube);
+    free(sp);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -662,13 +838,16 @@ int main(int argc, char **argv) {
     CHECK_CASE(timings);
     CHECK_CASE(lambert_unchanged);
     if (check_wants("vmf_sum") || check_wants("vmf_backends") || check_wants("vmf_file") || check_wants("vmf_rotation") ||
-        check_wants("vmf_pixel"))
+        check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout"))
         setup_vmf();
     CHECK_CASE(vmf_sum);
     CHECK_CASE(vmf_backends);
     CHECK_CASE(vmf_file);
     CHECK_CASE(vmf_rotation);
     CHECK_CASE(vmf_pixel);
+    CHECK_CASE(vmf_point_vertex);
+    CHECK_CASE(vmf_layout);
+    CHECK_CASE(vmf_pixel_point);
     prt_data_free(&g_v);
     probe_free(&g_smooth);
     probe_free(&g_smooth_rot);
