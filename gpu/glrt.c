@@ -40,7 +40,7 @@ struct glrt {
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
     GLuint prog_view[2];
-    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, ebo;
+    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
     const prt_transfer *tv;     /* the transfer shaded per pixel (ops->glsl_view), or NULL */
     GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
     int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
@@ -144,6 +144,7 @@ static const char *k_view_vs =
     "layout(location = 3) in uint a_mat;\n"
     "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
     "layout(location = 5) in float a_pix;\n"  /* 1: a vertex of the per-pixel transfer's materials (glsl_view) */
+    "layout(location = 6) in float a_tva;\n"  /* the per-pixel transfer's own per-vertex value (glsl_view->data) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -152,7 +153,7 @@ static const char *k_view_vs =
     "out vec3 v_col;\n"
     "#else\n"
     "out vec3 v_pos, v_nrm, v_add;\n"
-    "out float v_pix;\n"
+    "out float v_pix, v_tva;\n"
     "out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
     "#endif\n"
@@ -163,7 +164,7 @@ static const char *k_view_vs =
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add;\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
-    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix;\n"
+    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva;\n"
     "#endif\n"
     "    gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
     "}\n";
@@ -177,7 +178,7 @@ static const char *k_view_fs =
     "void main() { o_color = vec4(v_col, 1.0); }\n"
     "#else\n"
     "in vec3 v_pos, v_nrm, v_add;\n"
-    "in float v_pix;\n"
+    "in float v_pix, v_tva;\n"
     "in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
     "void main() {\n"
@@ -186,7 +187,7 @@ static const char *k_view_fs =
     "    vec3 add = v_add;\n"
     "#if HAS_TV\n"   /* a corner of the transfer's materials: its radiance per pixel (the CPU left it out of v_add) */
     "    if (u_pf_n > 0 && v_pix > 0.0) {\n"
-    "        vec3 r = tv_radiance(gl_PrimitiveID, v_pos, normalize(u_eye - v_pos));\n"
+    "        vec3 r = tv_radiance(gl_PrimitiveID, v_pos, v_nrm, normalize(u_eye - v_pos), v_tva);\n"
     "        for (int c = 0; c < 3; c++) add[c] += isnan(r[c]) || isinf(r[c]) || r[c] < 0.0 ? 0.0 : r[c];\n"   /* as the CPU */
     "    }\n"
     "#endif\n"
@@ -439,14 +440,15 @@ static int upload_tv(glrt *rt, prt_error *err) {
     if (!rt->tv) return 0;
     float (*f)[4] = NULL;
     uint32_t *u = NULL;
+    float *tva = NULL;
     size_t nf = 0, nu = 0;
-    if (rt->tv->ops->glsl_view->data(rt->d, rt->tv, &f, &nf, &u, &nu, err)) return -1;
+    if (rt->tv->ops->glsl_view->data(rt->d, rt->tv, &f, &nf, &u, &nu, &tva, err)) return -1;
     GLint maxtb = 0, units = 0;
     gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
     gl->GetIntegerv(GL_MAX_TEXTURE_IMAGE_UNITS, &units);
     float *pix = prt_calloc((size_t)rt->nverts + 1, sizeof(float), err);
-    if (!pix || nf >= (size_t)maxtb || nu >= (size_t)maxtb || nu >= (size_t)INT32_MAX || units <= GLRT_UNIT_TVU) {
-        free(f), free(u);
+    if (!pix || !tva || nf >= (size_t)maxtb || nu >= (size_t)maxtb || nu >= (size_t)INT32_MAX || units <= GLRT_UNIT_TVU) {
+        free(f), free(u), free(tva);
         rt->tv = NULL;
         return pix ? (free(pix), 0) : -1;
     }
@@ -461,10 +463,14 @@ static int upload_tv(glrt *rt, prt_error *err) {
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_pix);
     gl->EnableVertexAttribArray(5);
     gl->VertexAttribPointer(5, 1, GL_FLOAT, GL_FALSE, 0, 0);
+    rt->vbo_tva = make_buffer(gl, tva, sizeof(float) * (size_t)rt->nverts, GL_STATIC_DRAW);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_tva);
+    gl->EnableVertexAttribArray(6);
+    gl->VertexAttribPointer(6, 1, GL_FLOAT, GL_FALSE, 0, 0);
     gl->BindVertexArray(0);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
-    rt->other_bytes += sizeof *f * nf + sizeof *u * nu + sizeof(float) * (size_t)rt->nverts;
-    free(f), free(u), free(pix);
+    rt->other_bytes += sizeof *f * nf + sizeof *u * nu + 2 * sizeof(float) * (size_t)rt->nverts;
+    free(f), free(u), free(pix), free(tva);
     return glctx_check(gl, "uploading the per-pixel transfer", err);
 }
 
@@ -757,7 +763,7 @@ void glrt_destroy(glrt *rt) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
                           rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv,
-                          rt->buf_tvu };
+                          rt->buf_tvu, rt->vbo_tva };
         GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
                           rt->frag_tex, rt->tex_tv, rt->tex_tvu };
         gl->DeleteTextures(GLRT_PF_LEVELS, rt->tex_pf);

@@ -788,8 +788,8 @@ static void vmf_pixel_point(void) {
         g_v.transfers[0].ops->project_light(&g_v.transfers[0].cfg, cube, L);
         relight_set_light(rc, (const float (*)[4])L);
         relight_view(rc, g_cam.eye, 0, sp);
-        double se = 0, st = 0, worst = 0;
-        int npix = 0, nstored = 0;
+        double se = 0, st = 0, worst = 0, fe = 0, ft = 0;
+        int npix = 0, nstored = 0, nfast = 0;
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
                 float dir[3], b[3], e[3] = { 0, 0, 0 };
@@ -810,13 +810,18 @@ static void vmf_pixel_point(void) {
                 double d2 = 0, t2 = 0;
                 for (int ch = 0; ch < 3; ch++) d2 += (a[ch] - e[ch]) * (a[ch] - e[ch]), t2 += e[ch] * e[ch];
                 se += d2, st += t2, npix++, nstored += rows > 0;
+                if (fit == 3 && !rows) fe += d2, ft += t2, nfast++;   /* the shader's one-lookup path */
                 worst = fmax(worst, sqrt(d2 / fmax(t2, 1e-6)));
             }
         double rel = st > 0 ? sqrt(se / st) : 1;
-        fprintf(stderr, "test_runtime: vmf gl per pixel vs cpu per-pixel rule: %d pixels (%d by stored rows), rel RMS %.3f%%, worst pixel %.2f%%\n",
-                npix, nstored, 100 * rel, 100 * worst);
-        CHECK(npix > 1000 && nstored > 200, "pixels %d, by stored rows %d", npix, nstored);
+        double frel = ft > 0 ? sqrt(fe / ft) : 1;
+        fprintf(stderr, "test_runtime: vmf gl per pixel vs cpu per-pixel rule: %d pixels (%d by stored rows), rel RMS %.3f%%, "
+                        "worst pixel %.2f%%; %d pixels without stored corners: %.3f%%\n", npix, nstored, 100 * rel, 100 * worst, nfast, 100 * frel);
+        CHECK(npix > 1000 && nstored > 200 && nfast > 50, "pixels %d, by stored rows %d, without %d", npix, nstored, nfast);
+        /* Measured: 0.001% RMS, worst pixel 0.03% (float sums on the GPU against doubles, seamless cube
+         * filtering against prefilter_lookup's taps). Asserted 1%, and 1% on the one-lookup pixels. */
         CHECK_LE(rel, 0.01, "gl per-pixel vmf image against the cpu per-pixel rule");
+        CHECK_LE(frel, 0.01, "gl per-pixel vmf image against the cpu rule where no corner stores a slice");
     } else CHECK(false, "%s", err.msg);
     image_free(&ip);
     runtime_destroy(glp);

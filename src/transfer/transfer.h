@@ -87,8 +87,9 @@ struct prt_transfer;
 
 /* A non-linear representation's per-pixel view shading in GLSL (gpu/glrt.c compiles it into its
  * per-pixel view program; NULL in transfer_ops: per vertex on the CPU only). `source` defines
- *     vec3 tv_radiance(int tri, vec3 pos, vec3 wo)   // triangle index, world position, unit view
- * and may call glrt's vec3 pf_lookup(vec3 dir, float kappa) (prefilter_lookup on the GPU) and
+ *     vec3 tv_radiance(int tri, vec3 pos, vec3 n, vec3 wo, float a)
+ * (triangle index, world position, interpolated normal, unit view, the interpolated per-vertex value
+ * `data` gives in vattr) and may call glrt's vec3 pf_lookup(vec3 dir, float kappa) (prefilter_lookup on the GPU) and
  * frame(n, s, t) (brdf_frame), and read its data from `uniform samplerBuffer t_tv` (RGBA32F
  * texels) and `uniform usamplerBuffer t_tvu` (R32UI words), which `data` builds. A pixel of a
  * triangle with a corner of the transfer's materials adds tv_radiance to its shading; the CPU then
@@ -96,9 +97,9 @@ struct prt_transfer;
 typedef struct transfer_glsl_view {
     const char *source;
     int rows;   /* TV_ROWS: texels of t_tv per material at its start (the source's #define) */
-    /* The two arrays (malloc'd here, freed by the caller); -1 with err when out of memory. */
+    /* The two arrays and vattr[nverts] (malloc'd here, freed by the caller); -1 with err when out of memory. */
     int (*data)(const struct prt_data *d, const struct prt_transfer *tr, float (**f)[4], size_t *nf, uint32_t **u, size_t *nu,
-                prt_error *err);
+                float **vattr, prt_error *err);
 } transfer_glsl_view;
 
 /* One representation's data in a prt_data. */

@@ -125,7 +125,16 @@ static const char k_vmf_view[] =
     "    if (!(S > 0.0 && l > 0.0 && tv_lum(A) > 0.0)) return vec3(0.0);\n"
     "    return A * pf_lookup(M / l, K / S);\n"
     "}\n"
-    "vec3 tv_radiance(int tri, vec3 pos, vec3 wo) {\n"
+    "vec3 tv_radiance(int tri, vec3 pos, vec3 nrm, vec3 wo, float a) {\n"
+    /* every corner fitted with nothing stored: exactly the BRDF's own lobe at the pixel's normal
+     * (the corners' normals by the barycentrics, as GL interpolates them) and view, one lookup */
+    "    if (a > 0.999) {\n"
+    "        vec3 n = normalize(nrm), w = wo, mu, al;\n"
+    "        float kap, cn = dot(n, wo);\n"
+    "        if (cn < 0.02) { vec3 tx = wo - cn * n; float r = length(tx); if (r > 1e-12) w = tx / r * 0.99979998 + 0.02 * n; }\n"
+    "        tv_brdf(int((tu(int(tu(1)) + 2 * int(tu(int(tu(0)) + 3 * tri)) + 1) >> 8) & 255u), n, w, mu, kap, al);\n"
+    "        return tv_lookup(al, mu, kap, 1.0);\n"
+    "    }\n"
     "    int bt = int(tu(0)), bv = int(tu(1)), bs = int(tu(2)), bl = int(tu(3)), P = int(tu(4)), I = int(tu(5));\n"
     "    int bx = int(tu(9)), bd = int(tu(8)), hsize = int(tu(12));\n"
     "    ivec3 c = ivec3(int(tu(bt + 3 * tri)), int(tu(bt + 3 * tri + 1)), int(tu(bt + 3 * tri + 2)));\n"
@@ -326,12 +335,19 @@ void vmft_glsl_free(vmft_glsl_arrays *a) {
     memset(a, 0, sizeof *a);
 }
 
-/* transfer_glsl_view.data over vmft_glsl_data. */
+/* transfer_glsl_view.data over vmft_glsl_data; vattr 1 at a vertex of the transfer's materials whose row
+ * stores nothing (the fast path of tv_radiance where all three corners are such). */
 static int vmf_view_data(const prt_data *d, const prt_transfer *tr, float (**f)[4], size_t *nf, uint32_t **u, size_t *nu,
-                         prt_error *err) {
+                         float **vattr, prt_error *err) {
     vmft_glsl_arrays a;
-    if (vmft_glsl_data(d, tr, &a, err)) return -1;
-    *f = a.f, *nf = a.nf, *u = a.u, *nu = a.nu;
+    const prt_mesh *m = &d->scene.mesh;
+    float *va = prt_calloc((size_t)m->nverts + 1, sizeof(float), err);
+    if (!va || vmft_glsl_data(d, tr, &a, err)) {
+        free(va);
+        return -1;
+    }
+    for (int v = 0; v < m->nverts; v++) va[v] = (a.u[a.u[1] + 2 * (size_t)v + 1] & 3u) == 1u ? 1.f : 0.f;
+    *f = a.f, *nf = a.nf, *u = a.u, *nu = a.nu, *vattr = va;
     return 0;
 }
 

@@ -64,6 +64,16 @@
  * Views below the horizon: w_o (and any view) with n.w_o < VMFT_MIN_COS is shaded at the
  * grazing direction of the same azimuth (as the SVD runtime does, relight.c).
  *
+ * Per pixel (vmft_radiance_point; gl's per-pixel program is the same rule in GLSL,
+ * transfer_vmf_glsl.c): a point at barycentrics b of triangle (v_0, v_1, v_2) seen along w_o has
+ * the normal normalize(sum b_k n_k) and the view w_o (moved to the grazing view as above for that
+ * normal), located once on the grid (views g_q, weights w_q); Eq. 7 then runs over the 9 pairs
+ * (v_k, g_q) of the corners of the transfer's materials with weights b_k w_q, exactly as the
+ * gathering passes interpolate at a hit point (vmfpass.c). At a vertex (b = e_k) it is the
+ * per-vertex rule (within 3e-6, the renormalized normal: runtime/vmf_point_vertex). So the lobes,
+ * not their radiance, are interpolated across a triangle: a Phong n = 1000 highlight or a
+ * reflected edge keeps its width instead of being spread over the vertex spacing.
+ *
  * Grid level (the default, 2 = 162 views, by measurement; tools/vmf_measure.sh on
  * data/teapot-floor.json under city.exr, specular part only against `prt reference` at 2,048
  * samples per vertex, 2.5% noise, this 2-core machine shared with other jobs): vertices whose
