@@ -39,7 +39,9 @@ struct glrt {
     GLuint prog_light[GLRT_LIGHT_COUNT];
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
-    GLuint prog_view[2];
+    GLuint prog_view[4];        /* per pixel (TV_FULL), per vertex, per pixel without tv, per pixel tv fast path */
+    int tv_tris[3];             /* triangles drawn by prog_view[2], [3], [0] in that order (per pixel with a tv) */
+    int tv_perm;                /* word offset in t_tvu of the drawn order's triangle indices */
     GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
     const prt_transfer *tv;     /* the transfer shaded per pixel (ops->glsl_view), or NULL */
     GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
@@ -171,7 +173,7 @@ static const char *k_view_vs =
 
 static const char *k_view_fs =
     "uniform vec3 u_eye;\n"
-    "uniform int u_kmax;\n"
+    "uniform int u_kmax, u_tri0, u_tv_perm;\n"
     "out vec4 o_color;\n"
     "#if PER_VERTEX\n"
     "in vec3 v_col;\n"
@@ -187,7 +189,8 @@ static const char *k_view_fs =
     "    vec3 add = v_add;\n"
     "#if HAS_TV\n"   /* a corner of the transfer's materials: its radiance per pixel (the CPU left it out of v_add) */
     "    if (u_pf_n > 0 && v_pix > 0.0) {\n"
-    "        vec3 r = tv_radiance(gl_PrimitiveID, v_pos, v_nrm, normalize(u_eye - v_pos), v_tva);\n"
+    "        int tri = int(texelFetch(t_tvu, u_tv_perm + u_tri0 + gl_PrimitiveID).r);\n"   /* the mesh's triangle index */
+    "        vec3 r = tv_radiance(tri, v_pos, v_nrm, normalize(u_eye - v_pos), v_tva);\n"
     "        for (int c = 0; c < 3; c++) add[c] += isnan(r[c]) || isinf(r[c]) || r[c] < 0.0 ? 0.0 : r[c];\n"   /* as the CPU */
     "    }\n"
     "#endif\n"
@@ -204,6 +207,7 @@ static const char *k_pf_glsl =
     "uniform int u_pf_n;\n"
     "uniform mat3 u_pf_Rt;\n"
     "uniform samplerBuffer t_tv;\n"
+    "uniform usamplerBuffer t_tvu;\n"
     "float pf_k(int l) { return u_pf_kappa[l / 4][l % 4]; }\n"
     "PF_LEVEL\n"   /* vec3 pf_pair(int l, vec3 d, float t): levels l and l + 1 mixed by t, one if chain
                       * (GLSL 3.3 indexes samplers by constants only) */
@@ -431,6 +435,32 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
+/* The element buffer reordered by what a triangle's pixels need (struct glrt: tv_tris): no corner of the
+ * tv's materials, every corner at vattr 1 (its fast path), the rest; perm[i] = the mesh's index of
+ * drawn triangle i. -1 on OOM. */
+static int order_tris(glrt *rt, const float *pix, const float *tva, uint32_t *perm, prt_error *err) {
+    const prt_mesh *m = &rt->d->scene.mesh;
+    uint32_t *idx = prt_calloc(3 * (size_t)m->ntris + 3, sizeof(uint32_t), err);
+    if (!idx) return -1;
+    int n = 0;
+    memset(rt->tv_tris, 0, sizeof rt->tv_tris);
+    for (int cls = 0; cls < 3; cls++)
+        for (int f = 0; f < m->ntris; f++) {
+            const uint32_t *t = m->tris + 3 * (size_t)f;
+            bool none = pix[t[0]] == 0 && pix[t[1]] == 0 && pix[t[2]] == 0;
+            bool fast = pix[t[0]] == 1 && pix[t[1]] == 1 && pix[t[2]] == 1 && tva[t[0]] == 1 && tva[t[1]] == 1 && tva[t[2]] == 1;
+            if ((none ? 0 : fast ? 1 : 2) != cls) continue;
+            memcpy(idx + 3 * (size_t)n, t, 3 * sizeof(uint32_t));
+            perm[n++] = (uint32_t)f;
+            rt->tv_tris[cls]++;
+        }
+    rt->gl->BindVertexArray(rt->vao);   /* the element binding is the vertex array's (core profile) */
+    rt->gl->BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), idx);
+    rt->gl->BindVertexArray(0);
+    free(idx);
+    return 0;
+}
+
 /* The per-pixel transfer's data (rt->tv, ops->glsl_view): its two arrays as buffer textures (t_tv
  * RGBA32F, t_tvu R32UI) and attribute 5, 1 at the vertices of its materials. Where the context
  * cannot hold them (buffer-texture size, texture units) rt->tv is dropped: the CPU shades its
@@ -454,6 +484,12 @@ static int upload_tv(glrt *rt, prt_error *err) {
     }
     const prt_mesh *m = &rt->d->scene.mesh;
     for (int v = 0; v < rt->nverts; v++) pix[v] = (rt->tv->materials >> (m->mat ? m->mat[v] : 0)) & 1 ? 1.f : 0.f;
+    uint32_t *u2 = realloc(u, sizeof *u * (nu + (size_t)m->ntris + 1));
+    if (!u2 || order_tris(rt, pix, tva, u2 + nu, err)) {
+        free(f), free(u2 ? u2 : u), free(pix), free(tva);
+        return prt_fail(err, "out of memory");
+    }
+    u = u2, rt->tv_perm = (int)nu, nu += (size_t)m->ntris;
     rt->buf_tv = make_buffer(gl, f, sizeof *f * nf, GL_STATIC_DRAW);
     rt->tex_tv = make_texbuf(gl, rt->buf_tv, GL_RGBA32F);
     rt->buf_tvu = make_buffer(gl, u, sizeof *u * nu, GL_STATIC_DRAW);
@@ -525,56 +561,58 @@ static char *tv_source(const glrt *rt) {
     return out;
 }
 
-/* Compiles the light kernels (build_light_programs) and both view programs; -1 with err. */
-static int build_programs(glrt *rt, prt_error *err) {
+/* View program pv (struct glrt: 0 per pixel with the tv's full path, 1 per vertex, 2 per pixel without
+ * the tv, 3 per pixel with its fast path only; llvmpipe runs both sides of a branch under a mask, so
+ * the triangles that need less are drawn by programs that hold less, glrt_draw). -1 with err. */
+static int build_view_program(glrt *rt, int pv, prt_error *err) {
     const gl_api *gl = rt->gl;
     char head[512];
-    if (build_light_programs(rt, err)) return -1;
-    /* View programs. */
-    for (int pv = 0; pv < 2; pv++) {
-        snprintf(head, sizeof head,
-                 "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n"
-                 "#define TV_ROWS %d\n#define PF_LEVELS %d\n",
-                 rt->kmax_all, rt->nmat, pv, pv == 0 && rt->tv, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS);
-        char *vs = build_src(head, k_view_vs, "", "");
-        char *vfs = build_src(head, k_view_fs, "", "");
-        size_t cv = strlen(k_view_common);
-        char *vs2 = vs ? malloc(strlen(vs) + cv + 1) : NULL, *fs2 = vfs ? malloc(strlen(vfs) + cv + 1) : NULL;
-        if (!vs2 || !fs2) {
-            free(vs); free(vfs); free(vs2); free(fs2);
-            return prt_fail(err, "out of memory");
-        }
-        /* head, then the common view functions, then the stage body. */
-        size_t hl = strlen(head);
-        sprintf(vs2, "%s%s%s", head, k_view_common, vs + hl);
-        char *tv = pv == 0 && rt->tv ? tv_source(rt) : NULL;
-        if (tv) {
-            char *f3 = realloc(fs2, strlen(vfs) + cv + strlen(tv) + 1);
-            if (f3) fs2 = f3;
-            if (f3) sprintf(fs2, "%s%s%s%s", head, k_view_common, tv, vfs + hl);
-            free(tv);
-            if (!f3) { free(vs); free(vfs); free(vs2); free(fs2); return prt_fail(err, "out of memory"); }
-        } else sprintf(fs2, "%s%s%s", head, k_view_common, vfs + hl);
-        rt->prog_view[pv] = glctx_program(gl, vs2, fs2, pv ? "view (per vertex)" : "view (per pixel)", err);
-        free(vs); free(vfs); free(vs2); free(fs2);
-        if (!rt->prog_view[pv]) return -1;
-        GLuint p = rt->prog_view[pv];
-        gl->UseProgram(p);
-        gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
-        gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
-        gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
-        if (pv == 0 && rt->tv) {
-            gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
-            gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
-            for (int l = 0; l < GLRT_PF_LEVELS; l++) {
-                char name[32];
-                snprintf(name, sizeof name, "t_pf[%d]", l);
-                gl->Uniform1i(gl->GetUniformLocation(p, name), GLRT_UNIT_PF + l);
-            }
+    bool tvp = rt->tv && (pv == 0 || pv == 3);
+    snprintf(head, sizeof head,
+             "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
+             "#define TV_ROWS %d\n#define PF_LEVELS %d\n",
+             rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS);
+    char *vs = build_src(head, k_view_vs, "", "");
+    char *vfs = build_src(head, k_view_fs, "", "");
+    char *tv = tvp ? tv_source(rt) : NULL;
+    size_t cv = strlen(k_view_common), hl = strlen(head);
+    char *vs2 = vs ? malloc(strlen(vs) + cv + 1) : NULL, *fs2 = vfs ? malloc(strlen(vfs) + cv + (tv ? strlen(tv) : 0) + 1) : NULL;
+    if (!vs2 || !fs2 || (tvp && !tv)) {
+        free(vs); free(vfs); free(vs2); free(fs2); free(tv);
+        return prt_fail(err, "out of memory");
+    }
+    /* head, then the common view functions (and the tv's), then the stage body. */
+    sprintf(vs2, "%s%s%s", head, k_view_common, vs + hl);
+    sprintf(fs2, "%s%s%s%s", head, k_view_common, tv ? tv : "", vfs + hl);
+    static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv)", "view (per pixel, tv fast)" };
+    rt->prog_view[pv] = glctx_program(gl, vs2, fs2, names[pv], err);
+    free(vs); free(vfs); free(vs2); free(fs2); free(tv);
+    if (!rt->prog_view[pv]) return -1;
+    GLuint p = rt->prog_view[pv];
+    gl->UseProgram(p);
+    gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
+    gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
+    gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
+    if (tvp) {
+        gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
+        gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
+        gl->Uniform1i(gl->GetUniformLocation(p, "u_tv_perm"), rt->tv_perm);
+        for (int l = 0; l < GLRT_PF_LEVELS; l++) {
+            char name[32];
+            snprintf(name, sizeof name, "t_pf[%d]", l);
+            gl->Uniform1i(gl->GetUniformLocation(p, name), GLRT_UNIT_PF + l);
         }
     }
-    gl->UseProgram(0);
-    return glctx_check(gl, "building the shaders", err);
+    return 0;
+}
+
+/* Compiles the light kernels (build_light_programs) and the view programs; -1 with err. */
+static int build_programs(glrt *rt, prt_error *err) {
+    if (build_light_programs(rt, err)) return -1;
+    for (int pv = 0; pv < (rt->tv ? 4 : 2); pv++)
+        if (build_view_program(rt, pv, err)) return -1;
+    rt->gl->UseProgram(0);
+    return glctx_check(rt->gl, "building the shaders", err);
 }
 
 /* Runs the light kernel of method m on the current L into g. */
@@ -773,7 +811,7 @@ void glrt_destroy(glrt *rt) {
             if (texs[i]) gl->DeleteTextures(1, &texs[i]);
         for (int i = 0; i < GLRT_LIGHT_COUNT; i++)
             if (rt->prog_light[i]) gl->DeleteProgram(rt->prog_light[i]);
-        for (int i = 0; i < 2; i++)
+        for (int i = 0; i < 4; i++)
             if (rt->prog_view[i]) gl->DeleteProgram(rt->prog_view[i]);
         if (rt->frag_fbo) gl->DeleteFramebuffers(1, &rt->frag_fbo);
         if (rt->vao) gl->DeleteVertexArrays(1, &rt->vao);
@@ -835,6 +873,24 @@ static void bind_tv(glrt *rt, GLuint p) {
     gl->ActiveTexture(GL_TEXTURE1);
 }
 
+/* Draws triangles [first, first + n) of the element buffer with view program p (its uniforms and
+ * textures set here); the vertex array is bound. */
+static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera *cam, int kmax, int first, int n) {
+    const gl_api *gl = rt->gl;
+    if (n <= 0) return;
+    gl->UseProgram(p);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(p, "u_mvp"), 1, GL_FALSE, mvp);
+    gl->Uniform3fv(gl->GetUniformLocation(p, "u_eye"), 1, cam->eye);
+    gl->Uniform1i(gl->GetUniformLocation(p, "u_kmax"), kmax > 0 ? kmax : 0);
+    gl->Uniform1i(gl->GetUniformLocation(p, "u_tri0"), first);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_view);
+    gl->ActiveTexture(GL_TEXTURE1);
+    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
+    if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
+    gl->DrawElements(GL_TRIANGLES, n * 3, GL_UNSIGNED_INT, (const void *)(3 * sizeof(uint32_t) * (size_t)first));
+}
+
 /* View change into the float target, finished and timed; -1 with err. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
@@ -842,23 +898,17 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     double t0 = prt_now();
     if (gldraw_target(&rt->draw, w, h, err)) return -1;
     gldraw_background(&rt->draw, cam, w, h, rt->bg_rotated ? rt->bg_R : NULL);
-    GLuint p = rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX ? 1 : 0];
     float mvp[16];
     gldraw_mvp(&rt->draw, cam, w, h, mvp);
     gl->BeginQuery(GL_TIME_ELAPSED, rt->query);
-    gl->UseProgram(p);
-    gl->UniformMatrix4fv(gl->GetUniformLocation(p, "u_mvp"), 1, GL_FALSE, mvp);
-    gl->Uniform3fv(gl->GetUniformLocation(p, "u_eye"), 1, cam->eye);
-    gl->Uniform1i(gl->GetUniformLocation(p, "u_kmax"), kmax > 0 ? kmax : 0);
-    gl->ActiveTexture(GL_TEXTURE0);
-    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_view);
-    gl->ActiveTexture(GL_TEXTURE1);
-    gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
-    if (p == rt->prog_view[0] && rt->tv) bind_tv(rt, p);
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);
-    if (rt->d->scene.mesh.ntris > 0) gl->DrawElements(GL_TRIANGLES, rt->d->scene.mesh.ntris * 3, GL_UNSIGNED_INT, 0);
+    if (rt->view_mode == GLRT_VIEW_VERTEX || !rt->tv) draw_tris(rt, rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX], mvp, cam, kmax, 0,
+                                                                 rt->d->scene.mesh.ntris);
+    else   /* the triangles in tv_tris's order, each class by the program that holds what it needs */
+        for (int c = 0, first = 0; c < 3; first += rt->tv_tris[c++])
+            draw_tris(rt, rt->prog_view[c == 0 ? 2 : c == 1 ? 3 : 0], mvp, cam, kmax, first, rt->tv_tris[c]);
     gl->BindVertexArray(0);
     gl->Disable(GL_DEPTH_TEST);
     gl->BindTexture(GL_TEXTURE_BUFFER, 0);
