@@ -183,7 +183,11 @@ static const char k_vmf_view[] =
     "        tv_brdf(m0, n, w, mu, kap, al);\n"
     "        return tv_lookup(al * ws, mu, kap, 1.0);\n"
     "    }\n"
-    "    vec3 rgb = vec3(0.0);\n"
+    /* the interpolated lobes first, then their lookups in a loop as long as this pixel needs:
+     * llvmpipe runs a masked branch's body anyway, but leaves a loop that no lane continues */
+    "    vec3 LA[16], LM[16];\n"
+    "    float LK[16];\n"
+    "    int nl = 0;\n"
     "    for (int p = 0; p < P; p++)\n"
     "        for (int i = 0; i < I; i++) {\n"
     "            A = vec3(0.0); M = vec3(0.0); K = 0.0; S = 0.0;\n"
@@ -199,8 +203,10 @@ static const char k_vmf_view[] =
     "                tv_brdf(int((fl[vk[k]] >> 8) & 255u), nk[vk[k]], tf(bd + vq[k]).xyz, mu, kap, al);\n"
     "                tv_acc(mu, kap, al, pw[k], A, M, K, S);\n"
     "            }\n"
-    "            rgb += tv_lookup(A, M, K, S);\n"
+    "            if (S > 0.0 && length(M) > 0.0 && tv_lum(A) > 0.0) { LA[nl] = A; LM[nl] = M / length(M); LK[nl] = K / S; nl++; }\n"
     "        }\n"
+    "    vec3 rgb = vec3(0.0);\n"
+    "    for (int j = 0; j < nl; j++) rgb += LA[j] * pf_lookup(LM[j], LK[j]);\n"
     "    return rgb;\n"
     "#else\n"
     "    return vec3(0.0);\n"   /* never reached: glrt draws a triangle with this program only when a > 0.999 */
