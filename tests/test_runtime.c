@@ -23,6 +23,11 @@
  *     image stays near them;
  *   - per pixel (GLSL) on an unoccluded sphere alone: within 3% of quadrature and closer to it
  *     than the per-vertex image (vmf_pixel);
+ *   - per pixel with stored slices: the gl image against the CPU's per-pixel rule
+ *     (vmft_radiance_point plus the sparse part) at every pixel of a glossy triangle, found by
+ *     brute-force ray casting (1%; vmf_pixel_point); that rule at a vertex against the per-vertex
+ *     one (1e-4; vmf_point_vertex); the per-pixel program's buffers read back as its GLSL reads
+ *     them: hash slots, vertex words, the grid start cube and walk against geogrid_locate (vmf_layout);
  *   - the file round trip renders the same colours, bit for bit;
  *   - the light rotated by R is the rotated sky on both backends (the prefiltered probe only
  *     rotated; 2e-2, see the case), and rotating the kept prefiltered probe equals a fresh one;

@@ -93,7 +93,9 @@ struct prt_transfer;
  * frame(n, s, t) (brdf_frame), and read its data from `uniform samplerBuffer t_tv` (RGBA32F
  * texels) and `uniform usamplerBuffer t_tvu` (R32UI words), which `data` builds. A pixel of a
  * triangle with a corner of the transfer's materials adds tv_radiance to its shading; the CPU then
- * does not shade those vertices (runtime_gl.c). */
+ * does not shade those vertices (runtime_gl.c). glrt compiles the source twice: with TV_FULL 1, and
+ * with TV_FULL 0 for the triangles whose three corners have vattr 1 (drawn apart; the source may
+ * then leave out all but its path for a > 0.999, which llvmpipe would otherwise run masked). */
 typedef struct transfer_glsl_view {
     const char *source;
     int rows;   /* TV_ROWS: texels of t_tv per material at its start (the source's #define) */
