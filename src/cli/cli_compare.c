@@ -44,6 +44,7 @@ int cli_compare(int argc, char **argv) {
         files[nfiles++] = argv[i];
     }
     if (nfiles < 2) { cli_error(k_cmd, "needs two files: A (result) and B (reference) (see --help)"); return 2; }
+    if (errimg && cli_check_output(k_cmd, errimg, CLI_OUT_IMAGE)) return 2;
     cmp_result r;
     prt_error err = { { 0 } };
     desc.error_image = errimg;

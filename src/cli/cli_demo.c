@@ -40,6 +40,7 @@ int cli_demo(int argc, char **argv) {
         return 0;
     }
     if (pr) return 2;
+    if (cli_check_output(k_cmd, out, CLI_OUT_IMAGE) || (prt_out && cli_check_output(k_cmd, prt_out, CLI_OUT_ANY))) return 2;
     int w = size[0], h = size[1];
     prt_error err = { { 0 } };
     double t0 = prt_now();

@@ -196,5 +196,6 @@ int cli_precompute(int argc, char **argv) {
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
+    if (cli_check_output(k_cmd, out, CLI_OUT_ANY)) return 2;
     return run(in, out, &sd, &pd, quiet);
 }

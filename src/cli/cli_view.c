@@ -548,12 +548,9 @@ static int check_args(viewer *v, const view_args *a) {
     if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
     if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
     if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
-    if (v->shot_path) {
-        char ext[16];
-        prt_path_ext(v->shot_path, ext);
-        if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif"))
-            return cli_error(k_view, "%s: unsupported screenshot format '.%s' (use .png or .exr)", v->shot_path, ext), -1;
-    }
+    if (cli_check_view_flags(k_view, a->layout, a->cam_s)) return -1;
+    if (v->shot_path && cli_check_output(k_view, v->shot_path, CLI_OUT_IMAGE)) return -1;
+    if (v->window_shot && cli_check_output(k_view, v->window_shot, CLI_OUT_IMAGE)) return -1;
     if (a->rot_s) {
         float R[9];
         if (probe_parse_rotation(a->rot_s, R) != 0 || sscanf(a->rot_s, "%f", &v->lyaw) != 1)
