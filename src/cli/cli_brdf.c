@@ -80,7 +80,7 @@ int cli_brdf(int argc, char **argv) {
     if (!spec) { cli_error(k_cmd, "no BRDF spec (see --help)"); return 2; }
     prt_error err = { { 0 } };
     brdf_params p;
-    if (brdf_parse(spec, &p, &err)) return cli_error(k_cmd, "%s", err.msg);
+    if (brdf_parse(spec, &p, &err)) return cli_error(k_cmd, "%s", err.msg) + 1;   /* a bad argument: usage */
     brdf_factor f;
     memset(&f, 0, sizeof f);
     if (brdf_factorize(&p, &fd, &f, &err)) return cli_error(k_cmd, "%s", err.msg);
