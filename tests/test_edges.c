@@ -269,6 +269,76 @@ static void exit_codes(void) {
         expect_fail(k_usage[i].args, 2, k_usage[i].needle, "x.png");
 }
 
+/* A number "-0" (not an exponent's "e-07"), or float noise ("0.200000003", "0.29999999") in spec s. */
+static bool noisy(const char *s) {
+    for (const char *p = s; (p = strstr(p, "-0")); p++)
+        if ((p == s || p[-1] != 'e') && p[2] != '.' && !(p[2] >= '0' && p[2] <= '9')) return true;
+    for (const char *p = s; *p; p++) {
+        int z = 0, n = 0;
+        while (p[z] == '0') z++;
+        while (p[n] == '9') n++;
+        if ((z >= 5 && p[z] >= '1' && p[z] <= '9') || n >= 5) return true;
+    }
+    return false;
+}
+
+/* Item 10: the canonical spec re-parses bit for bit (a -0 is parsed as 0), in the shortest decimals. */
+static void canonical_specs(void) {
+    static const char *const k_specs[] = {
+        "ggx:kd=0,-0,0", "lambert:kd=-0", "phong:kd=0.1,0.2,0.3;ks=0.7;n=1234.5", "as:kd=0.5;ks=0.75;nu=10;nv=100",
+        "lafortune:kd=0.1;lobe=-1.1,-1.1,1.1,20;lobe=0,-0,1,3", "beckmann:alpha=0.001;ks=-0", "blinn:n=1e6;kd=3e-7",
+        "paper-phong", "paper-as", "ggx:kd=0.123456789;alpha=1.9999",
+    };
+    for (size_t i = 0; i < sizeof k_specs / sizeof k_specs[0]; i++) {
+        brdf_params a, b;
+        prt_error err = { { 0 } };
+        char s1[512], s2[512];
+        memset(&a, 0, sizeof a);
+        memset(&b, 0, sizeof b);
+        CHECK(brdf_parse(k_specs[i], &a, &err) == 0, "%s: %s", k_specs[i], err.msg);
+        brdf_format(&a, s1, sizeof s1);
+        CHECK(brdf_parse(s1, &b, &err) == 0 && !memcmp(&a, &b, sizeof a), "%s -> %s does not re-parse bit for bit", k_specs[i], s1);
+        brdf_format(&b, s2, sizeof s2);
+        CHECK(!strcmp(s1, s2), "%s: %s then %s", k_specs[i], s1, s2);
+        CHECK(!noisy(s1), "%s -> %s: a negative zero or float noise", k_specs[i], s1);
+        for (int c = 0; c < 3; c++) CHECK(!signbit(a.kd[c]) && !signbit(a.ks[c]), "%s: kd/ks keep a -0", k_specs[i]);
+    }
+    char buf[8192];
+    CHECK(run_prt("brdf 'ggx:kd=0,-0,0' --res 8 --terms 1", buf, sizeof buf) == 0 && !strncmp(buf, "ggx:kd=0;ks=0.5;alpha=0.2\n", 26),
+          "brdf echo: %s", buf);
+}
+
+/* Item 8: brdf --help states its defaults and its K default is precompute's; Lambert prints one
+ * rank-1 line; render's light change is the sum of its printed parts; compare -v names x,y. */
+static void messages(void) {
+    char buf[16384], buf2[16384];
+    CHECK(run_prt("brdf --help", buf, sizeof buf) == 0 && strstr(buf, "--terms K   the kept K (default 4") &&
+          strstr(buf, "(default 48"), "brdf --help: %s", buf);
+    CHECK(run_prt("precompute --help", buf2, sizeof buf2) == 0 && strstr(buf2, "(default 4;"), "precompute --help: %s", buf2);
+    CHECK(run_prt("brdf lambert --res 16", buf, sizeof buf) == 0 && strstr(buf, "rank 1: sigma = ") && lines(buf) == 3 &&
+          !strstr(buf, "  2   0"), "brdf lambert: %s", buf);
+    /* a render's light change: the total and its two parts, which must add up (3 significant digits) */
+    CHECK(run_prt("render sq.prt --probe noise.exr -o lc.png --size 16x12", buf, sizeof buf) == 0, "%s", buf);
+    const char *l = strstr(buf, "light change ");
+    double tot = -1, lv = -1, tl = -1;
+    CHECK(l && sscanf(l, "light change %lf ms (light vector %lf ms + T x L %lf ms", &tot, &lv, &tl) == 3, "%s", buf);
+    CHECK(tl > 0, "T x L printed as %g ms", tl);
+    CHECK_NEAR(tot, lv + tl, 0.006 * tot + 1e-3, "light change = light vector + T x L");
+    /* compare -v: two 8x6 images equal but at pixel (5, 3) */
+    prt_image im = { 0 };
+    prt_error err;
+    char p[4200];
+    image_alloc(&im, 8, 6, 3, &err);
+    for (int i = 0; i < 8 * 6 * 3; i++) im.data[i] = 1;
+    snprintf(p, sizeof p, "%s/ca.exr", g_dir);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    for (int c = 0; c < 3; c++) im.data[3 * (3 * 8 + 5) + c] = 2;
+    snprintf(p, sizeof p, "%s/cb.exr", g_dir);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+    CHECK(run_prt("compare cb.exr ca.exr -v", buf, sizeof buf) == 0 && strstr(buf, "worst pixel x,y = 5,3"), "compare -v: %s", buf);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -278,5 +348,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(bright_sun);
     CHECK_CASE(obj_encodings);
     CHECK_CASE(exit_codes);
+    CHECK_CASE(canonical_specs);
+    CHECK_CASE(messages);
     return check_summary();
 }

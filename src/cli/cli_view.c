@@ -171,14 +171,14 @@ static void overlay(viewer *v) {
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
                      "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
-                     "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
+                     "frame %.1f ms (%.0f fps)   light change %.1f ms = light vector %.1f + T x L %.1f %s   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
                      v->gl ? t.kernel : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      v->ctx->renderer, glctx_kind_name(v->ctx->kind),
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure,
-                     prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
-                     v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
+                     prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0,
+                     v->lightvec_ms + v->light_ms, v->lightvec_ms, v->light_ms, v->light_backend ? v->light_backend : "", v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? k_keys : "h: help");
