@@ -125,6 +125,11 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
         fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0\n", path, out->clamped_negative);
     if (out->clamped_nonfinite)
         fprintf(stderr, "warning: %s: %ld texel(s) with NaN or Inf clamped to 0\n", path, out->clamped_nonfinite);
+    /* Accepted (a quick look is a fair use), but said: an integer probe clips at 1, so the sun is no
+     * brighter than a white sky, and the image comes out flat and shadowless (README "Light probes"). */
+    if (out->img.ldr)
+        fprintf(stderr, "warning: %s: low dynamic range probe (integer pixels, clipped at 1): the sun is no brighter "
+                        "than the sky and casts almost no shadow; use an HDR probe (EXR, HDR, PFM)\n", path);
     return 0;
 }
 

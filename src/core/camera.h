@@ -6,7 +6,8 @@
  *     float dir[3]; camera_ray(&cam, w, h, x + 0.5f, y + 0.5f, dir);
  *
  * Perspective, vertical field of view fov_deg (0: 40). camera_default frames the
- * bounds from a three-quarter view above (every corner of the box in view).
+ * bounds from a three-quarter view above, from the -z side where the shared models
+ * (Spot) face (every corner of the box in view).
  * camera_parse reads "ex,ey,ez[,tx,ty,tz[,fov]]". Pure math (no GL): the
  * rasterizer (gpu/render.h), the GLSL runtime and the reference path tracer all
  * build their rays from these functions, so their images line up pixel for pixel. */

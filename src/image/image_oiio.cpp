@@ -148,9 +148,12 @@ static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
         return prt_fail(err, "%s: cannot read pixels (%s)", path, e.c_str());
     }
     bool srgb = file_is_srgb(spec);
+    TypeDesc::BASETYPE bt = (TypeDesc::BASETYPE)spec.format.basetype;
+    bool ldr = bt != TypeDesc::FLOAT && bt != TypeDesc::HALF && bt != TypeDesc::DOUBLE;
     in->close();
 
     if (image_alloc(out, w, h, 3, err)) return prt_fail(err, "%s: image %dx%d: out of memory", path, w, h);
+    out->ldr = ldr;
     size_t n = (size_t)w * h;
     for (size_t i = 0; i < n; i++) {
         for (int ch = 0; ch < 3; ch++) {
