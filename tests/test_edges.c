@@ -7,6 +7,7 @@
  * scaled: light transport is linear in the light). */
 #include "harness.h"
 #include "brdf.h"
+#include "camera.h"
 #include "image.h"
 #include "mesh.h"
 #include <dirent.h>
@@ -323,6 +324,7 @@ static void messages(void) {
     double tot = -1, lv = -1, tl = -1;
     CHECK(l && sscanf(l, "light change %lf ms (light vector %lf ms + T x L %lf ms", &tot, &lv, &tl) == 3, "%s", buf);
     CHECK(tl > 0, "T x L printed as %g ms", tl);
+    CHECK(!strstr(buf, "low dynamic range"), "an EXR probe called low dynamic range: %s", buf);
     CHECK_NEAR(tot, lv + tl, 0.006 * tot + 1e-3, "light change = light vector + T x L");
     /* compare -v: two 8x6 images equal but at pixel (5, 3) */
     prt_image im = { 0 };
@@ -339,6 +341,54 @@ static void messages(void) {
     CHECK(run_prt("compare cb.exr ca.exr -v", buf, sizeof buf) == 0 && strstr(buf, "worst pixel x,y = 5,3"), "compare -v: %s", buf);
 }
 
+/* Item 6: an 8-bit probe is accepted with one warning line saying it is low dynamic range (the
+ * decision: warn, not refuse; README "Light probes"); the image is still written. */
+static void ldr_probe(void) {
+    prt_image im = { 0 };
+    prt_error err;
+    char p[4200], buf[8192];
+    image_alloc(&im, 32, 16, 3, &err);
+    for (int i = 0; i < 32 * 16 * 3; i++) im.data[i] = 0.5f;
+    snprintf(p, sizeof p, "%s/ldr.png", g_dir);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+    int rc = run_prt("render sq.prt --probe ldr.png -o ldr_out.exr --size 16x12", buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "warning: ldr.png: low dynamic range probe") && strstr(buf, "wrote ldr_out.exr") &&
+          lines(buf) == 2, "render under a PNG probe: %d %s", rc, buf);
+}
+
+/* Item 9: the default camera looks from the -z side, where the shared models face (Spot's head:
+ * its top vertices have mean z -0.27 against the body's middle 0.19); the demo's lowered camera
+ * puts the horizon where tan(8) / (2 tan(27.5)) says, about 36% down, so the sky fills the upper third. */
+static void camera_views(void) {
+    const float b0[3] = { -1, 0, -1 }, b1[3] = { 1, 1, 1 };
+    prt_camera cam;
+    camera_default(b0, b1, 1.6f, &cam);
+    CHECK(cam.eye[2] < cam.target[2] - 0.5f, "the default eye z %g is not on the -z side of the target %g", cam.eye[2], cam.target[2]);
+    float c[3] = { 0, 0.5f, 0 }, fwd[3], r[3], u[3];
+    camera_lower(&cam, 16, 8, 55);
+    camera_basis(&cam, fwd, r, u);
+    CHECK_NEAR(asin(-fwd[1]) * 180 / M_PI, 8, 1e-3, "pitch below the horizontal");
+    CHECK_NEAR(asin((cam.eye[1] - c[1]) / sqrt(pow(cam.eye[0] - c[0], 2) + pow(cam.eye[1] - c[1], 2) + pow(cam.eye[2] - c[2], 2))) * 180 / M_PI,
+               16, 1e-2, "eye elevation above the old target");
+    /* the horizon: the first row (from the top) whose ray points down */
+    const int w = 960, h = 600;
+    int row = -1;
+    for (int y = 0; y < h && row < 0; y++) {
+        float d[3];
+        camera_ray(&cam, w, h, w / 2.f, y + 0.5f, d);
+        if (d[1] < 0) row = y;
+    }
+    double want = 0.5 - tan(8 * M_PI / 180) / (2 * tan(27.5 * M_PI / 180));
+    CHECK_NEAR((double)row / h, want, 1.5 / h, "horizon row %d of %d", row, h);
+    CHECK(row > h / 3 - 2, "the sky does not fill the upper third (horizon at row %d)", row);
+    /* the objects' middle stays in view, below the horizon */
+    float d[3] = { c[0] - cam.eye[0], c[1] - cam.eye[1], c[2] - cam.eye[2] };
+    double z = d[0] * fwd[0] + d[1] * fwd[1] + d[2] * fwd[2], yv = (d[0] * u[0] + d[1] * u[1] + d[2] * u[2]) / z;
+    double py = 0.5 - yv / (2 * tan(27.5 * M_PI / 180));
+    CHECK(z > 0 && py > (double)row / h && py < 0.9, "the objects' middle projects at %.3f of the height", py);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -350,5 +400,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(exit_codes);
     CHECK_CASE(canonical_specs);
     CHECK_CASE(messages);
+    CHECK_CASE(ldr_probe);
+    CHECK_CASE(camera_views);
     return check_summary();
 }

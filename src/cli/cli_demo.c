@@ -12,32 +12,10 @@
 #include "prtfile.h"
 #include "runtime.h"
 #include "render.h"
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 static const char *k_cmd = "demo";
-
-/* The demo's view: the default camera's azimuth and distance, lowered to 14 degrees above the
- * objects and turned up to look 6 degrees down, so that the horizon crosses the image about a
- * third of the way down and the sky fills the upper third (from 25 degrees up, looking at the
- * objects, even the top row looked below the horizon: a flat ground colour; issue 12). */
-static void demo_camera(prt_camera *cam) {
-    float d[3], dist = 0;
-    for (int i = 0; i < 3; i++) { d[i] = cam->eye[i] - cam->target[i]; dist += d[i] * d[i]; }
-    dist = sqrtf(dist);
-    float hx = d[0], hz = d[2], hl = sqrtf(hx * hx + hz * hz);
-    if (!(hl > 0) || !(dist > 0)) return;
-    hx /= hl;
-    hz /= hl;
-    const float el = 16.f * (float)M_PI / 180, pitch = 8.f * (float)M_PI / 180;
-    float eye[3] = { cam->target[0] + dist * cosf(el) * hx, cam->target[1] + dist * sinf(el), cam->target[2] + dist * cosf(el) * hz };
-    for (int i = 0; i < 3; i++) cam->eye[i] = eye[i];
-    cam->target[0] = eye[0] - dist * cosf(pitch) * hx;
-    cam->target[1] = eye[1] - dist * sinf(pitch);
-    cam->target[2] = eye[2] - dist * cosf(pitch) * hz;
-    cam->fov_deg = 55;   /* wider than the default 40: the objects, their shadows and the sky */
-}
 
 int cli_demo(int argc, char **argv) {
     const char *out = "demo.png", *prt_out = NULL;
@@ -91,7 +69,10 @@ int cli_demo(int argc, char **argv) {
     if (probe_make_sky(&sd, &sky, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
     prt_camera cam;
     cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
-    demo_camera(&cam);
+    /* Lowered to 16 degrees above the objects, looking 8 down, 55-degree field: the horizon crosses
+     * the image about a third of the way down and the sky fills the upper third (from the default
+     * 25 degrees up even the top row looked below the horizon: a flat ground colour; issue 12). */
+    camera_lower(&cam, 16, 8, 55);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };
     if (!(rt = runtime_create(&d, NULL, &err)) || runtime_set_light(rt, &sky, NULL, &err) ||
         runtime_render(rt, &rd, &img, &err)) {

@@ -56,6 +56,18 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
     v3_set(out->up, 0, 1, 0);
 }
 
+void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg) {
+    float d[3];
+    v3_sub(d, cam->eye, cam->target);
+    float dist = v3_len(d), hl = sqrtf(d[0] * d[0] + d[2] * d[2]);
+    if (!(hl > 0) || !(dist > 0)) return;   /* looking straight down or at itself: no azimuth to keep */
+    float hx = d[0] / hl, hz = d[2] / hl, el = el_deg * (float)M_PI / 180, pitch = pitch_deg * (float)M_PI / 180;
+    v3_set(cam->eye, cam->target[0] + dist * cosf(el) * hx, cam->target[1] + dist * sinf(el), cam->target[2] + dist * cosf(el) * hz);
+    v3_set(cam->target, cam->eye[0] - dist * cosf(pitch) * hx, cam->eye[1] - dist * sinf(pitch), cam->eye[2] - dist * cosf(pitch) * hz);
+    v3_set(cam->up, 0, 1, 0);
+    cam->fov_deg = fov_deg;
+}
+
 /* Parses 3, 6 or 7 comma-separated finite numbers into cam; -1 leaves cam unchanged. */
 int camera_parse(const char *s, prt_camera *cam) {
     if (!s) return -1;
