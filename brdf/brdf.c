@@ -433,6 +433,7 @@ static int parse_numbers(char *s, double *v, int max) {
         if (!*p) return -1;
         v[n] = strtod(p, &end);
         if (end == p || !isfinite(v[n])) return -1;
+        if (v[n] == 0) v[n] = 0;   /* -0 is 0: the canonical spec must re-parse bit for bit (issue 12) */
         n++;
         p = end;
         while (isspace((unsigned char)*p)) p++;
@@ -590,10 +591,29 @@ static void append(char *buf, size_t cap, size_t *at, const char *fmt, ...) {
     if (n > 0) *at = *at + (size_t)n < cap ? *at + (size_t)n : cap - 1;
 }
 
-/* Appends "key=v" or "key=r,g,b" (one value when the channels are equal). */
+/* The shortest decimal of v that parses back (strtod, then float, as brdf_parse does) to the same
+ * float: "0.2", not "0.200000003"; %.9g always round-trips, so the loop ends. */
+static const char *num(char out[32], float v) {
+    int prec = 1;
+    for (; prec < 9; prec++) {
+        snprintf(out, 32, "%.*g", prec, v);
+        if ((float)strtod(out, NULL) == v) break;
+    }
+    /* whole numbers below 1e9 stay written out ("50", not "5e+01"): as many digits as the integer part */
+    float a = fabsf(v);
+    if (strchr(out, 'e') && a >= 1 && a < 1e9f) {
+        int digits = 1;
+        for (float p10 = 10; a >= p10; p10 *= 10) digits++;
+        snprintf(out, 32, "%.*g", digits, v);
+    }
+    return out;
+}
+
+/* Appends "key=v" or "key=r,g,b" (one value when the channels are equal, bit for bit). */
 static void append_rgb(char *buf, size_t cap, size_t *at, const char *key, const float c[3]) {
-    if (c[0] == c[1] && c[1] == c[2]) append(buf, cap, at, "%s=%.9g", key, c[0]);
-    else append(buf, cap, at, "%s=%.9g,%.9g,%.9g", key, c[0], c[1], c[2]);
+    char a[32], b[32], d[32];
+    if (!memcmp(&c[0], &c[1], sizeof c[0]) && !memcmp(&c[1], &c[2], sizeof c[0])) append(buf, cap, at, "%s=%s", key, num(a, c[0]));
+    else append(buf, cap, at, "%s=%s,%s,%s", key, num(a, c[0]), num(b, c[1]), num(d, c[2]));
 }
 
 /* Canonical spec for p (parses back to the same parameters, bit for bit) into buf. */
@@ -607,16 +627,18 @@ void brdf_format(const brdf_params *p, char *buf, size_t cap) {
         append(buf, cap, &at, ";");
         append_rgb(buf, cap, &at, "ks", p->ks);
     }
+    char a[32], b[32], c[32], d[32];
     switch (p->type) {
     case BRDF_LAMBERT: break;
     case BRDF_PHONG:
-    case BRDF_BLINN: append(buf, cap, &at, ";n=%.9g", p->n); break;
-    case BRDF_AS: append(buf, cap, &at, ";nu=%.9g;nv=%.9g", p->nu, p->nv); break;
+    case BRDF_BLINN: append(buf, cap, &at, ";n=%s", num(a, p->n)); break;
+    case BRDF_AS: append(buf, cap, &at, ";nu=%s;nv=%s", num(a, p->nu), num(b, p->nv)); break;
     case BRDF_LAFORTUNE:
         for (int l = 0; l < p->nlobes && l < BRDF_MAX_LOBES; l++)
-            append(buf, cap, &at, ";lobe=%.9g,%.9g,%.9g,%.9g", p->lobe[l][0], p->lobe[l][1], p->lobe[l][2], p->lobe[l][3]);
+            append(buf, cap, &at, ";lobe=%s,%s,%s,%s", num(a, p->lobe[l][0]), num(b, p->lobe[l][1]), num(c, p->lobe[l][2]),
+                   num(d, p->lobe[l][3]));
         break;
     case BRDF_GGX:
-    case BRDF_BECKMANN: append(buf, cap, &at, ";alpha=%.9g", p->alpha); break;
+    case BRDF_BECKMANN: append(buf, cap, &at, ";alpha=%s", num(a, p->alpha)); break;
     }
 }

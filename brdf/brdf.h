@@ -58,7 +58,8 @@ typedef struct brdf_params {
 
 /* Parses a spec string (see header). Returns 0, or -1 with err set. */
 int brdf_parse(const char *spec, brdf_params *out, prt_error *err);
-/* Writes a canonical spec string for p into buf. */
+/* Writes the canonical spec of p into buf: every number in its shortest decimal that parses back
+ * to the same float, so brdf_parse(brdf_format(p)) gives p bit for bit (-0 is parsed as 0). */
 void brdf_format(const brdf_params *p, char *buf, size_t cap);
 /* Short model name ("phong"). */
 const char *brdf_type_name(brdf_type t);

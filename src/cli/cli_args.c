@@ -63,6 +63,13 @@ bool cli_size(const char *cmd, const char *s, int *w, int *h) {
 
 bool cli_is_help(const char *a) { return !strcmp(a, "-h") || !strcmp(a, "--help"); }
 
+/* Is a the value of an option whose value is optional (--floor [VERTS])? A number, or a word that
+ * cannot be a file name (no '.' or '/'), so that `--floor abc` is a bad value, not a second input. */
+static bool opt_value_like(const char *a) {
+    if (a[0] >= '0' && a[0] <= '9') return true;
+    return a[0] != '-' && a[0] && !strchr(a, '.') && !strchr(a, '/');
+}
+
 int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, const char **pos, int maxpos, int *npos) {
     int n = 0;
     for (int i = 1; i < argc; i++) {
@@ -84,7 +91,7 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, co
         if (o->set) *o->set = o->setval;
         if (o->kind == CLI_FLAG) { *(bool *)o->out = true; continue; }
         if (o->kind == CLI_SET) continue;
-        if (o->kind == CLI_OPT_INT && !(i + 1 < argc && argv[i + 1][0] >= '0' && argv[i + 1][0] <= '9')) continue;
+        if (o->kind == CLI_OPT_INT && !(i + 1 < argc && opt_value_like(argv[i + 1]))) continue;
         if (i + 1 >= argc) { cli_error(cmd, "%s needs a value", a); return 2; }
         const char *v = argv[++i];
         switch (o->kind) {
@@ -118,16 +125,22 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
         fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0\n", path, out->clamped_negative);
     if (out->clamped_nonfinite)
         fprintf(stderr, "warning: %s: %ld texel(s) with NaN or Inf clamped to 0\n", path, out->clamped_nonfinite);
+    /* Accepted (a quick look is a fair use), but said: an integer probe clips at 1, so the sun is no
+     * brighter than a white sky, and the image comes out flat and shadowless (README "Light probes"). */
+    if (out->img.ldr)
+        fprintf(stderr, "warning: %s: low dynamic range probe (integer pixels, clipped at 1): the sun is no brighter "
+                        "than the sky and casts almost no shadow; use an HDR probe (EXR, HDR, PFM)\n", path);
     return 0;
 }
 
-int cli_check_image_path(const char *cmd, const char *path) {
-    static const char *const k_ext[] = { "png", "exr", "hdr", "tif", "jpg" };
-    char ext[16];
-    prt_path_ext(path, ext);
-    for (size_t i = 0; i < sizeof k_ext / sizeof k_ext[0]; i++)
-        if (!strcmp(ext, k_ext[i])) return 0;
-    return cli_error(cmd, "%s: unsupported output format '.%s' (use .png or .exr)", path, ext);
+int cli_check_output(const char *cmd, const char *path, int kind) {
+    static const char *const k_image[] = { "png", "exr", "hdr", "tif", "tiff", "jpg", "jpeg", "ppm", NULL };
+    prt_error err = { { 0 } };
+    if (prt_output_check(path, kind == CLI_OUT_IMAGE ? k_image : NULL, &err)) return cli_error(cmd, "%s", err.msg) + 1;
+    char first[4200];
+    int n = prt_atomic_clean(path, first, sizeof first);
+    if (n) fprintf(stderr, "prt %s: removed %d stale temporary file(s) of killed runs (%s)\n", cmd, n, first);
+    return 0;
 }
 
 int cli_rotation(const char *cmd, const char *s, float R[9]) {
@@ -137,6 +150,17 @@ int cli_rotation(const char *cmd, const char *s, float R[9]) {
     }
     if (probe_parse_rotation(s, R) != 0)
         return cli_error(cmd, "bad --light-rotation '%s' (expected YAW or YAW,PITCH in degrees)", s);
+    return 0;
+}
+
+int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s) {
+    probe_layout lay;
+    if (layout && probe_parse_layout(layout, &lay) != 0)
+        return cli_error(cmd, "unknown probe layout '%s' (latlong, angular, vcross, hcross, auto)", layout) + 1;
+    /* a NaN target: only the syntax is checked here (eye == target needs the scene's framing) */
+    prt_camera c = { .target = { NAN, NAN, NAN }, .up = { 0, 1, 0 }, .fov_deg = 40 };
+    if (cam_s && camera_parse(cam_s, &c) != 0)
+        return cli_error(cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s) + 1;
     return 0;
 }
 

@@ -57,9 +57,14 @@ bool cli_is_help(const char *a);
 #include "probe.h"
 /* Loads a probe (layout name or NULL for auto), printing one warning line per clamped kind. Returns 0 or 1 (error printed). */
 int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out);
-/* One line for every command that writes images: 0 if path's extension is one the image
- * writer supports (.png .exr .hdr .tif .jpg), else prints "PATH: unsupported ..." and returns 1. */
-int cli_check_image_path(const char *cmd, const char *path);
+/* Every output a command writes is checked before any loading or computing (issue 12, item 3):
+ * the name is not empty, its folder exists and is writable, and for images (CLI_OUT_IMAGE) the
+ * extension is one the image writer supports. Also removes the output's temporaries left by
+ * killed runs (prt_atomic_clean), saying so in one line. Returns 0, or 2 (a usage error) after
+ * printing one line that names the user's path. */
+#define CLI_OUT_IMAGE 1
+#define CLI_OUT_ANY 0
+int cli_check_output(const char *cmd, const char *path, int kind);
 /* --light-rotation: fills R from "YAW[,PITCH]" (NULL s: identity). Returns 0, or 1 after printing the error. */
 int cli_rotation(const char *cmd, const char *s, float R[9]);
 /* The camera every command uses (render, reference, view, bench): the models framed
@@ -67,5 +72,9 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
  * reference and a PRT render of one file see the same view. Returns 0, or 1 after printing. */
 #include "render.h"
 #include "scene.h"
+/* --layout and --camera checked before any loading (usage errors, exit 2; issue 12 item 7):
+ * layout a probe layout name, cam_s numbers as camera_parse takes them (NULL: not given).
+ * Returns 0, or 2 after printing one line. */
+int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s);
 int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
 

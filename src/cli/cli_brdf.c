@@ -14,8 +14,16 @@ static const char *k_cmd = "brdf";
 static void help(void) {
     puts("usage: prt brdf SPEC [--terms K] [--res R] [--polar] [--csv] [--lobes]\n"
          "\n"
-         "SPEC is a BRDF: model:key=value;key=value (values: 1 number or R,G,B)\n"
-         "  lambert:kd=..                          Lambertian\n"
+         "  --terms K   the kept K (default 4, the same default as precompute --terms; the table\n"
+         "              lists K = 1..16 whatever K is)\n"
+         "  --res R     tabulation grid R x R per direction, 8..128 (default 48, as precompute)\n"
+         "  --polar     polar parameterization (Eq. 11; default: the projected disk, Eq. 10)\n"
+         "  --csv       the singular values and errors as CSV (k,sigma_r,sigma_g,sigma_b,rel_rms_error)\n"
+         "  --lobes     the vMF lobe of every view elevation\n"
+         "\n"
+         "SPEC is a BRDF: model:key=value;key=value (values: 1 number or R,G,B; missing keys take\n"
+         "the defaults kd 0.5, ks 0.5, n 50, nu = nv 100, alpha 0.2); it is echoed in canonical form\n"
+"  lambert:kd=..                          Lambertian\n"
          "  phong:kd=..;ks=..;n=EXP                modified Phong      (preset paper-phong)\n"
          "  blinn:kd=..;ks=..;n=EXP                Blinn-Phong\n"
          "  as:kd=..;ks=..;nu=..;nv=..             Ashikhmin-Shirley   (preset paper-as)\n"
@@ -47,8 +55,10 @@ static int print_lobes(const brdf_params *p, const brdf_factor *f, bool all, prt
     int K4 = f->K < 4 ? f->K : 4;
     lobefit_factor_error(&t, p, f, K4, e4);
     lobefit_factor_error(&t, p, f, f->K, eK);
-    printf("  same measure, whole slice: vMF %.1f%% mean, %.1f%% max; SVD K = %d %.1f%% mean, K = %d %.1f%% mean\n",
-           100 * t.err_whole_mean, 100 * t.err_whole_max, K4, 100 * mean_of(e4, t.views), f->K, 100 * mean_of(eK, t.views));
+    printf("  same measure, whole slice: vMF %.1f%% mean, %.1f%% max; SVD K = %d %.1f%% mean", 100 * t.err_whole_mean,
+           100 * t.err_whole_max, K4, 100 * mean_of(e4, t.views));
+    if (f->K != K4) printf(", K = %d %.1f%% mean", f->K, 100 * mean_of(eK, t.views));
+    putchar('\n');
     if (!all) return 0;
     printf("  theta_o   kappa       axis-mirror  alpha_R    alpha_G    alpha_B    error    SVD K=%d\n", K4);
     for (int v = 0; v < t.views; v++) {
@@ -62,7 +72,7 @@ static int print_lobes(const brdf_params *p, const brdf_factor *f, bool all, prt
 
 int cli_brdf(int argc, char **argv) {
     const char *spec = NULL;
-    brdf_factor_desc fd = { .max_terms = 16 };
+    brdf_factor_desc fd = { .max_terms = 4 };   /* precompute's default K (factor.h), so both keep the same K */
     bool csv = false, lobes = false;
     int param = BRDF_PARAM_GRID;
     const cli_option opts[] = {
@@ -80,7 +90,7 @@ int cli_brdf(int argc, char **argv) {
     if (!spec) { cli_error(k_cmd, "no BRDF spec (see --help)"); return 2; }
     prt_error err = { { 0 } };
     brdf_params p;
-    if (brdf_parse(spec, &p, &err)) return cli_error(k_cmd, "%s", err.msg);
+    if (brdf_parse(spec, &p, &err)) return cli_error(k_cmd, "%s", err.msg) + 1;   /* a bad argument: usage */
     brdf_factor f;
     memset(&f, 0, sizeof f);
     if (brdf_factorize(&p, &fd, &f, &err)) return cli_error(k_cmd, "%s", err.msg);
@@ -94,8 +104,11 @@ int cli_brdf(int argc, char **argv) {
         printf("%s\nfactored on a %dx%d %s grid in %.2fs; kept K = %d%s\n", canon, f.res, f.res,
                f.param == BRDF_PARAM_POLAR ? "polar (Eq. 11)" : "projected-disk (Eq. 10)", f.seconds, f.K,
                f.lambertian ? " (Lambertian: rank 1)" : "");
-        printf("   K   sigma_R      sigma_G      sigma_B      rel. RMS error (cosine-weighted)\n");
-        for (int k = 1; k <= f.nsigma && k <= 16; k++)
+        if (f.lambertian) {   /* every singular value after the first is 0: one line, not rows of zeros */
+            printf("rank 1: sigma = %.5g, %.5g, %.5g (R, G, B) and 0 after; K = 1 is exact (0%% error)\n",
+                   f.sigma[0][0], f.sigma[1][0], f.sigma[2][0]);
+        } else printf("   K   sigma_R      sigma_G      sigma_B      rel. RMS error (cosine-weighted)\n");
+        for (int k = 1; !f.lambertian && k <= f.nsigma && k <= 16; k++)
             printf("  %2d   %-11.5g  %-11.5g  %-11.5g  %7.3f%%\n", k, f.sigma[0][k - 1], f.sigma[1][k - 1],
                    f.sigma[2][k - 1], 100 * f.rel_rms[k]);
     }

@@ -24,7 +24,8 @@ static void help(void) {
          "                          black <= 0.1%, blue 0.2%, green 3%, orange 10%, dark red >= 100%)\n"
          "  --all-vertices          CSV: also compare vertices the reference marks as facing away\n"
          "                          from the eye (by default only facing = 1 rows are compared)\n"
-         "  -v, --verbose           also print item counts and the worst item\n");
+         "  -v, --verbose           also print item counts and the worst item (pixel x,y from the\n"
+         "                          top-left corner, or vertex id)\n");
 }
 
 /* Entry point of `prt compare` (see cli.h). */
@@ -44,6 +45,7 @@ int cli_compare(int argc, char **argv) {
         files[nfiles++] = argv[i];
     }
     if (nfiles < 2) { cli_error(k_cmd, "needs two files: A (result) and B (reference) (see --help)"); return 2; }
+    if (errimg && cli_check_output(k_cmd, errimg, CLI_OUT_IMAGE)) return 2;
     cmp_result r;
     prt_error err = { { 0 } };
     desc.error_image = errimg;
@@ -51,8 +53,11 @@ int cli_compare(int argc, char **argv) {
     printf("rel_rmse=%.6g max_rel_err=%.6g", r.rel_rmse, r.max_rel_err);
     if (r.ref_noise >= 0) printf(" ref_noise=%.6g", r.ref_noise);
     printf("\n");
-    if (verbose)
-        fprintf(stderr, "%ld items compared (%ld vertices facing away left out), %ld above the 1%% floor, worst item %d\n",
+    if (verbose && r.width > 0 && r.worst_item >= 0)   /* an image: the worst pixel as x,y (row 0 at the top) */
+        fprintf(stderr, "%ld pixels compared, %ld above the 1%% floor, worst pixel x,y = %d,%d\n", r.items,
+                r.items_in_max, r.worst_item % r.width, r.worst_item / r.width);
+    else if (verbose)
+        fprintf(stderr, "%ld items compared (%ld vertices facing away left out), %ld above the 1%% floor, worst vertex %d\n",
                 r.items, r.skipped, r.items_in_max, r.worst_item);
     if (errimg) fprintf(stderr, "wrote %s\n", errimg);
     return 0;

@@ -40,6 +40,7 @@ int cli_demo(int argc, char **argv) {
         return 0;
     }
     if (pr) return 2;
+    if (cli_check_output(k_cmd, out, CLI_OUT_IMAGE) || (prt_out && cli_check_output(k_cmd, prt_out, CLI_OUT_ANY))) return 2;
     int w = size[0], h = size[1];
     prt_error err = { { 0 } };
     double t0 = prt_now();
@@ -61,13 +62,17 @@ int cli_demo(int argc, char **argv) {
     prt_probe sky;
     memset(&sky, 0, sizeof sky);
     /* Sun behind the objects and low (about 35 deg) so their long sharp shadows fall toward
-     * the default camera; the sky adds the soft ones. */
-    sky_desc sd = { .width = 1024, .sun_dir = { -0.45f, 0.57f, -0.69f }, .sun_radius_deg = 1.0f, .sun_radiance = 4000.f };
+     * the camera (on the -z side, camera.h); the sky adds the soft ones. */
+    sky_desc sd = { .width = 1024, .sun_dir = { -0.45f, 0.57f, 0.69f }, .sun_radius_deg = 1.0f, .sun_radiance = 4000.f };
     prt_runtime *rt = NULL;
     prt_image img = { 0 };
     if (probe_make_sky(&sd, &sky, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
     prt_camera cam;
     cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
+    /* Lowered to 16 degrees above the objects, looking 8 down, 55-degree field: the horizon crosses
+     * the image about a third of the way down and the sky fills the upper third (from the default
+     * 25 degrees up even the top row looked below the horizon: a flat ground colour; issue 12). */
+    camera_lower(&cam, 16, 8, 55);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };
     if (!(rt = runtime_create(&d, NULL, &err)) || runtime_set_light(rt, &sky, NULL, &err) ||
         runtime_render(rt, &rd, &img, &err)) {

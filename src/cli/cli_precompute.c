@@ -196,5 +196,13 @@ int cli_precompute(int argc, char **argv) {
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
+    if (cli_check_output(k_cmd, out, CLI_OUT_ANY)) return 2;
+    /* --material / --floor-material are flags: a bad spec is a usage error, found before loading */
+    const char *specs[2] = { sd.material, sd.floor_material };
+    for (int i = 0; i < 2; i++) {
+        brdf_params bp;
+        prt_error err = { { 0 } };
+        if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
+    }
     return run(in, out, &sd, &pd, quiet);
 }

@@ -83,8 +83,9 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (a->no_image && !a->vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
     if (!a->no_image && !a->out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
-    if (!a->no_image && cli_check_image_path(k_cmd, a->out)) return 1;
-    if (cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
+    if (cli_check_view_flags(k_cmd, a->layout, a->cam_s) || cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
+    if (!a->no_image && cli_check_output(k_cmd, a->out, CLI_OUT_IMAGE)) return 2;
+    if (a->vert_out && cli_check_output(k_cmd, a->vert_out, CLI_OUT_ANY)) return 2;
     return -1;
 }
 

@@ -171,14 +171,14 @@ static void overlay(viewer *v) {
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
                      "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
-                     "frame %.1f ms (%.0f fps)   light change %.1f ms %s (+ light vector %.1f ms)   view change %.1f ms %s\n",
+                     "frame %.1f ms (%.0f fps)   light change %.1f ms = light vector %.1f + T x L %.1f %s   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
                      v->gl ? t.kernel : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      v->ctx->renderer, glctx_kind_name(v->ctx->kind),
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure,
-                     prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
-                     v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
+                     prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0,
+                     v->lightvec_ms + v->light_ms, v->lightvec_ms, v->light_ms, v->light_backend ? v->light_backend : "", v->view_ms,
                      v->view_backend ? v->view_backend : "");
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? k_keys : "h: help");
@@ -548,12 +548,9 @@ static int check_args(viewer *v, const view_args *a) {
     if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
     if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
     if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
-    if (v->shot_path) {
-        char ext[16];
-        prt_path_ext(v->shot_path, ext);
-        if (strcmp(ext, "png") && strcmp(ext, "exr") && strcmp(ext, "jpg") && strcmp(ext, "tif"))
-            return cli_error(k_view, "%s: unsupported screenshot format '.%s' (use .png or .exr)", v->shot_path, ext), -1;
-    }
+    if (cli_check_view_flags(k_view, a->layout, a->cam_s)) return -1;
+    if (v->shot_path && cli_check_output(k_view, v->shot_path, CLI_OUT_IMAGE)) return -1;
+    if (v->window_shot && cli_check_output(k_view, v->window_shot, CLI_OUT_IMAGE)) return -1;
     if (a->rot_s) {
         float R[9];
         if (probe_parse_rotation(a->rot_s, R) != 0 || sscanf(a->rot_s, "%f", &v->lyaw) != 1)

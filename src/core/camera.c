@@ -46,12 +46,26 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
     float half_h = atanf(tanf(half_v) * aspect);
     float half = half_v < half_h ? half_v : half_h;
     float dist = r / sinf(half) * 1.02f; /* the sphere's cone fits inside the narrower half angle */
-    /* Three-quarter view from above: 35 degrees around from +z toward +x, 25 degrees up. */
-    float az = 35.0f * (float)M_PI / 180.0f, el = 25.0f * (float)M_PI / 180.0f;
+    /* Three-quarter view from above, on the -z side: 145 degrees around from +z toward +x (35 from
+     * -z), 25 degrees up. The shared models face -z (Spot's head; the bunny and the teapot are seen
+     * side on from either side), so a view from +z showed Spot from behind (issue 12). */
+    float az = 145.0f * (float)M_PI / 180.0f, el = 25.0f * (float)M_PI / 180.0f;
     float dir[3] = { sinf(az) * cosf(el), sinf(el), cosf(az) * cosf(el) };
     v3_copy(out->target, c);
     v3_madd(out->eye, c, dir, dist);
     v3_set(out->up, 0, 1, 0);
+}
+
+void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg) {
+    float d[3];
+    v3_sub(d, cam->eye, cam->target);
+    float dist = v3_len(d), hl = sqrtf(d[0] * d[0] + d[2] * d[2]);
+    if (!(hl > 0) || !(dist > 0)) return;   /* looking straight down or at itself: no azimuth to keep */
+    float hx = d[0] / hl, hz = d[2] / hl, el = el_deg * (float)M_PI / 180, pitch = pitch_deg * (float)M_PI / 180;
+    v3_set(cam->eye, cam->target[0] + dist * cosf(el) * hx, cam->target[1] + dist * sinf(el), cam->target[2] + dist * cosf(el) * hz);
+    v3_set(cam->target, cam->eye[0] - dist * cosf(pitch) * hx, cam->eye[1] - dist * sinf(pitch), cam->eye[2] - dist * cosf(pitch) * hz);
+    v3_set(cam->up, 0, 1, 0);
+    cam->fov_deg = fov_deg;
 }
 
 /* Parses 3, 6 or 7 comma-separated finite numbers into cam; -1 leaves cam unchanged. */

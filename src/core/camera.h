@@ -6,7 +6,8 @@
  *     float dir[3]; camera_ray(&cam, w, h, x + 0.5f, y + 0.5f, dir);
  *
  * Perspective, vertical field of view fov_deg (0: 40). camera_default frames the
- * bounds from a three-quarter view above (every corner of the box in view).
+ * bounds from a three-quarter view above, from the -z side where the shared models
+ * (Spot) face (every corner of the box in view).
  * camera_parse reads "ex,ey,ez[,tx,ty,tz[,fov]]". Pure math (no GL): the
  * rasterizer (gpu/render.h), the GLSL runtime and the reference path tracer all
  * build their rays from these functions, so their images line up pixel for pixel. */
@@ -20,6 +21,10 @@ typedef struct prt_camera {
 } prt_camera;
 
 void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_camera *out);
+/* Moves cam, keeping its target's distance and azimuth, to el_deg above the target and turns it to
+ * look pitch_deg below the horizontal with a vertical field of fov_deg: the horizon then crosses
+ * the image at tan(pitch) / (2 tan(fov/2)) above its middle (the demo's sky in its upper third). */
+void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg);
 /* Parses "ex,ey,ez[,tx,ty,tz[,fov]]" into cam (target and fov keep cam's values when absent). Returns 0 or -1. */
 int camera_parse(const char *s, prt_camera *cam);
 /* Column-major 4x4 view and projection matrices (OpenGL conventions). */

@@ -9,6 +9,9 @@
 #include <time.h>
 #include <unistd.h>
 #include <ctype.h>
+#include <dirent.h>
+#include <signal.h>
+#include <sys/stat.h>
 
 int prt_fail(prt_error *err, const char *fmt, ...) {
     if (err) {
@@ -183,6 +186,76 @@ int prt_atomic_commit(FILE *f, const char *tmp, const char *path, prt_error *err
 void prt_atomic_abort(FILE *f, const char *tmp) {
     if (f) fclose(f);
     if (tmp && *tmp) remove(tmp);
+}
+
+/* Splits path into its folder ("." when none) and base name; false if either does not fit. */
+static bool split_path(const char *path, char *dir, size_t dcap, const char **base) {
+    const char *slash = strrchr(path, '/');
+    *base = slash ? slash + 1 : path;
+    size_t n = slash ? (size_t)(slash - path) : 1;
+    if (slash && n == 0) n = 1;   /* "/x": the root */
+    if (n >= dcap) return false;
+    if (slash) memcpy(dir, path, n);
+    else dir[0] = '.';
+    dir[n] = 0;
+    return true;
+}
+
+/* The pid of a temporary of base named name ("<base>.tmp.<digits>[.<ext>]"), else 0. */
+static long stale_pid(const char *name, const char *base) {
+    size_t bl = strlen(base);
+    if (strncmp(name, base, bl) != 0 || strncmp(name + bl, ".tmp.", 5) != 0) return 0;
+    const char *p = name + bl + 5;
+    char *end;
+    if (!isdigit((unsigned char)*p)) return 0;
+    long pid = strtol(p, &end, 10);
+    if (*end && (*end != '.' || strchr(end + 1, '.') || strchr(end + 1, '/'))) return 0;
+    return pid > 0 ? pid : 0;
+}
+
+int prt_atomic_clean(const char *path, char *first, size_t firstcap) {
+    char dir[4096];
+    const char *base;
+    if (first && firstcap) first[0] = 0;
+    if (!path || !*path || !split_path(path, dir, sizeof dir, &base) || !*base) return 0;
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        long pid = stale_pid(e->d_name, base);
+        /* kill(pid, 0) fails with ESRCH only when no such process exists (EPERM: it runs as another user) */
+        if (!pid || pid == (long)getpid() || kill((pid_t)pid, 0) == 0 || errno != ESRCH) continue;
+        char full[8192];
+        snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
+        if (remove(full) != 0) continue;
+        if (n++ == 0 && first && firstcap) snprintf(first, firstcap, "%s", strcmp(dir, ".") ? full : e->d_name);
+    }
+    closedir(d);
+    return n;
+}
+
+int prt_output_check(const char *path, const char *const *exts, prt_error *err) {
+    if (!path || !*path) return prt_fail(err, "empty output file name");
+    char dir[4096];
+    const char *base;
+    if (strlen(path) > 4000 || !split_path(path, dir, sizeof dir, &base)) return prt_fail(err, "%.60s...: output path too long", path);
+    if (!*base) return prt_fail(err, "%s: names a folder, not an output file", path);
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) return prt_fail(err, "%s: is a folder, not an output file", path);
+    if (stat(dir, &st) != 0) return prt_fail(err, "%s: folder %s does not exist", path, dir);
+    if (!S_ISDIR(st.st_mode)) return prt_fail(err, "%s: %s is not a folder", path, dir);
+    if (access(dir, W_OK | X_OK) != 0) return prt_fail(err, "%s: cannot write in folder %s: %s", path, dir, strerror(errno));
+    if (!exts) return 0;
+    char ext[16], list[256] = "";
+    prt_path_ext(path, ext);
+    for (const char *const *x = exts; *x; x++) {
+        if (!strcmp(ext, *x)) return 0;
+        size_t l = strlen(list);
+        snprintf(list + l, sizeof list - l, "%s.%s", l ? ", " : "", *x);
+    }
+    if (!*ext) return prt_fail(err, "%s: no file extension (use %s)", path, list);
+    return prt_fail(err, "%s: unsupported output format '.%s' (use %s)", path, ext, list);
 }
 
 void prt_path_ext(const char *path, char ext[16]) {

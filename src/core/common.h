@@ -13,7 +13,11 @@
  *
  * Output files: prt_atomic_open writes to "<path>.tmp.<pid>"; prt_atomic_commit
  * flushes and renames over <path>; prt_atomic_abort removes the temporary. So a
- * crash or an error never leaves a partial file under the final name.
+ * crash or an error never leaves a partial file under the final name. A run
+ * killed between the two leaves "<path>.tmp.<pid>" (or, from an older image
+ * writer, "<path>.tmp.<pid>.<ext>"); prt_atomic_clean removes those of
+ * processes no longer running, and prt_output_check tells before any work
+ * whether an output can be created at all (issue 12, items 3 and 4).
  *
  * No mutable globals: all state lives in structs the caller owns. */
 #ifndef PRT_COMMON_H
@@ -60,6 +64,14 @@ void prt_bar_done(prt_bar *bar);
 FILE *prt_atomic_open(const char *path, char *tmp, size_t tmpcap, prt_error *err);
 int prt_atomic_commit(FILE *f, const char *tmp, const char *path, prt_error *err);
 void prt_atomic_abort(FILE *f, const char *tmp);
+/* Removes path's temporaries left by processes that no longer run (same folder, the name
+ * "<base>.tmp.<pid>[.<ext>]", pid not alive); returns how many, the first one's name in
+ * first[firstcap] (may be NULL). Another running process's temporary is never touched. */
+int prt_atomic_clean(const char *path, char *first, size_t firstcap);
+/* 0 if path can be created before any work is done: not empty, not a folder, its folder
+ * exists and is writable, and (exts non-NULL: a NULL-ended list of lowercase extensions)
+ * its extension is one of exts. Else -1 with one line naming path and the problem. */
+int prt_output_check(const char *path, const char *const *exts, prt_error *err);
 
 /* Lowercase extension of path without the dot ("" if none), into ext[16]. */
 void prt_path_ext(const char *path, char ext[16]);

@@ -18,11 +18,13 @@
  * float (half for .exr with d.half) RGB, .hdr linear Radiance RGBE;
  * .png/.jpg/.tif/.ppm write 8-bit sRGB after
  * exposure (2^exposure) and the tone map (d.tonemap: 0 clamp, 1 Reinhard,
- * 2 ACES fit; default clamp). Non-finite pixels are written as 0. The file is written to a
- * temporary name and renamed, so no partial file is left behind.
+ * 2 ACES fit; default clamp). Non-finite pixels are written as 0. The image is encoded in
+ * memory, then written to a temporary name with every write, the flush and the close
+ * checked (a full disk is an error, for every format), and renamed, so no partial file
+ * is left behind and no message names the temporary.
  *
  * Errors: one line naming the file (missing, unreadable, unsupported format,
- * zero size). Ownership: data belongs to the image; image_free frees it. */
+ * zero size, a failed write). Ownership: data belongs to the image; image_free frees it. */
 #ifndef PRT_IMAGE_H
 #define PRT_IMAGE_H
 #include "common.h"
@@ -34,6 +36,8 @@ extern "C" {
 typedef struct prt_image {
     int w, h, c;     /* c is 3 (RGB) or 4 (RGBA) */
     float *data;     /* [h][w][c], row 0 at the top */
+    bool ldr;        /* image_read: the file stores integers (PNG, JPEG, 8/16-bit TIFF...), so every
+                      * value is in [0, 1]: a light probe's sun clipped to the sky's white (issue 12) */
 } prt_image;
 
 typedef struct image_desc {

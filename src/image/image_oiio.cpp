@@ -16,15 +16,18 @@
  * Writing: float formats (.exr, .hdr) store linear values, non-finite
  * ones as 0 (and, for half EXR, clamped to the half range so nothing turns
  * into Inf). 8-bit formats get exposure, a tone map and the sRGB transfer
- * curve, then are rounded to the nearest code value. The file is written
- * under "<path>.tmp.<pid>.<ext>" (keeping the extension so OIIO picks the
- * right writer) and renamed into place, so a failure leaves nothing behind. */
+ * curve, then are rounded to the nearest code value. OIIO encodes into memory
+ * (an IOVecOutput proxy; every writer prt uses supports it) and the bytes go
+ * through prt_atomic_open/commit ("<path>.tmp.<pid>", every write, the flush
+ * and the close checked, then renamed), because OIIO's PNG writer ignores a
+ * short write: a full disk must fail, not leave a cut PNG (issue 12). */
 /* common.h has no extern "C" guard of its own (it is a C header). */
 extern "C" {
 #include "common.h"
 }
 #include "image.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <cctype>
@@ -145,9 +148,12 @@ static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
         return prt_fail(err, "%s: cannot read pixels (%s)", path, e.c_str());
     }
     bool srgb = file_is_srgb(spec);
+    TypeDesc::BASETYPE bt = (TypeDesc::BASETYPE)spec.format.basetype;
+    bool ldr = bt != TypeDesc::FLOAT && bt != TypeDesc::HALF && bt != TypeDesc::DOUBLE;
     in->close();
 
     if (image_alloc(out, w, h, 3, err)) return prt_fail(err, "%s: image %dx%d: out of memory", path, w, h);
+    out->ldr = ldr;
     size_t n = (size_t)w * h;
     for (size_t i = 0; i < n; i++) {
         for (int ch = 0; ch < 3; ch++) {
@@ -171,11 +177,6 @@ extern "C" int image_read(const char *path, prt_image *out, prt_error *err) {
         image_free(out);
         return prt_fail(err, "%s: cannot read image (unexpected error)", path);
     }
-}
-
-/* Temporary output name: "<path>.tmp.<pid>.<ext>", so OIIO still sees the extension. */
-static void tmp_name(const char *path, const char *ext, char *out, size_t cap) {
-    std::snprintf(out, cap, "%s.tmp.%ld.%s", path, (long)getpid(), ext);
 }
 
 /* The first oc channels of im as float, non-finite values 0 and clamped to the range of
@@ -215,7 +216,21 @@ static ImageSpec byte_pixels(const prt_image *im, int oc, const image_desc &d, s
     return spec;
 }
 
-/* image_write's body (may throw; the wrapper catches and removes the temporary). */
+/* Writes n encoded bytes to path through prt_atomic_open / commit, which check every write,
+ * the flush and the close (a full disk or a file-size limit fails here, naming path). */
+static int write_bytes(const char *path, const unsigned char *p, size_t n, prt_error *err) {
+    char tmp[4200];
+    FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
+    if (!f) return -1;
+    if (std::fwrite(p, 1, n, f) != n) {
+        int en = errno;
+        prt_atomic_abort(f, tmp);
+        return prt_fail(err, "%s: write failed: %s", path, std::strerror(en));
+    }
+    return prt_atomic_commit(f, tmp, path, err);
+}
+
+/* image_write's body (may throw; the wrapper catches). */
 static int image_write_impl(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!im || !im->data || im->w <= 0 || im->h <= 0 || (im->c != 3 && im->c != 4))
         return prt_fail(err, "%s: nothing to write (empty image)", path);
@@ -232,17 +247,17 @@ static int image_write_impl(const char *path, const prt_image *im, const image_d
     /* Channels written: RGB for formats without alpha (and for the float formats, per image.h), else as the image. */
     int oc = (e == "png" || e == "tif" || e == "tiff") ? im->c : 3;
 
-    char tmpbuf[4200];
-    tmp_name(path, ext, tmpbuf, sizeof tmpbuf);
-    std::string tmp(tmpbuf);
-    auto out = ImageOutput::create(tmp);
+    /* Encoded into memory, then written with checked writes: OIIO's PNG writer does not report
+     * a short write (a full disk gave a cut PNG and "wrote"), so no format is trusted with the file. */
+    auto out = ImageOutput::create(path);
     if (!out) {
         std::string m = first_line(OIIO::geterror());
         return prt_fail(err, "%s: no writer for '.%s' (%s)", path, ext, m.c_str());
     }
+    if (!out->supports("ioproxy")) return prt_fail(err, "%s: the '.%s' writer cannot encode to memory", path, ext);
     ImageSpec spec;
     std::vector<float> fbuf;
-    std::vector<unsigned char> bbuf;
+    std::vector<unsigned char> bbuf, bytes;
     const void *pixels;
     TypeDesc ptype;
     if (is_float) {
@@ -254,44 +269,28 @@ static int image_write_impl(const char *path, const prt_image *im, const image_d
         pixels = bbuf.data();
         ptype = TypeDesc::UINT8;
     }
-    if (!out->open(tmp, spec)) {
-        std::string m = first_line(out->geterror());
-        std::remove(tmp.c_str());
-        return prt_fail(err, "%s: cannot write (%s)", path, m.c_str());
-    }
-    bool ok = out->write_image(ptype, pixels);
+    Filesystem::IOVecOutput mem(bytes);
+    out->set_ioproxy(&mem);
+    bool ok = out->open(path, spec) && out->write_image(ptype, pixels);
     std::string m = ok ? std::string() : first_line(out->geterror());
     if (!out->close() && ok) {
         ok = false;
         m = first_line(out->geterror());
     }
     out.reset();
-    if (!ok) {
-        std::remove(tmp.c_str());
-        return prt_fail(err, "%s: write failed (%s)", path, m.c_str());
-    }
-    if (std::rename(tmp.c_str(), path) != 0) {
-        int en = errno;
-        std::remove(tmp.c_str());
-        return prt_fail(err, "%s: cannot rename temporary file: %s", path, std::strerror(en));
-    }
-    return 0;
+    if (!ok || bytes.empty()) return prt_fail(err, "%s: cannot encode the image (%s)", path, ok ? "no bytes" : m.c_str());
+    return write_bytes(path, bytes.data(), bytes.size(), err);
 }
 
 /* Writes im to path in the format its extension names, atomically; 0, or -1 naming the file. */
 extern "C" int image_write(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!path || !*path) return prt_fail(err, "empty image path");
     if (std::strlen(path) > 4000) return prt_fail(err, "%.60s...: output path too long", path);
-    char ext[16], tmp[4200];
-    prt_path_ext(path, ext);
-    tmp_name(path, ext, tmp, sizeof tmp);
     try {
         return image_write_impl(path, im, desc, err);
     } catch (const std::exception &e) {
-        std::remove(tmp);
         return prt_fail(err, "%s: cannot write image: %s", path, e.what());
     } catch (...) {
-        std::remove(tmp);
         return prt_fail(err, "%s: cannot write image (unexpected error)", path);
     }
 }

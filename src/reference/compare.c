@@ -344,6 +344,7 @@ static int cmp_image_files(const char *a, const char *b, const char *error_image
     if (!e) goto done;
     if (cmp_arrays(ima.data, imb.data, n, 3, out, e, err)) { fail_pair(a, b, err); goto done; }
     out->ref_noise = -1;
+    out->width = ima.w;
     if (error_image && write_error_image(error_image, e, ima.w, ima.h, err)) goto done;
     rc = 0;
 done:

@@ -45,6 +45,8 @@ typedef struct cmp_result {
     long items_in_max;    /* items above the 1% floor (those max_rel_err ranges over) */
     int worst_item;       /* index (vertex id for CSV) of the item giving max_rel_err (-1 if none) */
     long skipped;         /* vertices left out because B marks them as facing away */
+    int width;            /* images: their width, so worst_item is pixel (x, y) = (i % width, i / width),
+                           * row 0 at the top; 0 for CSV */
 } cmp_result;
 
 typedef struct cmp_desc {

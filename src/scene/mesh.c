@@ -216,9 +216,22 @@ static int obj_face(obj_parser *P, const char *p, const char *e) {
 static int mesh_build(const char *name, float *pos, size_t nv, const int32_t *idx, size_t ntris,
                       mesh_load_stats *st, prt_mesh *out, prt_error *err);
 
+/* The encoding a byte-order mark at the start names when it is one the parser cannot read
+ * (UTF-32 checked first: its little-endian mark begins with UTF-16's), else NULL. */
+static const char *obj_wide_encoding(const unsigned char *t, size_t len) {
+    if (len >= 4 && t[0] == 0xFF && t[1] == 0xFE && t[2] == 0 && t[3] == 0) return "UTF-32LE";
+    if (len >= 4 && t[0] == 0 && t[1] == 0 && t[2] == 0xFE && t[3] == 0xFF) return "UTF-32BE";
+    if (len >= 2 && t[0] == 0xFF && t[1] == 0xFE) return "UTF-16LE";
+    if (len >= 2 && t[0] == 0xFE && t[1] == 0xFF) return "UTF-16BE";
+    return NULL;
+}
+
 /* Parses NUL-terminated text of length len (text[len] == 0). */
 static int parse_obj_text(const char *name, const char *text, size_t len, mesh_load_stats *stats,
                           prt_mesh *out, prt_error *err) {
+    const char *enc = obj_wide_encoding((const unsigned char *)text, len);
+    if (enc) return prt_fail(err, "%s: the file is %s text (byte-order mark); save it as UTF-8 or ASCII", name, enc);
+    if (len >= 3 && !memcmp(text, "\xEF\xBB\xBF", 3)) { text += 3; len -= 3; }   /* a UTF-8 BOM is only a marker */
     obj_parser P = { .name = name, .err = err, .fwd_max = -1 };
     const char *p = text, *end = text + len;
     int rc = 0;

@@ -13,7 +13,8 @@
  * Positions are welded (exactly equal coordinates become one vertex) so that
  * normals are smooth across seams. Degenerate triangles (repeated or collinear
  * vertices, zero area) are dropped and counted. Vertices no triangle uses are
- * removed.
+ * removed. Text is ASCII or UTF-8 (a UTF-8 byte-order mark is skipped); a UTF-16 or
+ * UTF-32 file (byte-order mark) is refused naming its encoding.
  *
  * Errors (one line, naming the file): missing or unreadable file, a line that
  * does not parse (with its line number), an index out of range, a non-finite

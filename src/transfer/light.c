@@ -16,15 +16,46 @@
 #include "light.h"
 #include "haar.h"
 #include "sparse.h"
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* Power-of-two exponent e such that every finite weighted texel times 2^-e stays below 2^96:
+ * the orthonormal Haar scaling coefficient of a face is 64x its mean, and energies are squares,
+ * so a texel of 1e37 (finite) would overflow the float transform and make the threshold
+ * infinite, cutting every coefficient (issue 12). Scaling by a power of two is exact. */
+static int light_shift(const float *cube_rgb, const light_desc *desc) {
+    float m = 0;
+    for (int k = 0; k < CUBE_TEXELS; k++) {
+        float w = desc && desc->face_weight ? fabsf(desc->face_weight[k % (CUBE_RES * CUBE_RES)]) : 1.f;
+        for (int c = 0; c < 3; c++) {
+            float x = fabsf(cube_rgb[3 * k + c]) * w;   /* may be Inf for a weight > 1: still bounded below */
+            if (isfinite(cube_rgb[3 * k + c]) && x > m) m = x;
+        }
+    }
+    int e;
+    frexpf(m, &e);
+    return e > 96 ? e - 96 : 0;
+}
+
+/* Undoes light_shift's scale on L (exact), clamping to the float range; stats' steps likewise. */
+static void light_unshift(float (*L)[4], int shift, float step[3]) {
+    if (!shift) return;
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int c = 0; c < 3; c++) {
+            float v = ldexpf(L[k][c], shift);
+            L[k][c] = isfinite(v) ? v : copysignf(FLT_MAX, L[k][c]);
+        }
+    for (int c = 0; c < 3; c++) step[c] = fminf(ldexpf(step[c], shift), FLT_MAX);
+}
 
 /* Writes the light vector of cube_rgb into L (see light.h); stats may be NULL. */
 void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4], light_stats *stats) {
     float threshold = desc && desc->threshold > 0 ? desc->threshold : 1e-12f;
     int qbits = desc && desc->qbits == 32 ? 32 : 16;
     enum { R = CUBE_RES, NN = CUBE_RES * CUBE_RES };
+    int shift = light_shift(cube_rgb, desc);
     float face[NN], tmp[NN];
     /* Morton position of every quadrant-layout position, once (the same for all faces). */
     uint16_t morton[NN];
@@ -35,7 +66,7 @@ void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4
             const float *src = cube_rgb + (size_t)f * NN * 3 + c;
             for (int k = 0; k < NN; k++) {
                 float x = src[3 * k];
-                face[k] = isfinite(x) ? x : 0.f;   /* a broken texel must not poison the whole face */
+                face[k] = isfinite(x) ? ldexpf(x, -shift) : 0.f;   /* a broken texel must not poison the whole face */
             }
             if (desc && desc->face_weight)
                 for (int k = 0; k < NN; k++) face[k] *= desc->face_weight[k];
@@ -76,6 +107,7 @@ void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4
                 L[k][c] = nearbyintf(q) * step[c];
             }
     }
+    light_unshift(L, shift, step);
     for (int k = 0; k < CUBE_TEXELS; k++) kept += L[k][0] != 0.f || L[k][1] != 0.f || L[k][2] != 0.f;
     if (stats) {
         stats->kept = kept;
