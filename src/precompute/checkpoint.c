@@ -96,7 +96,7 @@ static long scan(prt_checkpoint *c) {
     for (;;) {
         if (fseek(c->f, off, SEEK_SET) || fread(head, 1, 8, c->f) != 8 || get32(head) != CKPT_RECORD) break;
         uint32_t len = get32(head + 4);
-        if (len < CKPT_FIXED || len > (1u << 30)) break;
+        if (len < 8 || len > (1u << 30)) break;
         if (len + 4 > paycap) {
             uint8_t *n = realloc(pay, len + 4);
             if (!n) { free(pay); return -1; }
@@ -106,7 +106,7 @@ static long scan(prt_checkpoint *c) {
         if (fread(pay, 1, len + 4, c->f) != len + 4) break;
         if ((uint32_t)crc32(crc32(0L, Z_NULL, 0), pay, len) != get32(pay + len)) break;
         ckpt_entry e = { get32(pay), get32(pay + 4), len, (uint64_t)off + 8 };
-        if (e.pass >= CKPT_MAX_PASSES || e.v >= (uint32_t)c->nverts) break;
+        if (e.pass >= CKPT_MAX_PASSES) break;   /* the item's range is checked when it is restored */
         if (idx_push(c, e)) { free(pay); return -1; }
         off += 8 + (long)len + 4;
     }
@@ -196,9 +196,10 @@ static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_v
     return q == len ? (int)v : -1;
 }
 
-int ckpt_restore(prt_checkpoint *c, int pass, prt_transport *t, uint8_t *done, ckpt_vstats *vs, prt_error *err) {
-    if (!c || ckpt_count(c, pass) == 0) return 0;
-    PRT_CHECK(t->stage_count && t->nverts == c->nverts);
+/* Calls fn for every record of pass (its payload after pass and item). Returns how many, or -1
+ * with err when one cannot be read or fn refuses it (-1). */
+static int each_record(prt_checkpoint *c, int pass, int (*fn)(void *user, const uint8_t *p, uint32_t len), void *user,
+                       prt_error *err) {
     uint8_t *p = NULL;
     size_t cap = 0;
     int n = 0;
@@ -212,18 +213,49 @@ int ckpt_restore(prt_checkpoint *c, int pass, prt_transport *t, uint8_t *done, c
             p = q;
             cap = en->len;
         }
-        int v = fseek(c->f, (long)en->off, SEEK_SET) == 0 && fread(p, 1, en->len, c->f) == en->len
-                    ? stage_record(p, en->len, t, vs ? &vs[en->v] : NULL) : -1;
-        if (v < 0) {
+        int ok = fseek(c->f, (long)en->off, SEEK_SET) == 0 && fread(p, 1, en->len, c->f) == en->len &&
+                 fn(user, p, en->len) == 0;
+        if (!ok) {
             free(p);
-            return prt_fail(err, "%s: corrupt checkpoint (pass %d, vertex %u); remove it", c->path, pass, en->v);
+            return prt_fail(err, "%s: corrupt checkpoint (pass %d, item %u); remove it", c->path, pass, en->v);
         }
-        done[v] = 1;
         n++;
     }
     free(p);
     fseek(c->f, here, SEEK_SET);
     return n;
+}
+
+typedef struct stage_ctx { prt_transport *t; uint8_t *done; ckpt_vstats *vs; } stage_ctx;
+
+static int stage_one(void *user, const uint8_t *p, uint32_t len) {
+    stage_ctx *s = user;
+    if (len < CKPT_FIXED) return -1;
+    uint32_t v = get32(p + 4);
+    if (v >= (uint32_t)s->t->nverts || stage_record(p, len, s->t, s->vs ? &s->vs[v] : NULL) < 0) return -1;
+    s->done[v] = 1;
+    return 0;
+}
+
+int ckpt_restore(prt_checkpoint *c, int pass, prt_transport *t, uint8_t *done, ckpt_vstats *vs, prt_error *err) {
+    if (!c || ckpt_count(c, pass) == 0) return 0;
+    PRT_CHECK(t->stage_count && t->nverts == c->nverts);
+    stage_ctx s = { t, done, vs };
+    return each_record(c, pass, stage_one, &s, err);
+}
+
+typedef struct blob_ctx { int (*fn)(void *, uint32_t, const uint8_t *, uint32_t); void *user; } blob_ctx;
+
+static int blob_one(void *user, const uint8_t *p, uint32_t len) {
+    blob_ctx *b = user;
+    return b->fn(b->user, get32(p + 4), p + 8, len - 8);
+}
+
+int ckpt_restore_blobs(prt_checkpoint *c, int pass, int (*fn)(void *user, uint32_t item, const uint8_t *data, uint32_t len),
+                       void *user, prt_error *err) {
+    if (!c || ckpt_count(c, pass) == 0) return 0;
+    blob_ctx b = { fn, user };
+    return each_record(c, pass, blob_one, &b, err);
 }
 
 /* Serializes vertex v of pass into c->buf. Returns the record's bytes, 0 on OOM. */
@@ -261,19 +293,47 @@ static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, in
     return len + 12;
 }
 
+/* Appends the record in c->buf (n bytes; 0: it could not be made), flushing every interval.
+ * Called with the lock held. */
+static void append(prt_checkpoint *c, size_t n) {
+    if (n == 0) c->failed = ENOMEM;
+    else if (fwrite(c->buf, 1, n, c->f) != n) c->failed = errno ? errno : EIO;
+    else if (++c->since >= c->interval) {
+        c->since = 0;
+        if (fflush(c->f) != 0) c->failed = errno ? errno : EIO;
+        else if (c->kill_after > 0 && ++c->flushes == c->kill_after) raise(SIGKILL);
+    }
+}
+
 void ckpt_add(prt_checkpoint *c, int pass, const prt_transport *t, int v, const ckpt_vstats *vs) {
     if (!c) return;
     pthread_mutex_lock(&c->lock);
-    if (!c->failed) {
-        size_t n = put_record(c, pass, t, v, vs);
-        if (n == 0) c->failed = ENOMEM;
-        else if (fwrite(c->buf, 1, n, c->f) != n) c->failed = errno ? errno : EIO;
-        else if (++c->since >= c->interval) {
-            c->since = 0;
-            if (fflush(c->f) != 0) c->failed = errno ? errno : EIO;
-            else if (c->kill_after > 0 && ++c->flushes == c->kill_after) raise(SIGKILL);
-        }
+    if (!c->failed) append(c, put_record(c, pass, t, v, vs));
+    pthread_mutex_unlock(&c->lock);
+}
+
+/* Frames len bytes of data as a record of (pass, item) in c->buf. Returns its bytes, 0 on OOM. */
+static size_t put_blob(prt_checkpoint *c, int pass, uint32_t item, const void *data, uint32_t len) {
+    if ((size_t)len + 20 > c->bufcap) {
+        uint8_t *b = realloc(c->buf, (size_t)len + 20);
+        if (!b) return 0;
+        c->buf = b;
+        c->bufcap = (size_t)len + 20;
     }
+    uint8_t *p = c->buf + 8;
+    put32(c->buf, CKPT_RECORD);
+    put32(c->buf + 4, len + 8);
+    put32(p, (uint32_t)pass);
+    put32(p + 4, item);
+    if (len) memcpy(p + 8, data, len);
+    put32(p + 8 + len, (uint32_t)crc32(crc32(0L, Z_NULL, 0), p, (uInt)len + 8));
+    return (size_t)len + 20;
+}
+
+void ckpt_add_blob(prt_checkpoint *c, int pass, uint32_t item, const void *data, uint32_t len) {
+    if (!c) return;
+    pthread_mutex_lock(&c->lock);
+    if (!c->failed) append(c, put_blob(c, pass, item, data, len));
     pthread_mutex_unlock(&c->lock);
 }
 

@@ -12,7 +12,8 @@
  *     remove(path) once the output file is written           // (the CLI does)
  *
  * Passes: 0 is the direct pass (visibility + transport, Eq. 3), b = 1..PRT_MAX_BOUNCES the
- * gathering pass b (Eq. 8). A pass's records are the staged vectors of its vertices (transport.h:
+ * gathering pass b (Eq. 8), CKPT_PASS_VMF + p the vMF transfer's pass p (vmfpass.c: per vertex
+ * its stored slices, per slice its gathered lobes, as opaque blobs). A pass's records are the staged vectors of its vertices (transport.h:
  * the kept indices, values and scales, exactly what transport_store staged), so restoring them
  * and finishing the set gives the same bytes as computing them. Every pass is deterministic per
  * vertex (a vertex's result depends on the scene, the options and the previous pass only, never
@@ -76,6 +77,14 @@ int ckpt_count(const prt_checkpoint *c, int pass);
 int ckpt_restore(prt_checkpoint *c, int pass, prt_transport *t, uint8_t *done, ckpt_vstats *vs, prt_error *err);
 /* Appends vertex v of pass (its staged vectors in t; vs may be NULL). Thread-safe. */
 void ckpt_add(prt_checkpoint *c, int pass, const prt_transport *t, int v, const ckpt_vstats *vs);
+/* Passes whose results are not transport sets (the vMF passes: vmfpass.c) record opaque blobs:
+ * item (a vertex or slice number), len bytes. Thread-safe, like ckpt_add. */
+#define CKPT_PASS_VMF 10            /* vMF direct pass; its gathering pass p is CKPT_PASS_VMF + p */
+void ckpt_add_blob(prt_checkpoint *c, int pass, uint32_t item, const void *data, uint32_t len);
+/* Calls fn for every blob of pass; fn returns 0, or -1 when the blob does not fit (a corrupt file).
+ * Returns how many, or -1 with err. */
+int ckpt_restore_blobs(prt_checkpoint *c, int pass, int (*fn)(void *user, uint32_t item, const uint8_t *data, uint32_t len),
+                       void *user, prt_error *err);
 /* Flushes and closes (the file stays). Returns 0, or -1 with err when a write failed. */
 int ckpt_close(prt_checkpoint *c, prt_error *err);
 

@@ -736,9 +736,11 @@ static uint64_t pc_key(const pc_run *r) {
         if (f->light) ckpt_key_add(&k, f->light, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
         if (f->view) ckpt_key_add(&k, f->view, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
     }
-    ckpt_key_str(&k, r->tr->ops->name);
-    ckpt_key_add(&k, &r->tr->cfg, sizeof r->tr->cfg);
-    ckpt_key_add(&k, &r->tr->materials, sizeof r->tr->materials);
+    for (const prt_transfer *t = r->tr; t; t = t == r->tr ? r->vtr : NULL) {   /* the sparse transfer, the vmf one */
+        ckpt_key_str(&k, t->ops->name);
+        ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
+        ckpt_key_add(&k, &t->materials, sizeof t->materials);
+    }
     int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
@@ -757,8 +759,12 @@ static int pc_resume(pc_run *r, prt_error *err) {
     if (n0 < 0) return -1;
     if (!r->d.quiet && n0 > 0) {
         fprintf(stderr, "resuming from %s: visibility+transport %d of %d vertices done", r->d.checkpoint, n0, m->nverts);
-        for (int b = 1; b < CKPT_MAX_PASSES && ckpt_count(r->ck, b) > 0; b++)
+        for (int b = 1; b < CKPT_PASS_VMF && ckpt_count(r->ck, b) > 0; b++)
             fprintf(stderr, ", bounce %d %d", b, ckpt_count(r->ck, b));
+        for (int p = 0; CKPT_PASS_VMF + p < CKPT_MAX_PASSES && ckpt_count(r->ck, CKPT_PASS_VMF + p) > 0; p++) {
+            if (p == 0) fprintf(stderr, ", vmf direct %d", ckpt_count(r->ck, CKPT_PASS_VMF));
+            else fprintf(stderr, ", vmf pass %d %d slices", p, ckpt_count(r->ck, CKPT_PASS_VMF + p));
+        }
         fputc('\n', stderr);
     } else if (!r->d.quiet && r->d.resume) {
         fprintf(stderr, "resume: no checkpoint to continue in %s, starting from the beginning\n", r->d.checkpoint);
@@ -906,7 +912,7 @@ static int pc_vmf(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
     transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
                                   .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
-                                  .progress = r->d.progress, .progress_user = r->d.progress_user };
+                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck };
     double t0 = prt_now();
     if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
     r->out->stats.t_vmf = prt_now() - t0;
