@@ -42,12 +42,11 @@
  * and the refined mesh is what is precomputed, stored and drawn; the plan's first line
  * says vertices before and after, models and floor, and its time.
  *
- * Resuming (desc.checkpoint, desc.resume): the direct pass and each gathering pass log every
- * finished vertex to the checkpoint, flushed every CKPT_INTERVAL_PERCENT (2%) of the vertices;
- * a resumed run restores them (saying how many per pass on stderr unless quiet), computes the
- * rest and gives the same transfer, mesh, materials and statistics as an uninterrupted run
- * (only the timings differ, as between any two runs). The vMF passes are not checkpointed yet:
- * a run killed in them does them again.
+ * Resuming (desc.checkpoint, desc.resume): the direct pass, each gathering pass and the vMF
+ * passes log every finished vertex (vMF gathering: slice) to the checkpoint, flushed every
+ * CKPT_INTERVAL_PERCENT (2%) of the vertices; a resumed run restores them (saying how many per
+ * pass on stderr unless quiet), computes the rest and gives the same transfers, mesh, materials
+ * and statistics as an uninterrupted run (only the timings differ, as between any two runs).
  *
  * Cancelling: the progress callback returning false stops the run with error "cancelled". */
 #ifndef PRT_PRECOMPUTE_H
