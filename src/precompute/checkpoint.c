@@ -13,6 +13,7 @@
  * already matched, so a record that does not fit is a corrupt file, refused with one line. */
 #include "checkpoint.h"
 #include "cubemap.h"
+#include "sparse.h"
 #include <dirent.h>
 #include <errno.h>
 #include <math.h>
@@ -28,7 +29,9 @@
 #define CKPT_HEADER 24
 #define CKPT_RECORD 0x58545256u     /* "VRTX" little-endian */
 /* Payload: u32 pass, u32 vertex, u32 vectors, i64 traced, i64 hits, f64 err, i32 errs (40 bytes),
- * then per vector: u32 count, f32 scale[3], u32 index[count], f32 value[3 * count]. */
+ * then per vector: u32 count, f32 scale[3], u16 index[count], then its values as the set stores
+ * them (transport.h): quantized, i8 or i16 [3 * count] (value = q * scale, what transport_finish
+ * quantizes again to the same q), or f32 [3 * count] with 32 bits: about the output's size. */
 #define CKPT_FIXED 40
 
 typedef struct ckpt_entry { uint32_t pass, v, len; uint64_t off; } ckpt_entry;
@@ -162,6 +165,9 @@ prt_checkpoint *ckpt_open(const char *path, uint64_t key, bool resume, int nvert
 
 int ckpt_count(const prt_checkpoint *c, int pass) { return c && pass >= 0 && pass < CKPT_MAX_PASSES ? c->count[pass] : 0; }
 
+/* Bytes of one stored value channel: the quantized q of 8 / 16 bits, or the float. */
+static size_t value_bytes(int qbits) { return qbits == 8 ? 1 : qbits == 16 ? 2 : 4; }
+
 /* Stages one record's payload p (len bytes) into t; vs gets the statistics. Returns the vertex,
  * or -1 when the record does not fit t. */
 static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_vstats *vs) {
@@ -174,23 +180,32 @@ static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_v
         memcpy(&vs->err, &e, 8);
         vs->errs = (int32_t)get32(p + 36);
     }
+    const size_t vb = value_bytes(t->qbits);
     for (uint32_t k = 0; k < nvec; k++) {
         uint32_t i = t->vec_first[v] + k;
         if (q + 16 > len) return -1;
         uint32_t n = get32(p + q);
-        if (n > (uint32_t)t->N || q + 16 + 16 * (uint64_t)n > len) return -1;
-        for (int ch = 0; ch < 3; ch++) memcpy(&t->scale[3 * (size_t)i + ch], p + q + 4 + 4 * ch, 4);
+        if (n > (uint32_t)t->N || q + 16 + (2 + 3 * vb) * (uint64_t)n > len) return -1;
+        float sc[3];
+        memcpy(sc, p + q + 4, 12);
+        for (int ch = 0; ch < 3; ch++) {
+            if (!isfinite(sc[ch])) return -1;
+            t->scale[3 * (size_t)i + ch] = sc[ch];
+        }
         q += 16;
         uint32_t *idx = t->stage_idx + (size_t)i * t->N;
         float *val = t->stage_val + (size_t)i * t->N * 3;
         for (uint32_t j = 0; j < n; j++) {
-            idx[j] = get32(p + q + 4 * j);
+            idx[j] = (uint32_t)p[q + 2 * j] | (uint32_t)p[q + 2 * j + 1] << 8;
             if (idx[j] >= CUBE_TEXELS || (j > 0 && idx[j] <= idx[j - 1])) return -1;
         }
-        q += 4 * n;
-        memcpy(val, p + q, 12 * (size_t)n);
-        q += 12 * n;
-        for (uint32_t j = 0; j < 3 * n; j++) if (!isfinite(val[j])) return -1;
+        q += 2 * n;
+        for (uint32_t j = 0; j < 3 * n; j++, q += (uint32_t)vb) {
+            if (vb == 1) val[j] = (float)(int8_t)p[q] * sc[j % 3];
+            else if (vb == 2) val[j] = (float)(int16_t)(uint16_t)(p[q] | p[q + 1] << 8) * sc[j % 3];
+            else memcpy(&val[j], p + q, 4);
+            if (!isfinite(val[j])) return -1;
+        }
         t->stage_count[i] = n;
     }
     return q == len ? (int)v : -1;
@@ -261,8 +276,10 @@ int ckpt_restore_blobs(prt_checkpoint *c, int pass, int (*fn)(void *user, uint32
 /* Serializes vertex v of pass into c->buf. Returns the record's bytes, 0 on OOM. */
 static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, int v, const ckpt_vstats *vs) {
     uint32_t nvec = t->vec_first[v + 1] - t->vec_first[v];
+    const size_t vb = value_bytes(t->qbits);
+    const int qmax = t->qbits == 8 ? 127 : t->qbits == 16 ? 32767 : 0;
     size_t len = CKPT_FIXED;
-    for (uint32_t k = 0; k < nvec; k++) len += 16 + 16 * (size_t)t->stage_count[t->vec_first[v] + k];
+    for (uint32_t k = 0; k < nvec; k++) len += 16 + (2 + 3 * vb) * (size_t)t->stage_count[t->vec_first[v] + k];
     if (len + 12 > c->bufcap) {
         uint8_t *b = realloc(c->buf, len + 12);
         if (!b) return 0;
@@ -279,13 +296,20 @@ static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, in
     size_t q = CKPT_FIXED;
     for (uint32_t k = 0; k < nvec; k++) {
         uint32_t i = t->vec_first[v] + k, n = t->stage_count[i];
+        const float *sc = &t->scale[3 * (size_t)i], *val = t->stage_val + (size_t)i * t->N * 3;
         put32(p + q, n);
-        memcpy(p + q + 4, &t->scale[3 * (size_t)i], 12);
+        memcpy(p + q + 4, sc, 12);
         q += 16;
-        for (uint32_t j = 0; j < n; j++) put32(p + q + 4 * j, t->stage_idx[(size_t)i * t->N + j]);
-        q += 4 * (size_t)n;
-        memcpy(p + q, t->stage_val + (size_t)i * t->N * 3, 12 * (size_t)n);
-        q += 12 * (size_t)n;
+        for (uint32_t j = 0; j < n; j++, q += 2) {
+            uint32_t x = t->stage_idx[(size_t)i * t->N + j];
+            p[q] = (uint8_t)x, p[q + 1] = (uint8_t)(x >> 8);
+        }
+        for (uint32_t j = 0; j < 3 * n; j++, q += vb) {
+            int qv = qmax ? sparse_quantize(val[j], sc[j % 3], qmax) : 0;   /* as transport_finish does */
+            if (vb == 1) p[q] = (uint8_t)(int8_t)qv;
+            else if (vb == 2) p[q] = (uint8_t)qv, p[q + 1] = (uint8_t)((uint16_t)(int16_t)qv >> 8);
+            else memcpy(p + q, &val[j], 4);
+        }
     }
     put32(c->buf, CKPT_RECORD);
     put32(c->buf + 4, (uint32_t)len);
