@@ -20,18 +20,29 @@ if [ -z "$seconds" ] && { ! command -v clang >/dev/null || [ -z "$libfuzzer" ]; 
   echo "CHECKS 0 0 0"
   exit 0
 fi
-if ! log=$(make --no-print-directory fuzz-build 2>&1); then
+# the harnesses $T selects (all without a filter); none: nothing to build
+selected=()
+for src in tests/fuzz/fuzz_*.c; do
+  name=$(basename "$src" .c); name=${name#fuzz_}
+  if [ -n "${T:-}" ] && [[ "fuzz/$name" != *"$T"* ]]; then continue; fi
+  selected+=("$name")
+done
+total=$(ls tests/fuzz/fuzz_*.c | wc -l)
+if [ ${#selected[@]} -eq 0 ]; then
+  [ -z "$seconds" ] && echo "CHECKS 0 0 $total"
+  exit 0
+fi
+if ! log=$(make --no-print-directory -j"$(nproc)" fuzz-build 2>&1); then
   printf '%s\n' "$log" | tail -n 20
   echo "fuzz: building the harnesses failed"
   [ -z "$seconds" ] && echo "CHECKS 0 1 0"
   exit 1
 fi
 mkdir -p build/fuzz/findings
-pass=0; fail=0; skip=0
+pass=0; fail=0
 table=""
-for src in tests/fuzz/fuzz_*.c; do
-  name=$(basename "$src" .c); name=${name#fuzz_}
-  if [ -n "${T:-}" ] && [[ "fuzz/$name" != *"$T"* ]]; then skip=$((skip + 1)); continue; fi
+skip=$((total - ${#selected[@]}))
+for name in "${selected[@]}"; do
   bin=build/fuzz/fuzz_$name seeds=tests/fuzz/corpus/${name%_crc}   # prt_crc: the prt seeds
   opts=(-timeout=10 -rss_limit_mb=2048 -artifact_prefix=build/fuzz/findings/"$name"- -print_final_stats=1)
   if [ -n "$seconds" ]; then

@@ -767,7 +767,7 @@ static int pc_resume(pc_run *r, prt_error *err) {
         }
         fputc('\n', stderr);
     } else if (!r->d.quiet && r->d.resume) {
-        fprintf(stderr, "resume: no checkpoint to continue in %s, starting from the beginning\n", r->d.checkpoint);
+        fprintf(stderr, "resume: nothing recorded in %s yet, starting from the beginning\n", r->d.checkpoint);
     }
     return 0;
 }
