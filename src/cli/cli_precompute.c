@@ -96,9 +96,11 @@ static void note_removed(void *user, const char *name) {
     if (!*(bool *)user) fprintf(stderr, "removed %s (left by a killed run)\n", name);
 }
 
-/* The checkpoint beside out (OUT.ckpt, into ck[4096]) and the temporaries killed runs left there:
- * removed, said on stderr; an earlier run's checkpoint replaced without --resume is said too. */
+/* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out) and
+ * the temporaries killed runs left there: removed, said on stderr; an earlier run's checkpoint
+ * replaced without --resume is said too. */
 static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
+    if (!*out) return;   /* -o "": the write fails as before (issue 12 item 3), and leaves no ".ckpt" */
     snprintf(ck, 4096, "%s.ckpt", out);
     pd->checkpoint = ck;
     const char *kill_after = getenv("PRT_CHECKPOINT_KILL");   /* test hook (checkpoint.h) */
@@ -112,7 +114,7 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
 static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet) {
     prt_error err = { { 0 } };
     double t0 = prt_now();
-    char ck[4096];
+    char ck[4096] = "";
     prt_scene scene = { 0 };
     if (scene_load(in, sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_load = prt_now() - t0;
@@ -148,7 +150,7 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         return cli_error(k_cmd, "%s", err.msg);
     }
     data.stats.t_write = prt_now() - tw;
-    remove(ck);   /* the file is whole: nothing left to resume */
+    if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
     if (!quiet) summary(out, &data, t_load, t0);
     prt_data_free(&data);
     return 0;
