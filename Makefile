@@ -5,13 +5,20 @@
 #   make bench      benchmarks on ../shared/data (not tests)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
+#   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++
 SAN ?= 0
 OPT ?= -O2
 
-ifeq ($(SAN),1)
+ifeq ($(FUZZ),1)
+# `make fuzz` builds the library again with clang, instrumented for libFuzzer (tests/fuzz/).
+CC  := clang
+CXX := clang++
+BUILD := build/fuzz
+SANFLAGS := -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+else ifeq ($(SAN),1)
 BUILD := build/san
 SANFLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
 else
@@ -42,7 +49,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench study study-glossy clean
+.PHONY: all deps test demo bench study study-glossy fuzz fuzz-build clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -76,8 +83,36 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 	$(CC) $(LDFLAGS) $< $(TEST_SUPPORT) $(BUILD)/libprt.a $(LDLIBS) -o $@
 
 # T=FILTER runs only the cases whose "domain/case" name contains FILTER (tests/harness.h).
+# The fuzz harnesses' smoke run (tools/fuzz.sh --smoke: the seeds and a few seconds each) is the
+# suite's last binary; it prints a skip reason when clang's libFuzzer is missing.
 test: all $(TESTS)
-	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS)
+	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) tools/fuzz.sh
+
+# libFuzzer harnesses (tests/fuzz/fuzz_NAME.c, seeds in tests/fuzz/corpus/NAME/): built with clang,
+# ASan and UBSan into build/fuzz/, then each run for FUZZ_SECONDS (tools/fuzz.sh).
+FUZZ_SECONDS ?= 60
+FUZZ_PKGS := clang libclang-rt-dev
+FUZZERS := $(patsubst tests/fuzz/%.c,build/fuzz/%,$(wildcard tests/fuzz/fuzz_*.c))
+FUZZ_CLI_OBJ := $(BUILD)/obj/src/cli/cli_args.o
+fuzz: all
+	@tools/fuzz.sh --seconds $(FUZZ_SECONDS)
+# Installs clang and its runtime libraries (libFuzzer) when missing, then builds the harnesses.
+fuzz-build: $(BUILD)/.deps
+	@if ! command -v clang >/dev/null || ! ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a >/dev/null 2>&1; then \
+	  echo "installing clang and libFuzzer"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $(FUZZ_PKGS); \
+	fi
+	@$(MAKE) --no-print-directory FUZZ=1 $(FUZZERS)
+ifeq ($(FUZZ),1)
+# Linked by clang++ (UBSan's C++ runtime for image_oiio.cpp); clang 14's half-float conversions
+# (transfer_vmf.c) are in compiler-rt's builtins, not libgcc.
+build/fuzz/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/libprt.a $(FUZZ_CLI_OBJ)
+	@mkdir -p $(dir $@)
+	$(CXX) -fsanitize=fuzzer,address,undefined $< $(FUZZ_CLI_OBJ) $(BUILD)/libprt.a $(LDLIBS) \
+	    $$($(CC) -print-libgcc-file-name --rtlib=compiler-rt) -o $@
+$(BUILD)/obj/tests/fuzz/%.o: CFLAGS += -Itests/fuzz
+endif
 
 demo: all
 	$(BUILD)/prt demo -o demo.png

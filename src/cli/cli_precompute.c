@@ -2,6 +2,7 @@
  * with a progress bar and a per-stage timing summary. */
 #include "cli.h"
 #include "cli_args.h"
+#include "checkpoint.h"
 #include "precompute.h"
 #include "prtfile.h"
 #include "refine.h"
@@ -9,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static const char *k_cmd = "precompute";
 
@@ -55,7 +57,10 @@ static void help(void) {
          "  --refine-models        refine the models' edges too (default: the floor's, where there is one)\n"
          "  --no-refine            no refinement\n"
          "other:\n"
-         "  --threads T            worker threads (default: all cores)\n"
+         "  --resume               continue the run killed while writing OUT.prt from its checkpoint\n"
+         "                         OUT.prt.ckpt (written every 2% of the vertices of each pass, removed\n"
+         "                         on success); the file is the one an uninterrupted run writes\n"
+         "  --threads T            worker threads (default: all cores; the file does not depend on it)\n"
          "  --quiet                no progress output\n");
 }
 
@@ -87,10 +92,29 @@ static void summary(const char *out, const prt_data *data, double t_load, double
     fputc('\n', stderr);
 }
 
+static void note_removed(void *user, const char *name) {
+    if (!*(bool *)user) fprintf(stderr, "removed %s (left by a killed run)\n", name);
+}
+
+/* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out) and
+ * the temporaries killed runs left there: removed, said on stderr; an earlier run's checkpoint
+ * replaced without --resume is said too. */
+static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
+    if (!*out) return;   /* -o "": the write fails as before (issue 12 item 3), and leaves no ".ckpt" */
+    snprintf(ck, 4096, "%s.ckpt", out);
+    pd->checkpoint = ck;
+    const char *kill_after = getenv("PRT_CHECKPOINT_KILL");   /* test hook (checkpoint.h) */
+    pd->checkpoint_kill = kill_after ? atoi(kill_after) : 0;
+    ckpt_clean_temps(out, note_removed, &quiet);
+    if (!pd->resume && !quiet && access(ck, F_OK) == 0)
+        fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
+}
+
 /* Loads the scene, runs the pipeline with a progress bar, writes the file. Returns the exit status. */
 static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet) {
     prt_error err = { { 0 } };
     double t0 = prt_now();
+    char ck[4096] = "";
     prt_scene scene = { 0 };
     if (scene_load(in, sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_load = prt_now() - t0;
@@ -105,6 +129,7 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
 
+    checkpoint_setup(out, pd, ck, quiet);
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     pd->progress = prt_bar_report;
@@ -125,6 +150,7 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         return cli_error(k_cmd, "%s", err.msg);
     }
     data.stats.t_write = prt_now() - tw;
+    if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
     if (!quiet) summary(out, &data, t_load, t0);
     prt_data_free(&data);
     return 0;
@@ -170,6 +196,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
+        CLI_B("--resume", &pd.resume),
         CLI_END,
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);

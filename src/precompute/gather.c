@@ -38,6 +38,7 @@
  * nothing. Lambertian neighbours skip the view lookup (the view map is
  * constant). */
 #include "gather.h"
+#include "checkpoint.h"
 #include "cubemap.h"
 #include "vec3.h"
 #include <pthread.h>
@@ -180,6 +181,7 @@ typedef struct gather_ctx {
     bool hconst_ok[PRT_MAX_MATERIALS];
     float eps;
     gather_thread *th;
+    uint8_t *restored;        /* [nverts] restored from the checkpoint (NULL without one) */
     /* progress and cancellation */
     const gather_desc *desc;
     pthread_mutex_t lock;
@@ -369,8 +371,10 @@ static void gather_range(void *ctx, int begin, int end, int thread) {
     int n = 0;
     for (int x = begin; x < end; x++) {
         if (atomic_load_explicit(&c->cancel, memory_order_relaxed)) break;
-        gather_vertex(c, &c->th[thread], x);
         n++;
+        if (c->restored && c->restored[x]) continue;
+        gather_vertex(c, &c->th[thread], x);
+        if (c->desc->ckpt && nvec_of(c->prev, x) > 0) ckpt_add(c->desc->ckpt, c->desc->pass, c->next, x, NULL);
     }
     report(c, n, c->prev->nverts);
 }
@@ -478,7 +482,16 @@ static int threads_alloc(gather_ctx *c, int nth, prt_error *err) {
 /* Frees what ctx_tables and threads_alloc allocated (any part may be NULL). */
 static void ctx_free(gather_ctx *c, int nth) {
     free_threads(c->th, nth);
-    free(c->tex_dir); free(c->tex_dw); free(c->frame);
+    free(c->tex_dir); free(c->tex_dw); free(c->frame); free(c->restored);
+}
+
+/* The vertices of this pass that the checkpoint holds, staged into next (gather_desc.ckpt).
+ * Returns 0 or -1 (a corrupt checkpoint, OOM). */
+static int restore(gather_ctx *c, prt_error *err) {
+    if (!c->desc || !c->desc->ckpt || ckpt_count(c->desc->ckpt, c->desc->pass) == 0) return 0;
+    c->restored = prt_calloc((size_t)c->next->nverts, 1, err);
+    if (!c->restored) return -1;
+    return ckpt_restore(c->desc->ckpt, c->desc->pass, c->next, c->restored, NULL, err) < 0 ? -1 : 0;
 }
 
 /* Frees next and leaves it zeroed; returns -1 for the caller to pass on. */
@@ -512,6 +525,10 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     c.eps = vis_eps(vs);
     int nth = prt_thread_count(desc ? desc->nthreads : 0);
     if (ctx_tables(&c, err) || threads_alloc(&c, nth, err)) {
+        ctx_free(&c, nth);
+        return drop_set(next);
+    }
+    if (restore(&c, err)) {
         ctx_free(&c, nth);
         return drop_set(next);
     }

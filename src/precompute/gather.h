@@ -32,6 +32,9 @@ typedef struct gather_desc {
     prt_progress_fn progress;
     void *progress_user;
     const char *stage;       /* progress stage name ("bounce 1") */
+    struct prt_checkpoint *ckpt; /* non-NULL: vertices of `pass` recorded there are restored, not
+                              * gathered, and each gathered vertex is recorded (checkpoint.h) */
+    int pass;                /* the checkpoint's pass number (1 for the first bounce) */
 } gather_desc;
 
 /* One pass from prev to next over d's scene and factors (d->transport is ignored).

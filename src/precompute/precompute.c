@@ -46,6 +46,7 @@
  * that ratio. */
 #include "precompute.h"
 #include "check.h"
+#include "checkpoint.h"
 #include "cubemap.h"
 #include "gather.h"
 #include "haar.h"
@@ -89,9 +90,6 @@ typedef struct pc_scratch {
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
     double t_cpu;           /* CPU seconds of the thread in pc_range (t_cpu / t_busy: share of a core it got) */
-    long traced, hits;
-    double err_sum;     /* sum over vectors of (relative L2 error)^2 */
-    long err_count;
 } pc_scratch;
 
 /* Shared state of the direct pass. */
@@ -110,6 +108,11 @@ typedef struct pc_ctx {
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
     const int *order;       /* vertices to process, indexed by the parallel-for range */
     pc_scratch *scratch;    /* [nthreads] */
+    /* per vertex, so that the file's statistics are summed in vertex order whatever the threads
+     * and whether restored from a checkpoint or computed */
+    ckpt_vstats *vst;       /* [nverts] rays and truncation error */
+    uint8_t *restored;      /* [nverts] 1: restored from the checkpoint */
+    prt_checkpoint *ck;     /* NULL: none */
     /* progress */
     pthread_mutex_t lock;
     atomic_int cancelled;
@@ -227,7 +230,7 @@ static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3],
 
 /* Projection (the representation's op, once per vector channel) and compression of vertex v's
  * K vectors, with the truncation + quantization error statistics. */
-static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K) {
+static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K, ckpt_vstats *vs) {
     const size_t ct = CUBE_TEXELS;
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
@@ -245,28 +248,32 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K) {
         for (int q = 0; q < 8; q++) norm2 += p8[q];
         double e2 = c->ops->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         if (norm2 > 0) {
-            s->err_sum += e2 / norm2;
-            s->err_count++;
+            vs->err += e2 / norm2;
+            vs->errs++;
         }
     }
 }
 
-/* The full direct computation of vertex v: visibility, Eq. 3, projection, storage. A vertex whose
- * material the transfer does not shade has no vectors (and no rays cast). */
+/* The full direct computation of vertex v: visibility, Eq. 3, projection, storage, its statistics
+ * and its checkpoint record. A vertex whose material the transfer does not shade has no vectors
+ * (and no rays cast); one restored from the checkpoint is done. */
 static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     const prt_mesh *m = c->mesh;
     const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
     int mat = m->mat ? m->mat[v] : 0;
-    if (!((c->materials >> mat) & 1)) return;
+    if (!((c->materials >> mat) & 1) || c->restored[v]) return;
     double t0 = prt_now();
     long tr = 0, hi = 0;
     vis_cube(c->vs, p, n, c->vres, s->vis, &tr, &hi);
     double t1 = prt_now();
-    s->traced += tr;
-    s->hits += hi;
+    ckpt_vstats *vs = &c->vst[v];
+    memset(vs, 0, sizeof *vs);
+    vs->traced = tr;
+    vs->hits = hi;
     pc_box_filter(c, s, n);
     pc_transport_cubes(c, s, n, mat);
-    pc_store(c, s, v, c->factors[mat].K);
+    pc_store(c, s, v, c->factors[mat].K, vs);
+    ckpt_add(c->ck, 0, c->t, v, vs);
     double t2 = prt_now();
     s->t_vis += t1 - t0;
     s->t_busy += t2 - t0;
@@ -488,6 +495,9 @@ typedef struct pc_run {
     pc_scratch scratch[PC_MAX_THREADS];
     prt_transport direct, total, last;
     pc_ctx c;
+    ckpt_vstats *vst;           /* pc_ctx's per-vertex statistics */
+    uint8_t *restored;
+    prt_checkpoint *ck;
     bool have_lock;
     int nsample, max_b;
     double t_sample, hit_sample;
@@ -659,7 +669,9 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->ldir = r->vdw ? prt_calloc((size_t)CUBE_TEXELS * 3, sizeof(float), err) : NULL;
     r->nvec = r->ldir ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
     r->order = r->nvec ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
-    if (!r->order) return -1;
+    r->vst = r->order ? prt_calloc((size_t)m->nverts, sizeof *r->vst, err) : NULL;
+    r->restored = r->vst ? prt_calloc((size_t)m->nverts, 1, err) : NULL;
+    if (!r->restored) return -1;
     for (int i = 0; i < 6 * R * R; i++) {
         float dd[3];
         cube_texel_dir(R, i, dd);
@@ -692,9 +704,71 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->ldir = r->ldir;
     c->order = r->order;
     c->scratch = r->scratch;
+    c->vst = r->vst;
+    c->restored = r->restored;
     c->total = m->nverts;
     c->progress = r->d.progress;
     c->progress_user = r->d.progress_user;
+    return 0;
+}
+
+/* The checkpoint's key: everything the passes' results depend on (checkpoint.h): the mesh as
+ * precomputed (after refinement), the materials, their factors and the transfer's configuration,
+ * and the options that shape the passes; not the threads, which change nothing. */
+static uint64_t pc_key(const pc_run *r) {
+    const prt_scene *sc = &r->out->scene;
+    const prt_mesh *m = &sc->mesh;
+    const precompute_desc *d = &r->d;
+    ckpt_key k = ckpt_key_init();
+    ckpt_key_str(&k, "prt precompute checkpoint 1");
+    ckpt_key_add(&k, &m->nverts, sizeof m->nverts);
+    ckpt_key_add(&k, &m->ntris, sizeof m->ntris);
+    ckpt_key_add(&k, m->pos, 3 * sizeof(float) * (size_t)m->nverts);
+    ckpt_key_add(&k, m->nrm, 3 * sizeof(float) * (size_t)m->nverts);
+    ckpt_key_add(&k, m->tris, 3 * sizeof(uint32_t) * (size_t)m->ntris);
+    if (m->mat) ckpt_key_add(&k, m->mat, sizeof(uint16_t) * (size_t)m->nverts);
+    ckpt_key_add(&k, &sc->floor_first_vertex, sizeof sc->floor_first_vertex);
+    for (int i = 0; i < sc->nmaterials; i++) {
+        const brdf_factor *f = &r->out->factors[i];
+        ckpt_key_str(&k, sc->material_spec[i]);
+        ckpt_key_add(&k, &f->K, sizeof f->K);
+        ckpt_key_add(&k, &f->res, sizeof f->res);
+        if (f->light) ckpt_key_add(&k, f->light, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
+        if (f->view) ckpt_key_add(&k, f->view, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
+    }
+    for (const prt_transfer *t = r->tr; t; t = t == r->tr ? r->vtr : NULL) {   /* the sparse transfer, the vmf one */
+        ckpt_key_str(&k, t->ops->name);
+        ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
+        ckpt_key_add(&k, &t->materials, sizeof t->materials);
+    }
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
+    ckpt_key_add(&k, iv, sizeof iv);
+    ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
+    return ckpt_key_value(&k);
+}
+
+/* Stage resume: opens the checkpoint when asked for (new, or the one to continue: its direct-pass
+ * vertices restored into the direct set, the other passes' counts said on stderr). Returns 0 or -1. */
+static int pc_resume(pc_run *r, prt_error *err) {
+    if (!r->d.checkpoint) return 0;
+    const prt_mesh *m = &r->out->scene.mesh;
+    r->ck = ckpt_open(r->d.checkpoint, pc_key(r), r->d.resume, m->nverts, r->d.checkpoint_kill, err);
+    if (!r->ck) return -1;
+    r->c.ck = r->ck;
+    int n0 = ckpt_restore(r->ck, 0, &r->direct, r->restored, r->vst, err);
+    if (n0 < 0) return -1;
+    if (!r->d.quiet && n0 > 0) {
+        fprintf(stderr, "resuming from %s: visibility+transport %d of %d vertices done", r->d.checkpoint, n0, m->nverts);
+        for (int b = 1; b < CKPT_PASS_VMF && ckpt_count(r->ck, b) > 0; b++)
+            fprintf(stderr, ", bounce %d %d", b, ckpt_count(r->ck, b));
+        for (int p = 0; CKPT_PASS_VMF + p < CKPT_MAX_PASSES && ckpt_count(r->ck, CKPT_PASS_VMF + p) > 0; p++) {
+            if (p == 0) fprintf(stderr, ", vmf direct %d", ckpt_count(r->ck, CKPT_PASS_VMF));
+            else fprintf(stderr, ", vmf pass %d %d slices", p, ckpt_count(r->ck, CKPT_PASS_VMF + p));
+        }
+        fputc('\n', stderr);
+    } else if (!r->d.quiet && r->d.resume) {
+        fprintf(stderr, "resume: nothing recorded in %s yet, starting from the beginning\n", r->d.checkpoint);
+    }
     return 0;
 }
 
@@ -728,7 +802,7 @@ static int pc_plan(pc_run *r, prt_error *err) {
     r->t_sample = prt_now() - ts;
     if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
     long s_traced = 0, s_hits = 0;
-    for (int t = 0; t < r->nthreads; t++) { s_traced += r->scratch[t].traced; s_hits += r->scratch[t].hits; }
+    for (int i = 0; i < r->nsample; i++) { s_traced += r->vst[r->order[i]].traced; s_hits += r->vst[r->order[i]].hits; }
     r->hit_sample = s_traced ? (double)s_hits / (double)s_traced : 0;
     double est_direct = r->nsample ? r->t_sample / r->nsample * (m->nverts - r->nsample) : 0;
     plan_add(r->plan, r->pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
@@ -771,13 +845,12 @@ static int pc_direct(pc_run *r, prt_error *err) {
     if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
     double tv = 0, tb = 0, es = 0;
     long ec = 0;
-    for (int t = 0; t < r->nthreads; t++) {
-        st->rays_traced += r->scratch[t].traced;
-        st->rays_hit += r->scratch[t].hits;
-        tv += r->scratch[t].t_vis;
-        tb += r->scratch[t].t_busy;
-        es += r->scratch[t].err_sum;
-        ec += r->scratch[t].err_count;
+    for (int t = 0; t < r->nthreads; t++) { tv += r->scratch[t].t_vis; tb += r->scratch[t].t_busy; }
+    for (int v = 0; v < m->nverts; v++) {   /* in vertex order: the same sums whatever ran where */
+        st->rays_traced += r->vst[v].traced;
+        st->rays_hit += r->vst[v].hits;
+        es += r->vst[v].err;
+        ec += r->vst[v].errs;
     }
     st->hit_fraction = st->rays_traced ? (double)st->rays_hit / (double)st->rays_traced : 0;
     st->t_visibility = tb > 0 ? t_direct * tv / tb : 0;
@@ -806,7 +879,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         char stage[32], line[256];
         snprintf(stage, sizeof stage, "bounce %d", b);
         gather_desc gd = { .res = r->d.gather_res, .nthreads = r->nthreads, .progress = r->d.progress,
-                           .progress_user = r->d.progress_user, .stage = stage };
+                           .progress_user = r->d.progress_user, .stage = stage, .ckpt = r->ck, .pass = b };
         prt_transport next = { 0 }, sum = { 0 };
         double tb0 = prt_now();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
@@ -839,7 +912,7 @@ static int pc_vmf(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
     transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
                                   .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
-                                  .progress = r->d.progress, .progress_user = r->d.progress_user };
+                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck };
     double t0 = prt_now();
     if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
     r->out->stats.t_vmf = prt_now() - t0;
@@ -871,7 +944,8 @@ static void pc_cleanup(pc_run *r) {
     if (r->have_lock) pthread_mutex_destroy(&r->c.lock);
     for (int t = 0; t < PC_MAX_THREADS; t++) pc_scratch_free(&r->scratch[t]);
     vis_destroy(r->vs);
-    free(r->vdir); free(r->vdw); free(r->ldir); free(r->order); free(r->nvec);
+    free(r->vdir); free(r->vdw); free(r->ldir); free(r->order); free(r->nvec); free(r->vst); free(r->restored);
+    ckpt_close(r->ck, NULL);
     transport_free(&r->direct);
     transport_free(&r->total);
     transport_free(&r->last);
@@ -894,12 +968,15 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
     out->vis_res = r->d.vis_res;
     out->gather_res = r->d.gather_res;
-    if (pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err)) goto done;
+    if (pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err) || pc_resume(r, err)) goto done;
     atomic_init(&r->c.cancelled, 0);
     atomic_init(&r->c.done, 0);
     pthread_mutex_init(&r->c.lock, NULL);
     r->have_lock = true;
     if (pc_plan(r, err) || pc_direct(r, err) || pc_bounces(r, err) || pc_vmf(r, err)) goto done;
+    prt_checkpoint *ck = r->ck;
+    r->ck = NULL;
+    if (ckpt_close(ck, err)) goto done;
     pc_finish(r);
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();

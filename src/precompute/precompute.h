@@ -42,6 +42,12 @@
  * and the refined mesh is what is precomputed, stored and drawn; the plan's first line
  * says vertices before and after, models and floor, and its time.
  *
+ * Resuming (desc.checkpoint, desc.resume): the direct pass, each gathering pass and the vMF
+ * passes log every finished vertex (vMF gathering: slice) to the checkpoint, flushed every
+ * CKPT_INTERVAL_PERCENT (2%) of the vertices; a resumed run restores them (saying how many per
+ * pass on stderr unless quiet), computes the rest and gives the same transfers, mesh, materials
+ * and statistics as an uninterrupted run (only the timings differ, as between any two runs).
+ *
  * Cancelling: the progress callback returning false stops the run with error "cancelled". */
 #ifndef PRT_PRECOMPUTE_H
 #define PRT_PRECOMPUTE_H
@@ -84,7 +90,13 @@ typedef struct precompute_desc {
     int refine_parts;       /* refine.h's parts: 0 the floor's edges when there is a floor, REFINE_ALL models too */
     precompute_glossy glossy; /* auto (default), svd or vmf */
     transfer_config vmf;    /* the vmf transfer's lobes / level / samples (zero: its defaults) */
-    int nthreads;           /* 0: all cores */
+    int nthreads;           /* 0: all cores (results do not depend on it) */
+    const char *checkpoint; /* non-NULL: log the direct and gathering passes' vertices to this file
+                             * (checkpoint.h), so a killed run can resume; the caller removes it
+                             * once the output is written */
+    bool resume;            /* continue from `checkpoint` when it exists (one of other inputs or
+                             * options is refused); else it is started anew */
+    int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
     prt_progress_fn progress;
     void *progress_user;
     bool quiet;             /* do not print the plan */

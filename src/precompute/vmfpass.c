@@ -6,6 +6,7 @@
  * hashed (phash.h) and become the rows every gathering pass fills: the gathering rays are the
  * direct pass's rays again (same seeds), so only slices with a blocked ray can gather. */
 #include "vmfpass.h"
+#include "checkpoint.h"
 #include "check.h"
 #include "scene.h"
 #include "visibility.h"
@@ -56,6 +57,7 @@ typedef struct vp_ctx {
     uint32_t *slot_v, *slot_j;    /* stored slices in (vertex, view) order */
     size_t nslices;
     int pass, total;
+    uint8_t *restored;            /* per item of the running stage: restored from the checkpoint */
     const char *stage;
     atomic_int done;
     atomic_bool cancel;
@@ -293,10 +295,49 @@ static double vp_open_slice(const vp_ctx *c, int v, int j) {
     return lum3(A);
 }
 
+/* The checkpoint blob of glossy vertex gi (CKPT_PASS_VMF): energy, active views and its stored
+ * slices (the last n of the thread's list), each a view and its I packed lobes. */
+static void vp_record_vertex(const vp_ctx *c, int gi, const vp_list *L, size_t first) {
+    if (!c->in->ckpt) return;
+    size_t per = 4 + 4 * (size_t)c->I * VMFT_WORDS, n = L->n - first, len = 16 + n * per;
+    uint8_t *b = malloc(len);
+    if (!b) return;   /* not recorded: a resume computes it again */
+    uint32_t cnt = (uint32_t)n;
+    memcpy(b, &c->energy[gi], 8), memcpy(b + 8, &c->nactive[gi], 4), memcpy(b + 12, &cnt, 4);
+    for (size_t i = 0; i < n; i++) {
+        memcpy(b + 16 + i * per, &L->e[first + i].j, 4);
+        memcpy(b + 20 + i * per, L->e[first + i].w, per - 4);
+    }
+    ckpt_add_blob(c->in->ckpt, CKPT_PASS_VMF, (uint32_t)gi, b, (uint32_t)len);
+    free(b);
+}
+
+/* Restores one blob of vp_record_vertex into the context (its slices into thread 0's list: vp_build
+ * sorts every list). Returns 0, or -1 when it does not fit. */
+static int vp_restore_vertex(void *user, uint32_t gi, const uint8_t *b, uint32_t len) {
+    vp_ctx *c = user;
+    size_t per = 4 + 4 * (size_t)c->I * VMFT_WORDS;
+    uint32_t cnt;
+    if (gi >= (uint32_t)c->ngverts || len < 16) return -1;
+    memcpy(&cnt, b + 12, 4);
+    if (len != 16 + cnt * per) return -1;
+    memcpy(&c->energy[gi], b, 8), memcpy(&c->nactive[gi], b + 8, 4);
+    for (uint32_t i = 0; i < cnt; i++) {
+        uint32_t j, w[VMFT_MAX_LOBES * VMFT_WORDS] = { 0 };
+        memcpy(&j, b + 16 + i * per, 4);
+        memcpy(w, b + 20 + i * per, per - 4);
+        if (j >= (uint32_t)c->t->nviews || !vp_list_push(&c->th[0].list, (uint32_t)c->gverts[gi], j, w)) return -1;
+    }
+    c->restored[gi] = 1;
+    return 0;
+}
+
 static void vp_direct_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
     vp_thread *th = &c->th[thread];
     for (int gi = begin; gi < end && !atomic_load(&c->cancel); gi++) {
+        if (c->restored && c->restored[gi]) continue;
+        size_t first = th->list.n;
         int v = c->gverts[gi];
         double ev = 0, e;
         uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS] = { 0 }, na = 0;
@@ -309,6 +350,7 @@ static void vp_direct_range(void *ctx, int begin, int end, int thread) {
         }
         c->energy[gi] = ev;
         c->nactive[gi] = na;
+        vp_record_vertex(c, gi, &th->list, first);
     }
     vp_progress(c, end - begin);
 }
@@ -446,6 +488,13 @@ static double vp_gather_merge(const vp_ctx *c, vp_item *it, int ni, uint32_t *w)
     return e;
 }
 
+/* Where stored slice e's lobes of the running pass live in the transfer. */
+static uint32_t *vp_slice_lobes(const vp_ctx *c, size_t e) {
+    long s = phash_find(&c->t->hash, c->slot_v[e], c->slot_j[e]);
+    PRT_CHECK(s >= 0);
+    return c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
+}
+
 /* Stored slice e (pass c->pass): the direct pass's rays again, their hits gathered and merged. */
 static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
     int v = (int)c->slot_v[e], j = (int)c->slot_j[e];
@@ -466,15 +515,31 @@ static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
             for (int k = 0; k < 3; k++) fit |= (c->t->materials >> c->m->mat[tri[k]]) & 1;
         }
     if (c->pass == 1) c->hitfit[e] = fit;
-    long s = phash_find(&c->t->hash, (uint32_t)v, (uint32_t)j);
-    PRT_CHECK(s >= 0);
-    uint32_t *w = c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
+    uint32_t *w = vp_slice_lobes(c, e);
     c->energy[e] = vp_gather_merge(c, th->items, ni, w);
+    if (c->in->ckpt) {   /* its checkpoint blob (CKPT_PASS_VMF + pass): energy, hit flag, lobes */
+        uint8_t b[9 + 4 * VMFT_MAX_LOBES * VMFT_WORDS];
+        memcpy(b, &c->energy[e], 8), b[8] = c->hitfit[e];
+        memcpy(b + 9, w, 4 * (size_t)c->I * VMFT_WORDS);
+        ckpt_add_blob(c->in->ckpt, CKPT_PASS_VMF + c->pass, (uint32_t)e, b, 9 + 4 * (uint32_t)c->I * VMFT_WORDS);
+    }
+}
+
+/* Restores one slice's blob (vp_gather_slice) of the running pass. Returns 0, or -1 when it does not fit. */
+static int vp_restore_slice(void *user, uint32_t e, const uint8_t *b, uint32_t len) {
+    vp_ctx *c = user;
+    if (e >= c->nslices || len != 9 + 4 * (uint32_t)c->I * VMFT_WORDS) return -1;
+    memcpy(&c->energy[e], b, 8);
+    if (c->pass == 1) c->hitfit[e] = b[8];
+    memcpy(vp_slice_lobes(c, e), b + 9, 4 * (size_t)c->I * VMFT_WORDS);
+    c->restored[e] = 1;
+    return 0;
 }
 
 static void vp_gather_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
-    for (int e = begin; e < end && !atomic_load(&c->cancel); e++) vp_gather_slice(c, &c->th[thread], (size_t)e);
+    for (int e = begin; e < end && !atomic_load(&c->cancel); e++)
+        if (!c->restored || !c->restored[e]) vp_gather_slice(c, &c->th[thread], (size_t)e);
     vp_progress(c, end - begin);
 }
 
@@ -519,10 +584,19 @@ static void vp_diffuse_range(void *ctx, int begin, int end, int thread) {
 
 /* ---- the run ---------------------------------------------------------------------------------- */
 
-/* One stage over n items in chunks of grain: fn through prt_parallel_for, progress as `stage`. */
-static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, prt_error *err) {
+/* One stage over n items in chunks of grain: fn through prt_parallel_for, progress as `stage`;
+ * with a checkpoint, the items of its pass ckpass (-1: none) that it holds are restored first
+ * (restore) and skipped. */
+static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, int ckpass,
+                    int (*restore)(void *, uint32_t, const uint8_t *, uint32_t), prt_error *err) {
     c->stage = stage, c->total = n > 0 ? n : 1;
     atomic_store(&c->done, 0);
+    free(c->restored);
+    c->restored = NULL;
+    if (ckpass >= 0 && ckpt_count(c->in->ckpt, ckpass) > 0) {
+        c->restored = prt_calloc((size_t)n + 1, 1, err);
+        if (!c->restored || ckpt_restore_blobs(c->in->ckpt, ckpass, restore, c, err) < 0) return -1;
+    }
     prt_parallel_for(n, grain, c->in->nthreads, fn, c);
     if (atomic_load(&c->cancel)) return prt_fail(err, "vmf precompute: cancelled");
     return 0;
@@ -563,6 +637,7 @@ static void vp_teardown(vp_ctx *c) {
         free(th->dirs), free(th->tdirs), free(th->tidx), free(th->hits), free(th->blocked), free(th->items), free(th->list.e);
     }
     free(c->gverts), free(c->dlobe), free(c->energy), free(c->hitfit), free(c->nactive), free(c->slot_v), free(c->slot_j);
+    free(c->restored);
     pthread_mutex_destroy(&c->lock);
 }
 
@@ -587,7 +662,7 @@ static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
     for (int p = 1; p < R; p++) {
         double t0 = prt_now();
         c->pass = p;
-        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, err)) return -1;
+        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, CKPT_PASS_VMF + p, vp_restore_slice, err)) return -1;
         double e = 0;
         for (size_t i = 0; i < c->nslices; i++) e += c->energy[i];
         t->energy[p] = e0 > 0 ? e / e0 : 0;
@@ -612,8 +687,10 @@ int vmfpass_run(const transfer_precompute_in *in, prt_transfer *tr, prt_error *e
         vp_setup(c, tr, err))
         goto done;
     double t0 = prt_now();
-    if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, err)) goto done;
-    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, err) || vp_build(c, R, err)) goto done;
+    if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, -1, NULL, err)) goto done;
+    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, CKPT_PASS_VMF, vp_restore_vertex, err) ||
+        vp_build(c, R, err))
+        goto done;
     double e0 = 0;
     for (int i = 0; i < c->ngverts; i++) e0 += c->energy[i], t->slices += c->nactive[i];
     t->energy[0] = 1;

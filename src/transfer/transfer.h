@@ -129,6 +129,8 @@ typedef struct transfer_precompute_in {
     int nthreads;                   /* 0: all cores */
     prt_progress_fn progress;       /* may cancel: returning false stops with "cancelled" */
     void *progress_user;
+    struct prt_checkpoint *ckpt;    /* non-NULL: the passes restore what it holds and record the rest
+                                     * (checkpoint.h: a resumable run) */
 } transfer_precompute_in;
 
 /* GLSL sources of a light kernel family, compiled by glrt (gpu/glrt.c). The kernel computes

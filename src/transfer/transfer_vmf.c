@@ -67,8 +67,15 @@ size_t vmft_bytes(const vmft_data *t) {
 
 /* ---- the packed lobe ---------------------------------------------------------------------- */
 
+/* clang before 15 has no _Float16 on x86 (`make fuzz` builds with Debian's clang 14); its __fp16
+ * is the same IEEE half as a storage type, converted with the same round-to-nearest-even. */
+#if defined(__clang__) && __clang_major__ < 15
+typedef __fp16 vmft_half;
+#else
+typedef _Float16 vmft_half;
+#endif
 static uint16_t half_bits(float x) {
-    _Float16 h = (_Float16)x;
+    vmft_half h = (vmft_half)x;
     uint16_t u;
     memcpy(&u, &h, 2);
     return u;
