@@ -194,7 +194,7 @@ static void killed_twice(void) {
     static const int at[] = { 20, 40 };
     kill_and_resume("twice.prt", "", at, 2, temporaries, buf, sizeof buf);
     check_same("twice.prt", "killed twice");
-    CHECK(!exists(g_dead) && strstr(buf, "(left by a killed run)"), "the dead run's temporary was not removed: %s", buf);
+    CHECK(!exists(g_dead) && strstr(buf, "stale temporary file(s) of killed runs"), "the dead run's temporary was not removed: %s", buf);
     CHECK(exists(g_live), "the temporary of a live process was removed");
     remove(g_live);
 }

@@ -92,20 +92,15 @@ static void summary(const char *out, const prt_data *data, double t_load, double
     fputc('\n', stderr);
 }
 
-static void note_removed(void *user, const char *name) {
-    if (!*(bool *)user) fprintf(stderr, "removed %s (left by a killed run)\n", name);
-}
-
-/* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out) and
- * the temporaries killed runs left there: removed, said on stderr; an earlier run's checkpoint
- * replaced without --resume is said too. */
+/* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out); an
+ * earlier run's checkpoint replaced without --resume is said on stderr. (The temporaries killed
+ * runs left are removed before the work by cli_check_output.) */
 static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
     if (!*out) return;   /* -o "": the write fails as before (issue 12 item 3), and leaves no ".ckpt" */
     snprintf(ck, 4096, "%s.ckpt", out);
     pd->checkpoint = ck;
     const char *kill_after = getenv("PRT_CHECKPOINT_KILL");   /* test hook (checkpoint.h) */
     pd->checkpoint_kill = kill_after ? atoi(kill_after) : 0;
-    ckpt_clean_temps(out, note_removed, &quiet);
     if (!pd->resume && !quiet && access(ck, F_OK) == 0)
         fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
 }

@@ -14,7 +14,6 @@
 #include "checkpoint.h"
 #include "cubemap.h"
 #include "sparse.h"
-#include <dirent.h>
 #include <errno.h>
 #include <math.h>
 #include <pthread.h>
@@ -373,31 +372,3 @@ int ckpt_close(prt_checkpoint *c, prt_error *err) {
     return rc;
 }
 
-int ckpt_clean_temps(const char *path, void (*note)(void *user, const char *removed), void *user) {
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s", path);
-    char *slash = strrchr(dir, '/');
-    const char *base = slash ? slash + 1 : path;
-    if (slash) *slash = 0;
-    DIR *d = opendir(slash ? (dir[0] ? dir : "/") : ".");
-    if (!d) return 0;
-    size_t bl = strlen(base);
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d));) {
-        /* "<base>.tmp.<pid>", pid all digits, no longer a process */
-        if (strncmp(e->d_name, base, bl) != 0 || strncmp(e->d_name + bl, ".tmp.", 5) != 0) continue;
-        const char *digits = e->d_name + bl + 5;
-        char *end;
-        long pid = strtol(digits, &end, 10);
-        if (!*digits || *end || pid <= 0 || (kill((pid_t)pid, 0) == 0 || errno != ESRCH)) continue;
-        char full[8192];
-        if (slash) snprintf(full, sizeof full, "%s/%s", dir, e->d_name);
-        else snprintf(full, sizeof full, "%s", e->d_name);
-        if (remove(full) == 0) {
-            n++;
-            if (note) note(user, full);
-        }
-    }
-    closedir(d);
-    return n;
-}

@@ -87,8 +87,4 @@ int ckpt_restore_blobs(prt_checkpoint *c, int pass, int (*fn)(void *user, uint32
                        void *user, prt_error *err);
 /* Flushes and closes (the file stays). Returns 0, or -1 with err when a write failed. */
 int ckpt_close(prt_checkpoint *c, prt_error *err);
-
-/* Removes the temporaries "<path>.tmp.<pid>" that runs killed while writing path left behind
- * (pid no longer running), telling note (may be NULL) each name. Returns how many. */
-int ckpt_clean_temps(const char *path, void (*note)(void *user, const char *removed), void *user);
 #endif
