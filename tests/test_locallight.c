@@ -11,11 +11,20 @@
  *     its projected shadow get 0, those outside the analytic value (both runtimes, reference);
  *   - spot falloff over the plane against the smoothstep written out independently; a
  *     glossy Phong plane against the Phong formula by hand;
+ *   - the GLSL BRDF (gllights.h) against brdf_eval for every model at random directions;
+ *   - both runtimes (cpu and gl, through OSMesa) on the shadowed plane precomputed with a black
+ *     probe: vertex colours equal the analytic answer, the gl per-pixel image equals it at every
+ *     pixel seeing the plane away from the shadow's edge, the cpu (Gouraud) image stays near it,
+ *     and the two images agree;
  *   - furnace: a point light at the centre of a closed Lambert sphere (albedo a, inward
  *     normals): L = a/pi I/R^2 sum_{j<=k} a^j with k bounces (uniform interreflection). */
 #include "harness.h"
 #include "brdf.h"
+#include "camera.h"
+#include "image.h"
 #include "direct.h"
+#include "glctx.h"
+#include "gllights.h"
 #include "lights.h"
 #include "mesh.h"
 #include "precompute.h"
@@ -334,6 +343,140 @@ static void furnace(void) {
     scene_free(&s);
 }
 
+/* ---------------------------------------------------------------- GL */
+
+/* brdf_glsl at 2,000 random direction pairs per model equals brdf_eval (float vs double): 1e-3
+ * relative, or 1e-4 of the largest value (grazing pow() near its clamp). */
+static void glsl_brdf(void) {
+    static const char *specs[] = { "lambert:kd=0.3,0.5,0.7", "phong:kd=0.2;ks=0.6;n=40", "blinn:kd=0.1;ks=0.5;n=80",
+                                   "as:kd=0.4;ks=0.2;nu=10;nv=200", "lafortune:kd=0.2;lobe=-0.8,-0.8,0.9,20;lobe=0.5,0.5,0.7,5",
+                                   "ggx:kd=0.1;ks=0.04,0.5,0.9;alpha=0.15", "beckmann:kd=0.2;ks=0.3;alpha=0.4" };
+    prt_error err = { { 0 } };
+    glctx *ctx = glctx_create(GLCTX_AUTO, NULL, &err);
+    CHECK(ctx != NULL, "%s", err.msg);
+    if (!ctx) return;
+    prt_scene s = { 0 };
+    prt_mesh m = { 0 };
+    CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0, 2, 2, &err) == 0 && scene_from_mesh(&m, specs[0], &s, &err) == 0, "%s", err.msg);
+    for (size_t i = 1; i < sizeof specs / sizeof specs[0]; i++) CHECK(scene_material(&s, specs[i], &err) == (int)i, "%s", err.msg);
+    gllights *L = gllights_create(&ctx->gl, &s, &err);
+    CHECK(L != NULL, "%s", err.msg);
+    enum { NP = 2000 };
+    float *wi = malloc(sizeof(float) * 3 * NP), *wo = malloc(sizeof(float) * 3 * NP), *gpu = malloc(sizeof(float) * 3 * NP);
+    uint32_t r = 12345;
+    for (int i = 0; i < 2 * NP; i++) {   /* uniform on the sphere: a few below the horizon (0 on both) */
+        float *w = i < NP ? wi + 3 * i : wo + 3 * (i - NP);
+        r = r * 1664525u + 1013904223u;
+        float z = -0.2f + 1.2f * (float)(r >> 8) / 16777216.f;
+        r = r * 1664525u + 1013904223u;
+        float phi = 6.2831853f * (float)(r >> 8) / 16777216.f, q = sqrtf(fmaxf(0, 1 - z * z));
+        w[0] = q * cosf(phi), w[1] = q * sinf(phi), w[2] = z;
+    }
+    for (int mi = 0; L && mi < s.nmaterials; mi++) {
+        CHECK(gllights_eval_brdf(L, mi, wi, wo, NP, gpu, &err) == 0, "%s", err.msg);
+        double worst = 0, peak = 0;
+        for (int i = 0; i < NP; i++) {
+            float f[3];
+            brdf_eval(&s.materials[mi], wi + 3 * i, wo + 3 * i, f);
+            for (int c = 0; c < 3; c++) peak = fmax(peak, f[c]);
+        }
+        for (int i = 0; i < NP; i++) {
+            float f[3];
+            brdf_eval(&s.materials[mi], wi + 3 * i, wo + 3 * i, f);
+            for (int c = 0; c < 3; c++) worst = fmax(worst, fabs(gpu[3 * i + c] - f[c]) / (fabs(f[c]) + 1e-1 * 1e-3 * peak));
+        }
+        CHECK_LE(worst, 1e-3, "%s: GLSL against brdf_eval (peak %.3g)", specs[mi], peak);
+    }
+    free(wi);
+    free(wo);
+    free(gpu);
+    gllights_destroy(L);
+    scene_free(&s);
+    glctx_destroy(ctx);
+}
+
+/* Whether the camera ray from eye along d reaches the floor (y = 0, |x|,|z| < 0.95) before the
+ * occluder; the floor point into p. */
+static bool ray_floor(const float eye[3], const float d[3], float p[3]) {
+    if (!(d[1] < 0)) return false;
+    float to = (k_occ_y - eye[1]) / d[1], ox = eye[0] + to * d[0], oz = eye[2] + to * d[2];
+    if (fabsf(ox) <= k_occ + 0.02f && fabsf(oz) <= k_occ + 0.02f) return false;
+    float t = -eye[1] / d[1];
+    for (int k = 0; k < 3; k++) p[k] = eye[k] + t * d[k];
+    return fabsf(p[0]) < 0.95f && fabsf(p[2]) < 0.95f;
+}
+
+/* The shadowed plane through both runtimes (see the header). */
+static void runtimes_plane(void) {
+    prt_scene s = { 0 };
+    int nf;
+    if (plane_scene(true, "lambert:kd=0.6", &s, &nf)) return;
+    prt_error err = { { 0 } };
+    prt_light l = point_light();
+    lights_add(&s.lights, &l, "t", &err);
+    prt_data d;
+    precompute_desc pd = { .N = 16, .vis_res = 64, .quiet = true, .force_bounces = -1 };
+    CHECK(precompute_run(&s, &pd, &d, &err) == 0, "%s", err.msg);
+    prt_probe black;
+    const float zero[3] = { 0, 0, 0 };
+    probe_make_constant(zero, &black, &err);
+    enum { IW = 160, IH = 120 };
+    prt_camera cam = { .eye = { 0.1f, 2.2f, 1.6f }, .target = { 0, 0, 0 }, .up = { 0, 1, 0 }, .fov_deg = 50 };
+    render_desc rd = { .width = IW, .height = IH, .camera = cam };
+    int n = d.scene.mesh.nverts;
+    float *rgb[2] = { calloc(3 * (size_t)n, sizeof(float)), calloc(3 * (size_t)n, sizeof(float)) };
+    prt_image img[2] = { { 0 } };
+    static const char *names[2] = { "cpu", "gl" };
+    for (int b = 0; b < 2; b++) {
+        runtime_desc desc = { .backend = names[b], .threads = 2 };
+        prt_runtime *rt = runtime_create(&d, &desc, &err);
+        int rc = !rt || runtime_set_light(rt, &black, NULL, &err) || runtime_set_local_lights(rt, &d.scene.lights, &err) ||
+                 runtime_shade_vertices(rt, cam.eye, rgb[b], &err) || runtime_render(rt, &rd, &img[b], &err);
+        CHECK(rc == 0, "%s: %s", names[b], err.msg);
+        if (rc == 0) check_plane(b ? "gl vertex colours" : "cpu vertex colours", &d.scene, nf, true, rgb[b], 1e-4);
+        runtime_timing t;
+        if (rt) runtime_get_timing(rt, &t);
+        CHECK(!rt || (t.local_ms > 0 && isfinite(t.local_ms)), "%s: light-move time %g ms", names[b], rt ? t.local_ms : 0);
+        runtime_destroy(rt);
+    }
+    /* Per pixel: the floor point each pixel sees, classified and compared. */
+    double worst_gl = 0, worst_cpu = 0, sum_d2 = 0, sum_t2 = 0, worst_shadow = 0;
+    int nlit = 0, nshadow = 0;
+    for (int y = 0; img[0].data && img[1].data && y < IH; y++)
+        for (int x = 0; x < IW; x++) {
+            float dir[3], p[3], t[3];
+            camera_ray(&cam, IW, IH, x + 0.5f, y + 0.5f, dir);
+            if (!ray_floor(cam.eye, dir, p)) continue;
+            int cls = shadow_class(p, 0.06f);
+            plane_truth(p, t);
+            const float *g = img[1].data + 3 * ((size_t)y * IW + x), *c = img[0].data + 3 * ((size_t)y * IW + x);
+            for (int k = 0; k < 3; k++) {
+                if (cls == 1) {
+                    worst_gl = fmax(worst_gl, fabs(g[k] - t[k]) / t[k]);
+                    worst_cpu = fmax(worst_cpu, fabs(c[k] - t[k]) / t[k]);
+                    sum_d2 += (double)(g[k] - c[k]) * (g[k] - c[k]);
+                    sum_t2 += (double)t[k] * t[k];
+                }
+                if (cls == -1) worst_shadow = fmax(worst_shadow, fmax(fabs(g[k]), fabs(c[k])));
+            }
+            nlit += cls == 1;
+            nshadow += cls == -1;
+        }
+    CHECK(nlit > 2000 && nshadow > 200, "pixels: %d lit, %d in the shadow", nlit, nshadow);
+    /* gl: per pixel, exact up to float (1e-3); cpu: Gouraud over a 0.05 grid of a smooth 1/d^3 falloff. */
+    CHECK_LE(worst_gl, 1e-3, "gl image against kd/pi I cos/d^2 at lit pixels");
+    CHECK_LE(worst_cpu, 2e-2, "cpu image against the analytic answer at lit pixels");
+    CHECK_LE(sqrt(sum_d2 / sum_t2), 5e-3, "cpu and gl images agree (relative RMS, lit pixels)");
+    CHECK_LE(worst_shadow, 1e-6, "both images black inside the shadow");
+    for (int b = 0; b < 2; b++) {
+        image_free(&img[b]);
+        free(rgb[b]);
+    }
+    probe_free(&black);
+    prt_data_free(&d);
+    scene_free(&s);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(parse_specs);
@@ -343,5 +486,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(spot_falloff);
     CHECK_CASE(phong_plane);
     CHECK_CASE(furnace);
+    CHECK_CASE(glsl_brdf);
+    CHECK_CASE(runtimes_plane);
     return check_summary();
 }
