@@ -44,7 +44,7 @@ cd1=$(rel "$OUT/box_cpu.exr" "$OUT/box_ref1.exr"); gd1=$(rel "$OUT/box_gl.exr" "
 echo
 echo "-- box room, 400x300, image rel_rmse against prt reference ($SPP spp; its direct image's own noise $noise)"
 printf "   cpu (per vertex, Embree shadow rays) vs direct reference     %8s\n" "$cd0"
-printf "   gl  (per pixel, shadow cubes)        vs direct reference     %8s\n" "$gd0"
+printf "   gl  (per pixel, shadow maps)          vs direct reference     %8s\n" "$gd0"
 printf "   cpu, direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s (no VSGL bounce yet)\n" "$cd1" "$(verdict "$cd1" 0.15 le)"
 printf "   gl,  direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s (no VSGL bounce yet)\n" "$gd1" "$(verdict "$gd1" 0.15 le)"
 
