@@ -104,10 +104,11 @@ static int select_expected(const float *r, const float *g, const float *b, int N
                            float *wc) {
     float *wr = wc, *wg = wc + CUBE_TEXELS, *wb = wc + 2 * CUBE_TEXELS;
     for (int f = 0; f < 6; f++)
-        for (int m = 0; m < FACE; m++) {
-            int j = f * FACE + m;
-            float s = transport_level_sigma[transport_level((uint32_t)m)];
-            wr[j] = r[j] * s; wg[j] = g[j] * s; wb[j] = b[j] * s;
+        for (int l = 0, lo = 0; l < TRANSPORT_LEVELS; lo = l ? 4 * lo : 1, l++) {   /* level l: [lo, max(1, 4 lo)) */
+            float s = transport_level_sigma[l];
+            for (int j = f * FACE + lo; j < f * FACE + (l ? 4 * lo : 1); j++) {
+                wr[j] = r[j] * s; wg[j] = g[j] * s; wb[j] = b[j] * s;
+            }
         }
     return sparse_select(wr, wg, wb, CUBE_TEXELS, N, idx, keys);
 }
