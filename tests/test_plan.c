@@ -246,8 +246,8 @@ static void bad_settings(void) {
     prt_scene sc;
     prt_data out;
     precompute_desc d;
-    int bad[6][3] = { { -1, 8, 64 }, { 64, 12, 64 }, { 64, 8, 100 }, { CUBE_TEXELS + 1, 8, 64 }, { 64, 8, 64 }, { 64, 8, 64 } };
-    for (int q = 0; q < 6; q++) {
+    int bad[7][3] = { { -1, 8, 64 }, { 64, 12, 64 }, { 64, 8, 100 }, { CUBE_TEXELS + 1, 8, 64 }, { 64, 8, 64 }, { 64, 8, 64 }, { 64, 8, 64 } };
+    for (int q = 0; q < 7; q++) {
         CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
         d = base;
         d.N = bad[q][0];
@@ -255,11 +255,13 @@ static void bad_settings(void) {
         d.vis_res = bad[q][2];
         if (q == 4) { d.basis = "sh"; d.basis_order = 2; }
         if (q == 5) d.basis = "sg";   /* not a representation (vmf is one since issue 9) */
+        if (q == 6) d.select = 7;     /* not a transport_select */
         err.msg[0] = 0;
         CHECK(precompute_run(&sc, &d, &out, &err) == -1, "bad setting %d accepted", q);
         CHECK(strncmp(err.msg, "precompute: ", 12) == 0, "message: %s", err.msg);
         if (q == 4) CHECK(strstr(err.msg, "order = 2") != NULL, "message: %s", err.msg);
         if (q == 5) CHECK(strstr(err.msg, "unknown basis 'sg'") != NULL, "message: %s", err.msg);
+        if (q == 6) CHECK(strstr(err.msg, "select = 7") != NULL, "message: %s", err.msg);
     }
 }
 

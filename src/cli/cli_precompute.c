@@ -33,6 +33,10 @@ static void help(void) {
          "  --sh ORDER             spherical harmonics of ORDER (3..10) instead of Haar wavelets (baseline)\n"
          "  --texel-measure        Haar wavelets of the texels with their solid angle (the paper's;\n"
          "                         default: of the transport per steradian, steadier under a sun)\n"
+         "  --select expected|magnitude  which N coefficients a vector keeps: expected (default) the\n"
+         "                         N largest weighted by the light's typical energy per Haar level\n"
+         "                         (the least expected error under probes with a sun); magnitude\n"
+         "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
          "glossy materials (the effects plan prints each material's path and why):\n"
          "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
          "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
@@ -157,7 +161,7 @@ int cli_precompute(int argc, char **argv) {
     precompute_desc pd = { 0 };
     bool quiet = false;
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
-    const char *glossy = NULL;
+    const char *glossy = NULL, *select = NULL;
     float refine_thr = -1;
     bool texel = false;
     const cli_option opts[] = {
@@ -183,6 +187,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
+        CLI_S("--select", &select),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
         CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
@@ -200,6 +205,12 @@ int cli_precompute(int argc, char **argv) {
     pd.param = (brdf_param)param;
     if (sh_bands && texel) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
     pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* README "Shadows" */
+    if (select && strcmp(select, "expected") && strcmp(select, "magnitude"))
+        return cli_error(k_cmd, "--select must be expected or magnitude (got '%s')", select) + 1;
+    if (select && !strcmp(select, "expected") && !pd.measure)
+        return cli_error(k_cmd, "--select expected needs Haar wavelets per steradian (not --texel-measure or --sh)") + 1;
+    pd.select = pd.measure && !(select && !strcmp(select, "magnitude")) ? TRANSPORT_SELECT_EXPECTED
+                                                                         : TRANSPORT_SELECT_MAGNITUDE;
     if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
         pd.basis = "sh";
         pd.basis_order = sh_bands;

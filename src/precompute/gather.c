@@ -515,6 +515,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     free(cnt);
     if (rc) { memset(next, 0, sizeof *next); return -1; }
     next->solid_angle = prev->solid_angle;
+    next->select = prev->select;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
 
     gather_ctx c;
@@ -617,6 +618,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     free(cnt);
     if (rc) { memset(out, 0, sizeof *out); return -1; }
     out->solid_angle = a->solid_angle;
+    out->select = a->select;
     int nth = prt_thread_count(nthreads);
     sum_ctx c = { .a = a, .b = b, .out = out };
     c.plane = prt_calloc((size_t)nth, sizeof(float *), err);

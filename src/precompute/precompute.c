@@ -428,6 +428,9 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->vis_res == 0) d->vis_res = 128;
     if (d->vis_res != 64 && d->vis_res != 128 && d->vis_res != 256)
         return prt_fail(err, "precompute: vis_res = %d (must be 64, 128 or 256)", d->vis_res);
+    if (d->select != TRANSPORT_SELECT_MAGNITUDE && d->select != TRANSPORT_SELECT_EXPECTED)
+        return prt_fail(err, "precompute: select = %d (must be %d, magnitude, or %d, expected error)", d->select,
+                        TRANSPORT_SELECT_MAGNITUDE, TRANSPORT_SELECT_EXPECTED);
     const transfer_ops *bops = d->basis ? transfer_find(d->basis) : NULL;
     if (d->basis && (!bops || !bops->project_transport)) {
         /* only the projection bases (the sparse family); vMF lobes are the glossy path's, not a basis */
@@ -685,6 +688,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     }
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
+    r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
     for (int t = 0; t < r->nthreads; t++)

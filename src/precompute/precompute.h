@@ -79,6 +79,9 @@ typedef struct precompute_desc {
                              * transport per steradian (transfer.h; what `prt precompute` asks for unless
                              * --texel-measure). 0 stays the library's default so that callers who build light
                              * vectors with light_from_cube rather than transfer_light_vector keep working. */
+    int select;             /* Haar with the solid-angle measure: which N coefficients a vector keeps,
+                             * TRANSPORT_SELECT_MAGNITUDE (0, the paper's) or TRANSPORT_SELECT_EXPECTED
+                             * (transport.h; what `prt precompute` asks for unless --select magnitude) */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */

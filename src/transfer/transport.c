@@ -64,11 +64,53 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
 }
 
 enum { FACE = CUBE_RES * CUBE_RES };
+_Static_assert(CUBE_RES == 1 << (TRANSPORT_LEVELS - 1), "transport_level_sigma has one entry per Haar level of a face");
 
-/* Bytes of scratch transport_store needs: selection keys and indices, and for the solid-angle
- * correction the face's solid-angle coefficients and their transform's scratch. */
+/* Bytes of scratch transport_store needs: selection keys and indices, for the solid-angle
+ * correction the face's solid-angle coefficients and their transform's scratch, and for the
+ * expected-error selection the weighted copy of the three channels. */
 size_t transport_scratch_size(void) {
-    return 2 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(uint32_t) + 2 * FACE * sizeof(float);
+    return 2 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(uint32_t) + 2 * FACE * sizeof(float) +
+           3 * CUBE_TEXELS * sizeof(float);
+}
+
+/* The RMS light coefficient per Haar level relative to the finest, sqrt of the geometric mean over
+ * the four probes with a sun or lamp (city, interior, night, sunrise: a source about 34,000 times
+ * the mean, /work/shared/data/SOURCES.md) of each probe's mean squared coefficient per level, over 24
+ * rotations (yaw in 15-degree steps, pitch -30/0/30), the three channels and the six faces, of the
+ * light the solid-angle measure builds (L_j w_j). Per probe sigma_0^2 / sigma_6^2 is 11.7, 8.8, 8.5,
+ * 3.8: a sun alone is flat over the levels (a point of value a has one coefficient a/s per level of
+ * s x s blocks, among (64/s)^2 per face: the mean square a^2/4096 at every level), and the sky adds
+ * to the coarse ones. Probes without a sun are far steeper (forest 281, studio 155), but under them
+ * the transport's coarse coefficients, which every selection keeps, carry nearly all of T.L.
+ * Measured with tools/level_spectrum.sh; the weights need no asset at run time. */
+const float transport_level_sigma[TRANSPORT_LEVELS] = { 2.752f, 1.643f, 1.512f, 1.373f, 1.303f, 1.200f, 1.000f };
+
+/* Level of a wavelet index: the number of base-4 digits of its position in the face. */
+int transport_level(uint32_t i) {
+    uint32_t m = i % FACE;
+    int l = 0;
+    while (m) { l++; m >>= 2; }
+    PRT_CHECK_LT(l, TRANSPORT_LEVELS);
+    return l;
+}
+
+/* Why: keeping the N largest |c_i| minimises the L2 error of T, but what the runtime sees is the error
+ * of T.L, whose expectation over lights with uncorrelated coefficients of variance sigma_l^2 is
+ * sum over dropped i of c_i^2 sigma_l(i)^2 (transport.h): scaling each coefficient by its level's sigma
+ * before the magnitude selection picks the set that minimises it. The copy is only for selecting; the
+ * stored values are the input's. Non-finite inputs stay non-finite, so sparse_select skips them. */
+static int select_expected(const float *r, const float *g, const float *b, int N, uint32_t *idx, float *keys,
+                           float *wc) {
+    float *wr = wc, *wg = wc + CUBE_TEXELS, *wb = wc + 2 * CUBE_TEXELS;
+    for (int f = 0; f < 6; f++)
+        for (int l = 0, lo = 0; l < TRANSPORT_LEVELS; lo = l ? 4 * lo : 1, l++) {   /* level l: [lo, max(1, 4 lo)) */
+            float s = transport_level_sigma[l];
+            for (int j = f * FACE + lo; j < f * FACE + (l ? 4 * lo : 1); j++) {
+                wr[j] = r[j] * s; wg[j] = g[j] * s; wb[j] = b[j] * s;
+            }
+        }
+    return sparse_select(wr, wg, wb, CUBE_TEXELS, N, idx, keys);
 }
 
 static double sq(double x) { return x * x; }
@@ -111,7 +153,9 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
     float *keys = scratch;
     uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
     float *W = (float *)(void *)(idx + CUBE_TEXELS);
-    int n = sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
+    float *wc = W + 2 * FACE;
+    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t->N, idx, keys, wc)
+                                                   : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     const float *ch[3] = { r, g, b };
     float adj[6][3] = { { 0 } };
     if (t->solid_angle) {

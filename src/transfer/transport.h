@@ -29,12 +29,32 @@
 #include "common.h"
 #include "sparse.h"
 
+/* How transport_store picks a vector's N coefficients (README "Shadows"):
+ *   MAGNITUDE: the N largest |c_i| (the paper's; the L2-optimal approximation of the vector).
+ *   EXPECTED:  the N largest |c_i| sigma_l(i), sigma_l the RMS light coefficient of Haar level l
+ *              (transport_level_sigma): the set that minimises the expected squared error of T.L,
+ *              sum over dropped i of c_i^2 sigma_l(i)^2, under lights whose coefficients are
+ *              uncorrelated with variance sigma_l^2 per level (rotation moves a sun over positions
+ *              but keeps its level spectrum). Its prior was measured with the solid-angle measure's
+ *              light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w. */
+typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT_EXPECTED = 1 } transport_select;
+
+/* Haar levels of a CUBE_RES face: 0 the scaling coefficient, l >= 1 the details of morton indices
+ * [4^(l-1), 4^l) (haar.h), the finest CUBE_RES / 2 x CUBE_RES / 2 blocks at level 6. */
+#define TRANSPORT_LEVELS 7
+/* sigma_l per level, relative to the finest (tools/level_spectrum.c measured it; transport.c says how). */
+extern const float transport_level_sigma[TRANSPORT_LEVELS];
+/* The Haar level (0..TRANSPORT_LEVELS-1) of wavelet index i. */
+int transport_level(uint32_t i);
+
 typedef struct prt_transport {
     int nverts, nvecs;
     int N;                  /* coefficients kept per vector (max) */
     int qbits;              /* 8, 16 or 32 (float) */
     bool solid_angle;       /* Haar of T/w (transfer_haar's solid-angle measure): transport_store keeps
                              * each face's solid-angle integral (set after transport_init; 0 = off) */
+    int select;             /* which N coefficients transport_store keeps (transport_select; set after
+                             * transport_init; 0 = the paper's largest magnitudes) */
     uint32_t *vec_first;    /* [nverts+1] */
     uint32_t *coef_first;   /* [nvecs+1] */
     uint32_t *run_first;    /* [nvecs+1] */
@@ -54,7 +74,7 @@ typedef struct prt_transport {
  * consecutively). N in 1..CUBE_TEXELS, qbits 8/16/32. Returns 0 or -1 (OOM/bad args). */
 int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int N, int qbits, prt_error *err);
 /* Selects, quantizes and stages vector i from dense wavelet coefficients r,g,b[CUBE_TEXELS].
- * scratch holds 2*CUBE_TEXELS floats + CUBE_TEXELS uint32 (use transport_scratch_size()).
+ * t->select picks the coefficients; scratch: transport_scratch_size() bytes.
  * Returns the L2 error squared of the stored approximation (truncation + quantization). */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 size_t transport_scratch_size(void);
