@@ -85,9 +85,9 @@ static void parse_values(const char *a) {
     out = cap_end(&len);
     if (rc) check_one_line(out, len, "cli_camera");
     cap_begin();
-    rc = cli_check_image_path("fuzz", a);
+    rc = cli_check_output("fuzz", a, CLI_OUT_IMAGE);
     out = cap_end(&len);
-    if (rc) check_one_line(out, len, "cli_check_image_path");
+    if (rc) check_one_line(out, len, "cli_check_output");
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
