@@ -222,11 +222,81 @@ static void rsm_point_power(void) {
     scene_free(&s);
 }
 
+/* Exact one-bounce radiance at x (normal n, Lambert kd) from every VPL of the map, no
+ * visibility: kd/pi sum Phi_i R_i cos_e / pi cos_r / d^2 (the sum the diffuse VSGL stands for). */
+static double vpl_sum(const rsm *r, const float x[3], const float n[3], double kd) {
+    double L = 0;
+    for (int i = 0; i < rsm_count(r); i++) {
+        const rsm_texel *t = rsm_texels(r) + i;
+        if (t->mat < 0) continue;
+        float d[3];
+        v3_sub(d, x, t->pos);
+        double d2 = v3_dot(d, d), dl = sqrt(d2), ce = v3_dot(t->nrm, d) / dl, cr = -v3_dot(n, d) / dl;
+        if (ce > 0 && cr > 0) L += t->flux[0] * t->kd[0] * ce / PI * cr / d2;
+    }
+    return kd / PI * L;
+}
+
+/* A spot light (outer 30 degrees: the square layout) over a 4 x 4 floor: the photons carry
+ * the cone's power 2 pi I int f(c) dc (1D quadrature of the smoothstep); a glossy floor
+ * gives a glossy VSGL pointing up (the mirror of a light straight above, by symmetry); and
+ * the diffuse VSGL's one bounce onto points around the lit disc against the sum over all
+ * its VPLs (the approximation of one Gaussian for the whole disc, measured). */
+static void rsm_spot(void) {
+    const char *json = "{\"models\":[{\"plane\":{\"x\":[-2,2],\"z\":[-2,2],\"height\":0,\"nx\":8,\"nz\":8},"
+                       "\"material\":\"phong:kd=0.5;ks=0.3;n=80\"}]}";
+    prt_scene s;
+    vis_scene *vs;
+    lightmat *lm;
+    make_scene(json, &s, &vs, &lm);
+    prt_error err = { 0 };
+    rsm *r = rsm_create(&(rsm_desc){ .res = 64 }, &err);
+    prt_light l = { .type = PRT_LIGHT_SPOT, .pos = { 0, 1, 0 }, .dir = { 0, -1, 0 }, .inner_deg = 20, .outer_deg = 30,
+                    .intensity = 5, .colour = { 1, 1, 1 } };
+    rsm_render(r, &l, vs, &s.mesh, lm);
+    CHECK(rsm_count(r) == 64 * 64, "one square");
+    double tot[3], cone = 0;
+    rsm_total_flux(r, tot);
+    const int q = 100000;
+    double c0 = cos(30 * PI / 180);
+    for (int i = 0; i < q; i++) cone += light_falloff(&l, (float)(c0 + (i + 0.5) * (1 - c0) / q)) * (1 - c0) / q;
+    cone *= 2 * PI * l.intensity;
+    CHECK_NEAR(tot[0], cone, 0.005 * cone, "the cone's power");
+    vsgl_pair v;
+    vsgl_build(r, &v);
+    CHECK(v.specular.power[0] > 0, "a glossy floor has a glossy VSGL");
+    CHECK_NEAR(v.specular.axis[1], 1, 1e-4, "its axis is the mirror direction of the light");
+    CHECK_LE(v.specular.sharpness, 80 + 3, "no sharper than the floor's own lobe");
+    const float pts[][6] = { { 1.0f, 0.5f, 0, -1, 0, 0 }, { 0.7f, 0.3f, 0.4f, -0.7f, -0.2f, -0.4f }, { 0, 2, 0, 0, -1, 0 },
+                             { 1.5f, 1.0f, 0, -1, 0, 0 } };
+    for (int p = 0; p < 4; p++) {
+        float x[3] = { pts[p][0], pts[p][1], pts[p][2] }, n[3] = { pts[p][3], pts[p][4], pts[p][5] }, L[3];
+        v3_normalize(n);
+        vsgl_pair only = { .diffuse = v.diffuse };
+        const char *lam[] = { "lambert:kd=1" };
+        lightmat *lr = make_lightmat(lam, 1);
+        vsgl_shade(&only, lr, 0, x, n, n, L);
+        double truth = vpl_sum(r, x, n, 1.0);
+        printf("  receiver (%.1f %.1f %.1f): vsgl %.5g, sum of %d VPLs %.5g (%+.1f%%)\n", x[0], x[1], x[2], L[0],
+               rsm_count(r), truth, 100 * (L[0] / truth - 1));
+        /* Measured -41% .. +4%: at a receiver beside the disc the VPLs emit at ~60 degrees from
+         * their normals, where Eq. 1's SG is 25% under the cosine (r(60) = 0.75), and the receiver
+         * adds its own r; straight above, both are near 1. A bound, not a target. */
+        CHECK(L[0] / truth > 0.55 && L[0] / truth < 1.1, "one Gaussian for the lit disc: %.3f", L[0] / truth);
+        lightmat_destroy(lr);
+    }
+    rsm_destroy(r);
+    lightmat_destroy(lm);
+    vis_destroy(vs);
+    scene_free(&s);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(shade_quadrature);
     CHECK_CASE(shade_glossy_models);
     CHECK_CASE(one_vpl);
     CHECK_CASE(rsm_point_power);
+    CHECK_CASE(rsm_spot);
     return check_summary();
 }
