@@ -82,3 +82,23 @@ void lightmat_spec_eval(const lightmat *lm, int m, const float n[3], const float
     brdf_eval(p, il, ol, rgb);
     for (int k = 0; k < 3; k++) rgb[k] = fmaxf(0.f, rgb[k] - p->kd[k] * (float)M_1_PI);
 }
+
+/* Barycentric interpolation of the hit triangle, as the path tracer's surf_from_hit. */
+int lightmat_surface(const lightmat *lm, const prt_mesh *m, const vis_hit *h, float pos[3], float nrm[3])
+{
+    const uint32_t *tri = m->tris + 3 * (size_t)h->tri;
+    float b[3] = { 1.f - h->u - h->v, h->u, h->v };
+    for (int c = 0; c < 3; c++) {
+        pos[c] = nrm[c] = 0;
+        for (int k = 0; k < 3; k++) {
+            pos[c] += b[k] * m->pos[3 * tri[k] + c];
+            nrm[c] += b[k] * m->nrm[3 * tri[k] + c];
+        }
+    }
+    if (v3_normalize(nrm) == 0.f) {
+        v3_copy(nrm, h->ng);
+        v3_normalize(nrm);
+    }
+    int mat = m->mat ? m->mat[tri[0]] : 0;
+    return mat < lm->n ? mat : 0;
+}

@@ -26,6 +26,7 @@
 #define PRT_LIGHTMAT_H
 #include "scene.h"
 #include "lobe.h"
+#include "visibility.h"
 
 typedef struct lightmat lightmat;
 
@@ -46,4 +47,9 @@ bool lightmat_lobe(const lightmat *lm, int m, const float n[3], const float wo[3
  * materials or directions below the horizon. */
 void lightmat_spec_eval(const lightmat *lm, int m, const float n[3], const float wi[3], const float wo[3],
                         float rgb[3]);
+/* The surface at a ray hit on mesh: barycentric position, interpolated vertex normal
+ * (the geometric one where they cancel), and the material of the triangle's first vertex,
+ * as the path tracer reads them (src/reference). Returns the material index (0 when the
+ * mesh has none or it is out of lm's range). */
+int lightmat_surface(const lightmat *lm, const prt_mesh *m, const vis_hit *h, float pos[3], float nrm[3]);
 #endif

@@ -84,23 +84,11 @@ static void rsm_texel_dir(const rsm_job *j, int f, int i, int jj, float dir[3], 
  * path tracer), its reflectances, glossy lobe and footprint. */
 static void rsm_fill_hit(const rsm_job *j, const vis_hit *h, const float dir[3], float omega, rsm_texel *t)
 {
-    const prt_mesh *m = j->mesh;
-    const uint32_t *tri = m->tris + 3 * (size_t)h->tri;
-    float b[3] = { 1.f - h->u - h->v, h->u, h->v };
-    for (int c = 0; c < 3; c++) {
-        t->pos[c] = t->nrm[c] = 0;
-        for (int k = 0; k < 3; k++) {
-            t->pos[c] += b[k] * m->pos[3 * tri[k] + c];
-            t->nrm[c] += b[k] * m->nrm[3 * tri[k] + c];
-        }
-    }
+    t->mat = lightmat_surface(j->lm, j->mesh, h, t->pos, t->nrm);
     float ng[3];
     v3_copy(ng, h->ng);
     v3_normalize(ng);
     v3_scale(t->wi, dir, -1.f);
-    if (v3_normalize(t->nrm) == 0.f) v3_copy(t->nrm, ng);
-    int mat = m->mat ? m->mat[tri[0]] : 0;
-    t->mat = mat < lightmat_count(j->lm) ? mat : 0;
     float cg = fmaxf(fabsf(v3_dot(ng, t->wi)), 0.05f);
     t->area = omega * h->t * h->t / cg;
     if (v3_dot(t->nrm, t->wi) <= 0.f) return;       /* lit from behind: reflects nothing */

@@ -1,0 +1,67 @@
+/* highlights.h - indirect highlights: light that two glossy surfaces reflect in turn, from
+ * local lights and the prefiltered probe, by merging the reflected vMF lobes
+ * (laurijssen-2010 sections 4-6; issue 11). Short prefix: hl_.
+ *
+ * Usage:
+ *     hl_scene sc = { .vs = vs, .mesh = &scene.mesh, .lm = lm, .env = env };  // env may be NULL
+ *     hl_desc d = { .samples = 32 };                          // zero = defaults (below)
+ *     float L[3]; hl_shade(&sc, &d, lights, nlights, p, n, mat, wo, seed, L, NULL);
+ *
+ * At a glossy point p seen from wo (section 6.2): S secondary directions s_i are drawn from
+ * p's fitted lobe (lightmat_lobe; vmf_sample, stratified in the polar variable) and weighted
+ * w_i = f_s(s_i, wo) cos / gamma_p(s_i) with the exact specular BRDF (so the p-bounce is
+ * unbiased); each ray's first hit q_i, when glossy and facing it, contributes the lobe
+ * gamma_i over incoming directions s' of rho~(q_i, s', -s_i) (Eq. 9's inner factor; the fit's
+ * colour alpha_i is its integral) with the colour c_i = w_i alpha_i. The lobes are clustered
+ * by mean direction with Algorithm 4.1's hard EM into at most desc.clusters groups (initial
+ * centres by farthest point from the heaviest lobe), and each group merged into one vMF
+ * (Eq. 5, weights the luminance of c_i: vmf_accum_add_colour), with the energy E_j =
+ * (1/S) sum c_i over its members (Eq. 10's scaling, exact per cluster) and the mean position
+ * q_j of its members (weighted alike). Then Eq. 8 for each merged lobe:
+ *   local light: E_j gamma_j(w_l) I(-w_l) / r^2, w_l from q_j to the light, with one shadow
+ *     ray from the member nearest q_j (a mean may lie under the surface, section 6.2);
+ *   probe: E_j prefilter_lookup(env, mu_j, kappa_j) (the vMF-filtered probe, section 6.4),
+ *     the lobes merged for it being those whose one shadow ray along their mean direction
+ *     escapes (section 6.4's visibility), clustered separately.
+ * Rays that miss, or hit a diffuse surface, add nothing here: the probe's direct reflection
+ * is PRT's, and diffuse interreflection is the VSGLs' (vsgl.h) and PRT's bounces.
+ *
+ * Cost: S rays and S lobe look-ups, the EM (S K iterations), K shadow rays per light and up
+ * to S for the probe, per point. Deterministic for a given seed.
+ * Errors: none (a non-glossy material at p gives 0); bad desc values are clamped to their
+ * ranges (samples 1..HL_MAX_SAMPLES, clusters 1..HL_MAX_CLUSTERS). Thread-safe: scene and
+ * env are only read. Ownership: the caller keeps everything hl_scene points to alive. */
+#ifndef PRT_HIGHLIGHTS_H
+#define PRT_HIGHLIGHTS_H
+#include "lightmat.h"
+#include "lights.h"
+#include "visibility.h"
+#include "prefilter.h"
+
+#define HL_DEFAULT_SAMPLES 32      /* the paper's 32 secondary rays (Table 1) */
+#define HL_DEFAULT_CLUSTERS 2      /* and two vMFs per mixture */
+#define HL_MAX_SAMPLES 1024
+#define HL_MAX_CLUSTERS 8
+
+typedef struct hl_desc {
+    int samples;    /* secondary rays S per point; 0: 32 */
+    int clusters;   /* vMFs per merged mixture; 0: 2 */
+    int iters;      /* EM iterations (stops early when stable); 0: 8 */
+} hl_desc;
+
+/* What the rays see: the scene's BVH (built from mesh), its materials, the probe (or NULL). */
+typedef struct hl_scene {
+    const vis_scene *vs;
+    const prt_mesh *mesh;
+    const lightmat *lm;
+    const prefilter_env *env;
+} hl_scene;
+
+/* Counts of one call (for benchmarks and tests). */
+typedef struct hl_stats { int rays, glossy_hits, clusters, shadow_rays; } hl_stats;
+
+/* Indirect highlight radiance (rgb) leaving p (normal n, material mat) toward wo, from the
+ * nl lights and the probe; stats may be NULL. */
+void hl_shade(const hl_scene *sc, const hl_desc *d, const prt_light *lights, int nl, const float p[3],
+              const float n[3], int mat, const float wo[3], uint64_t seed, float out[3], hl_stats *stats);
+#endif
