@@ -5,6 +5,7 @@
  * RSM's power through the VSGL sums. No assets: scenes are built from JSON text. */
 #include "harness.h"
 #include "vsgl.h"
+#include "indirect.h"
 #include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
@@ -291,6 +292,56 @@ static void rsm_spot(void) {
     scene_free(&s);
 }
 
+/* The per-vertex stage (indirect.h) adds exactly what vsgl_shade gives at each vertex facing
+ * the eye, keeps what rgb held, and adds nothing to a vertex facing away. */
+static void indirect_vertices(void) {
+    const char *json = "{\"models\":[{\"plane\":{\"x\":[-2,2],\"z\":[-2,2],\"height\":0,\"nx\":6,\"nz\":6},"
+                       "\"material\":\"lambert:kd=0.6\"},{\"sphere\":{\"center\":[0,0.6,0],\"radius\":0.3,\"rings\":6,"
+                       "\"segments\":8},\"material\":\"phong:kd=0.1;ks=0.5;n=60\"}]}";
+    prt_scene s;
+    vis_scene *vs;
+    lightmat *lm;
+    make_scene(json, &s, &vs, &lm);
+    prt_error err = { 0 };
+    indirect_ctx *ic = indirect_create(&s, &(indirect_desc){ .rsm_res = 32, .no_highlights = true }, &err);
+    CHECK(ic != NULL, "%s", err.msg);
+    prt_lights ls = { .count = 1 };
+    ls.light[0] = (prt_light){ .type = PRT_LIGHT_POINT, .pos = { 0.8f, 1.5f, 0.2f }, .intensity = 3, .colour = { 1, 1, 1 } };
+    CHECK(indirect_set_lights(ic, &ls, &err) == 0, "%s", err.msg);
+    int n = s.mesh.nverts;
+    float *rgb = malloc(sizeof(float) * 3 * n), eye[3] = { 0.5f, 3, 2.5f };
+    for (int i = 0; i < 3 * n; i++) rgb[i] = 0.25f;
+    indirect_shade_vertices(ic, eye, rgb);
+    rsm *r = rsm_create(&(rsm_desc){ .res = 32 }, &err);
+    rsm_render(r, &ls.light[0], vs, &s.mesh, lm);
+    vsgl_pair v;
+    vsgl_build(r, &v);
+    double worst = 0;
+    int facing = 0, away = 0;
+    for (int i = 0; i < n; i++) {
+        const float *p = s.mesh.pos + 3 * i, *nn = s.mesh.nrm + 3 * i;
+        float wo[3], L[3] = { 0, 0, 0 };
+        v3_sub(wo, eye, p);
+        v3_normalize(wo);
+        if (v3_dot(wo, nn) > 0) vsgl_shade(&v, lm, s.mesh.mat[i], p, nn, wo, L), facing++;
+        else away++;
+        for (int k = 0; k < 3; k++) worst = fmax(worst, fabs(rgb[3 * i + k] - 0.25f - L[k]) / (L[k] + 1e-3));
+    }
+    CHECK(facing > 0 && away > 0, "both kinds of vertex: %d facing, %d away", facing, away);
+    CHECK_LE(worst, 1e-4, "per-vertex stage = vsgl_shade");
+    const vsgl_pair *got = indirect_vsgls(ic, 0);
+    CHECK_NEAR(got->diffuse.power[0], v.diffuse.power[0], 1e-6 * v.diffuse.power[0], "same VSGLs");
+    CHECK(v.specular.power[0] > 0, "the sphere makes a glossy VSGL");
+    ls.light[0].intensity = -1;
+    CHECK(indirect_set_lights(ic, &ls, &err) == -1 && strstr(err.msg, "intensity"), "a bad light: %s", err.msg);
+    free(rgb);
+    rsm_destroy(r);
+    indirect_destroy(ic);
+    lightmat_destroy(lm);
+    vis_destroy(vs);
+    scene_free(&s);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(shade_quadrature);
@@ -298,5 +349,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(one_vpl);
     CHECK_CASE(rsm_point_power);
     CHECK_CASE(rsm_spot);
+    CHECK_CASE(indirect_vertices);
     return check_summary();
 }
