@@ -128,9 +128,72 @@ static void no_highlight(void) {
     teardown(&w);
 }
 
+/* Phong's directional albedo int f(s', wo) cos ds' at view elevation t (a polar grid about the
+ * normal, fine enough for n = 300: 600 x 300 cells). */
+static double albedo(const brdf_params *b, double t) {
+    const int NT = 600, NP = 300;
+    float wo[3] = { (float)sin(t), 0, (float)cos(t) }, rgb[3];
+    double sum = 0;
+    for (int i = 0; i < NT; i++)
+        for (int j = 0; j < NP; j++) {
+            double th = (i + 0.5) * (PI / 2) / NT, ph = (j + 0.5) * 2 * PI / NP;
+            float wi[3] = { (float)(sin(th) * cos(ph)), (float)(sin(th) * sin(ph)), (float)cos(th) };
+            brdf_eval(b, wi, wo, rgb);
+            sum += rgb[0] * cos(th) * sin(th);
+        }
+    return sum * (PI / 2 / NT) * (2 * PI / NP);
+}
+
+/* The probe's part (section 6.4) under a constant probe L0: Eq. 7 becomes L0 int_wall f_p cos_p
+ * A_q(-s) cos_w / d^2 dA with A_q the wall's directional albedo (tabulated by quadrature; the
+ * wall's lobe looks up and away from the floor, so nothing blocks it), within 10%. */
+static void two_planes_probe(void) {
+    wall_setup w;
+    setup(&w, "phong:kd=0;ks=0.8;n=300", "phong:kd=0;ks=0.9;n=300");
+    float L0[3] = { 0.5f, 0.5f, 0.5f };
+    prt_probe pr;
+    prt_error err = { 0 };
+    CHECK(probe_make_constant(L0, &pr, &err) == 0, "%s", err.msg);
+    prefilter_env *env = prefilter_create(&pr, NULL, &(prefilter_desc){ .base_res = 16, .levels = 4 }, &err);
+    CHECK(env != NULL, "%s", err.msg);
+    float p[3] = { 0, 0, 0 }, n[3] = { 0, 1, 0 }, wo[3] = { -1, 0.5f, 0 }, np[3] = { 0, 1, 0 }, nq[3] = { -1, 0, 0 };
+    v3_normalize(wo);
+    enum { NA = 16 };
+    double tab[NA + 1];
+    for (int i = 0; i <= NA; i++) tab[i] = albedo(&w.s.materials[1], i * (PI / 2) / NA * 0.999);
+    const int N = 1000;
+    double sum = 0, h = 1.0 / N;
+    for (int i = 0; i < N; i++)
+        for (int j = 0; j < N; j++) {
+            float q[3] = { 1, (float)((i + 0.5) * h), (float)(-0.5 + (j + 0.5) * h) }, sd[3], ms[3];
+            v3_sub(sd, q, p);
+            double d2 = v3_dot(sd, sd);
+            v3_normalize(sd);
+            v3_scale(ms, sd, -1);
+            double cp = v3_dot(np, sd), cw = v3_dot(nq, ms);
+            if (cp <= 0 || cw <= 0) continue;
+            double x = acos(fmin(cw, 1.0)) / (PI / 2 * 0.999) * NA;
+            int k = (int)fmin(x, NA - 1);
+            double A = tab[k] + (x - k) * (tab[k + 1] - tab[k]);
+            sum += brdf_w(&w.s.materials[0], np, sd, wo) * cp * A * cw / d2;
+        }
+    double truth = L0[0] * sum * h * h;
+    hl_scene sc = { .vs = w.vs, .mesh = &w.s.mesh, .lm = w.lm, .env = env };
+    float L[3];
+    hl_stats st;
+    hl_shade(&sc, &(hl_desc){ .samples = 64 }, NULL, 0, p, n, 0, wo, 3, L, &st);
+    printf("  constant probe: %.5g vs quadrature %.5g (%+.1f%%), %d glossy hits, %d shadow rays\n", L[0], truth,
+           100 * (L[0] / truth - 1), st.glossy_hits, st.shadow_rays);
+    CHECK_NEAR(L[0] / truth, 1, 0.10, "the probe's indirect highlight");
+    prefilter_destroy(env);
+    probe_free(&pr);
+    teardown(&w);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(two_planes);
+    CHECK_CASE(two_planes_probe);
     CHECK_CASE(no_highlight);
     return check_summary();
 }
