@@ -152,9 +152,10 @@ static int hl_cluster_items(hl_item *it, const int *idx, int m, int K, int iters
     return out;
 }
 
-/* Eq. 8 for a point light: E_j gamma_j(w_l) I / r^2, one shadow ray from the representative. */
+/* Eq. 8 for a point light: E_j gamma_j(w_l) I / r^2, one shadow ray from the representative;
+ * gamma_j read at ref instead of w_l when ref is given (the light-relative merge). */
 static void hl_light(const hl_scene *sc, const hl_item *it, const hl_cluster *cl, int nc, const prt_light *l,
-                     float out[3], hl_stats *st)
+                     const float *ref, float out[3], hl_stats *st)
 {
     float eps = vis_eps(sc->vs);
     for (int j = 0; j < nc; j++) {
@@ -163,7 +164,7 @@ static void hl_light(const hl_scene *sc, const hl_item *it, const hl_cluster *cl
         float r2 = v3_dot(d, d);
         if (!(r2 > 0)) continue;
         v3_normalize(d);
-        float g = vmf_eval(&cl[j].g, d);
+        float g = vmf_eval(&cl[j].g, ref ? ref : d);
         if (!(g > 0)) continue;
         const hl_item *rep = it + cl[j].rep;
         v3_madd(org, rep->q, rep->nq, eps);
@@ -175,6 +176,50 @@ static void hl_light(const hl_scene *sc, const hl_item *it, const hl_cluster *cl
         light_intensity_toward(l, md, I);
         for (int k = 0; k < 3; k++) out[k] += cl[j].E[k] * g * I[k] / r2;
     }
+}
+
+/* Rotates v by the rotation taking unit a to unit b (Rodrigues; a = -b does not occur here:
+ * a and b are directions to one light from two nearby points). */
+static void hl_rotate(const float a[3], const float b[3], float v[3])
+{
+    float k[3], kv[3], o[3];
+    v3_cross(k, a, b);
+    float s = v3_len(k), c = v3_dot(a, b);
+    if (s < 1e-7f || c <= -0.99f) return;
+    v3_scale(k, k, 1.f / s);
+    v3_cross(kv, k, v);
+    float kd = v3_dot(k, v);
+    for (int i = 0; i < 3; i++) o[i] = v[i] * c + kv[i] * s + k[i] * kd * (1 - c);
+    v3_copy(v, o);
+    v3_normalize(v);
+}
+
+/* Eq. 8 for a point light with the lobes merged relative to the light (see header): each lobe
+ * turned by the rotation taking w_l(q_i) to w_ref = w_l(mean q), so that gamma'_i(w_ref) =
+ * gamma_i(w_l(q_i)), then clustered, merged and read at w_ref. */
+static void hl_light_relative(const hl_scene *sc, const hl_desc *d, const hl_item *it, int m, int S,
+                              const prt_light *l, float out[3], hl_stats *st)
+{
+    hl_item tmp[HL_MAX_SAMPLES];
+    int idx[HL_MAX_SAMPLES];
+    double q[3] = { 0, 0, 0 }, w = 0;
+    for (int a = 0; a < m; a++) {
+        for (int k = 0; k < 3; k++) q[k] += it[a].w * it[a].q[k];
+        w += it[a].w;
+    }
+    float ref[3], wi[3];
+    for (int k = 0; k < 3; k++) ref[k] = l->pos[k] - (float)(q[k] / w);
+    if (v3_normalize(ref) == 0.f) return;
+    for (int a = 0; a < m; a++) {
+        tmp[a] = it[a];
+        idx[a] = a;
+        v3_sub(wi, l->pos, it[a].q);
+        if (v3_normalize(wi) > 0.f) hl_rotate(wi, ref, tmp[a].g.mu);
+    }
+    hl_cluster cl[HL_MAX_CLUSTERS];
+    int nc = hl_cluster_items(tmp, idx, m, d->clusters, d->iters, S, cl);
+    st->clusters = nc;
+    hl_light(sc, tmp, cl, nc, l, ref, out, st);
 }
 
 /* Section 6.4: lobes whose mean direction escapes, merged, read from the filtered probe. */
@@ -209,13 +254,15 @@ void hl_shade(const hl_scene *sc, const hl_desc *desc, const prt_light *lights, 
     out[0] = out[1] = out[2] = 0;
     hl_item it[HL_MAX_SAMPLES];
     int m = hl_gather(sc, d.samples, p, n, mat, wo, seed, it, &st);
-    if (m > 0 && nl > 0) {
+    if (m > 0 && nl > 0 && !d.fixed_frame) {
+        for (int l = 0; l < nl; l++) hl_light_relative(sc, &d, it, m, d.samples, lights + l, out, &st);
+    } else if (m > 0 && nl > 0) {
         int idx[HL_MAX_SAMPLES];
         for (int a = 0; a < m; a++) idx[a] = a;
         hl_cluster cl[HL_MAX_CLUSTERS];
         int nc = hl_cluster_items(it, idx, m, d.clusters, d.iters, d.samples, cl);
         st.clusters = nc;
-        for (int l = 0; l < nl; l++) hl_light(sc, it, cl, nc, lights + l, out, &st);
+        for (int l = 0; l < nl; l++) hl_light(sc, it, cl, nc, lights + l, NULL, out, &st);
     }
     if (m > 0 && sc->env) hl_env(sc, &d, it, m, d.samples, out, &st);
     for (int k = 0; k < 3; k++)
