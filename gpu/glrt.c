@@ -19,6 +19,7 @@
 #include "glrt.h"
 #include "prefilter.h"
 #include "gldraw.h"
+#include "gllights.h"
 #include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
@@ -52,6 +53,8 @@ struct glrt {
     glrt_view_mode view_mode;
     glrt_light_method method;
     glrt_timing timing;
+    int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
+    gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level. */
@@ -159,7 +162,8 @@ static const char *k_view_vs =
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
-    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add;\n"
+    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix;\n"
@@ -186,7 +190,8 @@ static const char *k_view_fs =
     "#if HAS_TV\n"   /* all three corners exact per pixel: the pixel's own view replaces the vertices' */
     "    if (u_pf_n > 0 && v_pix > 0.999) add = max(tv_radiance(v_mat, normalize(v_nrm), normalize(u_eye - v_pos)), vec3(0.0));\n"
     "#endif\n"
-    "    o_color = vec4(shade_world(v_mat, normalize(v_nrm), v_pos, u_eye, g, u_kmax) + add, 1.0);\n"
+    "    vec3 n = normalize(v_nrm);\n"
+    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -508,39 +513,47 @@ static int build_programs(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     char head[512];
     if (build_light_programs(rt, err)) return -1;
+    /* The common view code, then the local lights' GLSL (gllights.h: local_lights(), after frame()). */
+    rt->lmax = gllights_supported(gl) ? GLLIGHTS_MAX : 0;
+    size_t ncommon = strlen(k_view_common) + strlen(gllights_glsl()) + 1;
+    char *common = malloc(ncommon);
+    if (!common) return prt_fail(err, "out of memory");
+    snprintf(common, ncommon, "%s%s", k_view_common, gllights_glsl());
     /* View programs. */
     for (int pv = 0; pv < 2; pv++) {
         snprintf(head, sizeof head,
                  "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n"
-                 "#define TV_ROWS %d\n#define PF_LEVELS %d\n",
-                 rt->kmax_all, rt->nmat, pv, pv == 0 && rt->tv, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS);
+                 "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n",
+                 rt->kmax_all, rt->nmat, pv, pv == 0 && rt->tv, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS,
+                 rt->lmax);
         char *vs = build_src(head, k_view_vs, "", "");
         char *vfs = build_src(head, k_view_fs, "", "");
-        size_t cv = strlen(k_view_common);
+        size_t cv = strlen(common);
         char *vs2 = vs ? malloc(strlen(vs) + cv + 1) : NULL, *fs2 = vfs ? malloc(strlen(vfs) + cv + 1) : NULL;
         if (!vs2 || !fs2) {
-            free(vs); free(vfs); free(vs2); free(fs2);
+            free(vs); free(vfs); free(vs2); free(fs2); free(common);
             return prt_fail(err, "out of memory");
         }
         /* head, then the common view functions, then the stage body. */
         size_t hl = strlen(head);
-        sprintf(vs2, "%s%s%s", head, k_view_common, vs + hl);
+        sprintf(vs2, "%s%s%s", head, common, vs + hl);
         char *tv = pv == 0 && rt->tv ? tv_source(rt) : NULL;
         if (tv) {
             char *f3 = realloc(fs2, strlen(vfs) + cv + strlen(tv) + 1);
             if (f3) fs2 = f3;
-            if (f3) sprintf(fs2, "%s%s%s%s", head, k_view_common, tv, vfs + hl);
+            if (f3) sprintf(fs2, "%s%s%s%s", head, common, tv, vfs + hl);
             free(tv);
-            if (!f3) { free(vs); free(vfs); free(vs2); free(fs2); return prt_fail(err, "out of memory"); }
-        } else sprintf(fs2, "%s%s%s", head, k_view_common, vfs + hl);
+            if (!f3) { free(vs); free(vfs); free(vs2); free(fs2); free(common); return prt_fail(err, "out of memory"); }
+        } else sprintf(fs2, "%s%s%s", head, common, vfs + hl);
         rt->prog_view[pv] = glctx_program(gl, vs2, fs2, pv ? "view (per vertex)" : "view (per pixel)", err);
         free(vs); free(vfs); free(vs2); free(fs2);
-        if (!rt->prog_view[pv]) return -1;
+        if (!rt->prog_view[pv]) { free(common); return -1; }
         GLuint p = rt->prog_view[pv];
         gl->UseProgram(p);
         gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
+        if (rt->lmax > 0) gllights_init_program(gl, p);
         if (pv == 0 && rt->tv) {
             gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
             for (int l = 0; l < GLRT_PF_LEVELS; l++) {
@@ -551,6 +564,7 @@ static int build_programs(glrt *rt, prt_error *err) {
         }
     }
     gl->UseProgram(0);
+    free(common);
     return glctx_check(gl, "building the shaders", err);
 }
 
@@ -754,10 +768,24 @@ void glrt_destroy(glrt *rt) {
         if (rt->frag_fbo) gl->DeleteFramebuffers(1, &rt->frag_fbo);
         if (rt->vao) gl->DeleteVertexArrays(1, &rt->vao);
         if (rt->query) gl->DeleteQueries(1, &rt->query);
+        gllights_destroy(rt->local);
         gldraw_free(&rt->draw);
     }
     if (rt->own_ctx) glctx_destroy(rt->ctx);
     free(rt);
+}
+
+/* Local-light move: the shadow cubes rendered (gllights_set), finished and timed; -1 with err. */
+int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
+    if (current(rt, err)) return -1;
+    if (rt->lmax == 0 && ls->count > 0)
+        return prt_fail(err, "gl runtime: this GL context has too few texture units for local lights");
+    double t0 = prt_now();
+    if (!rt->local && !(rt->local = gllights_create(rt->gl, &rt->d->scene, err))) return -1;
+    if (gllights_set(rt->local, ls, rt->vao, rt->d->scene.mesh.ntris, err)) return -1;
+    rt->gl->Finish();
+    rt->timing.local_ms = 1e3 * (prt_now() - t0);
+    return 0;
 }
 
 /* Light change: uploads L and runs the kernel, finished and timed; -1 with err. */
@@ -829,6 +857,10 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->ActiveTexture(GL_TEXTURE1);
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
     if (p == rt->prog_view[0] && rt->tv) bind_tv(rt, p);
+    if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
+        gllights_bind(rt->local, p);
+        gl->ActiveTexture(GL_TEXTURE1);
+    }
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);

@@ -99,6 +99,7 @@ typedef struct glrt_timing {
     double light_gpu_ms;        /* GPU time of the last light kernel (timer query) */
     double view_ms;             /* last glrt_draw or glrt_draw_vertex_colors, wall clock (finished) */
     double view_gpu_ms;         /* GPU time of the last glrt_draw */
+    double local_ms;            /* last glrt_set_local_lights (shadow cubes), wall clock, finished */
     double method_ms[GLRT_LIGHT_COUNT]; /* AUTO: measured kernel time per method (0: not run / unavailable) */
     size_t gpu_bytes;           /* bytes uploaded for transport, view maps and mesh */
     glrt_light_method light_method;
@@ -113,6 +114,9 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err);
 void glrt_destroy(glrt *rt);
 /* Light change. L: [CUBE_TEXELS][4] in the file's transfer representation (transfer_light_vector). */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
+/* Local lights (issue 11, gllights.h): their direct light with shadow cubes is added per pixel (or per
+ * vertex in GLRT_VIEW_VERTEX) to every later draw; count 0 turns them off. At most GLLIGHTS_MAX. */
+int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err);
 /* Probe shown behind the scene (NULL: black); R as render_desc.background_rotation (may be NULL). */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err);
 /* Changes only the background's rotation (R NULL: none); the probe stays uploaded. */

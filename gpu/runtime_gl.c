@@ -16,8 +16,20 @@
  * g are read back (glrt_read_gvec) and h(view) . g is finished per vertex on the
  * CPU by relight_view (relight_set_gvec): the per-vertex model, so the colours
  * equal the cpu backend's to the float rounding of the GPU's sums. The relight
- * context for that is made on the first such call. */
+ * context for that is made on the first such call.
+ *
+ * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
+ *   light move:  gl_set_local_lights -> glrt_set_local_lights (gpu/glrt.c) -> gllights_set
+ *                (gpu/gllights.c: one distance cube map per light, rendered from the mesh's VAO).
+ *   view change: glrt_draw binds them (gllights_bind: uniforms u_nlocal, u_lpos, u_ldir, u_lcol,
+ *                u_lbias, samplers t_shadow0..3 and t_brdf on units GLLIGHTS_UNIT..) and the view
+ *                programs add the GLSL function local_lights(material, p, n, eye) (gllights_glsl)
+ *                to the probe's shading: per pixel in k_view_fs, per vertex in k_view_vs (glrt.c).
+ *                A per-vertex effect computed on the CPU can go through glrt_set_vertex_add instead.
+ *   vertex colours (gl_shade_vertices): the per-vertex model on the CPU, so the local lights there
+ *                are direct.h's (Embree shadow rays), exactly the cpu backend's. */
 #include "runtime.h"
+#include "direct.h"
 #include "glrt.h"
 #include "relight.h"
 #include <math.h>
@@ -39,6 +51,9 @@ typedef struct gl_rt {
     const float *bg_pixels;
     bool bg_set, has_frame;
     double view_ms, raster_ms;  /* the last view change (draw or vertex finish) and read-back */
+    prt_lights lights;          /* the local lights (issue 11) */
+    direct_ctx *local;          /* vertex colours with local lights: made on first use */
+    bool direct_stale;          /* lights moved since direct's last light move */
 } gl_rt;
 
 /* Frees the glrt (and its context when it made one) and the vertex-finish state. */
@@ -47,6 +62,7 @@ static void gl_destroy(void *self) {
     if (!g) return;
     glrt_destroy(g->rt);
     relight_destroy(g->finish);
+    direct_destroy(g->local);
     free(g->g);
     free(g->add);
     free(g);
@@ -131,6 +147,12 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     relight_set_gvec(g->finish, g->g);
     relight_view(g->finish, eye, kmax, rgb);
     if (g->nonlinear && add_nonlinear(g, eye, rgb, err)) return -1;
+    if (g->lights.count > 0) {   /* the per-vertex model's local lights: direct.h, as the cpu backend */
+        if (!g->local && !(g->local = direct_create(&g->d->scene, g->nthreads, err))) return -1;
+        if (g->direct_stale && direct_set_lights(g->local, &g->lights, err)) return -1;
+        g->direct_stale = false;
+        direct_shade_vertices(g->local, eye, rgb);
+    }
     g->view_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
@@ -170,6 +192,15 @@ static int gl_read(void *self, prt_image *out, prt_error *err) {
     return rc;
 }
 
+/* Local-light move: the shadow cubes on the GPU (glrt_set_local_lights). */
+static int gl_set_local_lights(void *self, const prt_lights *ls, prt_error *err) {
+    gl_rt *g = self;
+    if (glrt_set_local_lights(g->rt, ls, err)) return -1;
+    g->lights = *ls;
+    g->direct_stale = true;
+    return 0;
+}
+
 /* Tone-mapped blit to the window. */
 static void gl_present(void *self, int win_w, int win_h, float exposure_stops) {
     gl_rt *g = self;
@@ -201,6 +232,7 @@ static void gl_get_timing(const void *self, runtime_timing *t) {
     t->view_ms = g->view_ms;
     t->view_gpu_ms = gt.view_gpu_ms;
     t->raster_ms = g->raster_ms;
+    t->local_ms = gt.local_ms;
     t->bytes = gt.gpu_bytes;
     t->kernel = gt.light_method_name;
     snprintf(t->device, sizeof t->device, "%s, %s (%s context)", gt.renderer, gt.version, gt.context);
@@ -223,5 +255,5 @@ const runtime_backend runtime_gl = {
     .use_direct = gl_use_direct,
     .set_view = gl_set_view,
     .get_timing = gl_get_timing,
-    .set_local_lights = NULL,   /* issue 11 */
+    .set_local_lights = gl_set_local_lights,
 };

@@ -113,6 +113,10 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
     if (layout && probe_parse_layout(layout, &lay) != 0)
         return cli_error(cmd, "unknown probe layout '%s' (latlong, angular, vcross, hcross, auto)", layout);
     prt_error err = { { 0 } };
+    if (!strcmp(path, "none")) {   /* issue 11: local lights alone (a black environment) */
+        static const float black[3] = { 0, 0, 0 };
+        return probe_make_constant(black, out, &err) ? cli_error(cmd, "%s", err.msg) : 0;
+    }
     if (probe_load(path, lay, out, &err)) return cli_error(cmd, "%s", err.msg);
     if (out->clamped_negative)
         fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0\n", path, out->clamped_negative);
@@ -146,5 +150,33 @@ int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *ca
     camera_default(b0, b1, aspect, out);
     if (cam_s && camera_parse(cam_s, out) != 0)
         return cli_error(cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    return 0;
+}
+
+/* Removes every "--light SPEC" and "--no-file-lights" from argv (argc shrinks), parsing the specs. */
+int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, bool *no_file) {
+    memset(extra, 0, sizeof *extra);
+    *no_file = false;
+    int n = 1;
+    for (int i = 1; i < *argc; i++) {
+        if (!strcmp(argv[i], "--no-file-lights")) { *no_file = true; continue; }
+        if (strcmp(argv[i], "--light")) { argv[n++] = argv[i]; continue; }
+        if (i + 1 >= *argc) return cli_error(cmd, "--light needs a value (point:pos=x,y,z;... or spot:...)") + 1;
+        prt_error err = { { 0 } };
+        prt_light l;
+        if (light_parse(argv[++i], "--light", &l, &err) || lights_add(extra, &l, "--light", &err))
+            return cli_error(cmd, "%s", err.msg) + 1;
+    }
+    *argc = n;
+    argv[n] = NULL;
+    return 0;
+}
+
+/* The scene's lights become its file's (unless no_file) followed by extra. */
+int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, bool no_file) {
+    if (no_file) s->lights.count = 0;
+    prt_error err = { { 0 } };
+    for (int i = 0; i < extra->count; i++)
+        if (lights_add(&s->lights, &extra->light[i], "--light", &err)) return cli_error(cmd, "%s", err.msg) + 1;
     return 0;
 }

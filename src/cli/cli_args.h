@@ -68,4 +68,17 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
 #include "render.h"
 #include "scene.h"
 int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
+/* Local lights (issue 11; render, reference, bench, view): takes every "--light SPEC"
+ * (lights.h: point:pos=x,y,z;intensity=I;colour=r,g,b or spot:...;dir=..;inner=..;outer=..)
+ * and "--no-file-lights" out of argv (argc shrinks) into extra / no_file. --probe none is
+ * a black environment (local lights alone). Returns 0, or 2 after printing one line. */
+int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, bool *no_file);
+/* The scene's lights: the file's (none with no_file) then extra. 0, or 2 after printing. */
+int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, bool no_file);
+/* The help lines of those flags. */
+#define CLI_LIGHT_HELP \
+    "  --light SPEC            add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n" \
+    "                          spot:pos=..;dir=..;inner=DEG;outer=DEG;intensity=..;colour=.. (repeatable)\n" \
+    "  --no-file-lights        ignore the lights stored in the file (keep only --light ones)\n"
+
 

@@ -41,7 +41,11 @@ static void help(void) {
          "  --size WxH       frame size of gl view changes and the camera's aspect (default 800x600)\n"
          "  --terms K        BRDF terms used in view changes (default: all)\n"
          "  --threads T      CPU threads (default: all cores)\n"
-         "  --kernel K       gl light kernel: auto (default), fragment, thread, warp");
+         "  --kernel K       gl light kernel: auto (default), fragment, thread, warp\n"
+         "  --light SPEC     add a local light (as prt render; repeatable); with local lights, also times\n"
+         "                   light moves (the first light on a small circle: shadows again) and the view\n"
+         "                   change includes their direct light\n"
+         "  --no-file-lights ignore the lights stored in the file");
 }
 
 static int cmp_double(const void *a, const void *b) {
@@ -122,9 +126,31 @@ static int time_view(prt_runtime *rt, const prt_data *d, const render_desc *rd0,
     return 0;
 }
 
+/* Local-light moves: the first light on a circle of 5% of the scene's size around its place, frames
+ * times; medians into ms[0], the minimum into ms[2]. The lights are put back after. */
+static int time_local(prt_runtime *rt, const prt_data *d, int frames, double *t, double ms[4], prt_error *err) {
+    prt_lights ls = d->scene.lights;
+    float r = 0.05f * fmaxf(d->scene.bmax[0] - d->scene.bmin[0], d->scene.bmax[2] - d->scene.bmin[2]);
+    const float *p0 = d->scene.lights.light[0].pos;
+    for (int f = 0; f < frames; f++) {
+        float a = 6.2831853f * f / frames;
+        ls.light[0].pos[0] = p0[0] + r * cosf(a);
+        ls.light[0].pos[2] = p0[2] + r * sinf(a);
+        if (runtime_set_local_lights(rt, &ls, err)) return -1;
+        runtime_timing tm;
+        runtime_get_timing(rt, &tm);
+        t[f] = tm.local_ms;
+    }
+    qsort(t, frames, sizeof(double), cmp_double);
+    ms[0] = t[frames / 2];
+    ms[2] = t[0];
+    return runtime_set_local_lights(rt, &d->scene.lights, err);
+}
+
 /* Prints the results: the same lines for every backend (tools/bench.sh parses "light change" and
  * "view change"; tools/bench_gl.sh the "bench:" line). */
-static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4]) {
+static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4],
+                   const double km[4]) {
     int K = 0;
     for (int m = 0; m < d->scene.nmaterials; m++) K = d->factors[m].K > K ? d->factors[m].K : K;
     int kuse = a->kmax && a->kmax < K ? a->kmax : K;
@@ -142,6 +168,9 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);
     printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", lm[0], 1e3 / lm[0], lm[2]);
     printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", vm[0], 1e3 / vm[0], vm[2]);
+    if (d->scene.lights.count > 0)
+        printf("local light move (%d light%s, shadows): %.2f ms median (%.1f fps), min %.2f ms\n", d->scene.lights.count,
+               d->scene.lights.count == 1 ? "" : "s", km[0], 1e3 / km[0], km[2]);
     if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);
     printf("bench: backend=%s K=%d light_ms=%.3f view_ms=%.3f kernel=%s\n", tm->backend, kuse, lm[0], vm[0], tm->kernel);
     printf("paper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
@@ -154,18 +183,21 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
 static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     prt_error err = { { 0 } };
     runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .kernel = a->kernel };
-    double *t = malloc(sizeof(double) * a->frames), lm[4] = { 0 }, vm[4] = { 0 };
+    double *t = malloc(sizeof(double) * a->frames), lm[4] = { 0 }, vm[4] = { 0 }, km[4] = { 0 };
     prt_runtime *rt = t ? runtime_create(d, &desc, &err) : NULL;
     if (!t) prt_fail(&err, "out of memory");
     int rc = 1;
     prt_camera cam;
     if (rt) cli_camera(k_cmd, &d->scene, (float)a->size[0] / a->size[1], NULL, &cam); /* no --camera: cannot fail */
     render_desc rd = { .width = a->size[0], .height = a->size[1], .camera = cam, .background = probe };
-    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 && runtime_render(rt, &rd, NULL, &err) == 0 &&
-        time_light(rt, probe, a->frames, t, lm, &err) == 0 && time_view(rt, d, &rd, a->frames, t, vm, &err) == 0) {
+    bool local = d->scene.lights.count > 0;
+    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 &&
+        (!local || runtime_set_local_lights(rt, &d->scene.lights, &err) == 0) && runtime_render(rt, &rd, NULL, &err) == 0 &&
+        time_light(rt, probe, a->frames, t, lm, &err) == 0 && time_view(rt, d, &rd, a->frames, t, vm, &err) == 0 &&
+        (!local || time_local(rt, d, a->frames, t, km, &err) == 0)) {
         runtime_timing tm;
         runtime_get_timing(rt, &tm);
-        report(a, d, &tm, lm, vm);
+        report(a, d, &tm, lm, vm, km);
         rc = 0;
     } else cli_error(k_cmd, "%s", err.msg);
     runtime_destroy(rt);
@@ -176,12 +208,21 @@ static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
 /* Entry point of `prt bench` (see cli.h). */
 int cli_bench(int argc, char **argv) {
     bench_args a;
+    prt_lights extra;
+    bool no_file_lights;
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
+    if (lr) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
     if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    int lr2 = cli_apply_lights(k_cmd, &d.scene, &extra, no_file_lights);
+    if (lr2) {
+        prt_data_free(&d);
+        return lr2;
+    }
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     int rc = 1;

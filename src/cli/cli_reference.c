@@ -40,7 +40,9 @@ static void help(void) {
          "  --seed S                random seed (default 1); results are deterministic per seed\n"
          "  --no-background         black background instead of the probe\n"
          "  --threads T             worker threads (default: all cores)\n"
-         "  --quiet                 no progress output\n");
+         "  --quiet                 no progress output\n"
+         CLI_LIGHT_HELP
+         "  --probe none            no environment: the local lights alone (next-event estimation)\n");
 }
 
 /* What the command line asked for. */
@@ -146,9 +148,9 @@ static int trace(const reference_args *a, const prt_data *d, const prt_probe *pr
     ref_desc rd = { .spp = a->spp, .bounces = a->bounces, .seed = a->seed, .nthreads = a->nthreads,
                     .black_background = !a->background, .progress = prt_bar_report, .progress_user = &bar };
     if (ref && !a->quiet)
-        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d\n",
+        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d%s\n",
                 d->scene.mesh.nverts, d->scene.mesh.ntris, d->scene.nmaterials, probe->img.w, probe->img.h, a->bounces,
-                a->spp);
+                a->spp, d->scene.lights.count ? ", local lights" : "");
     int rc = !ref || (a->vert_out && vertices(ref, &d->scene.mesh, cam->eye, &rd, a, &bar, &err)) ||
              (!a->no_image && image(ref, cam, rd, a, &bar, &err));
     if (rc) cli_error(k_cmd, "%s", err.msg);
@@ -159,12 +161,21 @@ static int trace(const reference_args *a, const prt_data *d, const prt_probe *pr
 /* Entry point of `prt reference` (see cli.h). */
 int cli_reference(int argc, char **argv) {
     reference_args a;
+    prt_lights extra;
+    bool no_file_lights;
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
+    if (lr) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
     if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
+    int lr2 = cli_apply_lights(k_cmd, &d.scene, &extra, no_file_lights);
+    if (lr2) {
+        prt_data_free(&d);
+        return lr2;
+    }
     prt_camera cam;
     prt_probe probe;
     memset(&probe, 0, sizeof probe);

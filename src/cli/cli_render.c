@@ -33,7 +33,9 @@ static void help(void) {
          "  --no-background         black background instead of the probe\n"
          "  --direct-only           direct lighting only (files with bounces need precompute --keep-direct)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
-         "  --threads T             worker threads (default: all cores)\n");
+         "  --threads T             worker threads (default: all cores)\n"
+         CLI_LIGHT_HELP
+         "  --probe none            no environment: the local lights alone\n");
 }
 
 /* Writes per-vertex radiance as CSV (vertex,r,g,b) atomically. */
@@ -103,7 +105,9 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
     float *rgb = NULL;
     int rc = 1;
     prt_runtime *rt = runtime_create(d, &desc, &err);
-    if (!rt || runtime_set_light(rt, probe, R, &err) || runtime_render(rt, &rd, &img, &err)) goto fail;
+    if (!rt || runtime_set_light(rt, probe, R, &err)) goto fail;
+    if (d->scene.lights.count > 0 && runtime_set_local_lights(rt, &d->scene.lights, &err)) goto fail;
+    if (runtime_render(rt, &rd, &img, &err)) goto fail;
     runtime_timing t;
     runtime_get_timing(rt, &t);
     if (a->vert_out) {
@@ -132,6 +136,10 @@ done:
 /* Entry point of `prt render` (see cli.h). */
 int cli_render(int argc, char **argv) {
     render_args a;
+    prt_lights extra;
+    bool no_file_lights;
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
+    if (lr) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
     prt_error err = { { 0 } };
@@ -140,7 +148,12 @@ int cli_render(int argc, char **argv) {
     double t0 = prt_now();
     if (prtfile_read(a.in, &d, &err)) return cli_error(k_cmd, "%s", err.msg);
     double t_read = prt_now() - t0;
-    int rc = 1;
+    int rc = cli_apply_lights(k_cmd, &d.scene, &extra, no_file_lights);
+    if (rc) {
+        prt_data_free(&d);
+        return rc;
+    }
+    rc = 1;
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     prt_camera cam;

@@ -12,6 +12,11 @@
  * is switched to); orbiting is a view change only, exactly the split the paper
  * times.
  *
+ * Local lights (issue 11): the file's lights plus --light ones; key l picks the next
+ * light, alt + left drag (or, after key m, a plain left drag) moves the picked one in
+ * the view plane; each move is a local-light move (runtime_set_local_lights: shadow
+ * rays on the CPU, shadow cubes on GL), timed in the overlay.
+ *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
  * image_write, the same tone curve `prt render` uses for PNG). */
@@ -50,7 +55,10 @@ static const char *k_keys =
     "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
     "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
-    "  r                        reset camera and light rotation\n"
+    "  l                        pick the next local light (point / spot lights of the file and --light)\n"
+    "  alt + left drag          move the picked local light in the view plane: a light move\n"
+    "  m                        mouse mode: left drag moves the picked local light / orbits\n"
+    "  r                        reset camera, light rotation and local lights\n"
     "  h or ?                   show / hide this help on screen\n"
     "  q or Esc                 quit\n";
 
@@ -76,6 +84,9 @@ static void view_help(void) {
            "  --screenshot OUT.png   with --frames: save the last frame; otherwise the S key's file\n"
            "  --window-shot OUT.png  with --frames: also save the window as displayed, text included\n"
            "  --keys CHARS           with --frames: press these keys, one before each frame from the second\n"
+           "  --light SPEC           add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n"
+           "                         spot:pos=..;dir=..;inner=DEG;outer=DEG;... (repeatable; GL takes at most 4)\n"
+           "  --no-file-lights       ignore the lights stored in the file\n"
            "\n"
            "keys:\n%s", k_keys);
 }
@@ -106,6 +117,12 @@ typedef struct viewer {
     const char *shot_path, *window_shot, *keys;
     bool window_shot_now;
     int shots;
+    prt_lights lights, lights0;   /* local lights (issue 11): current, and as loaded (key r) */
+    int pick;                   /* the picked local light */
+    bool move_mode;             /* key m: left drag moves the picked light */
+    bool local_dirty, local_stale[2];
+    double local_ms;
+    const char *local_backend;
 } viewer;
 
 /* Shows msg on screen for a few seconds and on stderr. */
@@ -149,6 +166,22 @@ static int light_change(viewer *v, prt_error *err) {
     return 0;
 }
 
+/* Local-light move on the current runtime (the other catches up when switched to). */
+static int local_move(viewer *v, prt_error *err) {
+    if (v->local_dirty) {
+        v->local_stale[0] = v->local_stale[1] = true;
+        v->local_dirty = false;
+    }
+    prt_runtime *rt = current(v);
+    if (runtime_set_local_lights(rt, &v->lights, err)) return -1;
+    runtime_timing t;
+    runtime_get_timing(rt, &t);
+    v->local_ms = t.local_ms;
+    v->local_backend = v->gl ? "GL" : "CPU";
+    v->local_stale[v->gl] = false;
+    return 0;
+}
+
 /* View change: relit frame of the current camera into the runtime's float target. */
 static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
@@ -180,6 +213,13 @@ static void overlay(viewer *v) {
                      prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0, v->light_ms,
                      v->light_backend ? v->light_backend : "", v->lightvec_ms, v->view_ms,
                      v->view_backend ? v->view_backend : "");
+    if (v->lights.count > 0 && n < (int)sizeof buf) {
+        const prt_light *l = &v->lights.light[v->pick];
+        n += snprintf(buf + n, sizeof buf - n, "local light %d/%d (%s) at %.2f %.2f %.2f   light move %.1f ms %s%s\n",
+                      v->pick + 1, v->lights.count, l->type == PRT_LIGHT_SPOT ? "spot" : "point", l->pos[0], l->pos[1],
+                      l->pos[2], v->local_ms, v->local_backend ? v->local_backend : "",
+                      v->move_mode ? "   [m: drag moves the light]" : "");
+    }
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? k_keys : "h: help");
     size_t len = strlen(buf);
@@ -232,6 +272,10 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
     bool lit = v->light_dirty || v->stale[v->gl];
     if (lit && light_change(v, err)) return -1;
+    if (v->local_dirty || v->local_stale[v->gl]) {
+        if (local_move(v, err)) return -1;
+        lit = true;
+    }
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
         v->frame_ms = 1e3 * (prt_now() - t0);
@@ -297,12 +341,39 @@ static void zoom(viewer *v, float steps) {
     v->view_dirty = true;
 }
 
+/* Moves the picked local light in the view plane by a pixel offset (the scale of pan at the light's depth). */
+static void move_light(viewer *v, float dx, float dy) {
+    float f[3], r[3], u[3], off[3];
+    prt_light *l = &v->lights.light[v->pick];
+    camera_basis(&v->cam, f, r, u);
+    v3_sub(off, l->pos, v->cam.eye);
+    float depth = fmaxf(v3_dot(off, f), 1e-3f);
+    float fov = v->cam.fov_deg > 0 ? v->cam.fov_deg : 40;
+    float k = 2.0f * depth * tanf(fov * (float)M_PI / 360.0f) / (float)(v->fbh > 0 ? v->fbh : 1);
+    for (int i = 0; i < 3; i++) l->pos[i] += (dx * r[i] - dy * u[i]) * k;
+    v->local_dirty = true;
+}
+
+/* Key l: the next local light, named on screen. */
+static void pick_light(viewer *v) {
+    if (v->lights.count == 0) {
+        set_status(v, "no local lights (add some with --light or a scene's \"lights\")");
+        return;
+    }
+    v->pick = (v->pick + 1) % v->lights.count;
+    char spec[300], msg[360];
+    light_format(&v->lights.light[v->pick], spec, sizeof spec);
+    snprintf(msg, sizeof msg, "local light %d: %s", v->pick + 1, spec);
+    set_status(v, msg);
+}
+
 /* Starts a drag: left orbit, shift/ctrl-left light rotation, right/middle pan. */
 static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
     if (action == GLFW_RELEASE) { v->drag = 0; return; }
     glfwGetCursorPos(w, &v->mx, &v->my);
-    if (button == GLFW_MOUSE_BUTTON_LEFT) v->drag = (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL)) ? 3 : 1;
+    bool move = v->lights.count > 0 && ((mods & GLFW_MOD_ALT) || v->move_mode);
+    if (button == GLFW_MOUSE_BUTTON_LEFT) v->drag = move ? 4 : (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL)) ? 3 : 1;
     else if (button == GLFW_MOUSE_BUTTON_RIGHT || button == GLFW_MOUSE_BUTTON_MIDDLE) v->drag = 2;
 }
 
@@ -319,6 +390,7 @@ static void on_cursor(GLFWwindow *w, double x, double y) {
     float sc = ww > 0 ? (float)v->fbw / (float)ww : 1;
     if (v->drag == 1) orbit(v, -dx * 0.008f, dy * 0.008f);
     else if (v->drag == 2) pan(v, dx * sc, dy * sc);
+    else if (v->drag == 4) move_light(v, dx * sc, dy * sc);
     else {
         v->lyaw += dx * 0.4f;
         v->lpitch += dy * 0.4f;
@@ -420,6 +492,11 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
         break;
     case 'd': case 'D': toggle_direct(v); break;
+    case 'l': case 'L': pick_light(v); break;
+    case 'm': case 'M':
+        v->move_mode = !v->move_mode;
+        set_status(v, v->move_mode ? "left drag moves the picked local light" : "left drag orbits the camera");
+        break;
     case 's': case 'S': take_screenshot(v); break;
     case 'r': case 'R':
         v->cam = v->cam0;
@@ -427,6 +504,8 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         v->lpitch = v->lpitch0;
         update_rotation(v);
         v->light_dirty = v->view_dirty = true;
+        v->local_dirty = v->lights.count > 0 || v->lights0.count > 0;
+        v->lights = v->lights0;
         break;
     case 'h': case 'H': case '?': v->help = !v->help; v->present_dirty = true; break;
     case 'q': case 'Q': v->quit = true; break;
@@ -502,6 +581,8 @@ static void viewer_free(viewer *v) {
 typedef struct view_args {
     const char *layout, *cam_s, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
     int ndirs, npaths, w, h, frames;
+    prt_lights extra;           /* --light */
+    bool no_file_lights;
 } view_args;
 
 /* One option of argv at *i into v / a: 1 taken, 0 not an option of ours, -1 usage error (printed). */
@@ -567,6 +648,8 @@ static int check_args(viewer *v, const view_args *a) {
 /* Parses argv into v and a: -1 to go on, else the exit status (0 after --help, 2 on usage errors). */
 static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     memset(a, 0, sizeof *a);
+    int lr = cli_take_lights(k_view, &argc, argv, &a->extra, &a->no_file_lights);
+    if (lr) return lr;
     a->w = 1024;
     a->h = 768;
     v->gl = true;
@@ -586,6 +669,10 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
 static int load_inputs(viewer *v, const view_args *a) {
     prt_error err = { { 0 } };
     if (prtfile_read(v->file, &v->d, &err)) return cli_error(k_view, "%s", err.msg);
+    int lr = cli_apply_lights(k_view, &v->d.scene, &a->extra, a->no_file_lights);
+    if (lr) return lr;
+    v->lights = v->lights0 = v->d.scene.lights;
+    v->local_dirty = v->lights.count > 0;
     if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)

@@ -12,6 +12,9 @@
  *     MATL  per material: BRDF parameters, spec string, factorization (K, maps, sigma)
  *     one per transfer, under its representation's tag (HAAR, SHRM; transfer.h), in the
  *     order of d->transfers: written, read and validated by that module
+ *     LITE  optional (issue 11): the scene's local lights (lights.h), written only when
+ *           there are some, so files without lights are byte for byte as before and
+ *           older files (none) read with no lights; read back and validated (light_validate)
  * Scalars are written field by field (never whole structs), so padding and
  * layout of the C structs do not leak into the format (prtio.h).
  *
@@ -39,6 +42,7 @@
 #define TAG_META TRANSFER_TAG('M', 'E', 'T', 'A')
 #define TAG_MESH TRANSFER_TAG('M', 'E', 'S', 'H')
 #define TAG_MATL TRANSFER_TAG('M', 'A', 'T', 'L')
+#define TAG_LITE TRANSFER_TAG('L', 'I', 'T', 'E')
 #define HEADER_BYTES 16
 #define MAX_RES 4096          /* vis_res, gather_res, BRDF map res: far above anything sane */
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
@@ -121,6 +125,22 @@ static void sec_matl(prt_writer *w, const prt_data *d) {
     }
 }
 
+/* LITE: count, then per light type, pos, dir, inner, outer, intensity, colour. */
+static void sec_lite(prt_writer *w, const prt_data *d) {
+    const prt_lights *ls = &d->scene.lights;
+    prtio_put_i32(w, ls->count);
+    for (int i = 0; i < ls->count; i++) {
+        const prt_light *l = &ls->light[i];
+        prtio_put_i32(w, (int32_t)l->type);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, l->pos[k]);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, l->dir[k]);
+        prtio_put_f32(w, l->inner_deg);
+        prtio_put_f32(w, l->outer_deg);
+        prtio_put_f32(w, l->intensity);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, l->colour[k]);
+    }
+}
+
 /* One section: the fixed ones (fn) or transfer tr through its module's writer. */
 typedef struct section {
     uint32_t tag;
@@ -149,10 +169,11 @@ int prtfile_write(const char *path, const prt_data *d, prt_error *err) {
     if (!data_ok(d, why)) return prt_fail(err, "%s: cannot write: %s", path, why);
     char tmp[4200];
     if (strlen(path) > 4000) return prt_fail(err, "%.60s...: output path too long", path);
-    section secs[3 + PRT_MAX_TRANSFERS] = { { TAG_META, sec_meta, NULL }, { TAG_MESH, sec_mesh, NULL },
+    section secs[4 + PRT_MAX_TRANSFERS] = { { TAG_META, sec_meta, NULL }, { TAG_MESH, sec_mesh, NULL },
                                             { TAG_MATL, sec_matl, NULL } };
     int nsec = 3;
     for (int i = 0; i < d->ntransfers; i++) secs[nsec++] = (section){ d->transfers[i].ops->tag, NULL, &d->transfers[i] };
+    if (d->scene.lights.count > 0) secs[nsec++] = (section){ TAG_LITE, sec_lite, NULL };
     FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
     if (!f) return -1;
     /* Payload length: the sections, each with its 12-byte tag and length. */
@@ -252,6 +273,11 @@ static bool data_ok(const prt_data *d, char *why) {
     if (nm < 1 || nm > PRT_MAX_MATERIALS) return BAD(why, "bad material count %d", nm);
     for (int v = 0; v < nv; v++)
         if (m->mat[v] >= nm) return BAD(why, "vertex %d uses material %u of %d", v, m->mat[v], nm);
+    if (sc->lights.count < 0 || sc->lights.count > PRT_MAX_LIGHTS) return BAD(why, "bad light count %d", sc->lights.count);
+    for (int i = 0; i < sc->lights.count; i++) {
+        prt_error e;
+        if (light_validate(&sc->lights.light[i], "LITE", &e)) return BAD(why, "light %d: %.200s", i, e.msg);
+    }
 
     return materials_ok(d, why) && transfers_ok(d, why);
 }
@@ -358,6 +384,30 @@ static bool rd_matl(parse *P, prt_reader *r) {
     return true;
 }
 
+/* LITE into d->scene.lights (data_ok validates each light). */
+static bool rd_lite(parse *P, prt_reader *r) {
+    prt_lights *ls = &P->d->scene.lights;
+    int32_t n = prtio_get_i32(r);
+    if (r->bad) return BAD(P->why, "LITE section too short");
+    if (n < 0 || n > PRT_MAX_LIGHTS) return BAD(P->why, "bad light count %d", n);
+    for (int i = 0; i < n; i++) {
+        prt_light *l = &ls->light[i];
+        int32_t t = prtio_get_i32(r);
+        l->type = t == PRT_LIGHT_SPOT ? PRT_LIGHT_SPOT : PRT_LIGHT_POINT;
+        if (t != PRT_LIGHT_POINT && t != PRT_LIGHT_SPOT) return BAD(P->why, "light %d has unknown type %d", i, t);
+        for (int k = 0; k < 3; k++) l->pos[k] = prtio_get_f32(r);
+        for (int k = 0; k < 3; k++) l->dir[k] = prtio_get_f32(r);
+        l->inner_deg = prtio_get_f32(r);
+        l->outer_deg = prtio_get_f32(r);
+        l->intensity = prtio_get_f32(r);
+        for (int k = 0; k < 3; k++) l->colour[k] = prtio_get_f32(r);
+    }
+    if (r->bad) return BAD(P->why, "LITE section too short");
+    if (r->pos != r->n) return BAD(P->why, "LITE section longer than its %d lights", n);
+    ls->count = n;
+    return true;
+}
+
 /* Reads a transfer section of representation ops into a new prt_transfer of P->d. */
 static bool rd_transfer(parse *P, prt_reader *r, const transfer_ops *ops) {
     prt_data *d = P->d;
@@ -422,6 +472,9 @@ static int parse_section(parse *P, const char *path, uint32_t tag, prt_reader *s
     const transfer_ops *ops = transfer_by_tag(tag);
     if (ops) {
         ok = rd_transfer(P, sec, ops);
+    } else if (tag == TAG_LITE) {
+        if (P->d->scene.lights.count > 0) return prt_fail(err, "%s: corrupt (two LITE sections)", path);
+        ok = rd_lite(P, sec);
     } else {
         int which = -1;
         for (int i = 0; i < 3; i++)

@@ -3,7 +3,11 @@
  * One falloff shared by every runtime and the path tracer, so their images differ only
  * by the approximations each makes, never by the light model. */
 #include "lights.h"
+#include "brdf.h"
+#include <errno.h>
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 /* Spot falloff: 1 inside the inner cone, 0 outside the outer, smoothstep in cos between. */
 float light_falloff(const prt_light *l, float c)
@@ -42,4 +46,110 @@ int light_validate(const prt_light *l, const char *what, prt_error *err)
     }
     if (why) return prt_fail(err, "%s: light: %s", what, why);
     return 0;
+}
+
+/* Reads n comma-separated finite numbers from s (exactly n). */
+static bool parse_nums(const char *s, int n, float *out) {
+    for (int i = 0; i < n; i++) {
+        char *end;
+        errno = 0;
+        double v = strtod(s, &end);
+        if (end == s || errno || !isfinite(v) || fabs(v) > 1e30) return false;
+        out[i] = (float)v;
+        s = end;
+        if (i + 1 < n) {
+            if (*s != ',') return false;
+            s++;
+        }
+    }
+    return *s == 0;
+}
+
+/* One "key=value" of a spec into l; `seen_pos` / `seen_dir` record the keys that need them. */
+static int parse_key(char *kv, const char *what, prt_light *l, bool *seen_pos, prt_error *err) {
+    char *eq = strchr(kv, '=');
+    if (!eq) return prt_fail(err, "%s: light: expected key=value, got '%.40s'", what, kv);
+    *eq = 0;
+    const char *k = kv, *v = eq + 1;
+    bool ok;
+    bool spot_only = !strcmp(k, "dir") || !strcmp(k, "inner") || !strcmp(k, "outer");
+    if (spot_only && l->type != PRT_LIGHT_SPOT) return prt_fail(err, "%s: light: '%s' is for spot lights only", what, k);
+    if (!strcmp(k, "pos")) ok = parse_nums(v, 3, l->pos), *seen_pos = true;
+    else if (!strcmp(k, "dir")) ok = parse_nums(v, 3, l->dir);
+    else if (!strcmp(k, "colour") || !strcmp(k, "color")) ok = parse_nums(v, 3, l->colour);
+    else if (!strcmp(k, "intensity")) ok = parse_nums(v, 1, &l->intensity);
+    else if (!strcmp(k, "inner")) ok = parse_nums(v, 1, &l->inner_deg);
+    else if (!strcmp(k, "outer")) ok = parse_nums(v, 1, &l->outer_deg);
+    else return prt_fail(err, "%s: light: unknown key '%.40s' (pos, dir, inner, outer, intensity, colour)", what, k);
+    if (!ok) return prt_fail(err, "%s: light: bad value for %s: '%.40s'", what, k, v);
+    return 0;
+}
+
+/* "point:..." / "spot:..." (lights.h), then the field checks. */
+int light_parse(const char *spec, const char *what, prt_light *out, prt_error *err) {
+    char buf[512];
+    if (!spec || strlen(spec) >= sizeof buf) return prt_fail(err, "%s: light: spec missing or too long", what);
+    snprintf(buf, sizeof buf, "%s", spec);
+    prt_light l = { .type = PRT_LIGHT_POINT, .dir = { 0, -1, 0 }, .inner_deg = 20, .outer_deg = 30,
+                    .intensity = 1, .colour = { 1, 1, 1 } };
+    char *colon = strchr(buf, ':');
+    if (colon) *colon = 0;
+    if (!strcmp(buf, "spot")) l.type = PRT_LIGHT_SPOT;
+    else if (strcmp(buf, "point")) return prt_fail(err, "%s: light: unknown type '%.40s' (point or spot)", what, buf);
+    bool seen_pos = false;
+    for (char *kv = colon ? colon + 1 : NULL, *next; kv && *kv; kv = next) {
+        next = strchr(kv, ';');
+        if (next) *next++ = 0;
+        if (parse_key(kv, what, &l, &seen_pos, err)) return -1;
+    }
+    if (!seen_pos) return prt_fail(err, "%s: light: no position (pos=x,y,z)", what);
+    float n = sqrtf(l.dir[0] * l.dir[0] + l.dir[1] * l.dir[1] + l.dir[2] * l.dir[2]);
+    if (!(n > 1e-12f)) return prt_fail(err, "%s: light: dir must not be zero", what);
+    for (int k = 0; k < 3; k++) l.dir[k] /= n;
+    if (light_validate(&l, what, err)) return -1;
+    *out = l;
+    return 0;
+}
+
+/* The spec string of l (round-trips through light_parse to float precision of %g's 9 digits). */
+void light_format(const prt_light *l, char *buf, size_t cap) {
+    int n = snprintf(buf, cap, "%s:pos=%.9g,%.9g,%.9g", l->type == PRT_LIGHT_SPOT ? "spot" : "point", l->pos[0],
+                     l->pos[1], l->pos[2]);
+    if (n < 0 || (size_t)n >= cap) return;
+    if (l->type == PRT_LIGHT_SPOT)
+        n += snprintf(buf + n, cap - (size_t)n, ";dir=%.9g,%.9g,%.9g;inner=%.9g;outer=%.9g", l->dir[0], l->dir[1],
+                      l->dir[2], l->inner_deg, l->outer_deg);
+    if (n < 0 || (size_t)n >= cap) return;
+    snprintf(buf + n, cap - (size_t)n, ";intensity=%.9g;colour=%.9g,%.9g,%.9g", l->intensity, l->colour[0],
+             l->colour[1], l->colour[2]);
+}
+
+/* Validated append. */
+int lights_add(prt_lights *ls, const prt_light *l, const char *what, prt_error *err) {
+    if (light_validate(l, what, err)) return -1;
+    if (ls->count >= PRT_MAX_LIGHTS) return prt_fail(err, "%s: more than %d lights", what, PRT_MAX_LIGHTS);
+    ls->light[ls->count++] = *l;
+    return 0;
+}
+
+/* f_r(wi, wo) I cos / d^2 (lights.h): the rendering equation's integral collapses to one term
+ * for a delta light, so one brdf_eval per light and point. */
+float light_shade(const prt_light *l, const brdf_params *bp, const float p[3], const float n[3], const float wo[3],
+                  float wi[3], float out[3]) {
+    out[0] = out[1] = out[2] = 0;
+    float d[3] = { l->pos[0] - p[0], l->pos[1] - p[1], l->pos[2] - p[2] };
+    float dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dist = sqrtf(dist2);
+    if (!(dist > 1e-12f)) { wi[0] = wi[1] = wi[2] = 0; return 0; }
+    for (int k = 0; k < 3; k++) wi[k] = d[k] / dist;
+    float S[3], T[3], wil[3], wol[3], f[3], I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
+    brdf_frame(n, S, T);
+    brdf_to_local(S, T, n, wi, wil);
+    brdf_to_local(S, T, n, wo, wol);
+    if (wil[2] <= 0 || wol[2] <= 0) return dist;
+    light_intensity_toward(l, away, I);
+    if (!(I[0] > 0 || I[1] > 0 || I[2] > 0)) return dist;
+    brdf_eval(bp, wil, wol, f);
+    float k = wil[2] / dist2;
+    for (int c = 0; c < 3; c++) out[c] = f[c] * I[c] * k;
+    return dist;
 }

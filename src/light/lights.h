@@ -20,7 +20,18 @@
  * direction (dir and the cone angles are ignored).
  *
  * Every runtime and `prt reference` use light_intensity_toward, so they agree on the
- * falloff by construction. Plain data: no ownership. */
+ * falloff by construction. Plain data: no ownership.
+ *
+ * Spec strings (`--light SPEC`, or a string in a JSON scene's "lights" array):
+ *     point:pos=x,y,z;intensity=I;colour=r,g,b
+ *     spot:pos=x,y,z;dir=x,y,z;inner=DEG;outer=DEG;intensity=I;colour=r,g,b
+ * pos is required; defaults: intensity 1, colour 1,1,1, dir 0,-1,0 (normalized when
+ * given), inner 20, outer 30. light_parse fails with one line naming the flag or file
+ * and the problem (unknown type or key, bad number, a value out of range).
+ *
+ * Shading (light_shade): the radiance a surface point reflects toward wo from one light,
+ * f_r(wi, wo) I(-wi) (n . wi) / d^2 with the analytic BRDF (brdf_eval, a point light needs
+ * one evaluation), without visibility; runtimes multiply by their shadow test. */
 #ifndef PRT_LIGHTS_H
 #define PRT_LIGHTS_H
 #include "common.h"
@@ -55,4 +66,21 @@ float light_falloff(const prt_light *l, float c);
 /* Checks one light's fields (finite, unit dir, angle ranges, non-negative intensity
  * and colour); on failure sets err naming `what` (the file or flag) and returns -1. */
 int light_validate(const prt_light *l, const char *what, prt_error *err);
+
+/* Parses a spec string (see above) into *out and validates it; -1 with err naming `what`. */
+int light_parse(const char *spec, const char *what, prt_light *out, prt_error *err);
+
+/* Writes a spec string light_parse reads back to the same light (%g precision). */
+void light_format(const prt_light *l, char *buf, size_t cap);
+
+/* Appends l to ls (validated); -1 with err naming `what` when invalid or when ls is full. */
+int lights_add(prt_lights *ls, const prt_light *l, const char *what, prt_error *err);
+
+struct brdf_params;
+/* Reflected radiance (rgb) toward world unit wo at point p with unit shading normal n, from l,
+ * unshadowed: f_r(wi, wo) I(-wi) max(0, n . wi) / d^2 (brdf_eval in brdf_frame(n)'s frame).
+ * Returns the distance d to the light and writes the unit direction wi toward it (0 when
+ * p is at the light: then out is 0). */
+float light_shade(const prt_light *l, const struct brdf_params *bp, const float p[3], const float n[3],
+                  const float wo[3], float wi[3], float out[3]);
 #endif

@@ -396,6 +396,27 @@ static long env_nee(const ref_ctx *rc, const ref_surf *s, const float S[3], cons
     return 1;
 }
 
+/* Next-event estimation of every local light (issue 11) at s: a delta light is sampled with
+ * probability 1 and no other strategy can hit it, so it needs no MIS weight; adds
+ * beta f I cos / d^2 V per light (lights.h: light_shade). Returns the shadow rays traced. */
+static long lights_nee(const ref_ctx *rc, const ref_surf *s, const float wo[3], const brdf_params *bp,
+                       const float beta[3], float L[3]) {
+    const prt_lights *ls = &rc->scene->lights;
+    long rays = 0;
+    for (int i = 0; i < ls->count; i++) {
+        float wi[3], Ll[3];
+        float dist = light_shade(&ls->light[i], bp, s->p, s->ns, wo, wi, Ll);
+        if (!(max3(Ll) > 0.f)) continue;
+        float o[3];
+        ray_origin(rc, s, wi, o);
+        rays++;
+        float tfar = dist - 2 * rc->eps;
+        if (tfar > rc->eps && vis_occluded(rc->vs, o, wi, rc->eps, tfar)) continue;
+        for (int c = 0; c < 3; c++) L[c] += beta[c] * Ll[c];
+    }
+    return rays;
+}
+
 /* One sample of outgoing radiance from s toward world direction wo (unit), into out.
  * Returns the number of rays traced. */
 static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3], const ref_desc *d, pcg32 *rng,
@@ -416,6 +437,7 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
         const bool cont = d->bounces < 0 || depth < d->bounces;
         /* Strategy 1: environment sample (next-event estimation). */
         if (use_env) rays += env_nee(rc, &s, S, T, wol, bp, mis, rng, beta, L);
+        rays += lights_nee(rc, &s, wo, bp, beta, L);
         /* Strategy 2: BRDF sample; it also carries the path on. */
         if (!use_brdf_light && !cont) break;
         float u1 = pcg32_float(rng), u2 = pcg32_float(rng), wil[3], pb;

@@ -26,7 +26,11 @@
  * bilinear probe is), and BRDF sampling. bounces: 0 = direct only (a PRT file with no
  * bounce passes), k > 0 = at most k indirect bounces (Eq. 8's passes 1..k),
  * -1 = to convergence with Russian roulette after 3 bounces (survival = min(0.95,
- * max throughput)). Emission is only the environment.
+ * max throughput)). Emission is the environment and the scene's local lights
+ * (scene->lights, issue 11): at every path vertex each point or spot light is
+ * sampled by next-event estimation with a shadow ray (a delta light: no MIS weight,
+ * BRDF sampling never hits it), so with --bounces k their indirect light follows too.
+ * A black probe (probe_make_constant 0; `--probe none`) leaves the local lights alone.
  *
  * Images: each pixel averages spp camera rays jittered over its area (box filter). Rays
  * that miss the scene show the probe along the pixel-centre ray, as `prt render` draws

@@ -160,6 +160,13 @@ int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err) {
     return rt->be->use_direct(rt->self, direct, err);
 }
 
+/* The backend's local-light move; -1 with err when it has none. */
+int runtime_set_local_lights(prt_runtime *rt, const prt_lights *ls, prt_error *err) {
+    PRT_CHECK(rt != NULL && ls != NULL);
+    if (!rt->be->set_local_lights) return prt_fail(err, "the %s backend has no local lights yet", rt->be->name);
+    return rt->be->set_local_lights(rt->self, ls, err);
+}
+
 /* BRDF terms of the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax) {
     PRT_CHECK(rt != NULL && kmax >= 0);

@@ -69,9 +69,13 @@
  * call that draws, so other users of the context (the viewer's text) may draw
  * in between.
  *
- * Local lights (issue 11, reserved): runtime_backend.set_local_lights is the
- * place for per-frame local lights (spherical-Gaussian virtual lights); NULL in
- * every backend today, so runtime.c will refuse them with one line per backend.
+ * Local lights (issue 11): runtime_set_local_lights hands the point and spot
+ * lights (lights.h) to the backend, which adds their direct light with shadows,
+ * shaded with the analytic BRDFs (not the factorization), to the probe's PRT
+ * result at every later view change: cpu per vertex with Embree shadow rays
+ * (direct.h), gl per pixel with a shadow map per light. Calling it again is a
+ * light move (timed as local_ms); zero lights turns them off. Probe and local
+ * lights add up.
  *
  * Errors: every call that can fail returns 0, or -1 with one line in err
  * (unknown backend, no GL context, GL too old, out of memory, a file that keeps
@@ -115,6 +119,7 @@ typedef struct runtime_timing {
     double view_ms;             /* last view change: h(view) . g per vertex or per pixel, finished */
     double raster_ms;           /* last image: drawing beyond the view change (background, raster, read) */
     double light_gpu_ms, view_gpu_ms; /* GPU timer queries of the last light / view change (0: none) */
+    double local_ms;            /* last local-light move (runtime_set_local_lights): shadow rays / maps */
     size_t bytes;               /* memory the backend holds for the scene (gl: uploaded to the GPU) */
     const char *kernel;         /* the light-change kernel in use ("sparse T x L", "fragment", ...) */
     char device[256];           /* "2 threads" / "GL renderer, version (context)" */
@@ -143,6 +148,9 @@ void runtime_present(prt_runtime *rt, int win_w, int win_h, float exposure_stops
  * set. Takes effect at the next runtime_set_light. It switches the sparse transfer only: a vmf
  * transfer keeps all its passes (no op selects its passes yet). */
 int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err);
+/* Local lights (lights.h) for the next view changes, replacing the previous ones (count 0: none);
+ * a light move. -1 with err (invalid light, a backend without local lights). */
+int runtime_set_local_lights(prt_runtime *rt, const prt_lights *ls, prt_error *err);
 /* BRDF terms used by the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax);
 /* Switches the view model; -1 with err when the backend lacks it (cpu: per pixel). */
@@ -186,8 +194,8 @@ typedef struct runtime_backend {
     int (*set_view)(void *self, runtime_view view, prt_error *err);
     /* Fills everything but backend and light_vector_ms. */
     void (*get_timing)(const void *self, runtime_timing *t);
-    /* Reserved for issue 11 (local lights, per frame); NULL today. */
-    int (*set_local_lights)(void *self, const void *lights, int nlights, prt_error *err);
+    /* Local lights (issue 11): keeps ls (copied) and prepares their shadows; view changes add them. */
+    int (*set_local_lights)(void *self, const prt_lights *ls, prt_error *err);
 } runtime_backend;
 
 extern const runtime_backend runtime_cpu;   /* src/runtime/runtime_cpu.c */

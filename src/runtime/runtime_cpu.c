@@ -9,9 +9,18 @@
  * what `prt render` always did, so its output is unchanged), or into the
  * caller's context (the viewer's window) through a gldraw of our own, whose
  * float target runtime_present blits. Without a context the raster waits for
- * the image to be asked for (see runtime.h: bench times the view change alone). */
+ * the image to be asked for (see runtime.h: bench times the view change alone).
+ *
+ * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
+ *   light move:  cpu_set_local_lights -> direct_set_lights (src/light/direct.h: Embree
+ *                shadow rays per vertex on every thread; the direct_ctx is made at the first call,
+ *                so runs without local lights build no BVH); timed into local_ms.
+ *   view change: cpu_shade_vertices, after the PRT sum (relight_view + non-linear transfers):
+ *                direct_shade_vertices ADDS each light's shadowed radiance to rgb per vertex;
+ *                an effect computed per vertex adds its own rgb at the same place. */
 #include "runtime.h"
 #include "check.h"
+#include "direct.h"
 #include <math.h>
 #include "gldraw.h"
 #include "relight.h"
@@ -34,6 +43,8 @@ typedef struct cpu_rt {
     const struct prefilter_env *env;    /* the last light's prefiltered probe (the runtime's), or NULL */
     double light_ms, view_ms, raster_ms;
     double nonlinear_ms;        /* the non-linear transfers' part of the last view change */
+    direct_ctx *direct;         /* local lights' direct light (made at the first light move), or NULL */
+    double local_ms;            /* the last local-light move */
 } cpu_rt;
 
 /* Frees the relight context, the colours and the GL objects made in the caller's context. */
@@ -42,6 +53,7 @@ static void cpu_destroy(void *self) {
     if (!c) return;
     if (c->draw_ready && glctx_make_current(c->ctx, NULL) == 0) gldraw_free(&c->draw);
     relight_destroy(c->rc);
+    direct_destroy(c->direct);
     free(c->rgb);
     free(c);
 }
@@ -104,12 +116,27 @@ static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *r
         tr->ops->shade_vertices(c->d, tr, c->env, eye, rgb, c->nthreads);
         added = true;
     }
+    c->nonlinear_ms = 1e3 * (prt_now() - t1);
+    if (c->direct) {   /* local lights: their direct light on top of the probe's PRT colour */
+        direct_shade_vertices(c->direct, eye, rgb);
+        added = true;
+    }
     if (added)   /* no NaN or Inf reaches an output, whatever a representation returns */
         for (size_t k = 0; k < 3 * (size_t)c->d->scene.mesh.nverts; k++)
             if (!(rgb[k] >= 0) || !isfinite(rgb[k])) rgb[k] = 0;
-    c->nonlinear_ms = 1e3 * (prt_now() - t1);
     c->view_ms = 1e3 * (prt_now() - t0);
     return 0;
+}
+
+/* Local-light move: shadow rays per vertex (direct.h), timed. */
+static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err) {
+    cpu_rt *c = self;
+    double t0 = prt_now();
+    if (!c->direct && ls->count == 0) return 0;
+    if (!c->direct && !(c->direct = direct_create(&c->d->scene, c->nthreads, err))) return -1;
+    int rc = direct_set_lights(c->direct, ls, err);
+    c->local_ms = 1e3 * (prt_now() - t0);
+    return rc;
 }
 
 /* Into the caller's context: background (uploaded again only for another probe), then the colours. */
@@ -185,6 +212,7 @@ static void cpu_get_timing(const void *self, runtime_timing *t) {
     t->light_ms = c->light_ms;
     t->view_ms = c->view_ms;
     t->raster_ms = c->raster_ms;
+    t->local_ms = c->local_ms;
     /* Its own memory: the K-vector caches and the per-vertex position + frame records (relight.c), and
      * what the non-linear transfers hold (ops->bytes: read at every view change). */
     size_t bytes = sizeof(float) * 12 * (size_t)c->d->scene.mesh.nverts;
@@ -212,5 +240,5 @@ const runtime_backend runtime_cpu = {
     .use_direct = cpu_use_direct,
     .set_view = cpu_set_view,
     .get_timing = cpu_get_timing,
-    .set_local_lights = NULL,   /* issue 11 */
+    .set_local_lights = cpu_set_local_lights,
 };

@@ -369,6 +369,51 @@ static char *read_text(const char *path, size_t *len, prt_error *err) {
     return buf;
 }
 
+/* One light of the "lights" array: a spec string, or an object with the same fields. */
+static int json_light(json_ctx *c, const cJSON *it, prt_light *l) {
+    char what[200];
+    snprintf(what, sizeof what, "%s: %s", c->path, c->where);
+    if (cJSON_IsString(it)) return light_parse(it->valuestring, what, l, c->err);
+    if (!cJSON_IsObject(it)) return prt_fail(c->err, "%s: expected a light spec string or object", what);
+    static const char *const keys[] = { "type", "pos", "dir", "inner", "outer", "intensity", "colour", "name", NULL };
+    if (jkeys(c, it, keys)) return -1;
+    const cJSON *ty = cJSON_GetObjectItemCaseSensitive(it, "type");
+    const char *tname = cJSON_IsString(ty) ? ty->valuestring : "";
+    if (strcmp(tname, "point") && strcmp(tname, "spot")) return jfail_type(c, "type", "\"point\" or \"spot\"");
+    if (!cJSON_GetObjectItemCaseSensitive(it, "pos")) return prt_fail(c->err, "%s: no \"pos\"", what);
+    /* Start from the spec parser's defaults, then overwrite with the object's fields. */
+    char spec[64];
+    snprintf(spec, sizeof spec, "%s:pos=0,0,0", tname);
+    if (light_parse(spec, what, l, c->err)) return -1;
+    bool spot = l->type == PRT_LIGHT_SPOT;
+    if (!spot && (cJSON_GetObjectItemCaseSensitive(it, "dir") || cJSON_GetObjectItemCaseSensitive(it, "inner") ||
+                  cJSON_GetObjectItemCaseSensitive(it, "outer")))
+        return prt_fail(c->err, "%s: dir, inner and outer are for spot lights only", what);
+    if (jvec(c, it, "pos", 3, l->pos) || jvec(c, it, "dir", 3, l->dir) || jvec(c, it, "colour", 3, l->colour) ||
+        jfloat(c, it, "inner", &l->inner_deg) || jfloat(c, it, "outer", &l->outer_deg) ||
+        jfloat(c, it, "intensity", &l->intensity))
+        return -1;
+    float n = v3_len(l->dir);
+    if (!(n > 1e-12f)) return prt_fail(c->err, "%s: dir must not be zero", what);
+    v3_scale(l->dir, l->dir, 1.f / n);
+    return light_validate(l, what, c->err);
+}
+
+/* The optional top-level "lights" array into s->lights. */
+static int json_lights(json_ctx *c, const cJSON *root, prt_scene *s) {
+    const cJSON *arr = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    if (!arr) return 0;
+    c->where[0] = 0;
+    if (!cJSON_IsArray(arr)) return jfail_type(c, "lights", "an array of lights");
+    int i = 0;
+    for (const cJSON *it = arr->child; it; it = it->next, i++) {
+        snprintf(c->where, sizeof c->where, "lights[%d]", i);
+        prt_light l;
+        if (json_light(c, it, &l) || lights_add(&s->lights, &l, c->path, c->err)) return -1;
+    }
+    return 0;
+}
+
 /* Parses JSON text (path names it in errors and anchors its relative OBJ paths). */
 static int json_scene(const char *path, const char *text, size_t len, const scene_desc *desc, prt_scene *s,
                       prt_error *err) {
@@ -386,7 +431,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
     }
     json_ctx c = { .path = path, .err = err };
     int rc = -1;
-    static const char *const top[] = { "models", "floor", "comment", NULL };
+    static const char *const top[] = { "models", "floor", "lights", "comment", NULL };
     const cJSON *models = NULL, *fl = NULL;
     if (!cJSON_IsObject(root)) { prt_fail(err, "%s: expected a JSON object at the top level", path); goto done; }
     if (jkeys(&c, root, top)) goto done;
@@ -425,6 +470,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
         prt_error e2;
         if (scene_add_floor(s, verts, size, fmat, &e2)) { prt_fail(err, "%s: %s", path, e2.msg); goto done; }
     }
+    if (json_lights(&c, root, s)) goto done;
     rc = 0;
 done:
     cJSON_Delete(root);

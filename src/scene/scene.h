@@ -18,7 +18,12 @@
  * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_x" and
  * "rotate_y" (degrees, right-handed; p' = scale * Ry * Rx * p + translate) and "name"
  * (ignored). Paths of OBJ models are relative to the JSON file (absolute ones are kept).
- * "floor" may also be true/false; a top-level "comment" is ignored. Any other key is
+ * "floor" may also be true/false; a top-level "comment" is ignored.
+ * "lights" (issue 11, lights.h) is an array of local lights, each a spec string
+ * ("spot:pos=0,2,0;dir=0,-1,0;inner=20;outer=30;intensity=10") or an object
+ * {"type":"point"|"spot", "pos":[x,y,z], "dir":[x,y,z], "inner":DEG, "outer":DEG,
+ *  "intensity":W_PER_SR, "colour":[r,g,b]} with light_parse's defaults; at most
+ * PRT_MAX_LIGHTS. Any other key is
  * an error. Example scenes: data/ (data/README.md). The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
@@ -34,6 +39,7 @@
 #include "common.h"
 #include "mesh.h"
 #include "brdf.h"
+#include "lights.h"
 
 #define PRT_MAX_MATERIALS 64
 
@@ -45,6 +51,7 @@ typedef struct prt_scene {
     int floor_first_vertex;    /* first vertex of the floor, or -1 when there is none */
     float bmin[3], bmax[3];    /* bounds of everything, floor included */
     mesh_load_stats load_stats; /* summed over OBJ models */
+    prt_lights lights;         /* local lights (issue 11): the JSON's "lights", plus --light flags */
 } prt_scene;
 
 typedef struct scene_desc {

@@ -1,0 +1,169 @@
+/* direct.c - per-vertex direct light from local lights with shadow rays (direct.h).
+ *
+ * The split between light move and view change follows the PRT runtime's own (Eq. 5: the
+ * light-dependent part once per light change, the view-dependent part per view): the
+ * visibility and, for Lambert vertices, the whole radiance belong to the light; only a
+ * glossy BRDF needs the eye. */
+#include "direct.h"
+#include "brdf.h"
+#include "visibility.h"
+#include "vec3.h"
+#include <math.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct direct_ctx {
+    const prt_scene *scene;
+    int nthreads;
+    vis_scene *vs;
+    float eps;
+    prt_lights lights;
+    uint8_t *vis;           /* [light][nverts]: 1 when the light reaches the vertex unoccluded */
+    float *lambert;         /* [3 * nverts]: the view-independent radiance of Lambert vertices */
+    uint8_t *glossy;        /* [nverts]: 1 where the material's BRDF depends on the view */
+    int nglossy;
+    atomic_long rays;
+    direct_stats st;
+};
+
+/* The BVH, the buffers and which vertices are glossy. */
+direct_ctx *direct_create(const prt_scene *scene, int nthreads, prt_error *err) {
+    const prt_mesh *m = &scene->mesh;
+    if (m->nverts <= 0 || m->ntris <= 0) return prt_fail(err, "local lights: the scene has no triangles"), NULL;
+    direct_ctx *dc = prt_calloc(1, sizeof *dc, err);
+    if (!dc) return NULL;
+    dc->scene = scene;
+    dc->nthreads = nthreads;
+    size_t nv = (size_t)m->nverts;
+    dc->vis = prt_calloc(nv * PRT_MAX_LIGHTS, 1, err);
+    dc->lambert = dc->vis ? prt_calloc(3 * nv, sizeof(float), err) : NULL;
+    dc->glossy = dc->lambert ? prt_calloc(nv, 1, err) : NULL;
+    dc->vs = dc->glossy ? vis_create(m, err) : NULL;
+    if (!dc->vs) { direct_destroy(dc); return NULL; }
+    dc->eps = vis_eps(dc->vs);
+    for (size_t v = 0; v < nv; v++) {
+        int mat = m->mat ? m->mat[v] : 0;
+        dc->glossy[v] = scene->materials[mat < scene->nmaterials ? mat : 0].type != BRDF_LAMBERT;
+        dc->nglossy += dc->glossy[v];
+    }
+    return dc;
+}
+
+void direct_destroy(direct_ctx *dc) {
+    if (!dc) return;
+    if (dc->vs) vis_destroy(dc->vs);
+    free(dc->vis);
+    free(dc->lambert);
+    free(dc->glossy);
+    free(dc);
+}
+
+static const brdf_params *vertex_brdf(const direct_ctx *dc, int v) {
+    const prt_scene *s = dc->scene;
+    int mat = s->mesh.mat ? s->mesh.mat[v] : 0;
+    return &s->materials[mat < s->nmaterials ? mat : 0];
+}
+
+/* Whether anything blocks the segment from vertex v (offset along its normal) to the light at dist along wi. */
+static bool vertex_occluded(const direct_ctx *dc, int v, const float wi[3], float dist) {
+    const prt_mesh *m = &dc->scene->mesh;
+    float o[3];
+    v3_madd(o, m->pos + 3 * (size_t)v, m->nrm + 3 * (size_t)v, dc->eps);
+    float tfar = dist - 2 * dc->eps;
+    return tfar > dc->eps && vis_occluded(dc->vs, o, wi, dc->eps, tfar);
+}
+
+/* Light move over vertices [b, e): visibility bytes and the Lambert sums. A Lambert BRDF does
+ * not depend on wo, so the normal itself stands in for it. */
+static void light_range(void *ctx, int b, int e, int thread) {
+    direct_ctx *dc = ctx;
+    const prt_mesh *m = &dc->scene->mesh;
+    size_t nv = (size_t)m->nverts;
+    long rays = 0;
+    for (int v = b; v < e; v++) {
+        const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
+        float sum[3] = { 0, 0, 0 };
+        for (int l = 0; l < dc->lights.count; l++) {
+            float wi[3], L[3];
+            float dist = light_shade(&dc->lights.light[l], vertex_brdf(dc, v), p, n, n, wi, L);
+            bool any = L[0] > 0 || L[1] > 0 || L[2] > 0;
+            /* A glossy vertex may see light the normal-as-wo test missed only if wi is above the horizon. */
+            if (dc->glossy[v]) any = dist > 0 && v3_dot(wi, n) > 0;
+            bool vis = any && !vertex_occluded(dc, v, wi, dist);
+            rays += any;
+            dc->vis[(size_t)l * nv + v] = vis;
+            if (vis && !dc->glossy[v])
+                for (int c = 0; c < 3; c++) sum[c] += L[c];
+        }
+        for (int c = 0; c < 3; c++) dc->lambert[3 * (size_t)v + c] = isfinite(sum[c]) ? sum[c] : 0;
+    }
+    atomic_fetch_add(&dc->rays, rays);
+}
+
+/* Copies and validates the lights, then traces. */
+int direct_set_lights(direct_ctx *dc, const prt_lights *ls, prt_error *err) {
+    PRT_CHECK(dc != NULL && ls != NULL);
+    if (ls->count < 0 || ls->count > PRT_MAX_LIGHTS) return prt_fail(err, "local lights: bad count %d", ls->count);
+    for (int i = 0; i < ls->count; i++)
+        if (light_validate(&ls->light[i], "local lights", err)) return -1;
+    double t0 = prt_now();
+    dc->lights = *ls;
+    atomic_store(&dc->rays, 0);
+    prt_parallel_for(dc->scene->mesh.nverts, 256, dc->nthreads, light_range, dc);
+    dc->st.lights = ls->count;
+    dc->st.rays = atomic_load(&dc->rays);
+    dc->st.light_ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+typedef struct shade_job {
+    direct_ctx *dc;
+    float eye[3];
+    float *rgb;
+} shade_job;
+
+/* View change over [b, e): Lambert sums added, glossy vertices evaluated toward the eye. */
+static void shade_range(void *ctx, int b, int e, int thread) {
+    shade_job *j = ctx;
+    const direct_ctx *dc = j->dc;
+    const prt_mesh *m = &dc->scene->mesh;
+    size_t nv = (size_t)m->nverts;
+    for (int v = b; v < e; v++) {
+        const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
+        float wo[3] = { j->eye[0] - p[0], j->eye[1] - p[1], j->eye[2] - p[2] };
+        if (v3_dot(wo, n) <= 0 || v3_normalize(wo) == 0) continue;   /* one-sided */
+        float *out = j->rgb + 3 * (size_t)v;
+        if (!dc->glossy[v]) {
+            for (int c = 0; c < 3; c++) out[c] += dc->lambert[3 * (size_t)v + c];
+            continue;
+        }
+        for (int l = 0; l < dc->lights.count; l++) {
+            if (!dc->vis[(size_t)l * nv + v]) continue;
+            float wi[3], L[3];
+            light_shade(&dc->lights.light[l], vertex_brdf(dc, v), p, n, wo, wi, L);
+            for (int c = 0; c < 3; c++)
+                if (isfinite(L[c])) out[c] += L[c];
+        }
+    }
+}
+
+void direct_shade_vertices(direct_ctx *dc, const float eye[3], float *rgb) {
+    PRT_CHECK(dc != NULL && eye != NULL);
+    double t0 = prt_now();
+    if (dc->lights.count > 0) {
+        shade_job j = { .dc = dc, .eye = { eye[0], eye[1], eye[2] }, .rgb = rgb };
+        prt_parallel_for(dc->scene->mesh.nverts, 1024, dc->nthreads, shade_range, &j);
+    }
+    dc->st.view_ms = 1e3 * (prt_now() - t0);
+}
+
+int direct_visible(const direct_ctx *dc, int l, int v) {
+    PRT_CHECK(l >= 0 && l < dc->lights.count && v >= 0 && v < dc->scene->mesh.nverts);
+    return dc->vis[(size_t)l * dc->scene->mesh.nverts + v];
+}
+
+void direct_get_stats(const direct_ctx *dc, direct_stats *st) {
+    *st = dc->st;
+    st->glossy_vertices = dc->nglossy;
+}
