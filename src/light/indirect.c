@@ -150,7 +150,7 @@ void indirect_shade_vertices(indirect_ctx *ic, const float eye[3], float *rgb)
     ic->eye = eye;
     ic->out = rgb;
     memset(ic->rays, 0, sizeof ic->rays);
-    if (ic->lights.count > 0 || ic->env) prt_parallel_for(ic->scene->mesh.nverts, 256, ic->nthreads, ic_view, ic);
+    if (ic->lights.count > 0) prt_parallel_for(ic->scene->mesh.nverts, 256, ic->nthreads, ic_view, ic);
     ic->st.hl_rays = 0;
     for (int t = 0; t < IC_MAX_THREADS; t++) ic->st.hl_rays += ic->rays[t];
     ic->st.view_ms = 1e3 * (prt_now() - t0);
