@@ -35,9 +35,32 @@ static double hl_rand(uint64_t *s)
 
 static double hl_lum(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
-/* Section 6.2's gathering: S rays from p's lobe, the lobe each glossy hit reflects toward p. */
+/* The final gather of a hit's diffuse part: w kd/pi cos I / r^2 V / S for each light, one shadow ray each. */
+static void hl_diffuse(const hl_scene *sc, const prt_light *lights, int nl, const float q[3], const float nq[3],
+                       int mq, const float w[3], int S, float out[3], hl_stats *st)
+{
+    const float *kd = lightmat_brdf(sc->lm, mq)->kd;
+    if (!(kd[0] > 0 || kd[1] > 0 || kd[2] > 0)) return;
+    float eps = vis_eps(sc->vs), org[3];
+    v3_madd(org, q, nq, eps);
+    for (int l = 0; l < nl; l++) {
+        float d[3], I[3], md[3];
+        v3_sub(d, lights[l].pos, org);
+        float dist = v3_normalize(d), c = v3_dot(d, nq);
+        if (!(c > 0) || !(dist > eps)) continue;
+        v3_scale(md, d, -1.f);
+        light_intensity_toward(&lights[l], md, I);
+        if (!(I[0] > 0 || I[1] > 0 || I[2] > 0)) continue;
+        st->shadow_rays++;
+        if (vis_occluded(sc->vs, org, d, eps, dist - eps)) continue;
+        for (int k = 0; k < 3; k++) out[k] += w[k] * kd[k] * (float)M_1_PI * c * I[k] / (dist * dist) / S;
+    }
+}
+
+/* Section 6.2's gathering: S rays from p's lobe, the lobe each glossy hit reflects toward p; the
+ * hits' diffuse part is gathered from the lights at once into dout (hl_diffuse). */
 static int hl_gather(const hl_scene *sc, int S, const float p[3], const float n[3], int mat, const float wo[3],
-                     uint64_t seed, hl_item *items, hl_stats *st)
+                     uint64_t seed, const prt_light *lights, int nl, hl_item *items, float dout[3], hl_stats *st)
 {
     vmf_lobe gp;
     float ap[3];
@@ -56,10 +79,13 @@ static int hl_gather(const hl_scene *sc, int S, const float p[3], const float n[
         if (!vis_closest(sc->vs, org, s, eps, INFINITY, &h)) continue;
         hl_item *it = items + m;
         int mq = lightmat_surface(sc->lm, sc->mesh, &h, it->q, it->nq);
-        float aq[3];
+        float aq[3], w[3];
         v3_scale(ms, s, -1.f);
+        if (v3_dot(ms, it->nq) <= 0) continue;            /* the back of a one-sided surface */
+        for (int k = 0; k < 3; k++) w[k] = f[k] * cp / pdf;
+        hl_diffuse(sc, lights, nl, it->q, it->nq, mq, w, S, dout, st);
         if (!lightmat_lobe(sc->lm, mq, it->nq, ms, &it->g, aq)) continue;
-        for (int k = 0; k < 3; k++) it->c[k] = f[k] * cp / pdf * aq[k];
+        for (int k = 0; k < 3; k++) it->c[k] = w[k] * aq[k];
         it->w = hl_lum(it->c);
         if (!(it->w > 0)) continue;
         m++;
@@ -253,7 +279,7 @@ void hl_shade(const hl_scene *sc, const hl_desc *desc, const prt_light *lights, 
     d.iters = d.iters <= 0 ? 8 : d.iters;
     out[0] = out[1] = out[2] = 0;
     hl_item it[HL_MAX_SAMPLES];
-    int m = hl_gather(sc, d.samples, p, n, mat, wo, seed, it, &st);
+    int m = hl_gather(sc, d.samples, p, n, mat, wo, seed, lights, nl, it, out, &st);
     if (m > 0 && nl > 0 && !d.fixed_frame) {
         for (int l = 0; l < nl; l++) hl_light_relative(sc, &d, it, m, d.samples, lights + l, out, &st);
     } else if (m > 0 && nl > 0) {

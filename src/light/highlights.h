@@ -34,8 +34,15 @@
  * the turned lobes are clustered and merged as above, and each merged lobe is read at w_ref.
  * Measured there: +4.3% at the peak, -3.3% on its flank; with the light 20 m away (where the
  * paper's assumption holds) +1% to +4% against the paper's +5% to +10%. Its cost: one EM per light.
- * Rays that miss, or hit a diffuse surface, add nothing here: the probe's direct reflection
- * is PRT's, and diffuse interreflection is the VSGLs' (vsgl.h) and PRT's bounces.
+ * Diffuse at the hits: the kd/pi part of every hit's BRDF (a Lambert floor's, the glossy
+ * models' kd) is gathered from the local lights per hit, w_i kd/pi cos I / r^2 V / S with one
+ * shadow ray each (the final gather the paper's renderer traces for the diffuse component,
+ * section 7): with sharp lobes at p these rays see a small, smooth patch, and a VSGL's one
+ * Gaussian cannot draw a lit floor in a mirror (measured on data/chrome-point.json, README).
+ * So with highlights on, p's glossy lobe takes all its one-bounce local light from here and
+ * its diffuse lobe from the VSGLs (indirect.h: vsgl_shade_diffuse); nothing is counted twice.
+ * Rays that miss add nothing (the probe's direct reflection is PRT's), nor does the probe
+ * at a diffuse hit (PRT's bounces).
  *
  * Cost: S rays and S lobe look-ups, the EM (S K iterations), K shadow rays per light and up
  * to S for the probe, per point. Deterministic for a given seed.

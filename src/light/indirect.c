@@ -127,8 +127,9 @@ static void ic_view(void *ctx, int begin, int end, int thread)
         if (!ic->glossy[v]) {
             v3_copy(acc, ic->lambert_rgb + 3 * (size_t)v);
         } else {
-            for (int l = 0; l < ic->lights.count && !ic->d.no_bounce; l++) {
-                vsgl_shade(&ic->vsgl[l], ic->lm, ic_mat(ic, v), p, n, wo, L);
+            for (int l = 0; l < ic->lights.count && !ic->d.no_bounce; l++) {   /* glossy lobe: see highlights.h */
+                if (ic->d.no_highlights) vsgl_shade(&ic->vsgl[l], ic->lm, ic_mat(ic, v), p, n, wo, L);
+                else vsgl_shade_diffuse(&ic->vsgl[l], ic->lm, ic_mat(ic, v), p, n, L);
                 v3_add(acc, acc, L);
             }
             if (!ic->d.no_highlights) {

@@ -11,10 +11,12 @@
  *
  * Light move: per light, rsm_render (res desc.rsm_res per face or square) and vsgl_build
  * (vsgl.h), then the view-independent VSGL light at every Lambert vertex (vsgl_shade: its
- * diffuse lobe only). View change: vsgl_shade at the glossy vertices toward the eye, and,
- * unless desc.no_highlights, hl_shade (highlights.h: desc.hl_samples secondary rays per
- * glossy vertex, seeded by the vertex index so that a still view does not flicker) from
- * every light and the probe. Vertices whose normal faces away from the eye get nothing (as
+ * diffuse lobe only). View change at the glossy vertices: with desc.no_highlights,
+ * vsgl_shade toward the eye (both lobes); otherwise vsgl_shade_diffuse for the diffuse lobe
+ * and hl_shade for the glossy one (highlights.h: desc.hl_samples secondary rays per glossy
+ * vertex, seeded by the vertex index so that a still view does not flicker; the indirect
+ * highlights from glossy hits and the final gather from diffuse ones, so the glossy lobe's
+ * one bounce is counted once) from every light and the probe. Vertices whose normal faces away from the eye get nothing (as
  * direct.h). Both stages run on desc.threads (0: all cores).
  *
  * The VSGLs have no visibility (tokuyoshi's poster has none); the highlights trace theirs.

@@ -142,9 +142,9 @@ static void vsgl_glossy(const lightmat *lm, int m, const float n[3], const float
     }
 }
 
-/* Both VSGLs, each meeting the receiver's diffuse SG (Eq. 1) and glossy ASG (3.2). */
-void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], const float wo[3],
-                float out[3])
+/* Both VSGLs, each meeting the receiver's diffuse SG (Eq. 1) and glossy ASG (3.2); wo NULL: no glossy part. */
+static void vsgl_shade_lobes(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3],
+                             const float *wo, float out[3])
 {
     out[0] = out[1] = out[2] = 0;
     const brdf_params *p = lightmat_brdf(lm, m);
@@ -156,8 +156,21 @@ void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3],
         if (!vsgl_incoming(pair[j], x, &g, rgb)) continue;
         double Id = sg_product_integral(&g, &dl);
         for (int k = 0; k < 3; k++) out[k] += (float)(rgb[k] * p->kd[k] * Id);
-        vsgl_glossy(lm, m, n, wo, &g, rgb, out);
+        if (wo) vsgl_glossy(lm, m, n, wo, &g, rgb, out);
     }
     for (int k = 0; k < 3; k++)
         if (!isfinite(out[k]) || out[k] < 0) out[k] = 0;
+}
+
+/* Section 3.2: both lobes of the receiver. */
+void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], const float wo[3],
+                float out[3])
+{
+    vsgl_shade_lobes(v, lm, m, x, n, wo, out);
+}
+
+/* The receiver's diffuse lobe alone. */
+void vsgl_shade_diffuse(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], float out[3])
+{
+    vsgl_shade_lobes(v, lm, m, x, n, NULL, out);
 }

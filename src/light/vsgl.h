@@ -79,6 +79,9 @@ bool vsgl_incoming(const vsgl_light *v, const float x[3], sg_lobe *g, float rgb[
 /* Radiance reflected toward wo at x (normal n, material m of lm) from both VSGLs (section 3.2). */
 void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], const float wo[3],
                 float out[3]);
+/* vsgl_shade's receiver-diffuse part alone (the SG product with Eq. 1's lobe): what indirect.h
+ * uses at a glossy vertex whose glossy lobe the highlights' gather lights instead. */
+void vsgl_shade_diffuse(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], float out[3]);
 /* The glossy lobe at a shading point as an ASG of amplitude 1 and its vMF sharpness kappa;
  * false when m is not glossy or wo is below the horizon (see header for the bandwidths). */
 bool vsgl_spec_asg(const lightmat *lm, int m, const float n[3], const float wo[3], asg_lobe *a, float *kappa);
