@@ -20,6 +20,7 @@
 #include "prefilter.h"
 #include "gldraw.h"
 #include "gllights.h"
+#include "glvsgl.h"
 #include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
@@ -55,6 +56,8 @@ struct glrt {
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
+    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too */
+    glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level. */
@@ -163,7 +166,7 @@ static const char *k_view_vs =
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
-    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm));\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix;\n"
@@ -191,7 +194,7 @@ static const char *k_view_fs =
     "    if (u_pf_n > 0 && v_pix > 0.999) add = max(tv_radiance(v_mat, normalize(v_nrm), normalize(u_eye - v_pos)), vec3(0.0));\n"
     "#endif\n"
     "    vec3 n = normalize(v_nrm);\n"
-    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
+    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -515,10 +518,10 @@ static int build_programs(glrt *rt, prt_error *err) {
     if (build_light_programs(rt, err)) return -1;
     /* The common view code, then the local lights' GLSL (gllights.h: local_lights(), after frame()). */
     rt->lmax = gllights_supported(gl) ? GLLIGHTS_MAX : 0;
-    size_t ncommon = strlen(k_view_common) + strlen(gllights_glsl()) + 1;
+    size_t ncommon = strlen(k_view_common) + strlen(gllights_glsl()) + strlen(glvsgl_glsl()) + 1;
     char *common = malloc(ncommon);
     if (!common) return prt_fail(err, "out of memory");
-    snprintf(common, ncommon, "%s%s", k_view_common, gllights_glsl());
+    snprintf(common, ncommon, "%s%s%s", k_view_common, gllights_glsl(), glvsgl_glsl());
     /* View programs. */
     for (int pv = 0; pv < 2; pv++) {
         snprintf(head, sizeof head,
@@ -700,6 +703,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt *rt = prt_calloc(1, sizeof *rt, err);
     if (!rt) return NULL;
     rt->d = d;
+    rt->local_bounce = dd.local_bounce;
     rt->tr = tr;
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
@@ -769,6 +773,7 @@ void glrt_destroy(glrt *rt) {
         if (rt->vao) gl->DeleteVertexArrays(1, &rt->vao);
         if (rt->query) gl->DeleteQueries(1, &rt->query);
         gllights_destroy(rt->local);
+        glvsgl_destroy(rt->vsgl);
         gldraw_free(&rt->draw);
     }
     if (rt->own_ctx) glctx_destroy(rt->ctx);
@@ -783,6 +788,10 @@ int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     double t0 = prt_now();
     if (!rt->local && !(rt->local = gllights_create(rt->gl, &rt->d->scene, err))) return -1;
     if (gllights_set(rt->local, ls, rt->vao, rt->d->scene.mesh.ntris, err)) return -1;
+    if (rt->local_bounce) {   /* issue 11 item 3: the VSGLs, from an RSM on the CPU (glvsgl.h) */
+        if (!rt->vsgl && !(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+        if (glvsgl_set(rt->vsgl, ls, err)) return -1;
+    }
     rt->gl->Finish();
     rt->timing.local_ms = 1e3 * (prt_now() - t0);
     return 0;
@@ -859,6 +868,7 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     if (p == rt->prog_view[0] && rt->tv) bind_tv(rt, p);
     if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
+        if (rt->vsgl) glvsgl_bind(rt->vsgl, rt->gl, p);
         gl->ActiveTexture(GL_TEXTURE1);
     }
     gl->Enable(GL_DEPTH_TEST);

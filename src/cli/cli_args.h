@@ -80,7 +80,7 @@ int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, boo
  * --highlights) out of argv; samples 0 means none. Returns 0, or 2 after printing one line. */
 int cli_take_indirect(const char *cmd, int *argc, char **argv, int *samples, bool *bounce);
 #define CLI_INDIRECT_HELP \
-    "  --local-bounce          cpu: add the local lights' one bounce (two VSGLs per light)\n" \
+    "  --local-bounce          add the local lights' one bounce (two VSGLs per light; gl: diffuse part)\n" \
     "  --highlights            cpu: add their indirect highlights (32 rays per glossy vertex)\n" \
     "  --highlight-samples N   cpu: the same with N rays (1..1024)\n"
 /* The help lines of those flags. */

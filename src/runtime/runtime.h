@@ -109,7 +109,8 @@ typedef struct runtime_desc {
     runtime_view view;          /* view model (a backend refuses one it lacks) */
     const char *kernel;         /* light-change kernel by name (NULL: the backend's default; gl: "auto"
                                    times fragment/thread/warp once at create and keeps the fastest) */
-    bool local_bounce;          /* local lights, cpu: add their one bounce by two VSGLs per light (indirect.h) */
+    bool local_bounce;          /* local lights: add their one bounce by two VSGLs per light (cpu: indirect.h,
+                                   both lobes; gl: glvsgl.h, per pixel, the receiver's diffuse lobe) */
     int highlight_samples;      /* local lights, cpu: indirect-highlight rays per glossy vertex (0: none) */
 } runtime_desc;
 
