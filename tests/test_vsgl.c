@@ -393,6 +393,19 @@ static void runtimes_bounce(void) {
     scene_free(&s);
 }
 
+/* The command line refuses a bad sample count with one line naming the flag, exit 2, before
+ * reading anything. */
+static void bad_flags(void) {
+    char out[1024], cmd[512];
+    const char *bad[] = { "--highlight-samples 2000", "--highlight-samples" };
+    for (int i = 0; i < 2; i++) {
+        snprintf(cmd, sizeof cmd, "%s render /nonexistent.prt --probe none -o /dev/null %s", check_prt_bin(), bad[i]);
+        int rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 2 && strstr(out, "--highlight-samples") && strchr(out, '\n') == out + strlen(out) - 1,
+              "'%s': exit %d, '%s'", bad[i], rc, out);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(shade_quadrature);
@@ -402,5 +415,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(rsm_spot);
     CHECK_CASE(indirect_vertices);
     CHECK_CASE(runtimes_bounce);
+    CHECK_CASE(bad_flags);
     return check_summary();
 }
