@@ -2,7 +2,7 @@
 #   make            build build/prt (installs missing Debian packages first)
 #   make test       build and run the test suite (SAN=1 for ASan + UBSan; T=haar: only matching cases)
 #   make demo       build and run `prt demo` (writes demo.png)
-#   make bench      benchmarks on ../shared/data (not tests)
+#   make bench      benchmarks on ../shared/data (not tests; tools/bench_lights.sh: issue 11's local lights)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 SHELL := /bin/bash
@@ -86,6 +86,8 @@ bench: all
 	@tools/bench.sh $(BUILD)/prt
 	@echo
 	@tools/bench_glossy.sh $(BUILD)/prt
+	@echo
+	@tools/bench_lights.sh $(BUILD)/prt
 
 study: all
 	@tools/study.sh $(BUILD)/prt

@@ -16,6 +16,9 @@
  *     probe: vertex colours equal the analytic answer, the gl per-pixel image equals it at every
  *     pixel seeing the plane away from the shadow's edge, the cpu (Gouraud) image stays near it,
  *     and the two images agree;
+ *   - the command line: a scene's lights precomputed into the file (prt info lists them), render and
+ *     reference --vertices with --probe none agree with each other, --no-file-lights drops the
+ *     file's light and --light adds one; bad specs exit 2 with one line naming --light and write nothing;
  *   - furnace: a point light at the centre of a closed Lambert sphere (albedo a, inward
  *     normals): L = a/pi I/R^2 sum_{j<=k} a^j with k bounces (uniform interreflection). */
 #include "harness.h"
@@ -37,6 +40,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define PI 3.14159265358979323846
@@ -477,6 +481,86 @@ static void runtimes_plane(void) {
     scene_free(&s);
 }
 
+/* ---------------------------------------------------------------- command line */
+
+/* Reads a --vertices CSV's r column (first n rows) into out; the row count. */
+static int read_csv_r(const char *path, float *out, int n) {
+    FILE *f = fopen(path, "r");
+    if (!f) return 0;
+    char line[512];
+    int k = 0;
+    if (!fgets(line, sizeof line, f)) { fclose(f); return 0; }
+    while (k < n && fgets(line, sizeof line, f)) {
+        int v;
+        float r;
+        if (sscanf(line, "%d,%f", &v, &r) == 2) out[k++] = r;
+    }
+    fclose(f);
+    return k;
+}
+
+static int lines_of(const char *s) {
+    int n = 0;
+    for (const char *p = s; *p; p++) n += *p == '\n';
+    return n + (*s && s[strlen(s) - 1] != '\n');
+}
+
+static void cli(void) {
+    const char *D = check_tmpdir(), *B = check_prt_bin();
+    char json[600], prt[600], cmd[4096], out[8192], a[600], b[600];
+    snprintf(json, sizeof json, "%s/lit.json", D);
+    snprintf(prt, sizeof prt, "%s/lit.prt", D);
+    FILE *f = fopen(json, "w");
+    if (!f) { CHECK(false, "cannot write %s", json); return; }
+    fprintf(f, "{\"models\":[{\"plane\":{\"x\":[-1,1],\"z\":[-1,1],\"nx\":12,\"nz\":12},\"material\":\"lambert:kd=0.6\"},"
+               "{\"plane\":{\"x\":[-0.15,0.15],\"z\":[-0.15,0.15],\"height\":0.5,\"nx\":3,\"nz\":3}}],"
+               "\"lights\":[\"point:pos=0.2,1,0.1;intensity=5;colour=1,0.5,0.25\"]}\n");
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "%s precompute %s -o %s --coeffs 16 --vis-res 64 --no-bounces --quiet", B, json, prt);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+    prt_data d;
+    prt_error err = { { 0 } };
+    CHECK(prtfile_read(prt, &d, &err) == 0, "%s", err.msg);
+    if (err.msg[0] == 0) {   /* the file keeps the JSON's light (LITE section) */
+        CHECK(d.scene.lights.count == 1 && d.scene.lights.light[0].intensity == 5 && d.scene.lights.light[0].pos[0] == 0.2f &&
+              d.scene.lights.light[0].colour[2] == 0.25f, "lights read back: %d", d.scene.lights.count);
+        prt_data_free(&d);
+    }
+    snprintf(a, sizeof a, "%s/lit_r.csv", D);
+    snprintf(b, sizeof b, "%s/lit_f.csv", D);
+    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s", B, prt, D, a);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+    snprintf(cmd, sizeof cmd, "%s reference %s --probe none --no-image --vertices %s --spp 2 --quiet", B, prt, b);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+    float ra[200], rb[200];
+    int na = read_csv_r(a, ra, 153), nb = read_csv_r(b, rb, 153);
+    CHECK(na == 153 && nb == 153, "rows %d %d", na, nb);
+    double worst = 0, peak = 0;
+    for (int i = 0; i < na && i < nb; i++) worst = fmax(worst, fabs(ra[i] - rb[i])), peak = fmax(peak, rb[i]);
+    CHECK(peak > 0.1, "the floor is lit (peak %g)", peak);
+    CHECK_LE(worst, 1e-4 * peak, "render and reference --vertices agree with the file's light");
+    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s --no-file-lights "
+             "--light 'point:pos=0.2,1,0.1;intensity=10;colour=1,0.5,0.25'", B, prt, D, a);
+    CHECK(check_run(cmd, out, sizeof out) == 0 && read_csv_r(a, ra, 153) == 153, "%s", out);
+    worst = 0;
+    for (int i = 0; i < 153; i++) worst = fmax(worst, fabs(ra[i] - 2 * rb[i]));
+    CHECK_LE(worst, 2e-4 * peak, "--no-file-lights and --light of twice the intensity: twice the radiance");
+    /* Each prt start costs about a second on the shared machine: one bad spec per command. */
+    static const char *runs[] = { "render %s --probe none -o %s/bad.png --light 'lamp:pos=0,0,0'",
+                                  "reference %s --probe none -o %s/bad.exr --light 'spot:pos=0,1,0;outer=200'",
+                                  "bench %s --probe none --frames 1 %s/x --light" };
+    for (size_t i = 0; i < sizeof runs / sizeof runs[0]; i++) {
+        char args[2048];
+        snprintf(args, sizeof args, runs[i], prt, D);
+        snprintf(cmd, sizeof cmd, "%s %s", B, args);
+        int rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 2 && lines_of(out) == 1 && strstr(out, "--light"), "%s: exit %d: %s", args, rc, out);
+    }
+    snprintf(cmd, sizeof cmd, "%s/bad.png", D);
+    struct stat st;
+    CHECK(stat(cmd, &st) != 0, "no image written after a bad --light");
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(parse_specs);
@@ -488,5 +572,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(furnace);
     CHECK_CASE(glsl_brdf);
     CHECK_CASE(runtimes_plane);
+    CHECK_CASE(cli);
     return check_summary();
 }

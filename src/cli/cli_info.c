@@ -95,6 +95,11 @@ int cli_info(int argc, char **argv) {
     if (ps->bounces) printf(", bounces %.2fs", tb);
     printf(", total %.2fs\n", ps->t_total);
     if (ps->peak_rss_bytes) printf("peak memory   %.2f GB\n", ps->peak_rss_bytes / 1e9);
+    for (int i = 0; i < d.scene.lights.count; i++) {   /* issue 11: the file's local lights */
+        char spec[300];
+        light_format(&d.scene.lights.light[i], spec, sizeof spec);
+        printf("%s %s\n", i ? "             " : "local lights", spec);
+    }
     if (d.plan[0]) printf("effects plan\n%s%s", d.plan, d.plan[strlen(d.plan) - 1] == '\n' ? "" : "\n");
     prt_data_free(&d);
     return 0;

@@ -88,8 +88,13 @@ static void light_range(void *ctx, int b, int e, int thread) {
             float wi[3], L[3];
             float dist = light_shade(&dc->lights.light[l], vertex_brdf(dc, v), p, n, n, wi, L);
             bool any = L[0] > 0 || L[1] > 0 || L[2] > 0;
-            /* A glossy vertex may see light the normal-as-wo test missed only if wi is above the horizon. */
-            if (dc->glossy[v]) any = dist > 0 && v3_dot(wi, n) > 0;
+            /* A glossy vertex may see light the normal-as-wo test missed (a BRDF zero toward n): it needs
+             * wi above the horizon and the light sending something its way. */
+            if (dc->glossy[v] && dist > 0 && v3_dot(wi, n) > 0) {
+                float I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
+                light_intensity_toward(&dc->lights.light[l], away, I);
+                any = I[0] > 0 || I[1] > 0 || I[2] > 0;
+            }
             bool vis = any && !vertex_occluded(dc, v, wi, dist);
             rays += any;
             dc->vis[(size_t)l * nv + v] = vis;

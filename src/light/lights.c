@@ -6,6 +6,7 @@
 #include "brdf.h"
 #include <errno.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -111,17 +112,28 @@ int light_parse(const char *spec, const char *what, prt_light *out, prt_error *e
     return 0;
 }
 
-/* The spec string of l (round-trips through light_parse to float precision of %g's 9 digits). */
+/* The shortest of %.6g / %.9g that reads back to f exactly. */
+static const char *fmt_f(float f, char buf[32]) {
+    snprintf(buf, 32, "%.6g", f);
+    if (strtof(buf, NULL) != f) snprintf(buf, 32, "%.9g", f);
+    return buf;
+}
+
+/* The spec string of l; light_parse reads it back to the same floats. */
 void light_format(const prt_light *l, char *buf, size_t cap) {
-    int n = snprintf(buf, cap, "%s:pos=%.9g,%.9g,%.9g", l->type == PRT_LIGHT_SPOT ? "spot" : "point", l->pos[0],
-                     l->pos[1], l->pos[2]);
+    char a[32], b[32], c[32];
+    int n = snprintf(buf, cap, "%s:pos=%s,%s,%s", l->type == PRT_LIGHT_SPOT ? "spot" : "point", fmt_f(l->pos[0], a),
+                     fmt_f(l->pos[1], b), fmt_f(l->pos[2], c));
     if (n < 0 || (size_t)n >= cap) return;
-    if (l->type == PRT_LIGHT_SPOT)
-        n += snprintf(buf + n, cap - (size_t)n, ";dir=%.9g,%.9g,%.9g;inner=%.9g;outer=%.9g", l->dir[0], l->dir[1],
-                      l->dir[2], l->inner_deg, l->outer_deg);
+    if (l->type == PRT_LIGHT_SPOT) {
+        n += snprintf(buf + n, cap - (size_t)n, ";dir=%s,%s,%s", fmt_f(l->dir[0], a), fmt_f(l->dir[1], b), fmt_f(l->dir[2], c));
+        if (n < 0 || (size_t)n >= cap) return;
+        n += snprintf(buf + n, cap - (size_t)n, ";inner=%s;outer=%s", fmt_f(l->inner_deg, a), fmt_f(l->outer_deg, b));
+    }
     if (n < 0 || (size_t)n >= cap) return;
-    snprintf(buf + n, cap - (size_t)n, ";intensity=%.9g;colour=%.9g,%.9g,%.9g", l->intensity, l->colour[0],
-             l->colour[1], l->colour[2]);
+    n += snprintf(buf + n, cap - (size_t)n, ";intensity=%s", fmt_f(l->intensity, a));
+    if (n < 0 || (size_t)n >= cap) return;
+    snprintf(buf + n, cap - (size_t)n, ";colour=%s,%s,%s", fmt_f(l->colour[0], a), fmt_f(l->colour[1], b), fmt_f(l->colour[2], c));
 }
 
 /* Validated append. */

@@ -717,6 +717,31 @@ static void plan_bounce_line(pc_run *r) {
     r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && hit >= PC_HIT_MIN);
 }
 
+/* Issue 11: the scene's local lights and the local-light effects they call for. Direct light is
+ * always needed (runtime, analytic BRDFs, shadows); one bounce (VSGL) only where surfaces see each
+ * other (the same sample as interreflections); indirect highlights only where a glossy material can
+ * see another surface. Nothing is printed for a scene without local lights. */
+static void plan_local_lights(pc_run *r) {
+    const prt_scene *sc = &r->out->scene;
+    if (sc->lights.count == 0) return;
+    plan_add(r->plan, r->pcap, "  local lights: %d\n", sc->lights.count);
+    for (int i = 0; i < sc->lights.count; i++) {
+        char spec[300];
+        light_format(&sc->lights.light[i], spec, sizeof spec);
+        plan_add(r->plan, r->pcap, "    light %d: %s\n", i, spec);
+    }
+    int glossy = 0;
+    for (int m = 0; m < sc->nmaterials; m++) glossy += sc->materials[m].type != BRDF_LAMBERT;
+    bool see = r->hit_sample >= PC_HIT_MIN;
+    plan_add(r->plan, r->pcap, "    direct light with shadows: at runtime (cpu: Embree shadow rays per vertex; gl: a shadow cube "
+                               "per light), analytic BRDFs, not the factorization\n");
+    plan_add(r->plan, r->pcap, "    one bounce (two VSGLs): %s\n",
+             see ? "needed (surfaces see each other)" : "none: surfaces do not see each other");
+    plan_add(r->plan, r->pcap, "    indirect highlights: %s\n",
+             !glossy ? "none: no glossy material" : see ? "needed (a glossy material, surfaces see each other)"
+                                                        : "none: no glossy surface faces another");
+}
+
 /* Stage plan: the planning sample (a strided set of vertices computed first and kept), the
  * visibility, interreflection and estimate lines, and the plan printed. Returns 0 or -1. */
 static int pc_plan(pc_run *r, prt_error *err) {
@@ -734,6 +759,7 @@ static int pc_plan(pc_run *r, prt_error *err) {
     plan_add(r->plan, r->pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
              r->d.vis_res, r->c.ss, r->c.ss, r->nsample, 100 * r->hit_sample);
     plan_bounce_line(r);
+    plan_local_lights(r);
     char e1[32], e2[32];
     fmt_dur(e1, sizeof e1, est_direct + r->t_sample);
     if (r->plan_bounces) {
