@@ -47,7 +47,7 @@
  * Cost per point: S rays and S lobe look-ups; per light one EM over the glossy hits (S K per
  * iteration) and K shadow rays, and one shadow ray per hit with a diffuse part; for the probe
  * up to S shadow rays and one more EM. Measured on data/chrome-point.json (README): S = 32 at
- * 5,000 glossy vertices, 100-180 ms a view change on two loaded cores. Deterministic per seed.
+ * 6,898 glossy vertices, 100-180 ms a view change on two loaded cores. Deterministic per seed.
  * Errors: none (a non-glossy material at p gives 0); bad desc values are clamped to their
  * ranges (samples 1..HL_MAX_SAMPLES, clusters 1..HL_MAX_CLUSTERS). Thread-safe: scene and
  * env are only read. Ownership: the caller keeps everything hl_scene points to alive. */
