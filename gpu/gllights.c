@@ -18,6 +18,9 @@ struct gllights {
     GLuint buf_brdf, tex_brdf;
     GLuint prog_shadow, fbo, depth;
     GLuint cube[GLLIGHTS_MAX];
+    GLuint spot[GLLIGHTS_MAX];  /* a spot light's one perspective distance map */
+    float spot_vp[GLLIGHTS_MAX][16];
+    bool use_spot[GLLIGHTS_MAX];
     prt_lights lights;
     float scene_size;
 };
@@ -103,8 +106,10 @@ static const char *k_glsl =
     "uniform vec4 u_lcol[LMAX];\n"   /* rgb intensity * colour (W/sr), w: cos(outer) */
     "uniform vec4 u_lbias[LMAX];\n"  /* x: normal offset per unit distance, y: distance bias */
     "uniform samplerCube t_shadow0, t_shadow1, t_shadow2, t_shadow3;\n"
-    /* light_shade (lights.h) times the shadow cube's test. */
-    "vec3 one_light(int i, samplerCube sh, int m, vec3 p, vec3 n, vec3 s, vec3 t, vec3 wol) {\n"
+    "uniform sampler2D t_spot0, t_spot1, t_spot2, t_spot3;\n"
+    "uniform mat4 u_lvp[LMAX];\n"   /* a spot's map: projection * view from the light */
+    /* light_shade (lights.h) times the shadow map's test (u_lbias.z: 1 the spot's map, 0 the cube). */
+    "vec3 one_light(int i, samplerCube sh, sampler2D sp, int m, vec3 p, vec3 n, vec3 s, vec3 t, vec3 wol) {\n"
     "    vec3 d = u_lpos[i].xyz - p;\n"
     "    float dist2 = dot(d, d), dist = sqrt(dist2);\n"
     "    if (!(dist > 1e-12)) return vec3(0.0);\n"
@@ -119,7 +124,13 @@ static const char *k_glsl =
     "    }\n"
     "    if (f <= 0.0) return vec3(0.0);\n"
     "    vec3 q = p + n * (u_lbias[i].x * dist) - u_lpos[i].xyz;\n"
-    "    if (length(q) - u_lbias[i].y > texture(sh, q).r) return vec3(0.0);\n"
+    "    float stored;\n"
+    "    if (u_lbias[i].z > 0.5) {\n"   /* inside the cone (f > 0), so inside the map's frustum */
+    "        vec4 c = u_lvp[i] * vec4(q + u_lpos[i].xyz, 1.0);\n"
+    "        if (c.w <= 0.0) return vec3(0.0);\n"
+    "        stored = texture(sp, c.xy / c.w * 0.5 + 0.5).r;\n"
+    "    } else stored = texture(sh, q).r;\n"
+    "    if (length(q) - u_lbias[i].y > stored) return vec3(0.0);\n"
     "    return brdf_glsl(m, wil, wol) * u_lcol[i].rgb * (f * wil.z / dist2);\n"
     "}\n"
     "vec3 local_lights(int m, vec3 p, vec3 n, vec3 eye) {\n"
@@ -127,11 +138,11 @@ static const char *k_glsl =
     "    vec3 s, t;\n"
     "    frame(n, s, t);\n"
     "    vec3 wo = normalize(eye - p), wol = vec3(dot(wo, s), dot(wo, t), dot(wo, n));\n"
-    "    vec3 c = one_light(0, t_shadow0, m, p, n, s, t, wol);\n"
+    "    vec3 c = one_light(0, t_shadow0, t_spot0, m, p, n, s, t, wol);\n"
     "#if LMAX > 1\n"
-    "    if (u_nlocal > 1) c += one_light(1, t_shadow1, m, p, n, s, t, wol);\n"
-    "    if (u_nlocal > 2) c += one_light(2, t_shadow2, m, p, n, s, t, wol);\n"
-    "    if (u_nlocal > 3) c += one_light(3, t_shadow3, m, p, n, s, t, wol);\n"
+    "    if (u_nlocal > 1) c += one_light(1, t_shadow1, t_spot1, m, p, n, s, t, wol);\n"
+    "    if (u_nlocal > 2) c += one_light(2, t_shadow2, t_spot2, m, p, n, s, t, wol);\n"
+    "    if (u_nlocal > 3) c += one_light(3, t_shadow3, t_spot3, m, p, n, s, t, wol);\n"
     "#endif\n"
     "    return c;\n"
     "}\n"
@@ -158,7 +169,7 @@ bool gllights_supported(const gl_api *gl) {
     GLint fu = 0, vu = 0;
     gl->GetIntegerv(GL_MAX_TEXTURE_IMAGE_UNITS, &fu);
     gl->GetIntegerv(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS, &vu);
-    return fu > GLLIGHTS_UNIT + GLLIGHTS_MAX && vu > GLLIGHTS_UNIT + GLLIGHTS_MAX;
+    return fu > GLLIGHTS_UNIT + 2 * GLLIGHTS_MAX && vu > GLLIGHTS_UNIT + 2 * GLLIGHTS_MAX;
 }
 
 /* The materials' parameters as GLLIGHTS_TEXELS vec4 each (the layout brdf_glsl reads). */
@@ -202,6 +213,16 @@ static int make_cubes(gllights *L, prt_error *err) {
         gl->TexParameteri(GL_TEXTURE_CUBE_MAP, GL_TEXTURE_WRAP_R, GL_CLAMP_TO_EDGE);
     }
     gl->BindTexture(GL_TEXTURE_CUBE_MAP, 0);
+    gl->GenTextures(GLLIGHTS_MAX, L->spot);
+    for (int i = 0; i < GLLIGHTS_MAX; i++) {
+        gl->BindTexture(GL_TEXTURE_2D, L->spot[i]);
+        gl->TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, GLLIGHTS_RES, GLLIGHTS_RES, 0, GL_RED, GL_FLOAT, NULL);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    }
+    gl->BindTexture(GL_TEXTURE_2D, 0);
     gl->GenRenderbuffers(1, &L->depth);
     gl->BindRenderbuffer(GL_RENDERBUFFER, L->depth);
     gl->RenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT32F, GLLIGHTS_RES, GLLIGHTS_RES);
@@ -212,7 +233,7 @@ static int make_cubes(gllights *L, prt_error *err) {
 
 gllights *gllights_create(const gl_api *gl, const prt_scene *scene, prt_error *err) {
     if (!gllights_supported(gl))
-        return prt_fail(err, "gl runtime: local lights need %d texture units per stage", GLLIGHTS_UNIT + GLLIGHTS_MAX + 1), NULL;
+        return prt_fail(err, "gl runtime: local lights need %d texture units per stage", GLLIGHTS_UNIT + 2 * GLLIGHTS_MAX + 1), NULL;
     gllights *L = prt_calloc(1, sizeof *L, err);
     if (!L) return NULL;
     L->gl = gl;
@@ -232,6 +253,7 @@ void gllights_destroy(gllights *L) {
     if (!L) return;
     const gl_api *gl = L->gl;
     gl->DeleteTextures(GLLIGHTS_MAX, L->cube);
+    gl->DeleteTextures(GLLIGHTS_MAX, L->spot);
     if (L->tex_brdf) gl->DeleteTextures(1, &L->tex_brdf);
     if (L->buf_brdf) gl->DeleteBuffers(1, &L->buf_brdf);
     if (L->depth) gl->DeleteRenderbuffers(1, &L->depth);
@@ -240,40 +262,58 @@ void gllights_destroy(gllights *L) {
     free(L);
 }
 
-/* Column-major projection * view of cube face f seen from p (90 degrees, GL's face orientation). */
-static void face_matrix(const float p[3], int f, float near, float far, float out[16]) {
-    static const float fwd[6][3] = { { 1, 0, 0 }, { -1, 0, 0 }, { 0, 1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 } };
-    static const float up[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 }, { 0, -1, 0 }, { 0, -1, 0 } };
+/* Column-major projection * view from p looking along unit F (up: a hint), a square frustum of
+ * half-angle atan(tan_half): view x = s.(x-p), y = u.(x-p), z = -F.(x-p); clip.w = -z. */
+static void persp_matrix(const float p[3], const float F[3], const float up[3], float tan_half, float near, float far,
+                         float out[16]) {
     float s[3], u[3];
-    const float *F = fwd[f];
-    v3_cross(s, F, up[f]);
+    v3_cross(s, F, up);
+    v3_normalize(s);
     v3_cross(u, s, F);
-    /* view: x = s.(x-p), y = u.(x-p), z = -F.(x-p); a 90-degree square perspective: clip.w = -z. */
-    float a = (far + near) / (near - far), b = 2 * far * near / (near - far);
-    float rows[4][4] = { { s[0], s[1], s[2], -v3_dot(s, p) },
-                         { u[0], u[1], u[2], -v3_dot(u, p) },
+    float k = 1 / tan_half, a = (far + near) / (near - far), b = 2 * far * near / (near - far);
+    float rows[4][4] = { { k * s[0], k * s[1], k * s[2], -k * v3_dot(s, p) },
+                         { k * u[0], k * u[1], k * u[2], -k * v3_dot(u, p) },
                          { -a * F[0], -a * F[1], -a * F[2], a * v3_dot(F, p) + b },
                          { F[0], F[1], F[2], -v3_dot(F, p) } };
     for (int r = 0; r < 4; r++)
         for (int c = 0; c < 4; c++) out[c * 4 + r] = rows[r][c];
 }
 
-/* Renders light i's distance cube. */
-static void render_cube(gllights *L, int i, GLuint vao, int ntris) {
+/* Draws the mesh's distances from light i into the attached colour target with matrix vp. */
+static void draw_distances(gllights *L, const float vp[16], GLuint vao, int ntris) {
     const gl_api *gl = L->gl;
-    const float *p = L->lights.light[i].pos;
-    float near = 1e-4f * L->scene_size, far = 4 * L->scene_size + v3_len(p);
-    gl->Uniform3fv(gl->GetUniformLocation(L->prog_shadow, "u_lp"), 1, p);
+    gl->ClearColor(3e38f, 0, 0, 0);
+    gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(L->prog_shadow, "u_vp"), 1, GL_FALSE, vp);
+    gl->BindVertexArray(vao);
+    if (ntris > 0) gl->DrawElements(GL_TRIANGLES, ntris * 3, GL_UNSIGNED_INT, 0);
+    gl->BindVertexArray(0);
+}
+
+/* Light i's shadow: one perspective map for a spot whose cone fits in it (outer <= GLLIGHTS_SPOT_MAX_DEG),
+ * else a cube of six 90-degree faces in GL's face orientation. */
+static void render_shadow(gllights *L, int i, GLuint vao, int ntris) {
+    static const float fwd[6][3] = { { 1, 0, 0 }, { -1, 0, 0 }, { 0, 1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 } };
+    static const float up[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 }, { 0, 0, -1 }, { 0, -1, 0 }, { 0, -1, 0 } };
+    const gl_api *gl = L->gl;
+    const prt_light *l = &L->lights.light[i];
+    float near = 1e-4f * L->scene_size, far = 4 * L->scene_size + v3_len(l->pos);
+    gl->Uniform3fv(gl->GetUniformLocation(L->prog_shadow, "u_lp"), 1, l->pos);
+    L->use_spot[i] = l->type == PRT_LIGHT_SPOT && l->outer_deg <= GLLIGHTS_SPOT_MAX_DEG;
+    if (L->use_spot[i]) {
+        /* 2 degrees beyond the outer cone, so every point the falloff lets through lies inside. */
+        float hint[3] = { 0, 1, 0 };
+        if (fabsf(l->dir[1]) > 0.9f) hint[0] = 1, hint[1] = 0;
+        persp_matrix(l->pos, l->dir, hint, tanf((l->outer_deg + 2) * (float)(M_PI / 180)), near, far, L->spot_vp[i]);
+        gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, L->spot[i], 0);
+        draw_distances(L, L->spot_vp[i], vao, ntris);
+        return;
+    }
     for (int f = 0; f < 6; f++) {
         gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_CUBE_MAP_POSITIVE_X + f, L->cube[i], 0);
-        gl->ClearColor(3e38f, 0, 0, 0);
-        gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
         float vp[16];
-        face_matrix(p, f, near, far, vp);
-        gl->UniformMatrix4fv(gl->GetUniformLocation(L->prog_shadow, "u_vp"), 1, GL_FALSE, vp);
-        gl->BindVertexArray(vao);
-        if (ntris > 0) gl->DrawElements(GL_TRIANGLES, ntris * 3, GL_UNSIGNED_INT, 0);
-        gl->BindVertexArray(0);
+        persp_matrix(l->pos, fwd[f], up[f], 1, near, far, vp);
+        draw_distances(L, vp, vao, ntris);
     }
 }
 
@@ -292,7 +332,7 @@ int gllights_set(gllights *L, const prt_lights *ls, GLuint vao, int ntris, prt_e
     gl->DepthMask(GL_TRUE);
     gl->ClearDepth(1.0);
     gl->UseProgram(L->prog_shadow);
-    for (int i = 0; i < ls->count; i++) render_cube(L, i, vao, ntris);
+    for (int i = 0; i < ls->count; i++) render_shadow(L, i, vao, ntris);
     gl->UseProgram(0);
     gl->Disable(GL_DEPTH_TEST);
     gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -305,6 +345,8 @@ void gllights_init_program(const gl_api *gl, GLuint prog) {
         char name[32];
         snprintf(name, sizeof name, "t_shadow%d", i);
         gl->Uniform1i(gl->GetUniformLocation(prog, name), GLLIGHTS_UNIT + i);
+        snprintf(name, sizeof name, "t_spot%d", i);
+        gl->Uniform1i(gl->GetUniformLocation(prog, name), GLLIGHTS_UNIT + GLLIGHTS_MAX + 1 + i);
     }
     gl->Uniform1i(gl->GetUniformLocation(prog, "u_nlocal"), 0);
 }
@@ -327,15 +369,20 @@ void gllights_bind(const gllights *L, GLuint prog) {
          * distance bias of 0.1% of the scene for the remaining depth quantization. */
         bias[i][0] = 1.5f * 2.0f / GLLIGHTS_RES;
         bias[i][1] = 1e-3f * L->scene_size;
+        bias[i][2] = L->use_spot[i];
+        if (L->use_spot[i]) bias[i][0] = 1.5f * 2.0f * tanf((l->outer_deg + 2) * (float)(M_PI / 180)) / GLLIGHTS_RES;
     }
     gl->Uniform1i(gl->GetUniformLocation(prog, "u_nlocal"), L->lights.count);
     gl->Uniform4fv(gl->GetUniformLocation(prog, "u_lpos"), GLLIGHTS_MAX, &pos[0][0]);
     gl->Uniform4fv(gl->GetUniformLocation(prog, "u_ldir"), GLLIGHTS_MAX, &dir[0][0]);
     gl->Uniform4fv(gl->GetUniformLocation(prog, "u_lcol"), GLLIGHTS_MAX, &col[0][0]);
     gl->Uniform4fv(gl->GetUniformLocation(prog, "u_lbias"), GLLIGHTS_MAX, &bias[0][0]);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(prog, "u_lvp"), GLLIGHTS_MAX, GL_FALSE, &L->spot_vp[0][0]);
     for (int i = 0; i < GLLIGHTS_MAX; i++) {
         gl->ActiveTexture(GL_TEXTURE0 + GLLIGHTS_UNIT + i);
         gl->BindTexture(GL_TEXTURE_CUBE_MAP, L->cube[i]);
+        gl->ActiveTexture(GL_TEXTURE0 + GLLIGHTS_UNIT + GLLIGHTS_MAX + 1 + i);
+        gl->BindTexture(GL_TEXTURE_2D, L->spot[i]);
     }
     gl->ActiveTexture(GL_TEXTURE0 + GLLIGHTS_UNIT + GLLIGHTS_MAX);
     gl->BindTexture(GL_TEXTURE_BUFFER, L->tex_brdf);

@@ -10,9 +10,10 @@
  *     vec3 c = local_lights(material, p, n, eye);                // in GLSL: sum over the lights
  *     gllights_destroy(L);
  *
- * Shadows: each light renders the scene into a GLLIGHTS_RES^2 x 6 cube of distances
- * |x - light| (R32F, nearest), spot lights too (one perspective map would do for a spot of
- * outer angle < 90; the cube keeps one code path). A point is lit when its distance, taken
+ * Shadows: a point light renders the scene into a GLLIGHTS_RES^2 x 6 cube of distances
+ * |x - light| (R32F, nearest); a spot light into one GLLIGHTS_RES^2 perspective map along its
+ * axis, 2 degrees wider than its outer cone (a sixth of the cube's drawing; a spot wider than
+ * GLLIGHTS_SPOT_MAX_DEG takes a cube, where one map's texels would stretch). A point is lit when its distance, taken
  * from the point offset along its normal by 1.5 texels, is within a small bias of the stored
  * one: the shadow test is per pixel, the CPU's is one ray per vertex.
  * Shading: local_lights() is light_shade (lights.h) in GLSL: brdf_eval of the material (every
@@ -21,8 +22,9 @@
  * The GLSL needs glrt's frame() (Eq. 10's tangent frame, as brdf_frame) defined before it.
  *
  * Limits: at most GLLIGHTS_MAX lights (a set with more is refused with one line); texture
- * units GLLIGHTS_UNIT .. GLLIGHTS_UNIT + GLLIGHTS_MAX (the BRDF table and the cubes), so the
- * context needs GLLIGHTS_UNIT + GLLIGHTS_MAX + 1 texture image units (gllights_supported).
+ * units GLLIGHTS_UNIT .. GLLIGHTS_UNIT + 2 GLLIGHTS_MAX (the cubes, the BRDF table, the spot
+ * maps), so the context needs 2 GLLIGHTS_MAX + GLLIGHTS_UNIT + 1 texture image units per stage
+ * (gllights_supported).
  *
  * Ownership: the gllights owns its GL objects (destroy with the context current). Errors:
  * NULL / -1 with one line. */
@@ -34,6 +36,7 @@
 #define GLLIGHTS_MAX 4
 #define GLLIGHTS_UNIT 16
 #define GLLIGHTS_RES 512
+#define GLLIGHTS_SPOT_MAX_DEG 75   /* a spot of wider outer angle takes a cube, as a point light */
 
 typedef struct gllights gllights;
 

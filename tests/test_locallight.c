@@ -410,6 +410,51 @@ static bool ray_floor(const float eye[3], const float d[3], float p[3]) {
     return fabsf(p[0]) < 0.95f && fabsf(p[2]) < 0.95f;
 }
 
+/* Worst relative error of img at lit floor pixels against the analytic answer, and the largest value at
+ * shadowed ones (margin 0.06 from the shadow's edge). */
+static void image_errors(const prt_camera *cam, const prt_image *img, double *worst, double *shadow_max) {
+    *worst = 0;
+    *shadow_max = 0;
+    for (int y = 0; img->data && y < img->h; y++)
+        for (int x = 0; x < img->w; x++) {
+            float dir[3], p[3], t[3];
+            camera_ray(cam, img->w, img->h, x + 0.5f, y + 0.5f, dir);
+            if (!ray_floor(cam->eye, dir, p)) continue;
+            int cls = shadow_class(p, 0.06f);
+            plane_truth(p, t);
+            const float *g = img->data + 3 * ((size_t)y * img->w + x);
+            for (int k = 0; k < 3; k++) {
+                if (cls == 1) *worst = fmax(*worst, fabs(g[k] - t[k]) / t[k]);
+                if (cls == -1) *shadow_max = fmax(*shadow_max, fabs(g[k]));
+            }
+        }
+}
+
+/* The gl runtime with a spot light whose full cone (inner 60 degrees) covers the floor, so the
+ * same analytic answer holds: its one perspective shadow map instead of the point light's cube. */
+static void gl_spot(const prt_data *d, const prt_probe *black, const render_desc *rd) {
+    prt_error err = { { 0 } };
+    prt_lights ls = { 0 };
+    prt_light l = point_light();
+    l.type = PRT_LIGHT_SPOT;
+    l.dir[1] = -1;
+    l.inner_deg = 60;
+    l.outer_deg = 70;
+    lights_add(&ls, &l, "t", &err);
+    runtime_desc desc = { .backend = "gl" };
+    prt_runtime *rt = runtime_create(d, &desc, &err);
+    prt_image img = { 0 };
+    int rc = !rt || runtime_set_light(rt, black, NULL, &err) || runtime_set_local_lights(rt, &ls, &err) ||
+             runtime_render(rt, rd, &img, &err);
+    CHECK(rc == 0, "gl spot: %s", err.msg);
+    double worst, shadow_max;
+    image_errors(&rd->camera, &img, &worst, &shadow_max);
+    CHECK_LE(worst, 1e-3, "gl image, spot light's perspective map: lit pixels against the analytic answer");
+    CHECK_LE(shadow_max, 1e-6, "gl image, spot light's perspective map: black inside the shadow");
+    image_free(&img);
+    runtime_destroy(rt);
+}
+
 /* The shadowed plane through both runtimes (see the header). */
 static void runtimes_plane(void) {
     prt_scene s = { 0 };
@@ -472,6 +517,7 @@ static void runtimes_plane(void) {
     CHECK_LE(worst_cpu, 2e-2, "cpu image against the analytic answer at lit pixels");
     CHECK_LE(sqrt(sum_d2 / sum_t2), 5e-3, "cpu and gl images agree (relative RMS, lit pixels)");
     CHECK_LE(worst_shadow, 1e-6, "both images black inside the shadow");
+    gl_spot(&d, &black, &rd);
     for (int b = 0; b < 2; b++) {
         image_free(&img[b]);
         free(rgb[b]);

@@ -734,7 +734,7 @@ static void plan_local_lights(pc_run *r) {
     for (int m = 0; m < sc->nmaterials; m++) glossy += sc->materials[m].type != BRDF_LAMBERT;
     bool see = r->hit_sample >= PC_HIT_MIN;
     plan_add(r->plan, r->pcap, "    direct light with shadows: at runtime (cpu: Embree shadow rays per vertex; gl: a shadow cube "
-                               "per light), analytic BRDFs, not the factorization\n");
+                               "per point light, one perspective map per spot), analytic BRDFs, not the factorization\n");
     plan_add(r->plan, r->pcap, "    one bounce (two VSGLs): %s\n",
              see ? "needed (surfaces see each other)" : "none: surfaces do not see each other");
     plan_add(r->plan, r->pcap, "    indirect highlights: %s\n",
