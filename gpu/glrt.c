@@ -20,6 +20,7 @@
 #include "prefilter.h"
 #include "gldraw.h"
 #include "gllights.h"
+#include "glvsgl.h"
 #include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
@@ -57,6 +58,8 @@ struct glrt {
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
+    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too */
+    glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level, then t_tvu. */
@@ -167,7 +170,7 @@ static const char *k_view_vs =
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
-    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm));\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva;\n"
@@ -199,7 +202,7 @@ static const char *k_view_fs =
     "    }\n"
     "#endif\n"
     "    vec3 n = normalize(v_nrm);\n"
-    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
+    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -585,15 +588,16 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
     char *tv = tvp ? tv_source(rt) : NULL;
-    size_t cv = strlen(k_view_common) + strlen(gllights_glsl()), hl = strlen(head);
+    size_t cv = strlen(k_view_common) + strlen(gllights_glsl()) + strlen(glvsgl_glsl()), hl = strlen(head);
     char *vs2 = vs ? malloc(strlen(vs) + cv + 1) : NULL, *fs2 = vfs ? malloc(strlen(vfs) + cv + (tv ? strlen(tv) : 0) + 1) : NULL;
     if (!vs2 || !fs2 || (tvp && !tv)) {
         free(vs); free(vfs); free(vs2); free(fs2); free(tv);
         return prt_fail(err, "out of memory");
     }
-    /* head, then the common view functions and the local lights' (then the tv's), then the stage body. */
-    sprintf(vs2, "%s%s%s%s", head, k_view_common, gllights_glsl(), vs + hl);
-    sprintf(fs2, "%s%s%s%s%s", head, k_view_common, gllights_glsl(), tv ? tv : "", vfs + hl);
+    /* head, then the common view functions, the local lights' and the VSGLs' (glvsgl.h: vsgl_lights(),
+     * after gllights'), then the tv's, then the stage body. */
+    sprintf(vs2, "%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), vs + hl);
+    sprintf(fs2, "%s%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), tv ? tv : "", vfs + hl);
     static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv)", "view (per pixel, tv fast)" };
     rt->prog_view[pv] = glctx_program(gl, vs2, fs2, names[pv], err);
     free(vs); free(vfs); free(vs2); free(fs2); free(tv);
@@ -762,6 +766,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt *rt = prt_calloc(1, sizeof *rt, err);
     if (!rt) return NULL;
     rt->d = d;
+    rt->local_bounce = dd.local_bounce;
     rt->tr = tr;
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
@@ -832,6 +837,7 @@ void glrt_destroy(glrt *rt) {
         if (rt->vao) gl->DeleteVertexArrays(1, &rt->vao);
         if (rt->query) gl->DeleteQueries(1, &rt->query);
         gllights_destroy(rt->local);
+        glvsgl_destroy(rt->vsgl);
         gldraw_free(&rt->draw);
     }
     if (rt->own_ctx) glctx_destroy(rt->ctx);
@@ -854,6 +860,10 @@ int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     }
     if (!rt->local && !(rt->local = gllights_create(rt->gl, &rt->d->scene, err))) return -1;
     if (gllights_set(rt->local, ls, rt->vao, rt->d->scene.mesh.ntris, err)) return -1;
+    if (rt->local_bounce) {   /* issue 11 item 3: the VSGLs, from an RSM on the CPU (glvsgl.h) */
+        if (!rt->vsgl && !(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+        if (glvsgl_set(rt->vsgl, ls, err)) return -1;
+    }
     rt->gl->Finish();
     rt->timing.local_ms = 1e3 * (prt_now() - t0);
     return 0;
@@ -927,6 +937,7 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
     if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
+        if (rt->vsgl) glvsgl_bind(rt->vsgl, rt->gl, p);
         gl->ActiveTexture(GL_TEXTURE1);
     }
     gl->DrawElements(GL_TRIANGLES, n * 3, GL_UNSIGNED_INT, (const void *)(3 * sizeof(uint32_t) * (size_t)first));

@@ -96,6 +96,7 @@ typedef struct glrt_desc {
     glctx *ctx;                 /* NULL: a headless context owned by the glrt */
     glrt_light_method light;    /* AUTO: the fastest, measured at create */
     glrt_view_mode view;
+    bool local_bounce;          /* local lights: add their one bounce by VSGLs (glvsgl.h: receiver-diffuse) */
 } glrt_desc;
 
 typedef struct glrt_timing {

@@ -90,7 +90,7 @@ static glrt_view_mode view_mode(runtime_view v) { return v == RUNTIME_VIEW_VERTE
 
 /* glrt_create with the kernel and view model asked for, the direct set if asked. NULL with err. */
 static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
-    glrt_desc gd = { .ctx = desc->ctx, .view = view_mode(desc->view) };
+    glrt_desc gd = { .ctx = desc->ctx, .view = view_mode(desc->view), .local_bounce = desc->local_bounce };
     if (parse_kernel(desc->kernel, &gd.light, err)) return NULL;
     gl_rt *g = prt_calloc(1, sizeof *g, err);
     if (!g) return NULL;

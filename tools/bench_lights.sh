@@ -9,11 +9,16 @@
 #  1. the box room (data/box-room.json, a spot light, --probe none: the local light alone),
 #     400x300: prt render --backend cpu and --backend gl against prt reference (direct, the
 #     part built so far) and against prt reference --bounces 1 (direct + one bounce: the
-#     issue's target, <= 15% image rel_rmse; the one-bounce VSGL module lands separately).
+#     issue's target, <= 15% image rel_rmse), each runtime without and with --local-bounce
+#     (the two VSGLs per light, src/light/vsgl.h, gpu/glvsgl.h).
 #  2. moving a light at 67K vertices: the bunny + floor of make bench (build/bench/bunny.prt,
 #     made by tools/bench.sh; else precomputed here from data/bunny-floor.json) with a spot
 #     light above it: prt bench --backend cpu (target >= 30 fps, direct + VSGL), and the gl
-#     figure beside it (software GL here unless a GPU is present).
+#     figure beside it (software GL here unless a GPU is present); then with --local-bounce.
+#  3. indirect highlights: data/chrome-point.json (a point light), per vertex against prt
+#     reference --bounces 1: direct only, + VSGLs, + highlights (S = 32), over every vertex and
+#     over the chrome sphere's vertices where the reference's indirect exceeds 10% of its
+#     maximum (target <= 20% there), and the cost per frame (prt bench's "local indirect").
 set -u
 PRT=${1:-build/prt}
 DATA=${PRT_DATA:-../shared/data}
@@ -33,6 +38,8 @@ echo "== local lights (issue 11): box room with a spot light, and light moves at
 for b in cpu gl; do
   "$PRT" render "$OUT/box.prt" --probe none --backend $b --camera $CAM --size 400x300 -o "$OUT/box_$b.exr" 2>> "$OUT/box.log" ||
     echo "bench_lights: render --backend $b failed"
+  "$PRT" render "$OUT/box.prt" --probe none --backend $b --camera $CAM --size 400x300 --local-bounce -o "$OUT/box_${b}_vsgl.exr" \
+    2>> "$OUT/box.log" || echo "bench_lights: render --backend $b --local-bounce failed"
 done
 "$PRT" render "$OUT/box.prt" --probe none --backend gl --camera $CAM --size 400x300 -o "$OUT/box_gl.png" 2>> "$OUT/box.log"
 "$PRT" reference "$OUT/box.prt" --probe none --camera $CAM --size 400x300 --spp "$SPP" -o "$OUT/box_ref.exr" --quiet 2>> "$OUT/box.log"
@@ -41,12 +48,15 @@ done
 noise=$(grep -h "box_ref.exr" "$OUT/box.log" | sed -n "s/.*relative noise //p" | head -1)
 cd0=$(rel "$OUT/box_cpu.exr" "$OUT/box_ref.exr"); gd0=$(rel "$OUT/box_gl.exr" "$OUT/box_ref.exr")
 cd1=$(rel "$OUT/box_cpu.exr" "$OUT/box_ref1.exr"); gd1=$(rel "$OUT/box_gl.exr" "$OUT/box_ref1.exr")
+cv1=$(rel "$OUT/box_cpu_vsgl.exr" "$OUT/box_ref1.exr"); gv1=$(rel "$OUT/box_gl_vsgl.exr" "$OUT/box_ref1.exr")
 echo
 echo "-- box room, 400x300, image rel_rmse against prt reference ($SPP spp; its direct image's own noise $noise)"
 printf "   cpu (per vertex, Embree shadow rays) vs direct reference     %8s\n" "$cd0"
 printf "   gl  (per pixel, shadow maps)          vs direct reference     %8s\n" "$gd0"
-printf "   cpu, direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s (no VSGL bounce yet)\n" "$cd1" "$(verdict "$cd1" 0.15 le)"
-printf "   gl,  direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s (no VSGL bounce yet)\n" "$gd1" "$(verdict "$gd1" 0.15 le)"
+printf "   cpu, direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s\n" "$cd1" "$(verdict "$cd1" 0.15 le)"
+printf "   gl,  direct only, vs direct + 1 bounce reference (target <= 0.15)  %8s  %s\n" "$gd1" "$(verdict "$gd1" 0.15 le)"
+printf "   cpu, direct + VSGLs (--local-bounce), vs the same (target <= 0.15)  %8s  %s\n" "$cv1" "$(verdict "$cv1" 0.15 le)"
+printf "   gl,  direct + VSGLs (--local-bounce), vs the same (target <= 0.15)  %8s  %s\n" "$gv1" "$(verdict "$gv1" 0.15 le)"
 
 BUNNY=build/bench/bunny.prt
 if [ ! -f "$BUNNY" ]; then
@@ -67,12 +77,50 @@ for b in cpu gl; do
   "$PRT" bench "$BUNNY" --probe "$DATA/probes/city.exr" --backend $b --frames $frames --light "$SPOT" > "$OUT/move_$b.log" 2>&1 ||
     echo "bench_lights: bench --backend $b failed (see $OUT/move_$b.log)"
   grep -E "^file|^backend|^view change|^local light move" "$OUT/move_$b.log" | sed 's/^/   /'
+  "$PRT" bench "$BUNNY" --probe "$DATA/probes/city.exr" --backend $b --frames $frames --light "$SPOT" --local-bounce \
+    > "$OUT/move_${b}_vsgl.log" 2>&1 || echo "bench_lights: bench --backend $b --local-bounce failed (see $OUT/move_${b}_vsgl.log)"
+  echo "   with --local-bounce:"
+  grep -E "^view change|^local light move|^local indirect" "$OUT/move_${b}_vsgl.log" | sed 's/^/   /'
 done
 mc=$(awk '/^local light move/{for(i=1;i<=NF;i++) if($i=="ms"){print $(i-1); exit}}' "$OUT/move_cpu.log")
 mg=$(awk '/^local light move/{for(i=1;i<=NF;i++) if($i=="ms"){print $(i-1); exit}}' "$OUT/move_gl.log")
+mcv=$(awk '/^local light move/{for(i=1;i<=NF;i++) if($i=="ms"){print $(i-1); exit}}' "$OUT/move_cpu_vsgl.log")
+mgv=$(awk '/^local light move/{for(i=1;i<=NF;i++) if($i=="ms"){print $(i-1); exit}}' "$OUT/move_gl_vsgl.log")
 fc=$(awk -v m="$mc" 'BEGIN{ if (m > 0) printf "%.1f", 1000 / m }'); fg=$(awk -v m="$mg" 'BEGIN{ if (m > 0) printf "%.1f", 1000 / m }')
+fcv=$(awk -v m="$mcv" 'BEGIN{ if (m > 0) printf "%.1f", 1000 / m }'); fgv=$(awk -v m="$mgv" 'BEGIN{ if (m > 0) printf "%.1f", 1000 / m }')
+
+# 3. Indirect highlights on data/chrome-point.json, per vertex.
+CP=$OUT/chrome-point
+"$PRT" precompute data/chrome-point.json --no-bounces --coeffs 16 --vis-res 64 -o "$CP.prt" --quiet 2> "$CP.log" ||
+  die "chrome-point precompute failed (see $CP.log)"
+"$PRT" reference "$CP.prt" --probe none --bounces 1 --no-image --vertices "${CP}_ref1.csv" --vertex-spp 1024 --quiet 2>> "$CP.log"
+"$PRT" reference "$CP.prt" --probe none --no-image --vertices "${CP}_ref0.csv" --vertex-spp 16 --quiet 2>> "$CP.log"
+for m in "direct:" "vsgl:--local-bounce" "highlights:--local-bounce --highlights"; do
+  # shellcheck disable=SC2086
+  "$PRT" render "$CP.prt" --probe none ${m#*:} -o "${CP}_${m%%:*}.png" --vertices "${CP}_${m%%:*}.csv" >> "$CP.log" 2>&1
+done
+"$PRT" bench "$CP.prt" --probe none --frames 5 --local-bounce --highlights > "${CP}_bench.log" 2>&1
+# The chrome sphere is the first model: vertices 0 .. 48*97+96 (rings 48, segments 96: 49 x 97).
+region() { awk -F, -v nA=4753 'FNR == 1 { f++; next }
+  f == 1 { r1[$1] = 0.2126*$2 + 0.7152*$3 + 0.0722*$4; c1[$1] = $2 " " $3 " " $4; fac[$1] = $8 }
+  f == 2 { ind[$1] = r1[$1] - (0.2126*$2 + 0.7152*$3 + 0.0722*$4); if ($1 < nA && fac[$1] == 1 && ind[$1] > mx) mx = ind[$1] }
+  f == 3 { if ($1 < nA && fac[$1] == 1 && ind[$1] > 0.1 * mx) { split(c1[$1], t, " ");
+             for (k = 1; k <= 3; k++) { d = $(k+1) - t[k]; num += d * d; den += t[k] * t[k] } } }
+  END { if (den > 0) printf "%.3f", sqrt(num / den) }' "${CP}_ref1.csv" "${CP}_ref0.csv" "$1"; }
+echo
+echo "-- indirect highlights: data/chrome-point.json, per vertex vs prt reference --bounces 1 (1024 spp)"
+for m in direct vsgl highlights; do
+  printf "   %-10s all vertices %8s   chrome sphere's indirect region %6s\n" "$m" \
+    "$(rel "${CP}_$m.csv" "${CP}_ref1.csv")" "$(region "${CP}_$m.csv")"
+done
+grep -E "^local indirect|^view change" "${CP}_bench.log" | sed 's/^/   /'
+hr=$(region "${CP}_highlights.csv")
 echo
 echo "-- summary (local lights)                          measured     target"
-printf "   CPU light move, direct + shadows, 67K vertices  %6s fps   >= 30 fps (direct + VSGL)  %s\n" "$fc" "$(verdict "$fc" 30 ge)"
+printf "   CPU light move, direct + shadows, 67K vertices  %6s fps   -\n" "$fc"
+printf "   CPU light move, direct + VSGL, 67K vertices     %6s fps   >= 30 fps  %s\n" "$fcv" "$(verdict "$fcv" 30 ge)"
 printf "   GL light move (shadow cube, beside it)          %6s fps   -\n" "$fg"
+printf "   GL light move, + VSGL (RSM on the CPU)          %6s fps   -\n" "$fgv"
 printf "   box room vs direct + 1 bounce reference, cpu    %8s     <= 0.15  %s\n" "$cd1" "$(verdict "$cd1" 0.15 le)"
+printf "   box room vs direct + 1 bounce reference, cpu + VSGL %4s     <= 0.15  %s\n" "$cv1" "$(verdict "$cv1" 0.15 le)"
+printf "   chrome-point, chrome sphere indirect, cpu + hl  %8s     <= 0.20  %s\n" "$hr" "$(verdict "$hr" 0.20 le)"

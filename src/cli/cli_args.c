@@ -196,6 +196,27 @@ int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, 
     return 0;
 }
 
+/* Removes the indirect-light flags from argv (argc shrinks), checking the sample count. */
+int cli_take_indirect(const char *cmd, int *argc, char **argv, int *samples, bool *bounce) {
+    *samples = 0;
+    *bounce = false;
+    int n = 1;
+    for (int i = 1; i < *argc; i++) {
+        if (!strcmp(argv[i], "--highlights")) { *samples = *samples ? *samples : 32; continue; }
+        if (!strcmp(argv[i], "--local-bounce")) { *bounce = true; continue; }
+        if (strcmp(argv[i], "--highlight-samples")) { argv[n++] = argv[i]; continue; }
+        char *end = NULL;
+        long v = i + 1 < *argc ? strtol(argv[i + 1], &end, 10) : 0;
+        if (i + 1 >= *argc || !end || *end || end == argv[i + 1] || v < 1 || v > 1024)
+            return cli_error(cmd, "--highlight-samples needs a whole number in [1, 1024]") + 1;
+        *samples = (int)v;
+        i++;
+    }
+    *argc = n;
+    argv[n] = NULL;
+    return 0;
+}
+
 /* The scene's lights become its file's (unless no_file) followed by extra. */
 int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, bool no_file) {
     if (no_file) s->lights.count = 0;

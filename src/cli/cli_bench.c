@@ -23,6 +23,8 @@ static const char *k_cmd = "bench";
 typedef struct bench_args {
     const char *in, *probe_path, *backend, *kernel;
     int frames, nthreads, kmax, size[2];
+    int hl_samples;          /* --highlights / --highlight-samples (0: none) */
+    bool bounce;             /* --local-bounce */
 } bench_args;
 
 static void help(void) {
@@ -44,8 +46,9 @@ static void help(void) {
          "  --kernel K       gl light kernel: auto (default), fragment, thread, warp\n"
          "  --light SPEC     add a local light (as prt render; repeatable); with local lights, also times\n"
          "                   light moves (the first light on a small circle: shadows again) and the view\n"
-         "                   change includes their direct light\n"
-         "  --no-file-lights ignore the lights stored in the file");
+         "                   change includes their direct light, one bounce (VSGLs) and indirect highlights\n"
+         "  --no-file-lights ignore the lights stored in the file\n"
+         CLI_INDIRECT_HELP);
 }
 
 static int cmp_double(const void *a, const void *b) {
@@ -118,6 +121,7 @@ static int time_view(prt_runtime *rt, const prt_data *d, const render_desc *rd0,
         runtime_get_timing(rt, &tm);
         t[f] = tm.view_ms;
         gpu += tm.view_gpu_ms;
+        ms[1] += tm.indirect_view_ms / frames;
     }
     qsort(t, frames, sizeof(double), cmp_double);
     ms[0] = t[frames / 2];
@@ -140,6 +144,7 @@ static int time_local(prt_runtime *rt, const prt_data *d, int frames, double *t,
         runtime_timing tm;
         runtime_get_timing(rt, &tm);
         t[f] = tm.local_ms;
+        ms[1] += tm.bounce_ms / frames;
     }
     qsort(t, frames, sizeof(double), cmp_double);
     ms[0] = t[frames / 2];
@@ -171,6 +176,9 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     if (d->scene.lights.count > 0)
         printf("local light move (%d light%s, shadows): %.2f ms median (%.1f fps), min %.2f ms\n", d->scene.lights.count,
                d->scene.lights.count == 1 ? "" : "s", km[0], 1e3 / km[0], km[2]);
+    if (km[1] > 0 || vm[1] > 0)   /* issue 11 items 3-4 (cpu: indirect.h) */
+        printf("local indirect: one bounce (RSM + 2 VSGLs per light) %.2f ms of the move, VSGL glossy + indirect "
+               "highlights %.2f ms of the view change (means)\n", km[1], vm[1]);
     if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);
     printf("bench: backend=%s K=%d light_ms=%.3f view_ms=%.3f kernel=%s\n", tm->backend, kuse, lm[0], vm[0], tm->kernel);
     printf("paper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
@@ -182,7 +190,8 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
 /* Creates the runtime, warms it up (one light and one view change), times both, reports. 0 or 1. */
 static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     prt_error err = { { 0 } };
-    runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .kernel = a->kernel };
+    runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .kernel = a->kernel,
+                          .highlight_samples = a->hl_samples, .local_bounce = a->bounce };
     double *t = malloc(sizeof(double) * a->frames), lm[4] = { 0 }, vm[4] = { 0 }, km[4] = { 0 };
     prt_runtime *rt = t ? runtime_create(d, &desc, &err) : NULL;
     if (!t) prt_fail(&err, "out of memory");
@@ -210,10 +219,14 @@ int cli_bench(int argc, char **argv) {
     bench_args a;
     prt_lights extra;
     bool no_file_lights;
-    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights), hl = 0;
     if (lr) return lr;
+    bool bounce = false;
+    if ((lr = cli_take_indirect(k_cmd, &argc, argv, &hl, &bounce))) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
+    a.hl_samples = hl;
+    a.bounce = bounce;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);

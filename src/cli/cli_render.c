@@ -35,6 +35,7 @@ static void help(void) {
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
          "  --threads T             worker threads (default: all cores)\n"
          CLI_LIGHT_HELP
+         CLI_INDIRECT_HELP
          "  --probe none            no environment: the local lights alone\n");
 }
 
@@ -54,6 +55,8 @@ typedef struct render_args {
     int w, h, kmax, nthreads, tonemap;
     float exposure, R[9];
     bool background, direct_only;
+    int hl_samples;          /* --highlights / --highlight-samples (0: none) */
+    bool bounce;             /* --local-bounce */
 } render_args;
 
 /* Parses argv into a; returns -1 to go on, else the exit status (0 after --help, 1 or 2 after printing). */
@@ -98,7 +101,8 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
     /* One light change only: gl's fragment kernel runs on every GL 3.3+ context, and timing every
      * kernel first ("auto") would cost more than it saves. */
     runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .direct_only = a->direct_only,
-                          .kernel = strcmp(a->backend, "gl") ? NULL : "fragment" };
+                          .kernel = strcmp(a->backend, "gl") ? NULL : "fragment", .highlight_samples = a->hl_samples,
+                          .local_bounce = a->bounce };
     const float *R = a->rot_s ? a->R : NULL;
     render_desc rd = { .width = a->w, .height = a->h, .camera = *cam, .background = a->background ? probe : NULL,
                        .background_rotation = R };
@@ -144,10 +148,14 @@ int cli_render(int argc, char **argv) {
     render_args a;
     prt_lights extra;
     bool no_file_lights;
-    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights), hl = 0;
     if (lr) return lr;
+    bool bounce = false;
+    if ((lr = cli_take_indirect(k_cmd, &argc, argv, &hl, &bounce))) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
+    a.hl_samples = hl;
+    a.bounce = bounce;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);

@@ -87,6 +87,7 @@ static void view_help(void) {
            "  --light SPEC           add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n"
            "                         spot:pos=..;dir=..;inner=DEG;outer=DEG;... (repeatable; GL takes at most 4)\n"
            "  --no-file-lights       ignore the lights stored in the file\n"
+           CLI_INDIRECT_HELP
            "\n"
            "keys:\n%s", k_keys);
 }
@@ -583,6 +584,8 @@ typedef struct view_args {
     int ndirs, npaths, w, h, frames;
     prt_lights extra;           /* --light */
     bool no_file_lights;
+    int hl_samples;             /* --highlights / --highlight-samples (0: none; cpu runtime) */
+    bool bounce;                /* --local-bounce */
 } view_args;
 
 /* One option of argv at *i into v / a: 1 taken, 0 not an option of ours, -1 usage error (printed). */
@@ -647,6 +650,7 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     memset(a, 0, sizeof *a);
     int lr = cli_take_lights(k_view, &argc, argv, &a->extra, &a->no_file_lights);
     if (lr) return lr;
+    if ((lr = cli_take_indirect(k_view, &argc, argv, &a->hl_samples, &a->bounce))) return lr;
     a->w = 1024;
     a->h = 768;
     v->gl = true;
@@ -693,9 +697,10 @@ static int open_window(viewer *v, const view_args *a) {
     glctx_window_desc wd = { .width = a->w, .height = a->h, .title = title, .visible = true };
     v->ctx = glctx_create(GLCTX_GLFW, &wd, &err);
     if (!v->ctx) return cli_error(k_view, "%s", err.msg);
-    runtime_desc cpu = { .backend = "cpu", .threads = v->nthreads, .ctx = v->ctx };
+    runtime_desc cpu = { .backend = "cpu", .threads = v->nthreads, .ctx = v->ctx, .local_bounce = a->bounce,
+                         .highlight_samples = a->hl_samples };
     runtime_desc gl = { .backend = "gl", .threads = v->nthreads, .ctx = v->ctx,
-                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL };
+                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, .local_bounce = a->bounce };
     if (!(v->rts[0] = runtime_create(&v->d, &cpu, &err)) || !(v->rts[1] = runtime_create(&v->d, &gl, &err)) ||
         gltext_init(&v->text, &v->ctx->gl, &err))
         return cli_error(k_view, "%s", err.msg);

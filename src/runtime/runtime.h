@@ -109,6 +109,9 @@ typedef struct runtime_desc {
     runtime_view view;          /* view model (a backend refuses one it lacks) */
     const char *kernel;         /* light-change kernel by name (NULL: the backend's default; gl: "auto"
                                    times fragment/thread/warp once at create and keeps the fastest) */
+    bool local_bounce;          /* local lights: add their one bounce by two VSGLs per light (cpu: indirect.h,
+                                   both lobes; gl: glvsgl.h, per pixel, the receiver's diffuse lobe) */
+    int highlight_samples;      /* local lights, cpu: indirect-highlight rays per glossy vertex (0: none) */
 } runtime_desc;
 
 /* The last call's timings; the same fields for every backend. */
@@ -120,6 +123,8 @@ typedef struct runtime_timing {
     double raster_ms;           /* last image: drawing beyond the view change (background, raster, read) */
     double light_gpu_ms, view_gpu_ms; /* GPU timer queries of the last light / view change (0: none) */
     double local_ms;            /* last local-light move (runtime_set_local_lights): shadow rays / maps */
+    double bounce_ms;           /* of local_ms: RSMs, VSGLs and the Lambert vertices' bounce (cpu, indirect.h) */
+    double indirect_view_ms;    /* of view_ms: VSGL light at glossy vertices and indirect highlights (cpu) */
     size_t bytes;               /* memory the backend holds for the scene (gl: uploaded to the GPU) */
     const char *kernel;         /* the light-change kernel in use ("sparse T x L", "fragment", ...) */
     char device[256];           /* "2 threads" / "GL renderer, version (context)" */

@@ -15,12 +15,18 @@
  *   light move:  cpu_set_local_lights -> direct_set_lights (src/light/direct.h: Embree
  *                shadow rays per vertex on every thread; the direct_ctx is made at the first call,
  *                so runs without local lights build no BVH); timed into local_ms.
+ *                Then indirect_set_lights (src/light/indirect.h: an RSM and two VSGLs per light,
+ *                the Lambert vertices' bounce), timed into bounce_ms (part of local_ms).
  *   view change: cpu_shade_vertices, after the PRT sum (relight_view + non-linear transfers):
  *                direct_shade_vertices ADDS each light's shadowed radiance to rgb per vertex;
+ *                indirect_shade_vertices ADDS the VSGL light at the glossy vertices and the
+ *                indirect highlights (desc.highlight_samples rays per glossy vertex), timed
+ *                into indirect_view_ms (part of view_ms);
  *                an effect computed per vertex adds its own rgb at the same place. */
 #include "runtime.h"
 #include "check.h"
 #include "direct.h"
+#include "indirect.h"
 #include <math.h>
 #include "gldraw.h"
 #include "relight.h"
@@ -45,6 +51,9 @@ typedef struct cpu_rt {
     double nonlinear_ms;        /* the non-linear transfers' part of the last view change */
     direct_ctx *direct;         /* local lights' direct light (made at the first light move), or NULL */
     double local_ms;            /* the last local-light move */
+    indirect_ctx *indirect;     /* local lights' VSGL bounce and indirect highlights (made with direct), or NULL */
+    indirect_desc ind_desc;
+    double bounce_ms, indirect_view_ms;
 } cpu_rt;
 
 /* Frees the relight context, the colours and the GL objects made in the caller's context. */
@@ -54,6 +63,7 @@ static void cpu_destroy(void *self) {
     if (c->draw_ready && glctx_make_current(c->ctx, NULL) == 0) gldraw_free(&c->draw);
     relight_destroy(c->rc);
     direct_destroy(c->direct);
+    indirect_destroy(c->indirect);
     free(c->rgb);
     free(c);
 }
@@ -75,6 +85,8 @@ static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *
     c->d = d;
     c->nthreads = desc->threads;
     c->ctx = desc->ctx;
+    c->ind_desc = (indirect_desc){ .hl_samples = desc->highlight_samples, .no_highlights = desc->highlight_samples <= 0,
+                                   .no_bounce = !desc->local_bounce, .threads = desc->threads };
     c->rc = relight_create(d, desc->threads, err);
     c->rgb = c->rc ? prt_calloc(3 * (size_t)(d->scene.mesh.nverts > 0 ? d->scene.mesh.nverts : 1), sizeof(float), err) : NULL;
     if (!c->rgb) { cpu_destroy(c); return NULL; }
@@ -121,6 +133,14 @@ static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *r
         direct_shade_vertices(c->direct, eye, rgb);
         added = true;
     }
+    c->indirect_view_ms = 0;
+    if (c->indirect) {   /* and their one bounce and indirect highlights (the probe's own interreflections
+                          * are PRT's precomputed bounces: no env here, or they would count twice) */
+        indirect_shade_vertices(c->indirect, eye, rgb);
+        indirect_stats st;
+        indirect_get_stats(c->indirect, &st);
+        c->indirect_view_ms = st.view_ms;
+    }
     if (added)   /* no NaN or Inf reaches an output, whatever a representation returns */
         for (size_t k = 0; k < 3 * (size_t)c->d->scene.mesh.nverts; k++)
             if (!(rgb[k] >= 0) || !isfinite(rgb[k])) rgb[k] = 0;
@@ -135,6 +155,13 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     if (!c->direct && ls->count == 0) return 0;
     if (!c->direct && !(c->direct = direct_create(&c->d->scene, c->nthreads, err))) return -1;
     int rc = direct_set_lights(c->direct, ls, err);
+    c->bounce_ms = 0;
+    if (rc == 0 && !(c->ind_desc.no_bounce && c->ind_desc.no_highlights)) {   /* issue 11 items 3-4 */
+        if (!c->indirect && !(c->indirect = indirect_create(&c->d->scene, &c->ind_desc, err))) return -1;
+        double t1 = prt_now();
+        rc = indirect_set_lights(c->indirect, ls, err);
+        c->bounce_ms = 1e3 * (prt_now() - t1);
+    }
     c->local_ms = 1e3 * (prt_now() - t0);
     return rc;
 }
@@ -213,6 +240,8 @@ static void cpu_get_timing(const void *self, runtime_timing *t) {
     t->view_ms = c->view_ms;
     t->raster_ms = c->raster_ms;
     t->local_ms = c->local_ms;
+    t->bounce_ms = c->bounce_ms;
+    t->indirect_view_ms = c->indirect_view_ms;
     /* Its own memory: the K-vector caches and the per-vertex position + frame records (relight.c), and
      * what the non-linear transfers hold (ops->bytes: read at every view change). */
     size_t bytes = sizeof(float) * 12 * (size_t)c->d->scene.mesh.nverts;
