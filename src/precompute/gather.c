@@ -193,9 +193,10 @@ static int nvec_of(const prt_transport *t, int v) { return (int)(t->vec_first[v 
 
 /* Reports progress after a finished chunk; sets ctx->cancel when the callback says stop. */
 static void report(gather_ctx *c, int nfinished, int total) {
-    int done = atomic_fetch_add(&c->done, nfinished) + nfinished;
+    atomic_fetch_add(&c->done, nfinished);
     if (!c->desc || !c->desc->progress) return;
     pthread_mutex_lock(&c->lock);
+    int done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
     if (!atomic_load(&c->cancel) &&
         !c->desc->progress(c->desc->progress_user, c->desc->stage ? c->desc->stage : "gather", (double)done / total))
         atomic_store(&c->cancel, true);

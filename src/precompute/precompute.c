@@ -287,9 +287,10 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     double cpu0 = pc_cpu_now();
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
     s->t_cpu += pc_cpu_now() - cpu0;
-    long done = atomic_fetch_add(&c->done, end - begin) + (end - begin);
+    atomic_fetch_add(&c->done, end - begin);
     if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
+        long done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
         if (!atomic_load(&c->cancelled) &&
             !c->progress(c->progress_user, "visibility+transport", (double)done / (double)c->total))
             atomic_store(&c->cancelled, 1);

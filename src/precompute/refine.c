@@ -85,9 +85,10 @@ static int rf_mark_cmp(const void *a, const void *b) {
 /* Counts n traced vertices and reports the level's fraction (one thread at a time); a false
  * answer cancels the refinement. */
 static void rf_report(rf_ctx *c, int n) {
-    long done = atomic_fetch_add(&c->done, n) + n;
+    atomic_fetch_add(&c->done, n);
     if (!c->progress) return;
     pthread_mutex_lock(&c->lock);
+    long done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
     if (!atomic_load(&c->cancelled) && !c->progress(c->progress_user, c->stage, (double)done / (double)c->total))
         atomic_store(&c->cancelled, 1);
     pthread_mutex_unlock(&c->lock);

@@ -265,9 +265,10 @@ static bool vp_list_push(vp_list *L, uint32_t v, uint32_t j, const uint32_t *w) 
 
 /* Reports a finished chunk of `count` items; sets cancel when the callback says stop. */
 static void vp_progress(vp_ctx *c, int count) {
-    int done = atomic_fetch_add(&c->done, count) + count;
+    atomic_fetch_add(&c->done, count);
     if (!c->in->progress) return;
     pthread_mutex_lock(&c->lock);
+    int done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
     if (!atomic_load(&c->cancel) && !c->in->progress(c->in->progress_user, c->stage, (double)done / c->total))
         atomic_store(&c->cancel, true);
     pthread_mutex_unlock(&c->lock);

@@ -527,9 +527,10 @@ static void acc_out(const ref_acc *a, int spp, float *mean, float *se) {
 }
 
 static void job_progress(ref_job *j, long items) {
-    long done = atomic_fetch_add(&j->done, items) + items;
+    atomic_fetch_add(&j->done, items);
     if (!j->d->progress) return;
     pthread_mutex_lock(&j->lock);
+    long done = atomic_load(&j->done);   /* read under the lock, so the fractions reported rise */
     if (!j->d->progress(j->d->progress_user, j->stage, (double)done / (double)j->n)) atomic_store(&j->cancel, true);
     pthread_mutex_unlock(&j->lock);
 }
