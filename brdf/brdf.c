@@ -594,8 +594,7 @@ static void append(char *buf, size_t cap, size_t *at, const char *fmt, ...) {
 /* The shortest decimal of v that parses back (strtod, then float, as brdf_parse does) to the same
  * float: "0.2", not "0.200000003"; %.9g always round-trips, so the loop ends. */
 static const char *num(char out[32], float v) {
-    int prec = 1;
-    for (; prec < 9; prec++) {
+    for (int prec = 1; prec <= 9; prec++) {   /* 9 digits always round-trip a float: the last try is exact */
         snprintf(out, 32, "%.*g", prec, v);
         if ((float)strtod(out, NULL) == v) break;
     }

@@ -297,7 +297,7 @@ static bool noisy(const char *s) {
 /* Item 10: the canonical spec re-parses bit for bit (a -0 is parsed as 0), in the shortest decimals. */
 static void canonical_specs(void) {
     static const char *const k_specs[] = {
-        "ggx:kd=0,-0,0", "lafortune:kd=0;lobe=-0.8,-1.2e-109,0.9,30", "lambert:kd=-0", "phong:kd=0.1,0.2,0.3;ks=0.7;n=1234.5", "as:kd=0.5;ks=0.75;nu=10;nv=100",
+        "ggx:kd=0,-0,0", "lafortune:kd=0;lobe=-0.8,-1.2e-109,0.9,30", "lafortune:kd=0;lobe=-0.8,-.0000001164934748500,0.9,30", "lambert:kd=-0", "phong:kd=0.1,0.2,0.3;ks=0.7;n=1234.5", "as:kd=0.5;ks=0.75;nu=10;nv=100",
         "lafortune:kd=0.1;lobe=-1.1,-1.1,1.1,20;lobe=0,-0,1,3", "beckmann:alpha=0.001;ks=-0", "blinn:n=1e6;kd=3e-7",
         "paper-phong", "paper-as", "ggx:kd=0.123456789;alpha=1.9999",
     };

@@ -2,8 +2,11 @@
 # fuzz.sh - runs the libFuzzer harnesses of tests/fuzz/ (built by `make fuzz-build` with clang,
 # ASan and UBSan into build/fuzz/).
 #   tools/fuzz.sh               the smoke run `make test` ends with: every seed of
-#                               tests/fuzz/corpus/NAME/, then FUZZ_SMOKE_SECONDS (3) of mutations
-#                               each; prints "CHECKS pass fail skipped" like a test binary, and a
+#                               tests/fuzz/corpus/NAME/, then FUZZ_SMOKE_RUNS (2000) mutations from
+#                               the fixed seed 1, cut at FUZZ_SMOKE_SECONDS (5) each: the same inputs
+#                               on every machine (a slower one runs a prefix of them), so the suite
+#                               cannot fail by chance on a bug the last full run did not meet;
+#                               prints "CHECKS pass fail skipped" like a test binary, and a
 #                               skip reason when clang's libFuzzer is not installed
 #   tools/fuzz.sh --seconds S   `make fuzz FUZZ_SECONDS=S`: each harness for S seconds, growing its
 #                               corpus in build/fuzz/corpus/NAME/; a table of executions at the end
@@ -53,7 +56,8 @@ for name in "${selected[@]}"; do
   else
     work=$(mktemp -d)
     out=$("$bin" "${opts[@]}" -runs=0 "$seeds" 2>&1) && \
-      out=$("$bin" "${opts[@]}" -max_total_time="${FUZZ_SMOKE_SECONDS:-3}" "$work" "$seeds" 2>&1); rc=$?
+      out=$("$bin" "${opts[@]}" -seed=1 -runs="${FUZZ_SMOKE_RUNS:-2000}" -max_total_time="${FUZZ_SMOKE_SECONDS:-5}" \
+            "$work" "$seeds" 2>&1); rc=$?
     rm -rf "$work"
   fi
   execs=$(printf '%s\n' "$out" | sed -n 's/^stat::number_of_executed_units: *//p' | tail -n 1)
