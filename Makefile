@@ -29,7 +29,7 @@ endif
 # Debian packages the project needs; `make deps` installs the missing ones.
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
             liblapacke-dev libopenblas-dev libosmesa6-dev libglfw3-dev libgl-dev libegl-dev \
-            zlib1g-dev libcjson-dev xvfb xauth
+            zlib1g-dev libcjson-dev xvfb xauth libopenmpi-dev openmpi-bin
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
 SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
@@ -37,8 +37,11 @@ INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf -Igpu
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
-LDLIBS  := -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
-           -lcjson -lz -lm -lpthread -lstdc++
+# OpenMPI (src/precompute/shard.c): asked of pkg-config when used, after `deps` has installed it.
+MPI_CFLAGS = $(shell pkg-config --cflags ompi-c)
+MPI_LIBS   = $(shell pkg-config --libs ompi-c)
+LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
+           -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
 # Library: every source of the stage folders, brdf/ and gpu/; the command-line front end is src/cli/.
@@ -72,6 +75,8 @@ $(BUILD)/obj/%.o: %.c | $(BUILD)/.deps
 $(BUILD)/obj/%.o: %.cpp | $(BUILD)/.deps
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -c $< -o $@
+
+$(BUILD)/obj/src/precompute/shard.o: CFLAGS += $(MPI_CFLAGS)
 
 $(BUILD)/libprt.a: $(LIB_OBJ)
 	@rm -f $@
