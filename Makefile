@@ -3,6 +3,7 @@
 #   make test       build and run the test suite (SAN=1 for ASan + UBSan; T=haar: only matching cases)
 #   make demo       build and run `prt demo` (writes demo.png)
 #   make bench      benchmarks on ../shared/data (not tests)
+#   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 #   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60)
@@ -52,7 +53,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench study study-glossy fuzz fuzz-build clean
+.PHONY: all deps test demo bench bench-scale study study-glossy fuzz fuzz-build clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -126,6 +127,11 @@ bench: all
 	@tools/bench.sh $(BUILD)/prt
 	@echo
 	@tools/bench_glossy.sh $(BUILD)/prt
+
+# issue 13: the direct pass at 100 K, 300 K and 1 M vertices, and mpirun -np 2 against 2 threads
+# (SCALE_SIZES="100k 300k" for fewer; tools/bench_scale.sh says the knobs)
+bench-scale: all
+	@tools/bench_scale.sh $(BUILD)/prt
 
 study: all
 	@tools/study.sh $(BUILD)/prt

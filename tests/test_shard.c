@@ -10,7 +10,10 @@
  *               against one process; -np 3 too (uneven ranges);
  *   rank_fails  PRT_SHARD_FAIL=1 (rank 1 fails after its share of the direct pass): exit 1, no
  *               output file, and exactly one line of output, naming the rank and the reason;
- *   resume      --resume under mpirun: refused with one line, exit 2.
+ *   resume      --resume under mpirun: refused with one line, exit 2;
+ *   streamed    --memory 0.0001 (the direct pass's staged vectors through a temporary file,
+ *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
+ *               streaming said on stderr, no file left beside the output; and under -np 2.
  * The ranks run unbound (--bind-to none) as the one process does: OpenBLAS sizes its thread pool by
  * the cores a process may use, and the BRDF factorization's last bits depend on that count (README
  * "Running on a cluster"). The Phong sphere (K = 2) runs where the factorization matters; the
@@ -162,6 +165,25 @@ static void resume(void) {
     CHECK(rc == 2 && strstr(buf, "--resume cannot be combined with 2 MPI ranks") && count_lines(buf) == 1, "exit %d: %s", rc, buf);
 }
 
+/* The streamed direct pass gives the in-memory file, one process and two ranks. */
+static void streamed(void) {
+    char buf[8192], cmd[8192];
+    const char *b = "--bounces 1 --force-bounces --threads 2";
+    int rc = precompute("", 0, "mem.prt", b, buf, sizeof buf);
+    CHECK(rc == 0, "in-memory run failed (%d): %s", rc, buf);
+    snprintf(cmd, sizeof cmd, "%s precompute %s/scene.json -o %s/stream.prt --vis-res 64 --coeffs 16 --gather-res 4 --glossy svd --terms 2 %s --memory 0.0001",
+             check_prt_bin(), g_dir, g_dir, b);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "streamed through a temporary file in "), "streamed run (%d): %s", rc, buf);
+    if (rc == 0) check_same("mem.prt", "stream.prt");
+    snprintf(cmd, sizeof cmd, "ls -A %s | grep -v -E '\\.(prt|json|norm)$'", g_dir);
+    CHECK(check_run(cmd, buf, sizeof buf) != 0, "left beside the output: %s", buf);
+    if (!have_mpirun()) return;
+    rc = precompute("", 2, "stream2.prt", "--bounces 1 --force-bounces --threads 1 --memory 0.0001", buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 --memory failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("mem.prt", "stream2.prt");
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -169,5 +191,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(bounces);
     CHECK_CASE(rank_fails);
     CHECK_CASE(resume);
+    CHECK_CASE(streamed);
     return check_summary();
 }

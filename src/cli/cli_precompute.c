@@ -62,6 +62,9 @@ static void help(void) {
          "                         OUT.prt.ckpt (written every 2% of the vertices of each pass, removed\n"
          "                         on success); the file is the one an uninterrupted run writes\n"
          "  --threads T            worker threads (default: all cores; the file does not depend on it)\n"
+         "  --memory GB            memory budget: above half of it the direct pass streams its finished\n"
+         "                         vectors through a temporary file beside OUT.prt (default: half of\n"
+         "                         this machine's memory; the file is the same)\n"
          "  --quiet                no progress output\n"
          "\n"
          "Under mpirun or srun (README \"Running on a cluster\") the passes are split across the ranks,\n"
@@ -162,7 +165,13 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
 
     int ranks = shard_size(pd->shard);
     if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
-    if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);   /* a checkpoint is one process's (precompute.h) */
+    if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
+    char dir[4096];   /* the streamed pass's temporary file goes beside the output */
+    snprintf(dir, sizeof dir, "%s", out);
+    char *slash = strrchr(dir, '/');
+    if (slash) slash[slash == dir] = 0;
+    else snprintf(dir, sizeof dir, ".");
+    pd->stream_dir = dir;   /* a checkpoint is one process's (precompute.h) */
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     pd->progress = prt_bar_report;
@@ -233,6 +242,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
         CLI_B("--resume", &pd.resume),
+        CLI_F("--memory", &pd.memory_gb, 0.0001, 1e6),
         CLI_END,
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);

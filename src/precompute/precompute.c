@@ -62,6 +62,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #define PC_GRAIN 16             /* vertices per dynamic chunk */
 #define PC_SAMPLE 200           /* vertices in the planning sample */
@@ -289,6 +290,8 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     if (atomic_load(&c->cancelled)) return;
     double cpu0 = pc_cpu_now();
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
+    if (end > begin)   /* streamed: the chunk's staged vectors leave memory (order is increasing) */
+        transport_release(c->t, (int)c->t->vec_first[c->order[begin]], (int)c->t->vec_first[c->order[end - 1] + 1]);
     s->t_cpu += pc_cpu_now() - cpu0;
     long done = atomic_fetch_add(&c->done, end - begin) + (end - begin);
     if (c->progress && c->report) {
@@ -666,6 +669,21 @@ static int pc_choose(pc_run *r, prt_error *err) {
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
+/* The direct pass's staging streamed to a file when it exceeds half the memory budget (precompute.h);
+ * said on stderr, not in the plan, which must not differ from an in-memory run's. Returns 0 or -1. */
+static int pc_stream(pc_run *r, prt_error *err) {
+    double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    double budget = r->d.memory_gb > 0 ? r->d.memory_gb * 1e9 : 0.5 * phys;
+    double staging = (double)r->direct.nvecs * r->direct.N * (sizeof(uint32_t) + 3 * sizeof(float));
+    if (staging <= budget / 2) return 0;
+    const char *dir = r->d.stream_dir ? r->d.stream_dir : ".";
+    if (transport_stage_to_file(&r->direct, dir, err)) return -1;
+    if (!r->d.quiet)
+        fprintf(stderr, "memory: the direct pass's %.2f GB of staged vectors exceed half of the %.2f GB budget: streamed through a temporary file in %s\n",
+                staging / 1e9, budget / 1e9, dir);
+    return 0;
+}
+
 /* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
  * scratch and the direct pass's shared context. Returns 0 or -1. */
 static int pc_setup(pc_run *r, prt_error *err) {
@@ -694,6 +712,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     }
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
+    if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
     for (int t = 0; t < r->nthreads; t++)

@@ -105,6 +105,11 @@ typedef struct precompute_desc {
     bool resume;            /* continue from `checkpoint` when it exists (one of other inputs or
                              * options is refused); else it is started anew */
     int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
+    float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
+                             * bytes) exceed half of it, they stream to a temporary file in stream_dir, dropped
+                             * from memory as vertices finish (transport_stage_to_file; the same bits);
+                             * 0: half the machine's physical memory */
+    const char *stream_dir; /* that file's folder (unlinked at once: nothing is left); NULL: "." */
     struct prt_shard *shard; /* MPI ranks to split the passes across (shard.h); NULL: this process alone */
     int shard_fail;         /* test hook: rank shard_fail - 1 fails after its share of the direct pass (0: none) */
     prt_progress_fn progress;
