@@ -381,6 +381,8 @@ static void gather_range(void *ctx, int begin, int end, int thread) {
         if (cost) cost[x] = prt_now() - t0;
         if (c->desc->ckpt && nvec_of(c->prev, x) > 0) ckpt_add(c->desc->ckpt, c->desc->pass, c->next, x, NULL);
     }
+    if (end > begin)   /* streamed: the chunk's staged vectors leave memory */
+        transport_release(c->next, (int)c->next->vec_first[c->v0 + begin], (int)c->next->vec_first[c->v0 + end]);
     report(c, n, c->v1 - c->v0);
 }
 
@@ -537,6 +539,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
     free(cnt);
     if (rc) { memset(next, 0, sizeof *next); return -1; }
+    if (desc && desc->stream_dir && transport_stage_to_file(next, desc->stream_dir, err)) return drop_set(next);
     next->solid_angle = prev->solid_angle;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
 

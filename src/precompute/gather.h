@@ -37,6 +37,8 @@ typedef struct gather_desc {
     int pass;                /* the checkpoint's pass number (1 for the first bounce) */
     struct prt_shard *shard; /* MPI ranks (shard.h): this rank gathers its range of vertices, cut by cost,
                               * then every rank gets the whole pass; NULL: every vertex here */
+    const char *stream_dir;  /* non-NULL: next's staged vectors go through a temporary file there
+                              * (transport_stage_to_file; precompute's memory budget) */
     double *cost;            /* [nverts] or NULL: in, each vertex's relative cost (the split); out, the
                               * seconds each took here (every rank's, after the exchange) */
 } gather_desc;

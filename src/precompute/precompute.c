@@ -512,6 +512,7 @@ typedef struct pc_run {
     int nsample, max_b;
     double t_sample, hit_sample;
     bool plan_bounces;
+    bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
 } pc_run;
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
@@ -669,15 +670,18 @@ static int pc_choose(pc_run *r, prt_error *err) {
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
+static const char *pc_stream_dir(const pc_run *r) { return r->d.stream_dir ? r->d.stream_dir : "."; }
+
 /* The direct pass's staging streamed to a file when it exceeds half the memory budget (precompute.h);
  * said on stderr, not in the plan, which must not differ from an in-memory run's. Returns 0 or -1. */
 static int pc_stream(pc_run *r, prt_error *err) {
     double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     double budget = r->d.memory_gb > 0 ? r->d.memory_gb * 1e9 : 0.5 * phys;
     double staging = (double)r->direct.nvecs * r->direct.N * (sizeof(uint32_t) + 3 * sizeof(float));
-    if (staging <= budget / 2) return 0;
-    const char *dir = r->d.stream_dir ? r->d.stream_dir : ".";
+    if (staging <= budget / 2) return 0;   /* each gathering pass stages as much again: streamed alike */
+    const char *dir = pc_stream_dir(r);
     if (transport_stage_to_file(&r->direct, dir, err)) return -1;
+    r->streamed = true;
     if (!r->d.quiet)
         fprintf(stderr, "memory: the direct pass's %.2f GB of staged vectors exceed half of the %.2f GB budget: streamed through a temporary file in %s\n",
                 staging / 1e9, budget / 1e9, dir);
@@ -945,7 +949,8 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         snprintf(stage, sizeof stage, "bounce %d", b);
         gather_desc gd = { .res = r->d.gather_res, .nthreads = r->nthreads, .progress = r->d.progress,
                            .progress_user = r->d.progress_user, .stage = stage, .ckpt = r->ck, .pass = b,
-                           .shard = r->d.shard, .cost = r->cost };
+                           .shard = r->d.shard, .cost = r->cost,
+                           .stream_dir = r->streamed ? pc_stream_dir(r) : NULL };
         prt_transport next = { 0 }, sum = { 0 };
         double tb0 = prt_now();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;

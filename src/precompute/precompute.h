@@ -106,8 +106,9 @@ typedef struct precompute_desc {
                              * options is refused); else it is started anew */
     int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
     float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
-                             * bytes) exceed half of it, they stream to a temporary file in stream_dir, dropped
-                             * from memory as vertices finish (transport_stage_to_file; the same bits);
+                             * bytes) exceed half of it, they (and each gathering pass's) stream to a temporary
+                             * file in stream_dir, dropped from memory as vertices finish
+                             * (transport_stage_to_file; the same bits);
                              * 0: half the machine's physical memory */
     const char *stream_dir; /* that file's folder (unlinked at once: nothing is left); NULL: "." */
     struct prt_shard *shard; /* MPI ranks to split the passes across (shard.h); NULL: this process alone */
