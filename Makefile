@@ -3,6 +3,7 @@
 #   make test       build and run the test suite (SAN=1 for ASan + UBSan; T=haar: only matching cases)
 #   make demo       build and run `prt demo` (writes demo.png)
 #   make bench      benchmarks on ../shared/data (not tests; tools/bench_lights.sh: issue 11's local lights)
+#   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 #   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60)
@@ -29,7 +30,7 @@ endif
 # Debian packages the project needs; `make deps` installs the missing ones.
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
             liblapacke-dev libopenblas-dev libosmesa6-dev libglfw3-dev libgl-dev libegl-dev \
-            zlib1g-dev libcjson-dev xvfb xauth
+            zlib1g-dev libcjson-dev xvfb xauth libopenmpi-dev openmpi-bin
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
 SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
@@ -37,8 +38,11 @@ INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf -Igpu
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
-LDLIBS  := -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
-           -lcjson -lz -lm -lpthread -lstdc++
+# OpenMPI (src/precompute/shard.c): asked of pkg-config when used, after `deps` has installed it.
+MPI_CFLAGS = $(shell pkg-config --cflags ompi-c)
+MPI_LIBS   = $(shell pkg-config --libs ompi-c)
+LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
+           -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
 # Library: every source of the stage folders, brdf/ and gpu/; the command-line front end is src/cli/.
@@ -49,7 +53,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench study study-glossy fuzz fuzz-build clean
+.PHONY: all deps test demo bench bench-scale study study-glossy fuzz fuzz-build clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -72,6 +76,8 @@ $(BUILD)/obj/%.o: %.c | $(BUILD)/.deps
 $(BUILD)/obj/%.o: %.cpp | $(BUILD)/.deps
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -c $< -o $@
+
+$(BUILD)/obj/src/precompute/shard.o: CFLAGS += $(MPI_CFLAGS)
 
 $(BUILD)/libprt.a: $(LIB_OBJ)
 	@rm -f $@
@@ -123,6 +129,11 @@ bench: all
 	@tools/bench_glossy.sh $(BUILD)/prt
 	@echo
 	@tools/bench_lights.sh $(BUILD)/prt
+
+# issue 13: the direct pass at 100 K, 300 K and 1 M vertices, and mpirun -np 2 against 2 threads
+# (SCALE_SIZES="100k 300k" for fewer; tools/bench_scale.sh says the knobs)
+bench-scale: all
+	@tools/bench_scale.sh $(BUILD)/prt
 
 study: all
 	@tools/study.sh $(BUILD)/prt

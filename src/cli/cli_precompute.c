@@ -7,6 +7,7 @@
 #include "prtfile.h"
 #include "refine.h"
 #include "scene.h"
+#include "shard.h"
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -65,7 +66,13 @@ static void help(void) {
          "                         OUT.prt.ckpt (written every 2% of the vertices of each pass, removed\n"
          "                         on success); the file is the one an uninterrupted run writes\n"
          "  --threads T            worker threads (default: all cores; the file does not depend on it)\n"
-         "  --quiet                no progress output\n");
+         "  --memory GB            memory budget: above half of it the direct pass streams its finished\n"
+         "                         vectors through a temporary file beside OUT.prt (default: half of\n"
+         "                         this machine's memory; the file is the same)\n"
+         "  --quiet                no progress output\n"
+         "\n"
+         "Under mpirun or srun (README \"Running on a cluster\") the passes are split across the ranks,\n"
+         "rank 0 writes OUT.prt (the same file as one process) and --resume is refused.\n");
 }
 
 /* The per-stage timing summary and the closing line (stderr). */
@@ -109,18 +116,45 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
         fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
 }
 
-/* Loads the scene, runs the pipeline with a progress bar, writes the file. Returns the exit status. */
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool *stray);
+
+/* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
+ * the others run quietly and write nothing). Returns the exit status. */
 static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet) {
+    prt_error err = { { 0 } };
+    prt_shard *sh = shard_create(&err);
+    if (!sh) return cli_error(k_cmd, "%s", err.msg);
+    int rc = 2;
+    bool stray = false;   /* this rank failed where the others cannot know: the job is aborted */
+    if (pd->resume && shard_size(sh) > 1) {
+        if (shard_rank(sh) == 0) cli_error(k_cmd, "--resume cannot be combined with %d MPI ranks (run it in one process)", shard_size(sh));
+    } else {
+        const char *fail = getenv("PRT_SHARD_FAIL");   /* test hook: that rank fails (precompute.h) */
+        pd->shard = sh;
+        pd->shard_fail = fail ? atoi(fail) + 1 : 0;
+        rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, &stray);
+    }
+    shard_destroy(sh, stray);
+    return rc;
+}
+
+/* run's work on one rank; *stray: it failed alone, the others not told (shard.h). Every rank loads
+ * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
+ * Returns the exit status. */
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool *stray) {
     prt_error err = { { 0 } };
     double t0 = prt_now();
     char ck[4096] = "";
     prt_scene scene = { 0 };
-    if (scene_load(in, sd, &scene, &err)) return cli_error(k_cmd, "%s", err.msg);
+    bool lead = shard_rank(pd->shard) == 0;
+    int st = scene_load(in, sd, &scene, &err) ? 1 : 0;
     double t_load = prt_now() - t0;
-    if (pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts) {
-        cli_error(k_cmd, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
+    if (!st && pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts)
+        st = 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
+    if (shard_status(pd->shard, st ? -1 : 0, &err)) {
+        if (lead) cli_error(k_cmd, "%s", err.msg);
         scene_free(&scene);
-        return 2;
+        return st ? st : 1;
     }
     if (!quiet)
         fprintf(stderr, "scene: %d vertices, %d triangles, %d material(s)%s (loaded in %.2fs)\n", scene.mesh.nverts,
@@ -128,7 +162,15 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
 
-    checkpoint_setup(out, pd, ck, quiet);
+    int ranks = shard_size(pd->shard);
+    if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
+    if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
+    char dir[4096];   /* the streamed pass's temporary file goes beside the output */
+    snprintf(dir, sizeof dir, "%s", out);
+    char *slash = strrchr(dir, '/');
+    if (slash) slash[slash == dir] = 0;
+    else snprintf(dir, sizeof dir, ".");
+    pd->stream_dir = dir;   /* a checkpoint is one process's (precompute.h) */
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     pd->progress = prt_bar_report;
@@ -139,9 +181,12 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
     if (precompute_run(&scene, pd, &data, &err)) {
         prt_bar_done(&bar);
         scene_free(&scene);
-        return cli_error(k_cmd, "%s", err.msg);
+        *stray = !shard_failed_together(pd->shard);
+        if (lead || *stray) cli_error(k_cmd, "%s", err.msg);
+        return 1;
     }
     prt_bar_done(&bar);
+    if (!lead) { prt_data_free(&data); return 0; }
     double tw = prt_now();
     data.stats.t_write = 0;
     if (prtfile_write(out, &data, &err)) {
@@ -197,6 +242,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
         CLI_B("--resume", &pd.resume),
+        CLI_F("--memory", &pd.memory_gb, 0.0001, 1e6),
         CLI_END,
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);

@@ -38,6 +38,7 @@
  * nothing. Lambertian neighbours skip the view lookup (the view map is
  * constant). */
 #include "gather.h"
+#include "shard.h"
 #include "checkpoint.h"
 #include "cubemap.h"
 #include "vec3.h"
@@ -182,6 +183,7 @@ typedef struct gather_ctx {
     float eps;
     gather_thread *th;
     uint8_t *restored;        /* [nverts] restored from the checkpoint (NULL without one) */
+    int v0, v1;               /* the vertices this rank gathers (all of them on one process) */
     /* progress and cancellation */
     const gather_desc *desc;
     pthread_mutex_t lock;
@@ -370,14 +372,19 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
 static void gather_range(void *ctx, int begin, int end, int thread) {
     gather_ctx *c = ctx;
     int n = 0;
-    for (int x = begin; x < end; x++) {
+    double *cost = c->desc ? c->desc->cost : NULL;
+    for (int x = c->v0 + begin; x < c->v0 + end; x++) {
         if (atomic_load_explicit(&c->cancel, memory_order_relaxed)) break;
         n++;
         if (c->restored && c->restored[x]) continue;
+        double t0 = cost ? prt_now() : 0;
         gather_vertex(c, &c->th[thread], x);
+        if (cost) cost[x] = prt_now() - t0;
         if (c->desc->ckpt && nvec_of(c->prev, x) > 0) ckpt_add(c->desc->ckpt, c->desc->pass, c->next, x, NULL);
     }
-    report(c, n, c->prev->nverts);
+    if (end > begin)   /* streamed: the chunk's staged vectors leave memory */
+        transport_release(c->next, (int)c->next->vec_first[c->v0 + begin], (int)c->next->vec_first[c->v0 + end]);
+    report(c, n, c->v1 - c->v0);
 }
 
 static void free_threads(gather_thread *th, int nth) {
@@ -502,6 +509,24 @@ static int drop_set(prt_transport *next) {
     return -1;
 }
 
+/* This rank's range of the pass (gather_desc.shard; all vertices on one process) into c->v0, v1
+ * and first[ranks + 1]. */
+static void split(gather_ctx *c, int *first) {
+    prt_shard *sh = c->desc ? c->desc->shard : NULL;
+    shard_split(sh, c->desc ? c->desc->cost : NULL, c->prev->nverts, first);
+    c->v0 = first[shard_rank(sh)];
+    c->v1 = first[shard_rank(sh) + 1];
+}
+
+/* After this rank's range: the ranks' common status (cancelled on one: on all), then every rank's
+ * vectors and per-vertex times to every rank. Returns 0 or -1. */
+static int share(gather_ctx *c, const int *first, bool cancelled, prt_error *err) {
+    prt_shard *sh = c->desc ? c->desc->shard : NULL;
+    if (shard_status(sh, cancelled ? prt_fail(err, "cancelled") : 0, err)) return -1;
+    if (shard_share_staged(sh, c->next, first, err)) return -1;
+    return c->desc->cost ? shard_share_rows(sh, c->desc->cost, sizeof(double), first, err) : 0;
+}
+
 /* One interreflection pass (see gather.h). Returns 0, or -1 with err set; next is
  * left zeroed on failure. */
 int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *prev, const gather_desc *desc,
@@ -515,6 +540,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
     free(cnt);
     if (rc) { memset(next, 0, sizeof *next); return -1; }
+    if (desc && desc->stream_dir && transport_stage_to_file(next, desc->stream_dir, err)) return drop_set(next);
     next->solid_angle = prev->solid_angle;
     next->select = prev->select;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
@@ -534,17 +560,16 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
         ctx_free(&c, nth);
         return drop_set(next);
     }
+    int first[SHARD_MAX_RANKS + 1];
+    split(&c, first);
     pthread_mutex_init(&c.lock, NULL);
     atomic_init(&c.done, 0);
     atomic_init(&c.cancel, false);
-    prt_parallel_for(m->nverts, GATHER_GRAIN, nth, gather_range, &c);
+    prt_parallel_for(c.v1 - c.v0, GATHER_GRAIN, nth, gather_range, &c);
     pthread_mutex_destroy(&c.lock);
     bool cancelled = atomic_load(&c.cancel);
     ctx_free(&c, nth);
-    if (cancelled) {
-        drop_set(next);
-        return prt_fail(err, "cancelled");
-    }
+    if (share(&c, first, cancelled, err)) return drop_set(next);
     if (transport_finish(next, err)) return drop_set(next);
     return 0;
 }

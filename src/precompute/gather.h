@@ -35,6 +35,12 @@ typedef struct gather_desc {
     struct prt_checkpoint *ckpt; /* non-NULL: vertices of `pass` recorded there are restored, not
                               * gathered, and each gathered vertex is recorded (checkpoint.h) */
     int pass;                /* the checkpoint's pass number (1 for the first bounce) */
+    struct prt_shard *shard; /* MPI ranks (shard.h): this rank gathers its range of vertices, cut by cost,
+                              * then every rank gets the whole pass; NULL: every vertex here */
+    const char *stream_dir;  /* non-NULL: next's staged vectors go through a temporary file there
+                              * (transport_stage_to_file; precompute's memory budget) */
+    double *cost;            /* [nverts] or NULL: in, each vertex's relative cost (the split); out, the
+                              * seconds each took here (every rank's, after the exchange) */
 } gather_desc;
 
 /* One pass from prev to next over d's scene and factors (d->transport is ignored).

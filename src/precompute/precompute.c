@@ -52,6 +52,7 @@
 #include "haar.h"
 #include "lobefit.h"
 #include "refine.h"
+#include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
 #include <math.h>
@@ -61,6 +62,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #define PC_GRAIN 16             /* vertices per dynamic chunk */
 #define PC_SAMPLE 200           /* vertices in the planning sample */
@@ -111,6 +113,7 @@ typedef struct pc_ctx {
     /* per vertex, so that the file's statistics are summed in vertex order whatever the threads
      * and whether restored from a checkpoint or computed */
     ckpt_vstats *vst;       /* [nverts] rays and truncation error */
+    double *cost;           /* [nverts] seconds each computed vertex took (the split across ranks) */
     uint8_t *restored;      /* [nverts] 1: restored from the checkpoint */
     prt_checkpoint *ck;     /* NULL: none */
     /* progress */
@@ -275,6 +278,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     pc_store(c, s, v, c->factors[mat].K, vs);
     ckpt_add(c->ck, 0, c->t, v, vs);
     double t2 = prt_now();
+    c->cost[v] = t2 - t0;
     s->t_vis += t1 - t0;
     s->t_busy += t2 - t0;
 }
@@ -286,6 +290,8 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
     if (atomic_load(&c->cancelled)) return;
     double cpu0 = pc_cpu_now();
     for (int i = begin; i < end; i++) pc_vertex(c, s, c->order[i]);
+    if (end > begin)   /* streamed: the chunk's staged vectors leave memory (order is increasing) */
+        transport_release(c->t, (int)c->t->vec_first[c->order[begin]], (int)c->t->vec_first[c->order[end - 1] + 1]);
     s->t_cpu += pc_cpu_now() - cpu0;
     atomic_fetch_add(&c->done, end - begin);
     if (c->progress && c->report) {
@@ -458,6 +464,8 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
         return prt_fail(err, "precompute: force_bounces = %d (must be -1, 0 or 1)", d->force_bounces);
     if (!(d->refine_threshold >= 0 && d->refine_threshold < 1))
         return prt_fail(err, "precompute: refine_threshold = %g is out of range [0, 1)", d->refine_threshold);
+    if (d->checkpoint && shard_size(d->shard) > 1)   /* each rank would log only its own vertices */
+        return prt_fail(err, "precompute: a checkpoint (--resume) cannot be combined with %d MPI ranks", shard_size(d->shard));
     if (d->refine_budget < 0) return prt_fail(err, "precompute: refine_budget = %d is negative", d->refine_budget);
     if (d->param != BRDF_PARAM_GRID && d->param != BRDF_PARAM_POLAR)
         return prt_fail(err, "precompute: unknown BRDF parameterization %d", (int)d->param);
@@ -496,6 +504,8 @@ typedef struct pc_run {
     vis_scene *vs;
     float *vdir, *vdw, *ldir;   /* texel direction tables (pc_ctx) */
     int *order, *nvec;
+    int *first;                 /* [ranks + 1] this pass's vertex range per rank (shard.h) */
+    double *cost;               /* [nverts] per-vertex seconds: the direct pass's, then each gathering pass's */
     pc_scratch scratch[PC_MAX_THREADS];
     prt_transport direct, total, last;
     pc_ctx c;
@@ -506,6 +516,7 @@ typedef struct pc_run {
     int nsample, max_b;
     double t_sample, hit_sample;
     bool plan_bounces;
+    bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
 } pc_run;
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
@@ -663,6 +674,24 @@ static int pc_choose(pc_run *r, prt_error *err) {
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
+static const char *pc_stream_dir(const pc_run *r) { return r->d.stream_dir ? r->d.stream_dir : "."; }
+
+/* The direct pass's staging streamed to a file when it exceeds half the memory budget (precompute.h);
+ * said on stderr, not in the plan, which must not differ from an in-memory run's. Returns 0 or -1. */
+static int pc_stream(pc_run *r, prt_error *err) {
+    double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
+    double budget = r->d.memory_gb > 0 ? r->d.memory_gb * 1e9 : 0.5 * phys;
+    double staging = (double)r->direct.nvecs * r->direct.N * (sizeof(uint32_t) + 3 * sizeof(float));
+    if (staging <= budget / 2) return 0;   /* each gathering pass stages as much again: streamed alike */
+    const char *dir = pc_stream_dir(r);
+    if (transport_stage_to_file(&r->direct, dir, err)) return -1;
+    r->streamed = true;
+    if (!r->d.quiet)
+        fprintf(stderr, "memory: the direct pass's %.2f GB of staged vectors exceed half of the %.2f GB budget: streamed through a temporary file in %s\n",
+                staging / 1e9, budget / 1e9, dir);
+    return 0;
+}
+
 /* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
  * scratch and the direct pass's shared context. Returns 0 or -1. */
 static int pc_setup(pc_run *r, prt_error *err) {
@@ -675,7 +704,9 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->order = r->nvec ? prt_calloc((size_t)m->nverts, sizeof(int), err) : NULL;
     r->vst = r->order ? prt_calloc((size_t)m->nverts, sizeof *r->vst, err) : NULL;
     r->restored = r->vst ? prt_calloc((size_t)m->nverts, 1, err) : NULL;
-    if (!r->restored) return -1;
+    r->cost = r->restored ? prt_calloc((size_t)m->nverts, sizeof *r->cost, err) : NULL;
+    r->first = r->cost ? prt_calloc((size_t)shard_size(r->d.shard) + 1, sizeof *r->first, err) : NULL;
+    if (!r->first) return -1;
     for (int i = 0; i < 6 * R * R; i++) {
         float dd[3];
         cube_texel_dir(R, i, dd);
@@ -690,6 +721,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
+    if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
     for (int t = 0; t < r->nthreads; t++)
@@ -711,6 +743,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->scratch = r->scratch;
     c->vst = r->vst;
     c->restored = r->restored;
+    c->cost = r->cost;
     c->total = m->nverts;
     c->progress = r->d.progress;
     c->progress_user = r->d.progress_user;
@@ -858,22 +891,55 @@ static int pc_plan(pc_run *r, prt_error *err) {
     return 0;
 }
 
+/* The direct pass's split across ranks (shard.h): every vertex after the planning sample costs
+ * what the sample vertex before it took (the sample's strided times stand for their stretch of
+ * the mesh); the sample itself is done. One rank: everything. */
+static void pc_split_direct(pc_run *r) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    if (shard_size(r->d.shard) == 1 || r->nsample == 0) {
+        shard_split(NULL, NULL, m->nverts, r->first);
+        return;
+    }
+    double *w = r->cost;   /* reused in place: the sample's own costs are read before they are zeroed */
+    double c = w[r->order[0]];
+    for (int v = 0, si = 0; v < m->nverts; v++) {
+        if (si < r->nsample && r->order[si] == v) { c = w[v]; si++; w[v] = 0; continue; }
+        w[v] = c;
+    }
+    shard_split(r->d.shard, w, m->nverts, r->first);
+}
+
+/* After this rank's share of the direct pass: the test hook's failure, the ranks' common status
+ * (cancelled on one: on all), then every rank's vectors and per-vertex statistics to every rank.
+ * Returns 0 or -1. */
+static int pc_share_direct(pc_run *r, prt_error *err) {
+    int st = 0, rank = shard_rank(r->d.shard);
+    if (atomic_load(&r->c.cancelled)) st = prt_fail(err, "cancelled");
+    else if (r->d.shard_fail == rank + 1) st = prt_fail(err, "test hook: rank %d fails after its share of the direct pass", rank);
+    if (shard_status(r->d.shard, st, err)) return -1;
+    if (shard_size(r->d.shard) == 1) return 0;
+    if (shard_share_staged(r->d.shard, &r->direct, r->first, err)) return -1;
+    return shard_share_rows(r->d.shard, r->vst, sizeof *r->vst, r->first, err);
+}
+
 /* Stage direct: the rest of the direct pass, its statistics, the set finished, and the sample's
  * estimate of how much surfaces see each other checked against the full pass. Returns 0 or -1. */
 static int pc_direct(pc_run *r, prt_error *err) {
     const prt_mesh *m = &r->out->scene.mesh;
     prt_stats *st = &r->out->stats;
-    int k = 0, si = 0;
+    pc_split_direct(r);
+    int k = 0, si = 0, rank = shard_rank(r->d.shard);
     for (int v = 0; v < m->nverts; v++) {
         if (si < r->nsample && r->order[si] == v) { si++; continue; }
-        r->order[r->nsample + k++] = v;
+        if (v >= r->first[rank] && v < r->first[rank + 1]) r->order[r->nsample + k++] = v;
     }
     r->c.order = r->order + r->nsample;
+    r->c.total = r->nsample + k;   /* this rank's share: balanced by cost, so rank 0's bar stands for all */
     r->c.report = true;
     double ts = prt_now();
-    prt_parallel_for(m->nverts - r->nsample, PC_GRAIN, r->nthreads, pc_range, &r->c);
+    prt_parallel_for(k, PC_GRAIN, r->nthreads, pc_range, &r->c);
     double t_direct = r->t_sample + (prt_now() - ts);
-    if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
+    if (pc_share_direct(r, err)) return -1;
     double tv = 0, tb = 0, es = 0;
     long ec = 0;
     for (int t = 0; t < r->nthreads; t++) { tv += r->scratch[t].t_vis; tb += r->scratch[t].t_busy; }
@@ -906,11 +972,16 @@ static int pc_bounces(pc_run *r, prt_error *err) {
     if (!r->plan_bounces || r->max_b <= 0) return 0;
     prt_stats *st = &r->out->stats;
     double e0 = gather_energy(&r->direct);
+    /* the first gathering pass's split: its cost grows with the vertex's vectors (Eq. 8 per term);
+     * each later pass is split by the times the one before measured (gather_desc.cost) */
+    for (int v = 0; v < r->out->scene.mesh.nverts; v++) r->cost[v] = r->nvec[v] ? 1 + r->nvec[v] : 0;
     for (int b = 1; b <= r->max_b; b++) {
         char stage[32], line[256];
         snprintf(stage, sizeof stage, "bounce %d", b);
         gather_desc gd = { .res = r->d.gather_res, .nthreads = r->nthreads, .progress = r->d.progress,
-                           .progress_user = r->d.progress_user, .stage = stage, .ckpt = r->ck, .pass = b };
+                           .progress_user = r->d.progress_user, .stage = stage, .ckpt = r->ck, .pass = b,
+                           .shard = r->d.shard, .cost = r->cost,
+                           .stream_dir = r->streamed ? pc_stream_dir(r) : NULL };
         prt_transport next = { 0 }, sum = { 0 };
         double tb0 = prt_now();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
@@ -976,6 +1047,7 @@ static void pc_cleanup(pc_run *r) {
     for (int t = 0; t < PC_MAX_THREADS; t++) pc_scratch_free(&r->scratch[t]);
     vis_destroy(r->vs);
     free(r->vdir); free(r->vdw); free(r->ldir); free(r->order); free(r->nvec); free(r->vst); free(r->restored);
+    free(r->cost); free(r->first);
     ckpt_close(r->ck, NULL);
     transport_free(&r->direct);
     transport_free(&r->total);
@@ -993,13 +1065,17 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     r->out = out;
     r->plan = out->plan;
     r->pcap = sizeof out->plan;
-    int rc = -1;
-    if (pc_check_desc(desc, &r->d, err) || pc_check_scene(&out->scene, err)) goto done;
-    int nt = prt_thread_count(r->d.nthreads);
-    r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
-    out->vis_res = r->d.vis_res;
-    out->gather_res = r->d.gather_res;
-    if (pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err) || pc_resume(r, err)) goto done;
+    int rc = -1, st = -1;
+    if (!pc_check_desc(desc, &r->d, err) && !pc_check_scene(&out->scene, err)) {
+        int nt = prt_thread_count(r->d.nthreads);
+        r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
+        out->vis_res = r->d.vis_res;
+        out->gather_res = r->d.gather_res;
+        st = pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err) || pc_resume(r, err) ? -1 : 0;
+    }
+    /* no collective so far: a failure on any rank (OOM included) fails every rank alike here;
+     * later, the passes agree at their exchanges (shard.h) */
+    if (shard_status(desc ? desc->shard : NULL, st, err)) goto done;
     atomic_init(&r->c.cancelled, 0);
     atomic_init(&r->c.done, 0);
     pthread_mutex_init(&r->c.lock, NULL);

@@ -48,6 +48,14 @@
  * pass on stderr unless quiet), computes the rest and gives the same transfers, mesh, materials
  * and statistics as an uninterrupted run (only the timings differ, as between any two runs).
  *
+ * Sharding (desc.shard with more than one rank, shard.h): every rank runs the same stages on the
+ * same scene; the planning sample is computed on every rank and its per-vertex times cut the rest
+ * of the direct pass into one contiguous vertex range per rank of about equal cost (rank 0 cuts,
+ * all follow); each gathering pass is cut by the previous gathering pass's per-vertex times (the
+ * first by 1 + the vertex's vector count). After each pass the ranks exchange their vectors and
+ * statistics, so every rank holds the whole pass and the result is the one-process result bit for
+ * bit. The vMF passes are not split (every rank runs them in full). Not combined with a checkpoint.
+ *
  * Cancelling: the progress callback returning false stops the run with error "cancelled". */
 #ifndef PRT_PRECOMPUTE_H
 #define PRT_PRECOMPUTE_H
@@ -100,6 +108,14 @@ typedef struct precompute_desc {
     bool resume;            /* continue from `checkpoint` when it exists (one of other inputs or
                              * options is refused); else it is started anew */
     int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
+    float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
+                             * bytes) exceed half of it, they (and each gathering pass's) stream to a temporary
+                             * file in stream_dir, dropped from memory as vertices finish
+                             * (transport_stage_to_file; the same bits);
+                             * 0: half the machine's physical memory */
+    const char *stream_dir; /* that file's folder (unlinked at once: nothing is left); NULL: "." */
+    struct prt_shard *shard; /* MPI ranks to split the passes across (shard.h); NULL: this process alone */
+    int shard_fail;         /* test hook: rank shard_fail - 1 fails after its share of the direct pass (0: none) */
     prt_progress_fn progress;
     void *progress_user;
     bool quiet;             /* do not print the plan */

@@ -20,9 +20,13 @@
  * cores in chunks of a few thousand. */
 #include "transport.h"
 #include "haar.h"
+#include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #ifdef __SSE4_1__
 #include <smmintrin.h>
 #endif
@@ -61,6 +65,55 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
     if (qbits == 32)
         for (size_t k = 0; k < 3 * nvecs; k++) t->scale[k] = 1.f;
     return 0;
+}
+
+/* See transport.h: one file-backed shared mapping holds the indices, then the values. */
+int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err) {
+    PRT_CHECK(t->stage_idx && !t->stage_mapped);
+    size_t ni = (size_t)t->nvecs * t->N * sizeof *t->stage_idx, bytes = ni + (size_t)t->nvecs * t->N * 3 * sizeof *t->stage_val;
+    if (bytes == 0) return 0;
+    int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);   /* unlinked from the start: nothing left behind */
+    if (fd < 0) return prt_fail(err, "%s: cannot create the streamed pass's temporary file: %s", dir, strerror(errno));
+    if (ftruncate(fd, (off_t)bytes)) {
+        int e = errno;
+        close(fd);
+        return prt_fail(err, "%s: cannot size the streamed pass's temporary file to %zu bytes: %s", dir, bytes, strerror(e));
+    }
+    void *m = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    close(fd);
+    if (m == MAP_FAILED) return prt_fail(err, "%s: cannot map the streamed pass's temporary file: %s", dir, strerror(errno));
+    free(t->stage_idx);
+    free(t->stage_val);
+    t->stage_idx = m;
+    t->stage_val = (float *)(void *)((char *)m + ni);
+    t->stage_mapped = bytes;
+    return 0;
+}
+
+/* Drops the pages [p, p + n) touches from this process's memory. A page shared with a vector
+ * another thread is writing may be dropped too: on a shared file mapping MADV_DONTNEED only unmaps
+ * (the page cache keeps the page, dirty or not), and the writer's next store maps it again. */
+static void drop_pages(const void *p, size_t n) {
+    const uintptr_t pg = 4096;
+    uintptr_t a = (uintptr_t)p & ~(pg - 1), b = ((uintptr_t)p + n + pg - 1) & ~(pg - 1);
+    if (b > a) madvise((void *)a, b - a, MADV_DONTNEED);
+}
+
+/* See transport.h. */
+void transport_release(const prt_transport *t, int i0, int i1) {
+    if (!t->stage_mapped || i1 <= i0) return;
+    size_t N = (size_t)t->N;
+    drop_pages(t->stage_idx + (size_t)i0 * N, (size_t)(i1 - i0) * N * sizeof *t->stage_idx);
+    drop_pages(t->stage_val + (size_t)i0 * N * 3, (size_t)(i1 - i0) * N * 3 * sizeof *t->stage_val);
+}
+
+/* Frees the staging arrays (an unmap when streamed). */
+static void free_staging(prt_transport *t) {
+    free(t->stage_count);
+    if (t->stage_mapped) munmap(t->stage_idx, t->stage_mapped);
+    else { free(t->stage_idx); free(t->stage_val); }
+    t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL;
+    t->stage_mapped = 0;
 }
 
 enum { FACE = CUBE_RES * CUBE_RES };
@@ -215,6 +268,7 @@ static void count_runs(void *p, int begin, int end, int thread) {
         }
         t->run_first[i + 1] = runs;
     }
+    transport_release(t, begin, end);
 }
 
 /* Pass 2: runs and coefficient words of each vector at its final place. */
@@ -254,6 +308,7 @@ static void pack_vectors(void *p, int begin, int end, int thread) {
         }
         PRT_CHECK_EQ(nr + 1, (int)(t->run_first[i + 1] - t->run_first[i]));
     }
+    transport_release(t, begin, end);
 }
 
 /* Compacts the staged vectors; frees staging. Returns 0, or -1 with err set (OOM, overflow). */
@@ -285,8 +340,7 @@ int transport_finish(prt_transport *t, prt_error *err) {
     if (t->qbits == 32) t->f32 = prt_calloc(3 * nc, sizeof *t->f32, err);
     if (t->qbits == 8 ? !t->packed : (!t->offs || (t->qbits == 16 ? !t->q16 : !t->f32))) goto oom;
     prt_parallel_for(t->nvecs, 4096, 0, pack_vectors, &ctx);
-    free(t->stage_count); free(t->stage_idx); free(t->stage_val);
-    t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL;
+    free_staging(t);
     return 0;
 oom:
     /* leave the staged data intact so the caller may retry or free */
@@ -474,6 +528,6 @@ void transport_light(const prt_transport *t, const float (*L)[4], float *g, int 
 void transport_free(prt_transport *t) {
     free(t->vec_first); free(t->coef_first); free(t->run_first); free(t->runs); free(t->scale);
     free(t->packed); free(t->offs); free(t->q16); free(t->f32);
-    free(t->stage_count); free(t->stage_idx); free(t->stage_val);
+    free_staging(t);
     memset(t, 0, sizeof *t);
 }

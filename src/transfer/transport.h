@@ -68,6 +68,8 @@ typedef struct prt_transport {
     uint32_t *stage_count;  /* [nvecs] coefficients stored per vector */
     uint32_t *stage_idx;    /* [nvecs*N] wavelet indices */
     float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping) */
+    size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
+                             * file (transport_stage_to_file), released as vectors are done */
 } prt_transport;
 
 /* Sizes a set: nverts vertices, vertex v has nvec_of_vertex[v] vectors (vectors numbered
@@ -83,6 +85,13 @@ size_t transport_scratch_size(void);
  * sum_m c~_m W_m = sum_m c_m W_m (haar.h), 0 where the face's scaling coefficient is not kept.
  * W: the face's solid-angle coefficients (haar_face_solid_angle_coeffs). */
 void transport_face_integrals(const float *const ch[3], const uint32_t *idx, int n, const float *W, float adj[6][3]);
+/* Streams the staging of a set fresh from transport_init to an unlinked temporary file in dir
+ * (issue 13): staged vectors live in the page cache and the file, not in the process's memory,
+ * once transport_release drops them; results are the same bits. Returns 0 or -1 (err: dir). */
+int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err);
+/* Drops the pages vectors [i0, i1)'s staging touches from this process's memory (the file keeps
+ * them; any thread may still read or write them). No-op unless staged to a file. */
+void transport_release(const prt_transport *t, int i0, int i1);
 /* Compacts staged vectors into the final arrays. Returns 0 or -1 (OOM). */
 int transport_finish(prt_transport *t, prt_error *err);
 

@@ -1,0 +1,196 @@
+/* test_shard.c - `prt precompute` split across MPI ranks (shard.h, issue 13).
+ *
+ * Truth: the file of one process on the same scene. Two runs differ only in their timings (the
+ * META timing fields, the plan's numbers), so both files are read, those zeroed and blanked, and
+ * written again through prtfile_write and compared with memcmp (as test_resume does): every
+ * vector, scale, statistic and byte of the mesh must be identical. Cases:
+ *   direct      --no-bounces, one process on 2 threads against `mpirun -np 2` on 1 thread each
+ *               (the Lambert scene; the Phong one's two vectors per vertex are in bounces);
+ *   bounces     two forced gathering passes (the second split by the first's measured times),
+ *               against one process; -np 3 too (uneven ranges);
+ *   rank_fails  PRT_SHARD_FAIL=1 (rank 1 fails after its share of the direct pass): exit 1, no
+ *               output file, and exactly one line of output, naming the rank and the reason;
+ *   resume      --resume under mpirun: refused with one line, exit 2;
+ *   streamed    --memory 0.0001 (the direct pass's staged vectors through a temporary file,
+ *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
+ *               streaming said on stderr, no file left beside the output; and under -np 2.
+ * The ranks run unbound (--bind-to none) as the one process does: OpenBLAS sizes its thread pool by
+ * the cores a process may use, and the BRDF factorization's last bits depend on that count (README
+ * "Running on a cluster"). The Phong sphere (K = 2) runs where the factorization matters; the
+ * cases about failing use a Lambert one (no factorization time).
+ * Every case is skipped, with the reason printed, when mpirun is not installed. Runs as root need
+ * OpenMPI's OMPI_ALLOW_RUN_AS_ROOT; the sanitizer build's leak check is off under mpirun (OpenMPI
+ * keeps allocations until exit). */
+#include "harness.h"
+#include "prtfile.h"
+#include <ctype.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static char g_dir[512];
+static const char *k_opts = "--vis-res 64 --coeffs 16 --gather-res 4 --glossy svd --terms 2 --quiet";
+static const char *k_mpi = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 ASAN_OPTIONS=detect_leaks=0 "
+                           "mpirun -q --oversubscribe --bind-to none";
+
+static bool exists(const char *path) { struct stat st; return stat(path, &st) == 0; }
+
+/* mpirun is on the PATH (else the cases say so and return). */
+static bool have_mpirun(void) {
+    if (check_run("command -v mpirun", NULL, 0) == 0) return true;
+    printf("  mpirun not found (Debian's openmpi-bin, installed by `make deps`): skipped\n");
+    return false;
+}
+
+/* Runs `[ENV] [mpirun -np NP] prt precompute SCENE.json -o DIR/OUT OPTS EXTRA` (np 0: no mpirun);
+ * returns its status, its output in buf. */
+static int run(const char *env, int np, const char *scene, const char *out, const char *extra, char *buf, size_t cap) {
+    char cmd[8192], launch[512] = "";
+    if (np > 0) snprintf(launch, sizeof launch, "%s -np %d", k_mpi, np);
+    snprintf(cmd, sizeof cmd, "%s %s %s precompute %s/%s.json -o %s/%s %s %s", env, launch, check_prt_bin(), g_dir, scene, g_dir,
+             out, k_opts, extra);
+    return check_run(cmd, buf, cap);
+}
+
+/* run on the Phong sphere's scene. */
+static int precompute(const char *env, int np, const char *out, const char *extra, char *buf, size_t cap) {
+    return run(env, np, "scene", out, extra, buf, cap);
+}
+
+/* The file at name with its timings zeroed and the plan's digits blanked, written again to
+ * name.norm and read back as bytes (malloc'd; NULL on failure). As test_resume's. */
+static char *normalized(const char *name, size_t *len) {
+    char p[1024], q[1100];
+    snprintf(p, sizeof p, "%s/%s", g_dir, name);
+    snprintf(q, sizeof q, "%s.norm", p);
+    prt_data d;
+    prt_error err;
+    if (prtfile_read(p, &d, &err)) { CHECK(false, "%s", err.msg); return NULL; }
+    prt_stats *s = &d.stats;
+    s->t_brdf = s->t_visibility = s->t_transport = s->t_write = s->t_total = 0;
+    memset(s->t_bounce, 0, sizeof s->t_bounce);
+    s->peak_rss_bytes = 0;
+    for (int i = 0; i < d.scene.nmaterials; i++) d.factors[i].seconds = 0;
+    char *w = d.plan;   /* each number (durations, sizes) becomes one '#' */
+    for (const char *c = d.plan; *c; c++)
+        if (!isdigit((unsigned char)*c) && !(*c == '.' && isdigit((unsigned char)c[1]))) *w++ = *c;
+        else if (w == d.plan || w[-1] != '#') *w++ = '#';
+    *w = 0;
+    for (char *t; (t = strstr(d.plan, "threads"));) memmove(t + 6, t + 7, strlen(t + 7) + 1);   /* the count said */
+    int rc = prtfile_write(q, &d, &err);
+    prt_data_free(&d);
+    if (rc) { CHECK(false, "%s", err.msg); return NULL; }
+    return check_read_file(q, len);
+}
+
+/* Files a and b are the same but for the timings. */
+static void check_same(const char *a, const char *b) {
+    size_t na = 0, nb = 0;
+    char *x = normalized(a, &na), *y = normalized(b, &nb);
+    CHECK(x && y && na == nb && memcmp(x, y, na) == 0, "%s differs from %s (%zu vs %zu bytes)", b, a, nb, na);
+    free(x);
+    free(y);
+}
+
+static int count_lines(const char *s) {
+    int n = 0;
+    for (; *s; s++) n += *s == '\n';
+    return n;
+}
+
+/* DIR/name.json: the sphere of material over a 200-vertex floor. */
+static void scene(const char *name, const char *material) {
+    char p[1024];
+    snprintf(p, sizeof p, "%s/%s.json", g_dir, name);
+    FILE *f = fopen(p, "w");
+    if (f) {
+        fprintf(f, "{ \"models\": [ { \"sphere\": { \"center\": [0, 0.5, 0], \"radius\": 0.5, \"rings\": 8, \"segments\": 12 },\n"
+                   "                \"material\": \"%s\" } ],\n  \"floor\": { \"vertices\": 200 } }\n", material);
+        fclose(f);
+    }
+}
+
+static void setup(void) {
+    snprintf(g_dir, sizeof g_dir, "%s", check_tmpdir());
+    scene("scene", "phong:kd=0.3;ks=0.4;n=20");
+    scene("lambert", "lambert:kd=0.6");
+}
+
+/* Direct pass only: 2 ranks give the one-process file (Lambert scene). */
+static void direct(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    int rc = run("", 0, "lambert", "one.prt", "--no-bounces --threads 2", buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    rc = run("", 2, "lambert", "two.prt", "--no-bounces --threads 1", buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("one.prt", "two.prt");
+}
+
+/* Two forced gathering passes: 2 ranks give the one-process file; 3 (uneven ranges) too, on the
+ * Lambert scene. */
+static void bounces(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    const char *b = "--bounces 2 --force-bounces --threads 1";
+    int rc = precompute("", 0, "one-b.prt", "--bounces 2 --force-bounces --threads 2", buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    rc = precompute("", 2, "two-b.prt", b, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("one-b.prt", "two-b.prt");
+    rc = run("", 0, "lambert", "one-l.prt", "--bounces 2 --force-bounces --threads 2", buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    rc = run("", 3, "lambert", "three-l.prt", b, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 3 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("one-l.prt", "three-l.prt");
+}
+
+/* Rank 1 fails mid-run: one line, exit 1, no file. */
+static void rank_fails(void) {
+    if (!have_mpirun()) return;
+    char buf[8192], p[1024];
+    snprintf(p, sizeof p, "%s/fail.prt", g_dir);
+    int rc = run("PRT_SHARD_FAIL=1", 2, "lambert", "fail.prt", "--bounces 1 --force-bounces --threads 1", buf, sizeof buf);
+    CHECK(rc == 1, "exit status %d (expected 1): %s", rc, buf);
+    CHECK(!exists(p), "an output file was written");
+    int lines = count_lines(buf);
+    CHECK(lines == 1 && strstr(buf, "prt precompute: rank 1 of 2: test hook: rank 1 fails"), "output (%d lines): %s", lines, buf);
+}
+
+/* --resume is one process's: refused under mpirun with one line. */
+static void resume(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    int rc = run("", 2, "lambert", "resume.prt", "--no-bounces --resume", buf, sizeof buf);
+    CHECK(rc == 2 && strstr(buf, "--resume cannot be combined with 2 MPI ranks") && count_lines(buf) == 1, "exit %d: %s", rc, buf);
+}
+
+/* The streamed direct pass gives the in-memory file, one process and two ranks. */
+static void streamed(void) {
+    char buf[8192], cmd[8192];
+    const char *b = "--bounces 1 --force-bounces --threads 2";
+    int rc = precompute("", 0, "mem.prt", b, buf, sizeof buf);
+    CHECK(rc == 0, "in-memory run failed (%d): %s", rc, buf);
+    snprintf(cmd, sizeof cmd, "%s precompute %s/scene.json -o %s/stream.prt --vis-res 64 --coeffs 16 --gather-res 4 --glossy svd --terms 2 %s --memory 0.0001",
+             check_prt_bin(), g_dir, g_dir, b);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "streamed through a temporary file in "), "streamed run (%d): %s", rc, buf);
+    if (rc == 0) check_same("mem.prt", "stream.prt");
+    snprintf(cmd, sizeof cmd, "ls -A %s | grep -v -E '\\.(prt|json|norm)$'", g_dir);
+    CHECK(check_run(cmd, buf, sizeof buf) != 0, "left beside the output: %s", buf);
+    if (!have_mpirun()) return;
+    rc = precompute("", 2, "stream2.prt", "--bounces 1 --force-bounces --threads 1 --memory 0.0001", buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 --memory failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("mem.prt", "stream2.prt");
+}
+
+int main(int argc, char **argv) {
+    check_begin(argc, argv);
+    setup();
+    CHECK_CASE(direct);
+    CHECK_CASE(bounces);
+    CHECK_CASE(rank_fails);
+    CHECK_CASE(resume);
+    CHECK_CASE(streamed);
+    return check_summary();
+}
