@@ -49,8 +49,12 @@ const char *check_tmpdir(void) {
     if (!dir[0]) {
         mkdir("build", 0755);
         mkdir("build/tmp", 0755);
-        snprintf(dir, sizeof dir, "build/tmp/t%ld", (long)getpid());
-        mkdir(dir, 0755);
+        /* fresh each run: a t<pid> name alone is reused once pids wrap, with an earlier run's files in it */
+        snprintf(dir, sizeof dir, "build/tmp/t%ld-XXXXXX", (long)getpid());
+        if (!mkdtemp(dir)) {
+            snprintf(dir, sizeof dir, "build/tmp/t%ld", (long)getpid());
+            mkdir(dir, 0755);
+        }
     }
     return dir;
 }

@@ -8,7 +8,7 @@
 # Binaries run $TEST_JOBS at a time (default 2): many of them spend their time starting
 # `prt` processes or in one thread, so two at once use both cores (measured: see README,
 # "Tests"). Each binary's output is kept whole and printed in the order given. Every test
-# writes only under its own build/tmp/t<pid> (tests/harness.h: check_tmpdir), so two binaries
+# writes only under its own fresh build/tmp/t<pid>-XXXXXX (tests/harness.h: check_tmpdir), so two binaries
 # never share a file.
 set -u
 total_pass=0; total_fail=0; total_skip=0; t0=$(date +%s)
