@@ -50,6 +50,8 @@ direct_ctx *direct_create(const prt_scene *scene, int nthreads, prt_error *err) 
     return dc;
 }
 
+const vis_scene *direct_vis(const direct_ctx *dc) { return dc->vs; }
+
 void direct_destroy(direct_ctx *dc) {
     if (!dc) return;
     if (dc->vs) vis_destroy(dc->vs);

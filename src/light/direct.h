@@ -28,6 +28,7 @@
 #define PRT_DIRECT_H
 #include "common.h"
 #include "scene.h"
+#include "visibility.h"
 
 typedef struct direct_ctx direct_ctx;
 
@@ -42,7 +43,9 @@ typedef struct direct_stats {
 
 /* Builds the BVH over scene->mesh (Embree). nthreads 0: all cores. NULL with err. */
 direct_ctx *direct_create(const prt_scene *scene, int nthreads, prt_error *err);
-/* Frees the context; NULL is fine. */
+/* The BVH it traces shadow rays in (owned by dc), for others to borrow while dc lives. */
+const vis_scene *direct_vis(const direct_ctx *dc);
+/* Frees it (NULL is fine). */
 void direct_destroy(direct_ctx *dc);
 /* Light move: copies ls (each validated) and traces the shadow rays. -1 with err (invalid light). */
 int direct_set_lights(direct_ctx *dc, const prt_lights *ls, prt_error *err);

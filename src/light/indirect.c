@@ -14,7 +14,8 @@ struct indirect_ctx {
     const prt_scene *scene;
     indirect_desc d;
     int nthreads;
-    vis_scene *vs;
+    const vis_scene *vs;  /* desc.vs (borrowed) or own_vs */
+    vis_scene *own_vs;
     lightmat *lm;
     rsm *r;
     const prefilter_env *env;
@@ -38,7 +39,9 @@ indirect_ctx *indirect_create(const prt_scene *scene, const indirect_desc *desc,
     ic->nthreads = prt_thread_count(ic->d.threads);
     if (ic->nthreads > IC_MAX_THREADS) ic->nthreads = IC_MAX_THREADS;
     int n = scene->mesh.nverts;
-    if (!(ic->vs = vis_create(&scene->mesh, err)) || !(ic->lm = lightmat_create(scene, err)) ||
+    if (!ic->d.vs) ic->vs = ic->own_vs = vis_create(&scene->mesh, err);
+    else ic->vs = ic->d.vs;
+    if (!ic->vs || !(ic->lm = lightmat_create(scene, err)) ||
         !(ic->r = rsm_create(&(rsm_desc){ .res = ic->d.rsm_res, .threads = ic->nthreads }, err)) ||
         !(ic->lambert_rgb = prt_calloc(3 * (size_t)n, sizeof(float), err)) ||
         !(ic->glossy = prt_calloc((size_t)n, 1, err))) {
@@ -58,7 +61,7 @@ void indirect_destroy(indirect_ctx *ic)
     if (!ic) return;
     rsm_destroy(ic->r);
     lightmat_destroy(ic->lm);
-    if (ic->vs) vis_destroy(ic->vs);
+    if (ic->own_vs) vis_destroy(ic->own_vs);
     free(ic->lambert_rgb);
     free(ic->glossy);
     free(ic);

@@ -34,6 +34,8 @@ typedef struct indirect_desc {
     bool no_highlights;   /* skip the indirect highlights */
     bool no_bounce;       /* skip the VSGLs */
     int threads;          /* 0: all cores */
+    const vis_scene *vs;  /* the scene's BVH when the caller has one (borrowed: kept alive by the
+                           * caller, e.g. direct_vis); NULL: indirect_create builds its own */
 } indirect_desc;
 
 typedef struct indirect_stats {

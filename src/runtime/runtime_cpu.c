@@ -62,8 +62,8 @@ static void cpu_destroy(void *self) {
     if (!c) return;
     if (c->draw_ready && glctx_make_current(c->ctx, NULL) == 0) gldraw_free(&c->draw);
     relight_destroy(c->rc);
+    indirect_destroy(c->indirect);   /* first: it borrows c->direct's BVH */
     direct_destroy(c->direct);
-    indirect_destroy(c->indirect);
     free(c->rgb);
     free(c);
 }
@@ -157,7 +157,9 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     int rc = direct_set_lights(c->direct, ls, err);
     c->bounce_ms = 0;
     if (rc == 0 && !(c->ind_desc.no_bounce && c->ind_desc.no_highlights)) {   /* issue 11 items 3-4 */
-        if (!c->indirect && !(c->indirect = indirect_create(&c->d->scene, &c->ind_desc, err))) return -1;
+        indirect_desc id = c->ind_desc;
+        id.vs = direct_vis(c->direct);   /* one BVH for the shadow rays and the bounce: c->direct outlives c->indirect */
+        if (!c->indirect && !(c->indirect = indirect_create(&c->d->scene, &id, err))) return -1;
         double t1 = prt_now();
         rc = indirect_set_lights(c->indirect, ls, err);
         c->bounce_ms = 1e3 * (prt_now() - t1);
