@@ -24,6 +24,7 @@
 #include "harness.h"
 #include "prtfile.h"
 #include "vmf.h"
+#include "prt_normalize.h"
 #include <ctype.h>
 #include <signal.h>
 #include <stdlib.h>
@@ -49,37 +50,6 @@ static int precompute(const char *env, const char *out, const char *extra, char 
 
 static void reference(bool vmf);
 
-/* The file at name with its timings zeroed and the plan's digits blanked, written again to
- * name.norm and read back as bytes (malloc'd; NULL on failure). */
-static char *normalized(const char *name, size_t *len) {
-    char p[1024], q[1100];
-    snprintf(p, sizeof p, "%s/%s", g_dir, name);
-    snprintf(q, sizeof q, "%s.norm", p);
-    prt_data d;
-    prt_error err;
-    if (prtfile_read(p, &d, &err)) { CHECK(false, "%s", err.msg); return NULL; }
-    prt_stats *s = &d.stats;
-    s->t_brdf = s->t_visibility = s->t_transport = s->t_write = s->t_total = 0;
-    memset(s->t_bounce, 0, sizeof s->t_bounce);
-    s->peak_rss_bytes = 0;
-    for (int i = 0; i < d.scene.nmaterials; i++) d.factors[i].seconds = 0;
-    for (int i = 0; i < d.ntransfers; i++) {   /* the vmf transfer's pass and lobe-fit times */
-        if (strcmp(d.transfers[i].ops->name, "vmf") != 0) continue;
-        vmft_data *t = (vmft_data *)vmft_get(&d.transfers[i]);
-        memset(t->t_pass, 0, sizeof t->t_pass);
-        for (int m = 0; m < PRT_MAX_MATERIALS; m++) t->fit[m].seconds = 0;
-    }
-    char *w = d.plan;   /* each number (durations, sizes) becomes one '#' */
-    for (const char *c = d.plan; *c; c++)
-        if (!isdigit((unsigned char)*c) && !(*c == '.' && isdigit((unsigned char)c[1]))) *w++ = *c;
-        else if (w == d.plan || w[-1] != '#') *w++ = '#';
-    *w = 0;
-    for (char *t; (t = strstr(d.plan, "threads"));) memmove(t + 6, t + 7, strlen(t + 7) + 1);   /* the count said */
-    int rc = prtfile_write(q, &d, &err);
-    prt_data_free(&d);
-    if (rc) { CHECK(false, "%s", err.msg); return NULL; }
-    return check_read_file(q, len);
-}
 
 /* name's file equals the uninterrupted run's (reference.prt; vmf-reference.prt for names starting
  * with "vmf") but for the timings. */
@@ -87,7 +57,7 @@ static void check_same(const char *name, const char *what) {
     bool vmf = !strncmp(name, "vmf", 3);
     reference(vmf);
     size_t na = 0, nb = 0;
-    char *a = normalized(vmf ? "vmf-reference.prt" : "reference.prt", &na), *b = normalized(name, &nb);
+    char *a = prt_normalized(g_dir, vmf ? "vmf-reference.prt" : "reference.prt", &na), *b = prt_normalized(g_dir, name, &nb);
     CHECK(a && b && na == nb && memcmp(a, b, na) == 0, "%s: %s differs from the uninterrupted run (%zu vs %zu bytes)", what, name, nb, na);
     free(a);
     free(b);

@@ -23,6 +23,7 @@
  * keeps allocations until exit). */
 #include "harness.h"
 #include "prtfile.h"
+#include "prt_normalize.h"
 #include <ctype.h>
 #include <stdlib.h>
 #include <string.h>
@@ -57,36 +58,11 @@ static int precompute(const char *env, int np, const char *out, const char *extr
     return run(env, np, "scene", out, extra, buf, cap);
 }
 
-/* The file at name with its timings zeroed and the plan's digits blanked, written again to
- * name.norm and read back as bytes (malloc'd; NULL on failure). As test_resume's. */
-static char *normalized(const char *name, size_t *len) {
-    char p[1024], q[1100];
-    snprintf(p, sizeof p, "%s/%s", g_dir, name);
-    snprintf(q, sizeof q, "%s.norm", p);
-    prt_data d;
-    prt_error err;
-    if (prtfile_read(p, &d, &err)) { CHECK(false, "%s", err.msg); return NULL; }
-    prt_stats *s = &d.stats;
-    s->t_brdf = s->t_visibility = s->t_transport = s->t_write = s->t_total = 0;
-    memset(s->t_bounce, 0, sizeof s->t_bounce);
-    s->peak_rss_bytes = 0;
-    for (int i = 0; i < d.scene.nmaterials; i++) d.factors[i].seconds = 0;
-    char *w = d.plan;   /* each number (durations, sizes) becomes one '#' */
-    for (const char *c = d.plan; *c; c++)
-        if (!isdigit((unsigned char)*c) && !(*c == '.' && isdigit((unsigned char)c[1]))) *w++ = *c;
-        else if (w == d.plan || w[-1] != '#') *w++ = '#';
-    *w = 0;
-    for (char *t; (t = strstr(d.plan, "threads"));) memmove(t + 6, t + 7, strlen(t + 7) + 1);   /* the count said */
-    int rc = prtfile_write(q, &d, &err);
-    prt_data_free(&d);
-    if (rc) { CHECK(false, "%s", err.msg); return NULL; }
-    return check_read_file(q, len);
-}
 
 /* Files a and b are the same but for the timings. */
 static void check_same(const char *a, const char *b) {
     size_t na = 0, nb = 0;
-    char *x = normalized(a, &na), *y = normalized(b, &nb);
+    char *x = prt_normalized(g_dir, a, &na), *y = prt_normalized(g_dir, b, &nb);
     CHECK(x && y && na == nb && memcmp(x, y, na) == 0, "%s differs from %s (%zu vs %zu bytes)", b, a, nb, na);
     free(x);
     free(y);
