@@ -6,7 +6,8 @@
 #   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
-#   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60)
+#   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60),
+#                   FUZZ_JOBS processes of each at once (default 1)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++

@@ -17,6 +17,7 @@
  * The 8-bit layout is the paper's (4.1.2): a 4-byte word per coefficient plus
  * its block byte, 5 bytes in all. */
 #include "glrt.h"
+#include "light.h"
 #include "prefilter.h"
 #include "gldraw.h"
 #include "gllights.h"
@@ -55,6 +56,7 @@ struct glrt {
     bool bg_rotated, light_set;
     glrt_view_mode view_mode;
     glrt_light_method method;
+    float unshift;              /* 2^e: the uploaded light is L x 2^-e (light_scaled), the kernels undo it */
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
@@ -639,6 +641,7 @@ static void run_light(glrt *rt, glrt_light_method m) {
     const gl_api *gl = rt->gl;
     GLuint p = rt->prog_light[m];
     gl->UseProgram(p);
+    gl->Uniform1f(gl->GetUniformLocation(p, "u_unshift"), rt->unshift > 0 ? rt->unshift : 1.f);
     if (m == GLRT_LIGHT_FRAGMENT) {
         if (!rt->frag_fbo) {
             gl->GenTextures(1, &rt->frag_tex);
@@ -869,14 +872,37 @@ int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     return 0;
 }
 
-/* Light change: uploads L and runs the kernel, finished and timed; -1 with err. */
+/* L scaled by 2^-e into a new vector (free()) when its largest |value| is 2^97 or more, setting
+ * *unshift = 2^e; else NULL and *unshift = 1. The kernels sum codes (up to 127, or 32767 at 16
+ * bits) times L in float before the vector's scale, so an L of a finite 1e37 sun overflowed to Inf
+ * and the pixels came out black (issue 12); a power of two scales exactly, as transfer_light does
+ * on the CPU, so both backends compute the same g. NULL too when out of memory (unscaled, as before). */
+static float (*light_scaled(const float (*L)[4], float *unshift))[4] {
+    float m = 0;
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int c = 0; c < 3; c++) m = fmaxf(m, fabsf(L[k][c]));
+    int e;
+    frexpf(m, &e);
+    *unshift = 1.f;
+    float (*Ls)[4] = e > 96 ? light_alloc() : NULL;
+    if (!Ls) return NULL;
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int c = 0; c < 3; c++) Ls[k][c] = ldexpf(L[k][c], 96 - e);
+    *unshift = ldexpf(1.f, e - 96);
+    return Ls;
+}
+
+/* Light change: uploads L (scaled when huge: light_scaled) and runs the kernel, finished and timed;
+ * -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
     double t0 = prt_now();
+    float (*Ls)[4] = light_scaled(L, &rt->unshift);
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_L);
-    gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, L);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, Ls ? (const float (*)[4])Ls : L);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    free(Ls);
     gl->BeginQuery(GL_TIME_ELAPSED, rt->query);
     run_light(rt, rt->method);
     gl->EndQuery(GL_TIME_ELAPSED);

@@ -9,7 +9,9 @@
  * 3. A precomputed scene (procedural sphere over a floor, Phong and Lambert):
  *    glrt in per-vertex view mode against the CPU runtime (relight_view +
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
- *    mode's difference from it is reported (it is a different, finer model). */
+ *    mode's difference from it is reported (it is a different, finer model).
+ * 4. A finite 1e37 sun (issue 12) through runtime.h on both backends: gl's colours and images
+ *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun). */
 #include "harness.h"
 #include "brdf.h"
 #include "factor.h"
@@ -18,6 +20,7 @@
 #include "precompute.h"
 #include "probe.h"
 #include "relight.h"
+#include "runtime.h"
 #include "scene.h"
 #include "vec3.h"
 #include <stdlib.h>
@@ -556,6 +559,114 @@ static void egl(void) {
     synth_free(&s);
 }
 
+/* A finite but huge sun (issue 12): a probe with 2x2 texels of 1e37 over a dim sky lights the
+ * gl runtime as the cpu one, whose light change runs scaled by a power of two (transfer.c). The
+ * GL kernels summed codes x L in float before the vector's scale, so L near 1e37 overflowed to
+ * Inf and every pixel came out black (or NaN). Both backends, per-vertex view model: vertex
+ * colours and images finite, lit, and equal to float rounding of the same sums (1e-4, as the
+ * scene case's per-vertex images), and the 1e37 light equals the 1e30 one x 1e7 on gl too,
+ * per vertex and per pixel (gl's default view model; relative RMS 1e-4, as test_edges' cpu case). */
+static void bright_sun(void) {
+    prt_error err = { { 0 } };
+    prt_mesh sphere = { 0 };
+    prt_scene sc = { 0 };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    const float c[3] = { 0, 0.5f, 0 };
+    int rc = mesh_make_sphere(&sphere, c, 0.5f, 12, 16, &err);
+    if (rc == 0) rc = scene_from_mesh(&sphere, "phong:kd=0.4,0.25,0.15;ks=0.5;n=30", &sc, &err);
+    if (rc == 0) rc = scene_add_floor(&sc, 100, 3, NULL, &err);
+    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    if (rc == 0) rc = precompute_run(&sc, &pd, &d, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) return;
+    static const float k_sun[2] = { 1e30f, 1e37f };
+    int nv = d.scene.mesh.nverts;
+    const int w = 80, h = 60;
+    float *col[2][2];
+    prt_image img[2][2], pix[2];   /* [sun][cpu, gl] per vertex; gl per pixel */
+    memset(img, 0, sizeof img);
+    memset(pix, 0, sizeof pix);
+    prt_camera cam;
+    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    for (int s = 0; s < 2; s++) {
+        prt_image im;
+        prt_probe p;
+        image_alloc(&im, 64, 32, 3, &err);
+        for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = 0.3f;
+        for (int y = 5; y < 7; y++)   /* the sun high in the sky, lighting the sphere's top and the floor */
+            for (int x = 20; x < 22; x++)
+                for (int k = 0; k < 3; k++) im.data[3 * (y * 64 + x) + k] = k_sun[s];
+        CHECK(probe_from_image(&im, PROBE_LATLONG, "sun", &p, &err) == 0, "%s", err.msg);
+        for (int b = 0; b < 2; b++) {
+            col[s][b] = calloc(3 * (size_t)nv, sizeof(float));
+            runtime_desc rdsc = { .backend = b ? "gl" : "cpu", .view = RUNTIME_VIEW_VERTEX };
+            prt_runtime *rt = runtime_create(&d, &rdsc, &err);
+            render_desc rd = { .width = w, .height = h, .camera = cam };
+            CHECK(rt && runtime_set_light(rt, &p, NULL, &err) == 0 && runtime_shade_vertices(rt, cam.eye, col[s][b], &err) == 0 &&
+                      runtime_render(rt, &rd, &img[s][b], &err) == 0,
+                  "%s: %s", rdsc.backend, err.msg);
+            if (rt && b) CHECK(runtime_set_view(rt, RUNTIME_VIEW_PIXEL, &err) == 0 && runtime_render(rt, &rd, &pix[s], &err) == 0, "%s", err.msg);
+            runtime_destroy(rt);
+        }
+        probe_free(&p);
+    }
+    /* vertex colours and images of the 1e37 sun: finite, lit, gl = cpu; gl's 1e37 = its 1e30 x 1e7 */
+    double lit = 0, cmax = 0, worst = 0, ratio = 0;
+    bool finite = true;
+    for (int i = 0; i < 3 * nv; i++) {
+        float a = col[1][1][i], b = col[1][0][i];
+        finite &= isfinite(a) && isfinite(b);
+        lit += b > 0;
+        cmax = fmax(cmax, b);
+    }
+    for (int i = 0; i < 3 * nv; i++) {
+        worst = fmax(worst, fabs((double)col[1][1][i] - col[1][0][i]) / (fabs(col[1][0][i]) + 1e-3 * cmax));
+        ratio = fmax(ratio, fabs((double)col[1][1][i] - 1e7 * (double)col[0][1][i]) / (fabs(col[1][0][i]) + 1e-3 * cmax));
+    }
+    fprintf(stderr, "test_glrt: 1e37 sun: %g lit vertex values, max %.3g; gl vs cpu %.2e; gl 1e37 vs 1e30 x 1e7 %.2e\n", lit, cmax,
+            worst, ratio);
+    CHECK(finite, "non-finite vertex colours under the 1e37 sun");
+    CHECK(lit > nv && cmax > 1e34, "the 1e37 sun lights nothing (%g lit values, max %g)", lit, cmax);
+    CHECK_LE(worst, 1e-4, "gl vertex colours differ from cpu's under the 1e37 sun");
+    CHECK_LE(ratio, 1e-4, "gl: the 1e37 sun is not the 1e30 one x 1e7");
+    if (img[1][0].data && img[1][1].data) {
+        double pmax = 0, pw = 0, plit = 0;
+        bool pfin = true;
+        size_t n = (size_t)w * h * 3;
+        for (size_t i = 0; i < n; i++) pmax = fmax(pmax, img[1][0].data[i]);
+        for (size_t i = 0; i < n; i++) {
+            pfin &= isfinite(img[1][1].data[i]);
+            plit += img[1][1].data[i] > 0;
+            pw = fmax(pw, fabs((double)img[1][1].data[i] - img[1][0].data[i]) / (img[1][0].data[i] + 1e-3 * pmax));
+        }
+        fprintf(stderr, "test_glrt: 1e37 sun images: %g lit values, gl vs cpu max rel %.2e\n", plit, pw);
+        CHECK(pfin && plit > 1000, "gl image under the 1e37 sun: finite %d, %g lit values", pfin, plit);
+        CHECK_LE(pw, 1e-3, "gl image differs from cpu's under the 1e37 sun");
+    }
+    if (pix[0].data && pix[1].data) {   /* per pixel (gl's default): finite, lit, 1e7 x the 1e30 image */
+        double pmax = 0, num = 0, den = 0, plit = 0;
+        bool pfin = true;
+        for (size_t i = 0; i < (size_t)w * h * 3; i++) {
+            double a = pix[1].data[i], b = 1e7 * (double)pix[0].data[i];
+            pfin &= isfinite(pix[1].data[i]);
+            plit += a > 0;
+            pmax = fmax(pmax, a);
+            num += (a - b) * (a - b);
+            den += b * b;
+        }
+        fprintf(stderr, "test_glrt: 1e37 sun per pixel: %g lit values, max %.3g, against 1e30 x 1e7 rel RMS %.2e\n", plit, pmax,
+                sqrt(num / den));
+        CHECK(pfin && plit > 1000, "gl per-pixel image under the 1e37 sun: finite %d, %g lit values", pfin, plit);
+        CHECK_LE(sqrt(num / den), 1e-4, "gl per pixel: the 1e37 image is not the 1e30 one x 1e7 (relative RMS)");
+    }
+    for (int s = 0; s < 2; s++)
+        for (int b = 0; b < 2; b++) { free(col[s][b]); image_free(&img[s][b]); }
+    image_free(&pix[0]);
+    image_free(&pix[1]);
+    prt_data_free(&d);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(synthetic);
@@ -563,5 +674,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(viewmaps);
     CHECK_CASE(direct_switch);
     CHECK_CASE(scene);
+    CHECK_CASE(bright_sun);
     return check_summary();
 }

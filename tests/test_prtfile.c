@@ -3,7 +3,8 @@
  * field and re-writes to identical bytes; damaged files (truncated at many lengths,
  * flipped bytes, wrong magic, wrong version, empty, missing, a directory) and crafted
  * files with a valid checksum but out-of-range indices each fail with one line naming
- * the file; failed writes leave no file behind. The transport lives in a Haar
+ * the file; failed writes leave no file behind; the same bytes read from memory
+ * (prtfile_read_memory) give the same data and the same messages. The transport lives in a Haar
  * transfer section (transfer.h), written and validated by that module. */
 #include "harness.h"
 #include "prtfile.h"
@@ -461,6 +462,47 @@ static void transfers_rule(void) {
     prt_data_free(&a);
 }
 
+/* prtfile_read_memory on a file's bytes: the data field by field; on damaged bytes (truncated,
+ * flipped, empty) the same message as prtfile_read on that file, with the name for the path; the
+ * bytes are only read. */
+static void from_memory(void) {
+    prt_error err = { { 0 } }, ferr = { { 0 } };
+    for (int q = 8; q <= 32; q *= 2) {
+        size_t n = 0;
+        unsigned char *img = (unsigned char *)check_read_file(written(q), &n), *copy = malloc(n ? n : 1);
+        memcpy(copy, img, n);
+        prt_data a, b;
+        make_data(&a, q);
+        CHECK(prtfile_read_memory("mem.prt", img, n, &b, &err) == 0, "%d-bit from memory: %s", q, err.msg);
+        if (b.scene.mesh.pos) check_equal(&a, &b, q);
+        CHECK(memcmp(img, copy, n) == 0, "%d-bit: the bytes are not written", q);
+        prt_data_free(&a);
+        prt_data_free(&b);
+        free(copy);
+        free(img);
+    }
+    size_t n = 0;
+    unsigned char *img = (unsigned char *)check_read_file(written(16), &n);
+    char bad[512];
+    snprintf(bad, sizeof bad, "%s/bad.prt", check_tmpdir());
+    size_t cuts[] = { 0, 3, 19, n / 2, n - 1 }, flips[] = { 5, 9, n / 2 };
+    for (int i = 0; i < 8; i++) {
+        size_t len = i < 5 ? cuts[i] : n, at = i < 5 ? 0 : flips[i - 5];
+        if (i >= 5) img[at] ^= 0x10;
+        spit(bad, img, len);
+        prt_data d, e;
+        int rm = prtfile_read_memory("mem.prt", img, len, &d, &err), rf = prtfile_read(bad, &e, &ferr);
+        if (i >= 5) img[at] ^= 0x10;
+        char want[sizeof ferr.msg + 16];
+        const char *tail = strstr(ferr.msg, "bad.prt");
+        snprintf(want, sizeof want, "mem.prt%s", tail ? tail + strlen("bad.prt") : "?");
+        CHECK(rm == -1 && rf == -1, "case %d (%zu bytes, flip at %zu): both refused", i, len, at);
+        CHECK(!strcmp(err.msg, want), "case %d: '%s', the file's '%s'", i, err.msg, ferr.msg);
+        CHECK(d.scene.mesh.pos == NULL && d.ntransfers == 0, "case %d: nothing left allocated", i);
+    }
+    free(img);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(round_trip);
@@ -470,5 +512,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(crafted);
     CHECK_CASE(failed_writes);
     CHECK_CASE(transfers_rule);
+    CHECK_CASE(from_memory);
     return check_summary();
 }

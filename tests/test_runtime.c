@@ -31,7 +31,9 @@
  *   - the file round trip renders the same colours, bit for bit;
  *   - the light rotated by R is the rotated sky on both backends (the prefiltered probe only
  *     rotated; 2e-2, see the case), and rotating the kept prefiltered probe equals a fresh one;
- *   - a Lambert-only file shades exactly as the formula before several transfers existed. */
+ *   - a Lambert-only file shades exactly as the formula before several transfers existed;
+ *   - a light change from probe_to_cube's cube (runtime_set_light_cube) equals the probe's, bit for
+ *     bit, on both backends, and a vmf file, which needs the probe, refuses it (light_cube). */
 #include "harness.h"
 #include "light.h"
 #include "prefilter.h"
@@ -837,6 +839,38 @@ static void vmf_pixel_point(void) {
     free(sp);
 }
 
+/* runtime_set_light_cube with probe_to_cube's cube of the rotated sky shades exactly as
+ * runtime_set_light on both backends (the same light vectors); a file with a vmf transfer, which
+ * needs the probe itself, is refused with one line. */
+static void light_cube(void) {
+    if (!g_ok) return;
+    const char *backends[2] = { "cpu", "gl" };
+    int n = g_d.scene.mesh.nverts;
+    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    probe_to_cube(&g_sky, CUBE_RES, g_R, 0, cube);
+    for (int k = 0; k < 2; k++) {
+        prt_error err = { { 0 } };
+        prt_runtime *pr = lit(backends[k], RUNTIME_VIEW_VERTEX, &g_sky, g_R), *cr = lit(backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL);
+        int rc = pr && cr ? runtime_set_light_cube(cr, cube, &err) : -1;
+        CHECK(rc == 0, "%s: %s", backends[k], err.msg);
+        if (rc == 0 && runtime_shade_vertices(pr, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cr, g_cam.eye, b, &err) == 0)
+            CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: the cube's light differs from the probe's", backends[k]);
+        runtime_destroy(pr);
+        runtime_destroy(cr);
+    }
+    if (g_vok) {
+        prt_error err = { { 0 } };
+        prt_runtime *rt = runtime_create(&g_v, &(runtime_desc){ .backend = "cpu" }, &err);
+        CHECK(rt && runtime_set_light_cube(rt, cube, &err) == -1, "vmf file lit from a cube");
+        check_one_line(&err, "vmf");
+        runtime_destroy(rt);
+    }
+    free(cube);
+    free(a);
+    free(b);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -848,7 +882,8 @@ int main(int argc, char **argv) {
     CHECK_CASE(timings);
     CHECK_CASE(lambert_unchanged);
     if (check_wants("vmf_sum") || check_wants("vmf_backends") || check_wants("vmf_file") || check_wants("vmf_rotation") ||
-        check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout"))
+        check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout") ||
+        check_wants("light_cube"))
         setup_vmf();
     CHECK_CASE(vmf_sum);
     CHECK_CASE(vmf_backends);
@@ -858,6 +893,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(vmf_point_vertex);
     CHECK_CASE(vmf_layout);
     CHECK_CASE(vmf_pixel_point);
+    CHECK_CASE(light_cube);
     prt_data_free(&g_v);
     probe_free(&g_smooth);
     probe_free(&g_smooth_rot);

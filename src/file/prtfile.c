@@ -418,9 +418,9 @@ static bool rd_transfer(parse *P, prt_reader *r, const transfer_ops *ops) {
     return ops->read(r, tr, P->why);
 }
 
-/* The file's bytes (malloc'd into *buf, *size) after the checks of its frame: magic, version,
- * payload length, CRC. Returns 0 or -1 with one line naming the file. */
-static int load_checked(const char *path, uint8_t **buf, size_t *size, prt_error *err) {
+/* The file's bytes (malloc'd into *buf, *size; NULL on failure). Returns 0 or -1 with one line
+ * naming the file. */
+static int load_file(const char *path, uint8_t **buf, size_t *size, prt_error *err) {
     *buf = NULL;
     FILE *f = fopen(path, "rb");
     if (!f) return prt_fail(err, "%s: cannot open: %s", path, strerror(errno));
@@ -441,9 +441,19 @@ static int load_checked(const char *path, uint8_t **buf, size_t *size, prt_error
     }
     size_t got = fread(b, 1, n, f);
     fclose(f);
+    if (got != n) {
+        free(b);
+        return prt_fail(err, "%s: read error: %s", path, strerror(errno));
+    }
     *buf = b;
     *size = n;
-    if (got != n) return prt_fail(err, "%s: read error: %s", path, strerror(errno));
+    return 0;
+}
+
+/* The checks of the frame of b[n]: magic, version, payload length, CRC. Returns 0 or -1 with one
+ * line naming the file. */
+static int frame_checked(const char *path, const uint8_t *b, size_t n, prt_error *err) {
+    if (n == 0) return prt_fail(err, "%s: empty file (not a prt file)", path);
     if (n < 4 || memcmp(b, "PRTF", 4) != 0) return prt_fail(err, "%s: not a prt file (bad magic)", path);
     if (n < HEADER_BYTES + 4) return prt_fail(err, "%s: truncated (%zu bytes, less than a header)", path, n);
     prt_reader h = { .p = b, .n = n, .pos = 4 };
@@ -490,46 +500,55 @@ static int parse_section(parse *P, const char *path, uint32_t tag, prt_reader *s
 }
 
 /* Reads path into out. Returns 0, or -1 with one line naming the file (out is then empty). */
+int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_data *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->scene.floor_first_vertex = -1;
+    parse P = { .d = out };
+    if (frame_checked(name, buf, size, err)) return -1;
+    /* Sections; the cross-section checks follow in data_ok(). */
+    prt_reader s = { .p = buf, .n = size - 4, .pos = HEADER_BYTES };
+    bool seen[3] = { false, false, false };
+    int rc = -1;
+    while (s.pos < s.n) {
+        uint32_t tag = prtio_get_u32(&s);
+        uint64_t len = prtio_get_u64(&s);
+        if (s.bad || len > s.n - s.pos) {
+            prt_fail(err, "%s: corrupt (section runs past the end)", name);
+            goto done;
+        }
+        prt_reader sec = { .p = buf + s.pos, .n = (size_t)len };
+        s.pos += (size_t)len;
+        if (parse_section(&P, name, tag, &sec, seen, err)) goto done;
+    }
+    static const char *names[3] = { "META", "MESH", "MATL" };
+    for (int i = 0; i < 3; i++)
+        if (!seen[i]) {
+            prt_fail(err, "%s: corrupt (no %s section)", name, names[i]);
+            goto done;
+        }
+    if (out->ntransfers == 0) {
+        prt_fail(err, "%s: corrupt (no transfer section)", name);
+        goto done;
+    }
+    if (!data_ok(out, P.why)) {
+        prt_fail(err, "%s: corrupt (%s)", name, P.why);
+        goto done;
+    }
+    rc = 0;
+done:
+    if (rc) prt_data_free(out);
+    return rc;
+}
+
+/* Reads the file into memory, then prtfile_read_memory under its path. */
 int prtfile_read(const char *path, prt_data *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->scene.floor_first_vertex = -1;
     uint8_t *buf = NULL;
     size_t size = 0;
-    int rc = -1;
-    parse P = { .d = out };
-    if (load_checked(path, &buf, &size, err)) goto done;
-    /* Sections; the cross-section checks follow in data_ok(). */
-    prt_reader s = { .p = buf, .n = size - 4, .pos = HEADER_BYTES };
-    bool seen[3] = { false, false, false };
-    while (s.pos < s.n) {
-        uint32_t tag = prtio_get_u32(&s);
-        uint64_t len = prtio_get_u64(&s);
-        if (s.bad || len > s.n - s.pos) {
-            prt_fail(err, "%s: corrupt (section runs past the end)", path);
-            goto done;
-        }
-        prt_reader sec = { .p = buf + s.pos, .n = (size_t)len };
-        s.pos += (size_t)len;
-        if (parse_section(&P, path, tag, &sec, seen, err)) goto done;
-    }
-    static const char *names[3] = { "META", "MESH", "MATL" };
-    for (int i = 0; i < 3; i++)
-        if (!seen[i]) {
-            prt_fail(err, "%s: corrupt (no %s section)", path, names[i]);
-            goto done;
-        }
-    if (out->ntransfers == 0) {
-        prt_fail(err, "%s: corrupt (no transfer section)", path);
-        goto done;
-    }
-    if (!data_ok(out, P.why)) {
-        prt_fail(err, "%s: corrupt (%s)", path, P.why);
-        goto done;
-    }
-    rc = 0;
-done:
+    if (load_file(path, &buf, &size, err)) return -1;
+    int rc = prtfile_read_memory(path, buf, size, out, err);
     free(buf);
-    if (rc) prt_data_free(out);
     return rc;
 }
 

@@ -11,7 +11,8 @@
  * prtfile_read checks magic, version, every length against the file size, the
  * CRC and every index (vertex, material, block, run and coefficient counts),
  * so a corrupt, truncated or wrong-version file fails with one line, never a crash;
- * a file of an older version says to precompute it again.
+ * a file of an older version says to precompute it again. prtfile_read_memory does
+ * the same on bytes already in memory (a name stands for the path in its errors).
  * prtfile_write writes to a temporary file and renames it.
  *
  * Ownership: prt_data owns everything in it; prt_data_free frees it (each transfer
@@ -58,6 +59,8 @@ typedef struct prt_data {
 
 int prtfile_write(const char *path, const prt_data *d, prt_error *err);
 int prtfile_read(const char *path, prt_data *out, prt_error *err);
+/* prtfile_read on the bytes buf[size] (the caller's; only read), naming them name in errors. */
+int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_data *out, prt_error *err);
 void prt_data_free(prt_data *d);
 /* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range), or NULL when
  * there is none (a file holding only a vmf transfer, as its tests write: valid, but the runtimes

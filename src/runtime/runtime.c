@@ -101,6 +101,19 @@ static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], r
     return 0;
 }
 
+/* The light vectors of cube (and the prefiltered probe p, when some transfer needs it), then the
+ * backend's light change; t0 starts the light-vector timing. */
+static int rt_set_light(prt_runtime *rt, const float *cube, const prt_probe *p, const float R[9], double t0, prt_error *err) {
+    runtime_light light;
+    memset(&light, 0, sizeof light);
+    int rc = rt_light_vectors(rt, cube, &light, err);
+    if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
+    rt->light_vector_ms = 1e3 * (prt_now() - t0);
+    if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);
+    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free((void *)light.L[i]);
+    return rc;
+}
+
 /* The light (timed: cube, light vectors, prefiltering), then the backend's light change. */
 int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err) {
     PRT_CHECK(rt != NULL && p != NULL);
@@ -108,15 +121,18 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     if (!cube) return prt_fail(err, "out of memory");
     probe_to_cube(p, CUBE_RES, R, 0, cube);
-    runtime_light light;
-    memset(&light, 0, sizeof light);
-    int rc = rt_light_vectors(rt, cube, &light, err);
+    int rc = rt_set_light(rt, cube, p, R, t0, err);
     free(cube);
-    if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
-    rt->light_vector_ms = 1e3 * (prt_now() - t0);
-    if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);
-    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free((void *)light.L[i]);
     return rc;
+}
+
+/* The light change of a cube already resampled; -1 with err when a transfer needs the probe itself. */
+int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err) {
+    PRT_CHECK(rt != NULL && cube != NULL);
+    for (int i = 0; i < rt->d->ntransfers; i++)
+        if (rt->d->transfers[i].ops->shade_vertices)
+            return prt_fail(err, "a %s transfer needs the probe itself, not its cube", rt->d->transfers[i].ops->name);
+    return rt_set_light(rt, cube, NULL, NULL, prt_now(), err);
 }
 
 /* Vertex colours toward eye with the current term count; -1 with err when the backend has none. */

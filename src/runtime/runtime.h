@@ -139,6 +139,10 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
 void runtime_destroy(prt_runtime *rt);
 /* Light change: probe p rotated by R (row-major 3x3, NULL: none) through every transfer of the file. */
 int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt_error *err);
+/* Light change from a cube already resampled, cube[3*CUBE_TEXELS] = probe_to_cube(p, CUBE_RES, R, 0, .):
+ * the same as runtime_set_light(rt, p, R) without resampling, for many files under one light (the
+ * fuzz harness relights every input). -1 with err when a transfer shades with the probe itself (vmf). */
+int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err);
 /* View change as vertex colours: rgb[3*nverts] = radiance of every vertex toward eye, clamped >= 0. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err);
 /* View change as a frame rd->width x rd->height (0 x 0: 800 x 600) into the target; out non-NULL:

@@ -209,7 +209,10 @@ void transfer_sparse_release(prt_transfer *tr) {
 
 /* ---- GLSL light kernels (compiled by gpu/glrt.c; buffer layout in its header comment) ---- */
 
-/* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel. */
+/* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel.
+ * Every kernel writes g = acc * scale * u_unshift clamped to the float range: a light near FLT_MAX
+ * (a finite 1e37 sun, issue 12) is uploaded scaled down by 2^-e so that the sums of codes x L stay
+ * finite, and u_unshift = 2^e undoes it exactly, as transfer_light does on the CPU. */
 static const char k_decode[] =
     "#if QBITS == 8\n"
     "vec3 coef(uint c, out uint idx) {\n"
@@ -229,7 +232,9 @@ static const char k_decode[] =
     "    return vec3(uintBitsToFloat(WORD(4u * c + 1u)), uintBitsToFloat(WORD(4u * c + 2u)),\n"
     "                uintBitsToFloat(WORD(4u * c + 3u)));\n"
     "}\n"
-    "#endif\n";
+    "#endif\n"
+    "uniform float u_unshift;\n"
+    "vec3 unshift(vec3 v) { float m = uintBitsToFloat(0x7f7fffffu); return clamp(v * u_unshift, vec3(-m), vec3(m)); }\n";
 
 /* Fragment kernel: one fragment per vector (GL 3.3, buffer textures). */
 static const char k_light_frag[] =
@@ -247,7 +252,7 @@ static const char k_light_frag[] =
     "    vec3 acc = vec3(0.0);\n"
     "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * texelFetch(t_L, int(idx)).rgb; }\n"
     "    vec3 s = vec3(texelFetch(t_scale, 3 * i).r, texelFetch(t_scale, 3 * i + 1).r, texelFetch(t_scale, 3 * i + 2).r);\n"
-    "    o_g = vec4(acc * s, 0.0);\n"
+    "    o_g = vec4(unshift(acc * s), 0.0);\n"
     "}\n";
 
 static const char k_light_buffers[] =
@@ -272,7 +277,7 @@ static const char k_light_thread[] =
     "    uint c0 = first[i], c1 = first[i + 1u];\n"
     "    vec3 acc = vec3(0.0);\n"
     "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
-    "    g[i] = vec4(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "    g[i] = vec4(unshift(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])), 0.0);\n"
     "}\n";
 
 /* Compute kernel, 32 invocations per vector (8 vectors per group of 256) and a tree sum in shared memory. */
@@ -296,7 +301,7 @@ static const char k_light_warp[] =
     "        memoryBarrierShared(); barrier();\n"
     "    }\n"
     "    if (lane == 0u && i < u_nvecs)\n"
-    "        g[i] = vec4(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u]), 0.0);\n"
+    "        g[i] = vec4(unshift(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])), 0.0);\n"
     "}\n";
 
 const transfer_glsl transfer_sparse_glsl = {

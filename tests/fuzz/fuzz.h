@@ -1,12 +1,13 @@
 /* fuzz.h - what every libFuzzer harness of tests/fuzz/ shares: the invariants of an error
- * line and of an accepted mesh, a temporary file per process, and the abort that turns a
+ * line and of an accepted mesh, the single-threaded library, and the abort that turns a
  * broken invariant into a libFuzzer finding.
  *
  * A harness is one fuzz_NAME.c defining LLVMFuzzerTestOneInput (built by `make fuzz`, run
  * by tools/fuzz.sh with its seeds in tests/fuzz/corpus/NAME/). The library must answer any
  * input with 0 or -1 and one error line; a sanitizer report, a PRT_CHECK or a FUZZ_REQUIRE
  * here is a finding. Harnesses are test code: they may keep per-process state (the temp
- * file's name) in statics, which the library itself never does. */
+ * file's name) in statics, which the library itself never does. Every harness runs the library
+ * single-threaded (LLVMFuzzerInitialize below). */
 #ifndef PRT_FUZZ_H
 #define PRT_FUZZ_H
 #include "common.h"
@@ -16,6 +17,17 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
+
+/* Once per process, before the first input: the library's parallel loops run on the calling thread
+ * (PRT_THREADS=1, common.h), so an input costs no thread creation and a run with -jobs/-workers
+ * uses one core per process. */
+int LLVMFuzzerInitialize(int *argc, char ***argv);
+int LLVMFuzzerInitialize(int *argc, char ***argv) {
+    (void)argc;
+    (void)argv;
+    setenv("PRT_THREADS", "1", 1);
+    return 0;
+}
 
 /* Aborts (a libFuzzer crash, with the input saved) when cond is false. */
 #define FUZZ_REQUIRE(cond, ...) do { if (!(cond)) { \
@@ -44,17 +56,6 @@ static inline void fuzz_check_mesh(const prt_mesh *m, int nmat, bool unit) {
         FUZZ_REQUIRE(isfinite(l) && (!unit || fabs(l - 1) < 1e-3), "normal %d has length %g", v, l);
         if (nmat > 0 && m->mat) FUZZ_REQUIRE(m->mat[v] < nmat, "material %d of %d", m->mat[v], nmat);
     }
-}
-
-/* This process's scratch file name ("/tmp/prt-fuzz-PID.EXT"), written with data; NULL on failure. */
-static inline const char *fuzz_temp_file(const char *ext, const uint8_t *data, size_t size) {
-    static char path[128];
-    snprintf(path, sizeof path, "%s/prt-fuzz-%d.%s", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (int)getpid(), ext);
-    FILE *f = fopen(path, "wb");
-    if (!f) return NULL;
-    size_t w = size ? fwrite(data, 1, size, f) : 0;
-    if (fclose(f) != 0 || w != size) return NULL;
-    return path;
 }
 
 /* The input as a NUL-terminated string (malloc'd; the caller frees). */

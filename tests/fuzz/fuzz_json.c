@@ -9,6 +9,9 @@
 #include <ctype.h>
 
 #define FUZZ_JSON_NAME "tests/fuzz/corpus/obj/fuzz.json"
+#ifndef FUZZ_JSON_MAX_COUNT
+#define FUZZ_JSON_MAX_COUNT 256
+#endif
 
 /* True when the text holds a number whose magnitude is above 2000 (a big count). */
 static bool big_number(const char *s) {
@@ -16,7 +19,7 @@ static bool big_number(const char *s) {
         if (!isdigit((unsigned char)*p) || (p > s && (isalnum((unsigned char)p[-1]) || p[-1] == '.'))) continue;
         char *end;
         double v = strtod(p, &end);
-        if (!(fabs(v) <= 2000)) return true;
+        if (!(fabs(v) <= FUZZ_JSON_MAX_COUNT)) return true;
         p = end > p ? end - 1 : p;
     }
     return false;
