@@ -121,23 +121,35 @@ bool vsgl_spec_asg(const lightmat *lm, int m, const float n[3], const float wo[3
     return true;
 }
 
-/* L_s of section 3.2: c_in M(xi_m) int G_in ASG, M from the exact BRDF at xi_m. */
-static void vsgl_glossy(const lightmat *lm, int m, const float n[3], const float wo[3], const sg_lobe *g,
-                        const float rgb[3], float out[3])
-{
+/* The receiver's glossy lobe as vsgl_glossy needs it, the same for both VSGLs: the ASG, its
+ * kappa, and f_s cos / ASG at its axis z (M's clamp). */
+typedef struct vsgl_recv {
     asg_lobe a;
-    float kappa;
-    if (!vsgl_spec_asg(lm, m, n, wo, &a, &kappa)) return;
-    float xm[3], fz[3], fm[3];
-    for (int k = 0; k < 3; k++) xm[k] = g->sharpness * g->axis[k] + kappa * a.z[k];
+    float kappa, az, fz[3];
+} vsgl_recv;
+
+/* false when m has no glossy lobe or wo is below the horizon. */
+static bool vsgl_recv_init(const lightmat *lm, int m, const float n[3], const float wo[3], vsgl_recv *r)
+{
+    if (!vsgl_spec_asg(lm, m, n, wo, &r->a, &r->kappa)) return false;
+    lightmat_spec_eval(lm, m, n, r->a.z, wo, r->fz);
+    r->az = fmaxf(v3_dot(n, r->a.z), 0.f) / asg_eval(&r->a, r->a.z);
+    return true;
+}
+
+/* L_s of section 3.2: c_in M(xi_m) int G_in ASG, M from the exact BRDF at xi_m. */
+static void vsgl_glossy(const lightmat *lm, int m, const float n[3], const float wo[3], const vsgl_recv *r,
+                        const sg_lobe *g, const float rgb[3], float out[3])
+{
+    float xm[3], fm[3];
+    for (int k = 0; k < 3; k++) xm[k] = g->sharpness * g->axis[k] + r->kappa * r->a.z[k];
     if (v3_normalize(xm) == 0.f) return;
-    lightmat_spec_eval(lm, m, n, a.z, wo, fz);
     lightmat_spec_eval(lm, m, n, xm, wo, fm);
-    float az = fmaxf(v3_dot(n, a.z), 0.f) / asg_eval(&a, a.z), am = asg_eval(&a, xm);
+    float am = asg_eval(&r->a, xm);
     am = am > 1e-6f ? fmaxf(v3_dot(n, xm), 0.f) / am : 0.f;
-    double I = asg_sg_product_integral(&a, g);
+    double I = asg_sg_product_integral(&r->a, g);
     for (int k = 0; k < 3; k++) {
-        float M = fminf(fm[k] * am, 4.f * fz[k] * az);
+        float M = fminf(fm[k] * am, 4.f * r->fz[k] * r->az);
         out[k] += (float)(rgb[k] * M * I);
     }
 }
@@ -150,13 +162,15 @@ static void vsgl_shade_lobes(const vsgl_pair *v, const lightmat *lm, int m, cons
     const brdf_params *p = lightmat_brdf(lm, m);
     sg_lobe dl = { { n[0], n[1], n[2] }, VSGL_LAMBDA_D, (float)(1.0 / sg_integral(VSGL_LAMBDA_D)) };
     const vsgl_light *pair[2] = { &v->diffuse, &v->specular };
+    vsgl_recv r;
+    bool glossy = wo && vsgl_recv_init(lm, m, n, wo, &r);
     for (int j = 0; j < 2; j++) {
         sg_lobe g;
         float rgb[3];
         if (!vsgl_incoming(pair[j], x, &g, rgb)) continue;
         double Id = sg_product_integral(&g, &dl);
         for (int k = 0; k < 3; k++) out[k] += (float)(rgb[k] * p->kd[k] * Id);
-        if (wo) vsgl_glossy(lm, m, n, wo, &g, rgb, out);
+        if (glossy) vsgl_glossy(lm, m, n, wo, &r, &g, rgb, out);
     }
     for (int k = 0; k < 3; k++)
         if (!isfinite(out[k]) || out[k] < 0) out[k] = 0;
