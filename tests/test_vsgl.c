@@ -154,6 +154,66 @@ static void one_vpl(void) {
     lightmat_destroy(lm);
 }
 
+/* vsgl_shade_lambert's closed form of the three SGs (I_v(-w), Eq. 6's positional lobe, Eq. 1's
+ * cosine lobe) against quadrature of that product over the sphere, at three VSGLs (wide and
+ * near, 60 degrees off the normal, sharp and tilted), to 0.1%; then against the two-step
+ * vsgl_shade_diffuse (sg_product then sg_product_integral) at 3,000 random VSGLs and receivers,
+ * sharpness 1e-3 .. 1e7 (and past lobe.c's clamp: the fallback), to 2e-5 relative. */
+static void lambert_closed_form(void) {
+    const char *specs[] = { "lambert:kd=0.8,0.5,0.3" };
+    lightmat *lm = make_lightmat(specs, 1);
+    const float *kd = lightmat_brdf(lm, 0)->kd;
+    for (int c = 0; c < 3; c++) {
+        vsgl_light v = test_light();
+        float x[3] = { 0, 0, 0 }, n[3] = { 0, 1, 0 }, dm[3];
+        if (c == 1) v3_set(v.mean, 1.7f, 1.0f, 0.2f);
+        if (c == 2) v.sharpness = 200, v.var = 1e-3f, v3_set(n, 0.3f, 1, -0.4f), v3_normalize(n);
+        v3_copy(dm, v.mean);
+        v3_normalize(dm);
+        float d2 = v3_dot(v.mean, v.mean);
+        sg_lobe I = { { -v.axis[0], -v.axis[1], -v.axis[2] }, v.sharpness, 1 }, P = { { dm[0], dm[1], dm[2] }, d2 / v.var, 1 };
+        sg_lobe D = { { n[0], n[1], n[2] }, VSGL_LAMBDA_D, 1 };
+        double sum = 0;
+        for (int i = 0; i < FIB_N; i++) {
+            float w[3];
+            fib(i, FIB_N, w);
+            sum += sg_eval(&I, w) * sg_eval(&P, w) * sg_eval(&D, w);
+        }
+        sum *= 4 * PI / FIB_N * v.c[1] / (2 * PI * v.var) * kd[1] / sg_integral(VSGL_LAMBDA_D);
+        vsgl_pair pr = { .diffuse = v };
+        float L[3];
+        vsgl_shade_lambert(&pr, kd, x, n, L);
+        printf("  case %d: closed form %.6g quadrature %.6g (%+.4f%%)\n", c, L[1], sum, 100 * (L[1] / sum - 1));
+        CHECK_NEAR(L[1] / sum, 1, 1e-3, "case %d against quadrature", c);
+    }
+    uint64_t st = 12345;
+    double worst = 0;
+    for (int t = 0; t < 3000; t++) {
+#define U01() ((st = st * 6364136223846793005ULL + 1442695040888963407ULL), (double)(st >> 11) / 9007199254740992.0)
+        vsgl_light v = { .c = { 1.0f, 0.4f, 0.1f } };
+        float x[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            v.axis[k] = (float)(U01() - 0.5), v.mean[k] = (float)(2 * U01() - 1);
+            x[k] = (float)(U01() - 0.5), n[k] = (float)(U01() - 0.5);
+        }
+        v3_normalize(v.axis);
+        v3_normalize(n);
+        v.sharpness = (float)pow(10, -3 + 10 * U01());
+        v.var = (float)pow(10, -7 + 7 * U01());
+        if (t == 0) v.sharpness = 0.99e8f, v.var = 1e-9f;   /* l_v + l_s past VMF_KAPPA_MAX: the two-step path */
+        vsgl_pair pr = { .diffuse = v, .specular = v };
+        pr.specular.sharpness = (float)(1 + 100 * U01());
+        float a[3], b[3];
+        vsgl_shade_lambert(&pr, kd, x, n, a);
+        vsgl_shade_diffuse(&pr, lm, 0, x, n, b);
+        for (int k = 0; k < 3; k++) worst = fmax(worst, fabs(a[k] - b[k]) / (fabs(b[k]) + 1e-30));
+#undef U01
+    }
+    printf("  3,000 random cases: worst relative difference from the two-step path %.2g\n", worst);
+    CHECK_LE(worst, 2e-5, "closed form = sg_product + sg_product_integral");
+    lightmat_destroy(lm);
+}
+
 /* A scene from JSON text (no assets). */
 static void make_scene(const char *json, prt_scene *s, vis_scene **vs, lightmat **lm) {
     prt_error err = { 0 };
@@ -411,6 +471,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(shade_quadrature);
     CHECK_CASE(shade_glossy_models);
     CHECK_CASE(one_vpl);
+    CHECK_CASE(lambert_closed_form);
     CHECK_CASE(rsm_point_power);
     CHECK_CASE(rsm_spot);
     CHECK_CASE(indirect_vertices);

@@ -22,6 +22,8 @@ struct direct_ctx {
     uint8_t *vis;           /* [light][nverts]: 1 when the light reaches the vertex unoccluded */
     float *lambert;         /* [3 * nverts]: the view-independent radiance of Lambert vertices */
     uint8_t *glossy;        /* [nverts]: 1 where the material's BRDF depends on the view */
+    int *vmat;              /* [nverts]: the vertex's material, clamped to the scene's (vertex_brdf's rule) */
+    float *kd_pi;           /* [3 * nmaterials]: a Lambert BRDF's value, (float)(kd / pi) as brdf_eval gives it */
     int nglossy;
     atomic_long rays;
     direct_stats st;
@@ -39,12 +41,20 @@ direct_ctx *direct_create(const prt_scene *scene, int nthreads, prt_error *err) 
     dc->vis = prt_calloc(nv * PRT_MAX_LIGHTS, 1, err);
     dc->lambert = dc->vis ? prt_calloc(3 * nv, sizeof(float), err) : NULL;
     dc->glossy = dc->lambert ? prt_calloc(nv, 1, err) : NULL;
-    dc->vs = dc->glossy ? vis_create(m, err) : NULL;
+    dc->vmat = dc->glossy ? prt_calloc(nv, sizeof(int), err) : NULL;
+    dc->kd_pi = dc->vmat ? prt_calloc(3 * (size_t)(scene->nmaterials > 0 ? scene->nmaterials : 1), sizeof(float), err) : NULL;
+    dc->vs = dc->kd_pi ? vis_create(m, err) : NULL;
     if (!dc->vs) { direct_destroy(dc); return NULL; }
     dc->eps = vis_eps(dc->vs);
+    for (int i = 0; i < scene->nmaterials; i++) {
+        float wz[3] = { 0, 0, 1 };
+        brdf_eval(&(brdf_params){ .type = BRDF_LAMBERT, .kd = { scene->materials[i].kd[0], scene->materials[i].kd[1],
+                                                                 scene->materials[i].kd[2] } }, wz, wz, dc->kd_pi + 3 * i);
+    }
     for (size_t v = 0; v < nv; v++) {
         int mat = m->mat ? m->mat[v] : 0;
-        dc->glossy[v] = scene->materials[mat < scene->nmaterials ? mat : 0].type != BRDF_LAMBERT;
+        dc->vmat[v] = mat < scene->nmaterials ? mat : 0;
+        dc->glossy[v] = scene->materials[dc->vmat[v]].type != BRDF_LAMBERT;
         dc->nglossy += dc->glossy[v];
     }
     return dc;
@@ -58,6 +68,8 @@ void direct_destroy(direct_ctx *dc) {
     free(dc->vis);
     free(dc->lambert);
     free(dc->glossy);
+    free(dc->vmat);
+    free(dc->kd_pi);
     free(dc);
 }
 
@@ -76,27 +88,43 @@ static bool vertex_occluded(const direct_ctx *dc, int v, const float wi[3], floa
     return tfar > dc->eps && vis_occluded(dc->vs, o, wi, dc->eps, tfar);
 }
 
-/* Light move over vertices [b, e): visibility bytes and the Lambert sums. A Lambert BRDF does
- * not depend on wo, so the normal itself stands in for it. */
+/* light_shade (lights.h) with wo = n, unrolled for the light move: for a Lambert vertex f_r is
+ * kd / pi whatever the directions, so the local frame light_shade builds (brdf_frame: two thirds
+ * of its cost) is not needed; the same float operations in the same order give the same value.
+ * A glossy vertex needs only whether the light reaches it (wi above the horizon, the light
+ * sending something its way): its BRDF is evaluated at the view change. Returns the distance
+ * (0: the light is at the vertex), writes wi and, for Lambert, L; *any: a shadow ray is due. */
+static float direct_toward(const direct_ctx *dc, const prt_light *l, int v, float wi[3], float L[3], bool *any) {
+    const prt_mesh *m = &dc->scene->mesh;
+    const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
+    float d[3] = { l->pos[0] - p[0], l->pos[1] - p[1], l->pos[2] - p[2] };
+    float dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dist = sqrtf(dist2);
+    L[0] = L[1] = L[2] = 0;
+    *any = false;
+    if (!(dist > 1e-12f)) return wi[0] = wi[1] = wi[2] = 0, 0;
+    for (int k = 0; k < 3; k++) wi[k] = d[k] / dist;
+    float c = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2], I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
+    if (!(c > 0)) return dist;
+    light_intensity_toward(l, away, I);
+    *any = I[0] > 0 || I[1] > 0 || I[2] > 0;
+    if (dc->glossy[v] || !*any) return dist;
+    const float *f = dc->kd_pi + 3 * (size_t)dc->vmat[v];
+    float k = c / dist2;
+    for (int ch = 0; ch < 3; ch++) L[ch] = f[ch] * I[ch] * k;
+    return dist;
+}
+
+/* Light move over vertices [b, e): visibility bytes and the Lambert sums. */
 static void light_range(void *ctx, int b, int e, int thread) {
     direct_ctx *dc = ctx;
-    const prt_mesh *m = &dc->scene->mesh;
-    size_t nv = (size_t)m->nverts;
+    size_t nv = (size_t)dc->scene->mesh.nverts;
     long rays = 0;
     for (int v = b; v < e; v++) {
-        const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
         float sum[3] = { 0, 0, 0 };
         for (int l = 0; l < dc->lights.count; l++) {
             float wi[3], L[3];
-            float dist = light_shade(&dc->lights.light[l], vertex_brdf(dc, v), p, n, n, wi, L);
-            bool any = L[0] > 0 || L[1] > 0 || L[2] > 0;
-            /* A glossy vertex may see light the normal-as-wo test missed (a BRDF zero toward n): it needs
-             * wi above the horizon and the light sending something its way. */
-            if (dc->glossy[v] && dist > 0 && v3_dot(wi, n) > 0) {
-                float I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
-                light_intensity_toward(&dc->lights.light[l], away, I);
-                any = I[0] > 0 || I[1] > 0 || I[2] > 0;
-            }
+            bool any;
+            float dist = direct_toward(dc, &dc->lights.light[l], v, wi, L, &any);
             bool vis = any && !vertex_occluded(dc, v, wi, dist);
             rays += any;
             dc->vis[(size_t)l * nv + v] = vis;

@@ -33,6 +33,9 @@ static double hl_rand(uint64_t *s)
     return (double)((z ^ (z >> 31)) >> 11) * (1.0 / 9007199254740992.0);
 }
 
+/* 1/phi: the Kronecker sequence frac(i / phi) spreads any number of points evenly over [0, 1). */
+#define HL_GOLDEN 0.61803398874989484820
+
 static double hl_lum(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
 
 /* The final gather of a hit's diffuse part: w kd/pi cos I / r^2 V / S for each light, one shadow ray each. */
@@ -68,9 +71,11 @@ static int hl_gather(const hl_scene *sc, int S, const float p[3], const float n[
     float eps = vis_eps(sc->vs), org[3];
     v3_madd(org, p, n, eps);
     int m = 0;
+    double su = hl_rand(&seed), sv = hl_rand(&seed);
     for (int i = 0; i < S; i++) {
         float s[3], f[3], ms[3];
-        vmf_sample(&gp, (float)((i + hl_rand(&seed)) / S), (float)hl_rand(&seed), s);   /* stratified in u1 */
+        double u2 = i * HL_GOLDEN + sv;
+        vmf_sample(&gp, (float)((i + su) / S), (float)(u2 - floor(u2)), s);   /* the shifted lattice (header) */
         float cp = v3_dot(s, n), pdf = vmf_eval(&gp, s);
         if (cp <= 0 || !(pdf > 0)) continue;
         lightmat_spec_eval(sc->lm, mat, n, s, wo, f);
@@ -172,9 +177,12 @@ static int hl_cluster_items(hl_item *it, const int *idx, int m, int K, int iters
         }
         if (!changed) break;
     }
-    int out = 0;                        /* drop emptied clusters */
-    for (int j = 0; j < nc; j++)
+    int out = 0, to[HL_MAX_CLUSTERS];   /* drop emptied clusters; the members follow theirs */
+    for (int j = 0; j < nc; j++) {
+        to[j] = cl[j].alpha > 0 ? out : -1;
         if (cl[j].alpha > 0) cl[out++] = cl[j];
+    }
+    for (int a = 0; a < m; a++) it[idx[a]].k = to[it[idx[a]].k];
     return out;
 }
 
@@ -201,6 +209,36 @@ static void hl_light(const hl_scene *sc, const hl_item *it, const hl_cluster *cl
         float md[3] = { -d[0], -d[1], -d[2] };
         light_intensity_toward(l, md, I);
         for (int k = 0; k < 3; k++) out[k] += cl[j].E[k] * g * I[k] / r2;
+    }
+}
+
+/* Eq. 8 for a point light with every lobe read at its own light direction (the default, header):
+ * sum_i c_i gamma_i(w_l(q_i)) I / r_i^2 / S over the members of each cluster, whose one shadow ray
+ * from its representative stands for all of them. */
+static void hl_light_lobes(const hl_scene *sc, const hl_item *it, int m, const hl_cluster *cl, int nc, int S,
+                           const prt_light *l, float out[3], hl_stats *st)
+{
+    float eps = vis_eps(sc->vs);
+    for (int j = 0; j < nc; j++) {
+        const hl_item *rep = it + cl[j].rep;
+        float org[3], dr[3];
+        v3_madd(org, rep->q, rep->nq, eps);
+        v3_sub(dr, l->pos, org);
+        float dist = v3_normalize(dr);
+        st->shadow_rays++;
+        if (!(dist > eps) || vis_occluded(sc->vs, org, dr, eps, dist - eps)) continue;
+        for (int a = 0; a < m; a++) {
+            if (it[a].k != j) continue;
+            float d[3], I[3], md[3];
+            v3_sub(d, l->pos, it[a].q);
+            float r2 = v3_dot(d, d);
+            if (!(r2 > 0)) continue;
+            v3_normalize(d);
+            v3_scale(md, d, -1.f);
+            float g = vmf_eval(&it[a].g, d);
+            light_intensity_toward(l, md, I);
+            for (int k = 0; k < 3; k++) out[k] += it[a].c[k] * g * I[k] / r2 / S;
+        }
     }
 }
 
@@ -280,7 +318,7 @@ void hl_shade(const hl_scene *sc, const hl_desc *desc, const prt_light *lights, 
     out[0] = out[1] = out[2] = 0;
     hl_item it[HL_MAX_SAMPLES];
     int m = hl_gather(sc, d.samples, p, n, mat, wo, seed, lights, nl, it, out, &st);
-    if (m > 0 && nl > 0 && !d.fixed_frame) {
+    if (m > 0 && nl > 0 && d.merged && !d.fixed_frame) {
         for (int l = 0; l < nl; l++) hl_light_relative(sc, &d, it, m, d.samples, lights + l, out, &st);
     } else if (m > 0 && nl > 0) {
         int idx[HL_MAX_SAMPLES];
@@ -288,7 +326,9 @@ void hl_shade(const hl_scene *sc, const hl_desc *desc, const prt_light *lights, 
         hl_cluster cl[HL_MAX_CLUSTERS];
         int nc = hl_cluster_items(it, idx, m, d.clusters, d.iters, d.samples, cl);
         st.clusters = nc;
-        for (int l = 0; l < nl; l++) hl_light(sc, it, cl, nc, lights + l, NULL, out, &st);
+        for (int l = 0; l < nl; l++)
+            if (d.merged) hl_light(sc, it, cl, nc, lights + l, NULL, out, &st);
+            else hl_light_lobes(sc, it, m, cl, nc, d.samples, lights + l, out, &st);
     }
     if (m > 0 && sc->env) hl_env(sc, &d, it, m, d.samples, out, &st);
     for (int k = 0; k < 3; k++)

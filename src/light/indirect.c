@@ -88,9 +88,9 @@ static void ic_lambert(void *ctx, int begin, int end, int thread)
         float *o = ic->lambert_rgb + 3 * (size_t)v, L[3];
         o[0] = o[1] = o[2] = 0;
         if (ic->glossy[v] || ic->d.no_bounce) continue;
+        const float *kd = lightmat_brdf(ic->lm, ic_mat(ic, v))->kd;
         for (int l = 0; l < ic->lights.count; l++) {
-            vsgl_shade(&ic->vsgl[l], ic->lm, ic_mat(ic, v), m->pos + 3 * (size_t)v, m->nrm + 3 * (size_t)v,
-                       m->nrm + 3 * (size_t)v, L);
+            vsgl_shade_lambert(&ic->vsgl[l], kd, m->pos + 3 * (size_t)v, m->nrm + 3 * (size_t)v, L);
             v3_add(o, o, L);
         }
     }

@@ -121,23 +121,35 @@ bool vsgl_spec_asg(const lightmat *lm, int m, const float n[3], const float wo[3
     return true;
 }
 
-/* L_s of section 3.2: c_in M(xi_m) int G_in ASG, M from the exact BRDF at xi_m. */
-static void vsgl_glossy(const lightmat *lm, int m, const float n[3], const float wo[3], const sg_lobe *g,
-                        const float rgb[3], float out[3])
-{
+/* The receiver's glossy lobe as vsgl_glossy needs it, the same for both VSGLs: the ASG, its
+ * kappa, and f_s cos / ASG at its axis z (M's clamp). */
+typedef struct vsgl_recv {
     asg_lobe a;
-    float kappa;
-    if (!vsgl_spec_asg(lm, m, n, wo, &a, &kappa)) return;
-    float xm[3], fz[3], fm[3];
-    for (int k = 0; k < 3; k++) xm[k] = g->sharpness * g->axis[k] + kappa * a.z[k];
+    float kappa, az, fz[3];
+} vsgl_recv;
+
+/* false when m has no glossy lobe or wo is below the horizon. */
+static bool vsgl_recv_init(const lightmat *lm, int m, const float n[3], const float wo[3], vsgl_recv *r)
+{
+    if (!vsgl_spec_asg(lm, m, n, wo, &r->a, &r->kappa)) return false;
+    lightmat_spec_eval(lm, m, n, r->a.z, wo, r->fz);
+    r->az = fmaxf(v3_dot(n, r->a.z), 0.f) / asg_eval(&r->a, r->a.z);
+    return true;
+}
+
+/* L_s of section 3.2: c_in M(xi_m) int G_in ASG, M from the exact BRDF at xi_m. */
+static void vsgl_glossy(const lightmat *lm, int m, const float n[3], const float wo[3], const vsgl_recv *r,
+                        const sg_lobe *g, const float rgb[3], float out[3])
+{
+    float xm[3], fm[3];
+    for (int k = 0; k < 3; k++) xm[k] = g->sharpness * g->axis[k] + r->kappa * r->a.z[k];
     if (v3_normalize(xm) == 0.f) return;
-    lightmat_spec_eval(lm, m, n, a.z, wo, fz);
     lightmat_spec_eval(lm, m, n, xm, wo, fm);
-    float az = fmaxf(v3_dot(n, a.z), 0.f) / asg_eval(&a, a.z), am = asg_eval(&a, xm);
+    float am = asg_eval(&r->a, xm);
     am = am > 1e-6f ? fmaxf(v3_dot(n, xm), 0.f) / am : 0.f;
-    double I = asg_sg_product_integral(&a, g);
+    double I = asg_sg_product_integral(&r->a, g);
     for (int k = 0; k < 3; k++) {
-        float M = fminf(fm[k] * am, 4.f * fz[k] * az);
+        float M = fminf(fm[k] * am, 4.f * r->fz[k] * r->az);
         out[k] += (float)(rgb[k] * M * I);
     }
 }
@@ -150,13 +162,15 @@ static void vsgl_shade_lobes(const vsgl_pair *v, const lightmat *lm, int m, cons
     const brdf_params *p = lightmat_brdf(lm, m);
     sg_lobe dl = { { n[0], n[1], n[2] }, VSGL_LAMBDA_D, (float)(1.0 / sg_integral(VSGL_LAMBDA_D)) };
     const vsgl_light *pair[2] = { &v->diffuse, &v->specular };
+    vsgl_recv r;
+    bool glossy = wo && vsgl_recv_init(lm, m, n, wo, &r);
     for (int j = 0; j < 2; j++) {
         sg_lobe g;
         float rgb[3];
         if (!vsgl_incoming(pair[j], x, &g, rgb)) continue;
         double Id = sg_product_integral(&g, &dl);
         for (int k = 0; k < 3; k++) out[k] += (float)(rgb[k] * p->kd[k] * Id);
-        if (wo) vsgl_glossy(lm, m, n, wo, &g, rgb, out);
+        if (glossy) vsgl_glossy(lm, m, n, wo, &r, &g, rgb, out);
     }
     for (int k = 0; k < 3; k++)
         if (!isfinite(out[k]) || out[k] < 0) out[k] = 0;
@@ -173,4 +187,64 @@ void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3],
 void vsgl_shade_diffuse(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], float out[3])
 {
     vsgl_shade_lobes(v, lm, m, x, n, NULL, out);
+}
+
+/* Normalizes a float vector into double; its length (0 leaves o untouched). */
+static double vl_unit(const float a[3], double o[3])
+{
+    double l = sqrt((double)a[0] * a[0] + (double)a[1] * a[1] + (double)a[2] * a[2]);
+    if (l > 0)
+        for (int k = 0; k < 3; k++) o[k] = a[k] / l;
+    return l;
+}
+
+/* |a - b|^2 for unit a, b: 2 (1 - a.b) without cancellation near a = b (lobe.c's rule). */
+static double vl_dist2(const double a[3], const double b[3])
+{
+    double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+    return d0 * d0 + d1 * d1 + d2 * d2;
+}
+
+/* One VSGL's term: c / (2 pi var) kd / A(2) int G_1 G_2 G_3, the triple product by its closed
+ * form; sum l - r = sum_{i<j} l_i l_j |a_i - a_j|^2 / (sum l + r) (never cancels). false: the
+ * two-step path must do it (a product sharper than lobe.c's clamp). */
+static bool vl_term(const vsgl_light *v, const float kd[3], const float x[3], const double nn[3], float out[3])
+{
+    if (!(v->c[0] > 0 || v->c[1] > 0 || v->c[2] > 0)) return true;
+    float dm[3];
+    v3_sub(dm, v->mean, x);
+    float d2 = v3_dot(dm, dm);
+    if (!(d2 > 0)) return true;
+    double var = fmax(v->var, d2 / VMF_KAPPA_MAX), a1[3] = { 0, 0, 1 }, a2[3] = { 0, 0, 1 };
+    double l1 = v->sharpness > 0 ? v->sharpness : 0, l2 = (float)(d2 / var), l3 = VSGL_LAMBDA_D;
+    float na[3] = { -v->axis[0], -v->axis[1], -v->axis[2] };
+    vl_unit(na, a1);
+    vl_unit(dm, a2);
+    if (l1 + l2 > VMF_KAPPA_MAX) return false;
+    double s[3], sum = l1 + l2 + l3;
+    for (int k = 0; k < 3; k++) s[k] = l1 * a1[k] + l2 * a2[k] + l3 * nn[k];
+    double r = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    double gap = (l1 * l2 * vl_dist2(a1, a2) + l1 * l3 * vl_dist2(a1, nn) + l2 * l3 * vl_dist2(a2, nn)) / (sum + r);
+    double I = exp(-gap) * sg_integral(r) / (2 * M_PI * var * sg_integral(l3));
+    for (int k = 0; k < 3; k++) out[k] += (float)(v->c[k] * I * kd[k]);
+    return true;
+}
+
+/* Both VSGLs on a Lambert receiver (vsgl.h); a term the closed form declines goes the two-step way. */
+void vsgl_shade_lambert(const vsgl_pair *v, const float kd[3], const float x[3], const float n[3], float out[3])
+{
+    out[0] = out[1] = out[2] = 0;
+    double nn[3] = { 0, 0, 1 };     /* a zero normal: +z, as lobe.c's unit_d */
+    vl_unit(n, nn);
+    const vsgl_light *pair[2] = { &v->diffuse, &v->specular };
+    for (int j = 0; j < 2; j++) {
+        if (vl_term(pair[j], kd, x, nn, out)) continue;
+        sg_lobe g, dl = { { n[0], n[1], n[2] }, VSGL_LAMBDA_D, (float)(1.0 / sg_integral(VSGL_LAMBDA_D)) };
+        float rgb[3];
+        if (!vsgl_incoming(pair[j], x, &g, rgb)) continue;
+        double Id = sg_product_integral(&g, &dl);
+        for (int k = 0; k < 3; k++) out[k] += (float)(rgb[k] * kd[k] * Id);
+    }
+    for (int k = 0; k < 3; k++)
+        if (!isfinite(out[k]) || out[k] < 0) out[k] = 0;
 }

@@ -82,6 +82,12 @@ void vsgl_shade(const vsgl_pair *v, const lightmat *lm, int m, const float x[3],
 /* vsgl_shade's receiver-diffuse part alone (the SG product with Eq. 1's lobe): what indirect.h
  * uses at a glossy vertex whose glossy lobe the highlights' gather lights instead. */
 void vsgl_shade_diffuse(const vsgl_pair *v, const lightmat *lm, int m, const float x[3], const float n[3], float out[3]);
+/* vsgl_shade_diffuse for a Lambert receiver of reflectance kd (a BRDF with no glossy lobe), the
+ * same value to float rounding, in one closed form per VSGL: the three SGs of Eq. 6, 7 and 1
+ * (I_v(-w), the positional G(w, xi_mu, lambda_s), the receiver's G(w, n, 2)) integrate to
+ * e^{-(sum l_i - r)} A(r), r = |sum l_i a_i| (what sg_product then sg_product_integral give
+ * in two steps). The indirect stage's per-vertex sum at each light move. */
+void vsgl_shade_lambert(const vsgl_pair *v, const float kd[3], const float x[3], const float n[3], float out[3]);
 /* The glossy lobe at a shading point as an ASG of amplitude 1 and its vMF sharpness kappa;
  * false when m is not glossy or wo is below the horizon (see header for the bandwidths). */
 bool vsgl_spec_asg(const lightmat *lm, int m, const float n[3], const float wo[3], asg_lobe *a, float *kappa);
