@@ -58,8 +58,11 @@ struct glrt {
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
-    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too */
+    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too (glrt_set_local_effects turns it) */
+    bool vsgl_glossy;           /* the VSGLs light the glossy lobe too (false under the highlights) */
     glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
+    bool vsgl_spec;             /* the view programs hold the glossy lobe's VSGL term (VSGL_SPEC) */
+    prt_lights lights;          /* the last local lights (glrt_set_local_effects moves them again) */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level, then t_tvu. */
@@ -170,7 +173,7 @@ static const char *k_view_vs =
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
-    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm));\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva;\n"
@@ -202,7 +205,7 @@ static const char *k_view_fs =
     "    }\n"
     "#endif\n"
     "    vec3 n = normalize(v_nrm);\n"
-    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n), 1.0);\n"
+    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -578,13 +581,15 @@ static char *tv_source(const glrt *rt) {
  * again with it at the first local light (glrt_set_local_lights). -1 with err. */
 static int build_view_program(glrt *rt, int pv, prt_error *err) {
     const gl_api *gl = rt->gl;
-    char head[512];
+    char head[640];
     bool tvp = rt->tv && (pv == 0 || pv == 3);
+    int types = 0;   /* BRDF_TYPES (gllights.c): the scene's models only */
+    for (int m = 0; m < rt->d->scene.nmaterials; m++) types |= 1 << rt->d->scene.materials[m].type;
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
-             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n",
+             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
              rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS,
-             rt->lmax);
+             rt->lmax, rt->vsgl_spec, rt->vsgl_spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
     char *tv = tvp ? tv_source(rt) : NULL;
@@ -608,6 +613,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
     gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
     if (rt->lmax > 0) gllights_init_program(gl, p);
+    if (rt->vsgl_spec) glvsgl_init_program(rt->vsgl, gl, p);
     if (tvp) {
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
@@ -767,6 +773,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     if (!rt) return NULL;
     rt->d = d;
     rt->local_bounce = dd.local_bounce;
+    rt->vsgl_glossy = true;
     rt->tr = tr;
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
@@ -844,29 +851,56 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
-/* Local-light move: the shadow cubes rendered (gllights_set), finished and timed; -1 with err. */
+/* The view programs again when what they must hold changed: the local lights' code at the first local
+ * light (LMAX), the glossy lobe's VSGL term when the VSGLs are on and a material is glossy (VSGL_SPEC;
+ * compiled in only then, as the local lights' code: see build_view_program). -1 with err. */
+static int rebuild_view_programs(glrt *rt, int lmax, prt_error *err) {
+    bool spec = lmax > 0 && rt->local_bounce && rt->vsgl && glvsgl_fit_rows(rt->vsgl) > 0;
+    if (lmax == rt->lmax && spec == rt->vsgl_spec) return 0;
+    if (lmax > 0 && !gllights_supported(rt->gl))
+        return prt_fail(err, "gl runtime: this GL context has too few texture units for local lights");
+    for (int i = 0; i < 4; i++) {
+        if (rt->prog_view[i]) rt->gl->DeleteProgram(rt->prog_view[i]);
+        rt->prog_view[i] = 0;
+    }
+    rt->lmax = lmax;
+    rt->vsgl_spec = spec;
+    return build_view_programs(rt, err);
+}
+
+/* Local-light move: the shadow cubes rendered (gllights_set), the VSGLs when on, finished and timed; -1 with err. */
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     if (current(rt, err)) return -1;
     double t0 = prt_now();
-    if (rt->lmax == 0 && ls->count > 0) {   /* the first local light: the view programs with them */
-        if (!gllights_supported(rt->gl))
-            return prt_fail(err, "gl runtime: this GL context has too few texture units for local lights");
-        for (int i = 0; i < 4; i++) {
-            if (rt->prog_view[i]) rt->gl->DeleteProgram(rt->prog_view[i]);
-            rt->prog_view[i] = 0;
-        }
-        rt->lmax = GLLIGHTS_MAX;
-        if (build_view_programs(rt, err)) return -1;
+    /* issue 11 item 3: the VSGLs' lobe tables before the programs that read them */
+    if (rt->local_bounce && ls->count > 0 && !rt->vsgl) {
+        if (!(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+        glvsgl_set_glossy(rt->vsgl, rt->vsgl_glossy);
     }
+    if (rebuild_view_programs(rt, rt->lmax > 0 || ls->count > 0 ? GLLIGHTS_MAX : 0, err)) return -1;
     if (!rt->local && !(rt->local = gllights_create(rt->gl, &rt->d->scene, err))) return -1;
     if (gllights_set(rt->local, ls, rt->vao, rt->d->scene.mesh.ntris, err)) return -1;
-    if (rt->local_bounce) {   /* issue 11 item 3: the VSGLs, from an RSM on the CPU (glvsgl.h) */
-        if (!rt->vsgl && !(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+    rt->timing.bounce_ms = 0;
+    if (rt->local_bounce && rt->vsgl) {   /* an RSM on the CPU (glvsgl.h) */
         if (glvsgl_set(rt->vsgl, ls, err)) return -1;
+        rt->timing.bounce_ms = glvsgl_ms(rt->vsgl);
     }
+    rt->lights = *ls;
     rt->gl->Finish();
     rt->timing.local_ms = 1e3 * (prt_now() - t0);
     return 0;
+}
+
+/* Turns the VSGLs and their glossy-lobe term on or off (the viewer's keys); a light move follows
+ * (the VSGLs of the lights held). -1 with err. */
+int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
+    if (current(rt, err)) return -1;
+    bool was = rt->local_bounce;
+    rt->local_bounce = bounce;
+    rt->vsgl_glossy = glossy;
+    if (rt->vsgl) glvsgl_set_glossy(rt->vsgl, glossy);
+    if (bounce == was || rt->lights.count == 0) return rebuild_view_programs(rt, rt->lmax, err);
+    return glrt_set_local_lights(rt, &rt->lights, err);
 }
 
 /* Light change: uploads L and runs the kernel, finished and timed; -1 with err. */
@@ -937,7 +971,8 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
     if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
-        if (rt->vsgl) glvsgl_bind(rt->vsgl, rt->gl, p);
+        if (rt->vsgl && rt->local_bounce) glvsgl_bind(rt->vsgl, rt->gl, p);
+        else gl->Uniform1i(gl->GetUniformLocation(p, "u_nvsgl"), 0);
         gl->ActiveTexture(GL_TEXTURE1);
     }
     gl->DrawElements(GL_TRIANGLES, n * 3, GL_UNSIGNED_INT, (const void *)(3 * sizeof(uint32_t) * (size_t)first));
