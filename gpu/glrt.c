@@ -63,6 +63,9 @@ struct glrt {
     glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
     bool vsgl_spec;             /* the view programs hold the glossy lobe's VSGL term (VSGL_SPEC) */
     prt_lights lights;          /* the last local lights (glrt_set_local_effects moves them again) */
+    int spec_tris[2];           /* without a tv, per pixel with VSGL_SPEC: the element buffer holds the triangles
+                                 * with no glossy corner first (drawn by prog_view[0], no glossy term), then the
+                                 * rest (prog_view[2], with it); 0, 0: not ordered yet */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level, then t_tvu. */
@@ -583,13 +586,15 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     const gl_api *gl = rt->gl;
     char head[640];
     bool tvp = rt->tv && (pv == 0 || pv == 3);
+    /* without a tv, the per-pixel program of the non-glossy triangles (0) holds no glossy term (spec_tris) */
+    bool spec = rt->vsgl_spec && (rt->tv || pv != 0);
     int types = 0;   /* BRDF_TYPES (gllights.c): the scene's models only */
     for (int m = 0; m < rt->d->scene.nmaterials; m++) types |= 1 << rt->d->scene.materials[m].type;
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
              "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
              rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS,
-             rt->lmax, rt->vsgl_spec, rt->vsgl_spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
+             rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
     char *tv = tvp ? tv_source(rt) : NULL;
@@ -603,7 +608,8 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
      * after gllights'), then the tv's, then the stage body. */
     sprintf(vs2, "%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), vs + hl);
     sprintf(fs2, "%s%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), tv ? tv : "", vfs + hl);
-    static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv)", "view (per pixel, tv fast)" };
+    static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv / glossy VSGL)",
+                                    "view (per pixel, tv fast)" };
     rt->prog_view[pv] = glctx_program(gl, vs2, fs2, names[pv], err);
     free(vs); free(vfs); free(vs2); free(fs2); free(tv);
     if (!rt->prog_view[pv]) return -1;
@@ -613,7 +619,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
     gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
     if (rt->lmax > 0) gllights_init_program(gl, p);
-    if (rt->vsgl_spec) glvsgl_init_program(rt->vsgl, gl, p);
+    if (spec) glvsgl_init_program(rt->vsgl, gl, p);
     if (tvp) {
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
@@ -629,7 +635,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
 
 /* Compiles the view programs this runtime draws with (build_view_program); -1 with err. */
 static int build_view_programs(glrt *rt, prt_error *err) {
-    for (int pv = 0; pv < (rt->tv ? 4 : 2); pv++)
+    for (int pv = 0; pv < (rt->tv ? 4 : rt->vsgl_spec ? 3 : 2); pv++)
         if (build_view_program(rt, pv, err)) return -1;
     rt->gl->UseProgram(0);
     return glctx_check(rt->gl, "building the shaders", err);
@@ -851,6 +857,31 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
+/* Without a tv: the element buffer ordered by whether a triangle has a corner of a glossy material
+ * (spec_tris), so that only those pixels run the glossy lobe's VSGL term: llvmpipe runs a branch's
+ * body under a mask for every pixel, and the floor of bunny + floor paid for the bunny's term. A
+ * stable partition: the draw order within each class stays the mesh's. -1 on OOM. */
+static int order_spec_tris(glrt *rt, prt_error *err) {
+    const prt_mesh *m = &rt->d->scene.mesh;
+    uint32_t *idx = prt_calloc(3 * (size_t)m->ntris + 3, sizeof(uint32_t), err);
+    if (!idx) return -1;
+    int n = 0;
+    for (int cls = 0; cls < 2; cls++)
+        for (int f = 0; f < m->ntris; f++) {
+            const uint32_t *t = m->tris + 3 * (size_t)f;
+            bool g = false;
+            for (int k = 0; k < 3; k++) g |= glvsgl_glossy(rt->vsgl, m->mat ? (int)m->mat[t[k]] : 0);
+            if (g != (cls == 1)) continue;
+            memcpy(idx + 3 * (size_t)n++, t, 3 * sizeof(uint32_t));
+            rt->spec_tris[cls]++;
+        }
+    rt->gl->BindVertexArray(rt->vao);   /* the element binding is the vertex array's (core profile) */
+    rt->gl->BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), idx);
+    rt->gl->BindVertexArray(0);
+    free(idx);
+    return 0;
+}
+
 /* The view programs again when what they must hold changed: the local lights' code at the first local
  * light (LMAX), the glossy lobe's VSGL term when the VSGLs are on and a material is glossy (VSGL_SPEC;
  * compiled in only then, as the local lights' code: see build_view_program). -1 with err. */
@@ -865,6 +896,7 @@ static int rebuild_view_programs(glrt *rt, int lmax, prt_error *err) {
     }
     rt->lmax = lmax;
     rt->vsgl_spec = spec;
+    if (spec && !rt->tv && rt->spec_tris[0] + rt->spec_tris[1] == 0 && order_spec_tris(rt, err)) return -1;
     return build_view_programs(rt, err);
 }
 
@@ -991,8 +1023,11 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);
-    if (rt->view_mode == GLRT_VIEW_VERTEX || !rt->tv) draw_tris(rt, rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX], mvp, cam, kmax, 0,
-                                                                 rt->d->scene.mesh.ntris);
+    if (rt->view_mode != GLRT_VIEW_VERTEX && !rt->tv && rt->vsgl_spec) {   /* the glossy VSGL term on its triangles only */
+        draw_tris(rt, rt->prog_view[0], mvp, cam, kmax, 0, rt->spec_tris[0]);
+        draw_tris(rt, rt->prog_view[2], mvp, cam, kmax, rt->spec_tris[0], rt->spec_tris[1]);
+    } else if (rt->view_mode == GLRT_VIEW_VERTEX || !rt->tv)
+        draw_tris(rt, rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX], mvp, cam, kmax, 0, rt->d->scene.mesh.ntris);
     else   /* the triangles in tv_tris's order, each class by the program that holds what it needs */
         for (int c = 0, first = 0; c < 3; first += rt->tv_tris[c++])
             draw_tris(rt, rt->prog_view[c == 0 ? 2 : c == 1 ? 3 : 0], mvp, cam, kmax, first, rt->tv_tris[c]);

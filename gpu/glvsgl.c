@@ -205,6 +205,8 @@ int glvsgl_set(glvsgl *V, const prt_lights *ls, prt_error *err)
 
 int glvsgl_fit_rows(const glvsgl *V) { return V->nfit; }
 
+bool glvsgl_glossy(const glvsgl *V, int m) { return m >= 0 && m < V->scene->nmaterials && V->fit_of[m][0] >= 0; }
+
 void glvsgl_set_glossy(glvsgl *V, bool on) { V->spec = on; }
 
 /* The lobe tables, once per program (a program without VSGL_SPEC has no such uniforms: GL ignores -1). */

@@ -49,6 +49,8 @@ int glvsgl_set(glvsgl *V, const prt_lights *ls, prt_error *err);
 void glvsgl_bind(const glvsgl *V, const gl_api *gl, GLuint prog);
 /* Rows of the glossy materials' lobe tables (VSGL_NFIT; 0: no glossy material, no VSGL_SPEC). */
 int glvsgl_fit_rows(const glvsgl *V);
+/* True when material m has a lobe table (the glossy term shades it). */
+bool glvsgl_glossy(const glvsgl *V, int m);
 /* The lobe tables' uniforms on program prog (in use), once after linking one built with VSGL_SPEC. */
 void glvsgl_init_program(const glvsgl *V, const gl_api *gl, GLuint prog);
 /* The receiver's glossy lobe lit by the VSGLs (true, the default) or not (the highlights light it). */
