@@ -26,9 +26,14 @@
  *                u_lbias, samplers t_shadow0..3 and t_brdf on units GLLIGHTS_UNIT..) and the view
  *                programs add the GLSL function local_lights(material, p, n, eye) (gllights_glsl)
  *                to the probe's shading: per pixel in k_view_fs, per vertex in k_view_vs (glrt.c).
- *                A per-vertex effect computed on the CPU can go through glrt_set_vertex_add instead.
+ *                A per-vertex effect computed on the CPU can go through glrt_set_vertex_add instead:
+ *                the indirect highlights do (desc.highlight_samples: an indirect_ctx without its
+ *                VSGLs, its light move in gl_set_local_lights, indirect_shade_vertices per view
+ *                change in gl_render), while glrt's VSGLs (glvsgl.h) then light the diffuse lobe only.
+ *   toggles:     gl_set_local_effects (runtime_set_local_effects, the viewer's keys o and i).
  *   vertex colours (gl_shade_vertices): the per-vertex model on the CPU, so the local lights there
- *                are direct.h's (Embree shadow rays), exactly the cpu backend's. */
+ *                are direct.h's (Embree shadow rays) and indirect.h's VSGLs and highlights, exactly
+ *                the cpu backend's. */
 #include "runtime.h"
 #include "direct.h"
 #include "glrt.h"
@@ -62,6 +67,7 @@ typedef struct gl_rt {
     bool add_used;              /* the last vertex add uploaded was not all zeros */
     bool bounce;                /* the VSGLs (glrt, per pixel) */
     indirect_ctx *hl;           /* the highlights per vertex on the CPU (indirect.h without its VSGLs) */
+    indirect_ctx *vind;         /* vertex colours: the VSGLs and highlights as the cpu backend (first use) */
     double hl_ms;               /* the last view change's highlights */
 } gl_rt;
 
@@ -71,6 +77,7 @@ static void gl_destroy(void *self) {
     if (!g) return;
     glrt_destroy(g->rt);
     indirect_destroy(g->hl);
+    indirect_destroy(g->vind);   /* before g->local: it borrows its BVH */
     relight_destroy(g->finish);
     direct_destroy(g->local);
     free(g->g);
@@ -146,6 +153,18 @@ static int add_nonlinear(gl_rt *g, const float eye[3], bool pixel, float *rgb, p
     return 0;
 }
 
+/* The vertex colours' VSGLs and highlights: the cpu backend's indirect_ctx (its desc, direct's BVH),
+ * made on first use, its lights moved when they are stale. -1 with err. */
+static int vertex_indirect(gl_rt *g, prt_error *err) {
+    if (!g->vind) {
+        indirect_desc id = { .hl_samples = g->hl_samples, .no_highlights = g->hl_samples <= 0, .no_bounce = !g->bounce,
+                             .threads = g->nthreads, .vs = direct_vis(g->local) };
+        if (!(g->vind = indirect_create(&g->d->scene, &id, err))) return -1;
+        g->direct_stale = true;
+    }
+    return g->direct_stale ? indirect_set_lights(g->vind, &g->lights, err) : 0;
+}
+
 /* Read back g, finish h . g per vertex on the CPU (see the header comment). */
 static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
     gl_rt *g = self;
@@ -162,8 +181,10 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     if (g->lights.count > 0) {   /* the per-vertex model's local lights: direct.h, as the cpu backend */
         if (!g->local && !(g->local = direct_create(&g->d->scene, g->nthreads, err))) return -1;
         if (g->direct_stale && direct_set_lights(g->local, &g->lights, err)) return -1;
+        if ((g->bounce || g->hl_samples) && vertex_indirect(g, err)) return -1;
         g->direct_stale = false;
         direct_shade_vertices(g->local, eye, rgb);
+        if (g->vind) indirect_shade_vertices(g->vind, eye, rgb);
     }
     g->view_ms = 1e3 * (prt_now() - t0);
     return 0;
@@ -244,6 +265,8 @@ static int gl_set_local_effects(void *self, bool bounce, int highlight_samples, 
     gl_rt *g = self;
     g->bounce = bounce;
     g->hl_samples = highlight_samples > 0 ? highlight_samples : 0;
+    indirect_destroy(g->vind);   /* the vertex colours' context is made again with these effects */
+    g->vind = NULL;
     double t0 = prt_now();
     if (glrt_set_local_effects(g->rt, bounce, g->hl_samples == 0, err) || gl_highlights_set(g, err)) return -1;
     g->local_ms = 1e3 * (prt_now() - t0);

@@ -547,7 +547,8 @@ static void gl_glossy(void) {
  * colours rasterized headless): relative RMS within 1e-3 over the image. And with both effects
  * the VSGLs light only the diffuse lobe of a glossy surface (the highlights light its glossy lobe,
  * as on the cpu, so nothing counts twice): (bounce + highlights) minus (highlights) is
- * vsgl_shade_diffuse at the pixels, within 1% relative RMS. S = 8 rays per glossy vertex. */
+ * vsgl_shade_diffuse at the pixels, within 1% relative RMS. The gl runtime's vertex colours with both
+ * effects are the cpu runtime's (1e-5 relative RMS). S = 8 rays per glossy vertex. */
 static void gl_highlights(void) {
     const prt_scene *s;
     const prt_data *dp;
@@ -576,6 +577,27 @@ static void gl_highlights(void) {
     printf("  %ld glossy pixels: (bounce + highlights) - highlights vs vsgl_shade_diffuse relative RMS %.2e\n", r.n, r.rel_rms);
     CHECK(r.n > 1500, "glossy pixels (%ld)", r.n);
     CHECK_LE(r.rel_rms, 0.01, "with the highlights, the VSGLs light the diffuse lobe only");
+    /* the gl runtime's vertex colours (the per-vertex model, finished on the CPU) are the cpu's too */
+    int nv = d.scene.mesh.nverts;
+    float *rgb[2] = { calloc(3 * (size_t)nv, sizeof(float)), calloc(3 * (size_t)nv, sizeof(float)) };
+    prt_probe black;
+    const float zero[3] = { 0, 0, 0 };
+    CHECK(rgb[0] && rgb[1] && probe_make_constant(zero, &black, &err) == 0, "%s", err.msg);
+    for (int b = 0; b < 2 && rgb[0] && rgb[1]; b++) {
+        prt_runtime *rt = runtime_create(&d, &(runtime_desc){ .backend = names[b], .threads = 2, .highlight_samples = 8,
+                                                              .local_bounce = true }, &err);
+        CHECK(rt && runtime_set_light(rt, &black, NULL, &err) == 0 && runtime_set_local_lights(rt, &d.scene.lights, &err) == 0 &&
+                  runtime_shade_vertices(rt, k_gg_cam.eye, rgb[b], &err) == 0, "%s: %s", names[b], err.msg);
+        runtime_destroy(rt);
+    }
+    double ve = 0, vt = 0;
+    for (size_t i = 0; rgb[0] && rgb[1] && i < 3 * (size_t)nv; i++)
+        ve += (rgb[1][i] - rgb[0][i]) * (rgb[1][i] - rgb[0][i]), vt += (double)rgb[0][i] * rgb[0][i];
+    printf("  vertex colours with bounce + highlights: gl vs cpu relative RMS %.2e\n", sqrt(ve / fmax(vt, 1e-30)));
+    CHECK(vt > 0 && sqrt(ve / vt) <= 1e-5, "gl vertex colours = cpu's with both effects");
+    free(rgb[0]);
+    free(rgb[1]);
+    probe_free(&black);
     for (int b = 0; b < 2; b++)
         for (int on = 0; on < 2; on++) image_free(&img[b][on]);
     image_free(&both);
