@@ -41,7 +41,8 @@ struct glrt {
     GLuint prog_light[GLRT_LIGHT_COUNT];
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
-    GLuint prog_view[4];        /* per pixel (TV_FULL), per vertex, per pixel without tv, per pixel tv fast path */
+    GLuint prog_view[4];        /* per pixel (TV_FULL), per vertex, per pixel without tv (with no tv at all: per
+                                 * pixel with the glossy VSGL term, spec_tris), per pixel tv fast path */
     int tv_tris[3];             /* triangles drawn by prog_view[2], [3], [0] in that order (per pixel with a tv) */
     int tv_perm;                /* word offset in t_tvu of the drawn order's triangle indices */
     GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
