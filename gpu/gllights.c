@@ -25,7 +25,13 @@ struct gllights {
     float scene_size;
 };
 
+/* BRDF_TYPES: the models the scene uses, bit 1 << brdf_type (glrt.c defines it; all of them when not):
+ * llvmpipe runs a branch that no pixel takes at the cost of one that every pixel takes (under a mask),
+ * so the models a scene lacks are left out of the program rather than branched around. */
 static const char *k_glsl =
+    "#ifndef BRDF_TYPES\n"
+    "#define BRDF_TYPES 127\n"
+    "#endif\n"
     "uniform samplerBuffer t_brdf;\n"
     "float pow_c(float x, float n) {\n"
     "    if (!(x > 0.0)) return 0.0;\n"
@@ -62,20 +68,30 @@ static const char *k_glsl =
     "    int type = int(p0.x + 0.5);\n"
     "    float ci = max(wi.z, 1e-7), co = max(wo.z, 1e-7);\n"
     "    vec3 kd = p1.rgb, ks = p2.rgb, out_c = kd / PI, h;\n"
+    "#if (BRDF_TYPES & 2) != 0\n"
     "    if (type == 1) {\n"                      /* phong */
     "        float c = -wi.x * wo.x - wi.y * wo.y + wi.z * wo.z;\n"
     "        out_c += ks * ((p0.y + 2.0) / (2.0 * PI) * pow_c(c, p0.y));\n"
-    "    } else if (type == 2) {\n"               /* blinn */
+    "    }\n"
+    "#endif\n"
+    "#if (BRDF_TYPES & 4) != 0\n"
+    "    if (type == 2) {\n"                      /* blinn */
     "        half_v(wi, wo, h);\n"
     "        out_c += ks * ((p0.y + 8.0) / (8.0 * PI) * pow_c(h.z, p0.y));\n"
-    "    } else if (type == 3) {\n"               /* Ashikhmin-Shirley, Eq. 4 and 5 */
+    "    }\n"
+    "#endif\n"
+    "#if (BRDF_TYPES & 8) != 0\n"
+    "    if (type == 3) {\n"                      /* Ashikhmin-Shirley, Eq. 4 and 5 */
     "        float kh = half_v(wi, wo, h);\n"
     "        float spec = sqrt((p0.z + 1.0) * (p0.w + 1.0)) / (8.0 * PI) * as_lobe_f(p0.z, p0.w, h) / (kh * max(ci, co));\n"
     "        float di = 1.0 - ci * 0.5, dout = 1.0 - co * 0.5;\n"
     "        float di5 = di * di * di * di * di, do5 = dout * dout * dout * dout * dout;\n"
     "        float dif = 28.0 / (23.0 * PI) * (1.0 - di5) * (1.0 - do5);\n"
     "        for (int k = 0; k < 3; k++) out_c[k] = kd[k] * (1.0 - ks[k]) * dif + spec * schlick_f(ks[k], kh);\n"
-    "    } else if (type == 4) {\n"               /* lafortune */
+    "    }\n"
+    "#endif\n"
+    "#if (BRDF_TYPES & 16) != 0\n"
+    "    if (type == 4) {\n"                      /* lafortune */
     "        float s = 0.0;\n"
     "        int nl = int(p2.w + 0.5);\n"
     "        for (int l = 0; l < 4; l++) {\n"
@@ -84,7 +100,10 @@ static const char *k_glsl =
     "            s += pow_c(c.x * wi.x * wo.x + c.y * wi.y * wo.y + c.z * wi.z * wo.z, c.w);\n"
     "        }\n"
     "        out_c += vec3(s);\n"
-    "    } else if (type == 5 || type == 6) {\n"  /* Cook-Torrance, height-correlated Smith */
+    "    }\n"
+    "#endif\n"
+    "#if (BRDF_TYPES & 96) != 0\n"
+    "    if (type == 5 || type == 6) {\n"         /* Cook-Torrance, height-correlated Smith */
     "        float kh = half_v(wi, wo, h);\n"
     "        float a = p1.w, a2 = a * a, c2 = h.z * h.z, s2 = h.x * h.x + h.y * h.y, dg;\n"
     "        if (type == 5) {\n"
@@ -97,6 +116,7 @@ static const char *k_glsl =
     "        }\n"
     "        for (int k = 0; k < 3; k++) out_c[k] += dg * schlick_f(ks[k], kh);\n"
     "    }\n"
+    "#endif\n"
     "    return clamp(out_c, vec3(0.0), vec3(3.4e38));\n"
     "}\n"
     "#if LMAX > 0\n"

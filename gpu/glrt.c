@@ -42,7 +42,8 @@ struct glrt {
     GLuint prog_light[GLRT_LIGHT_COUNT];
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
-    GLuint prog_view[4];        /* per pixel (TV_FULL), per vertex, per pixel without tv, per pixel tv fast path */
+    GLuint prog_view[4];        /* per pixel (TV_FULL), per vertex, per pixel without tv (with no tv at all: per
+                                 * pixel with the glossy VSGL term, spec_tris), per pixel tv fast path */
     int tv_tris[3];             /* triangles drawn by prog_view[2], [3], [0] in that order (per pixel with a tv) */
     int tv_perm;                /* word offset in t_tvu of the drawn order's triangle indices */
     GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
@@ -60,8 +61,14 @@ struct glrt {
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
-    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too */
+    bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too (glrt_set_local_effects turns it) */
+    bool vsgl_glossy;           /* the VSGLs light the glossy lobe too (false under the highlights) */
     glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
+    bool vsgl_spec;             /* the view programs hold the glossy lobe's VSGL term (VSGL_SPEC) */
+    prt_lights lights;          /* the last local lights (glrt_set_local_effects moves them again) */
+    int spec_tris[2];           /* without a tv, per pixel with VSGL_SPEC: the element buffer holds the triangles
+                                 * with no glossy corner first (drawn by prog_view[0], no glossy term), then the
+                                 * rest (prog_view[2], with it); 0, 0: not ordered yet */
 };
 
 /* Texture units of the per-pixel view program: t_view, t_g, t_tv, then one cube map per level, then t_tvu. */
@@ -172,7 +179,7 @@ static const char *k_view_vs =
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
     "#if PER_VERTEX\n"
     "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
-    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm));\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva;\n"
@@ -204,7 +211,7 @@ static const char *k_view_fs =
     "    }\n"
     "#endif\n"
     "    vec3 n = normalize(v_nrm);\n"
-    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n), 1.0);\n"
+    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -580,13 +587,17 @@ static char *tv_source(const glrt *rt) {
  * again with it at the first local light (glrt_set_local_lights). -1 with err. */
 static int build_view_program(glrt *rt, int pv, prt_error *err) {
     const gl_api *gl = rt->gl;
-    char head[512];
+    char head[640];
     bool tvp = rt->tv && (pv == 0 || pv == 3);
+    /* without a tv, the per-pixel program of the non-glossy triangles (0) holds no glossy term (spec_tris) */
+    bool spec = rt->vsgl_spec && (rt->tv || pv != 0);
+    int types = 0;   /* BRDF_TYPES (gllights.c): the scene's models only */
+    for (int m = 0; m < rt->d->scene.nmaterials; m++) types |= 1 << rt->d->scene.materials[m].type;
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
-             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n",
+             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
              rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS,
-             rt->lmax);
+             rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
     char *tv = tvp ? tv_source(rt) : NULL;
@@ -600,7 +611,8 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
      * after gllights'), then the tv's, then the stage body. */
     sprintf(vs2, "%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), vs + hl);
     sprintf(fs2, "%s%s%s%s%s%s", head, k_view_common, gllights_glsl(), glvsgl_glsl(), tv ? tv : "", vfs + hl);
-    static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv)", "view (per pixel, tv fast)" };
+    static const char *names[4] = { "view (per pixel)", "view (per vertex)", "view (per pixel, no tv / glossy VSGL)",
+                                    "view (per pixel, tv fast)" };
     rt->prog_view[pv] = glctx_program(gl, vs2, fs2, names[pv], err);
     free(vs); free(vfs); free(vs2); free(fs2); free(tv);
     if (!rt->prog_view[pv]) return -1;
@@ -610,6 +622,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
     gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
     if (rt->lmax > 0) gllights_init_program(gl, p);
+    if (spec) glvsgl_init_program(rt->vsgl, gl, p);
     if (tvp) {
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tv"), GLRT_UNIT_TV);
         gl->Uniform1i(gl->GetUniformLocation(p, "t_tvu"), GLRT_UNIT_TVU);
@@ -625,7 +638,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
 
 /* Compiles the view programs this runtime draws with (build_view_program); -1 with err. */
 static int build_view_programs(glrt *rt, prt_error *err) {
-    for (int pv = 0; pv < (rt->tv ? 4 : 2); pv++)
+    for (int pv = 0; pv < (rt->tv ? 4 : rt->vsgl_spec ? 3 : 2); pv++)
         if (build_view_program(rt, pv, err)) return -1;
     rt->gl->UseProgram(0);
     return glctx_check(rt->gl, "building the shaders", err);
@@ -770,6 +783,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     if (!rt) return NULL;
     rt->d = d;
     rt->local_bounce = dd.local_bounce;
+    rt->vsgl_glossy = true;
     rt->tr = tr;
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
@@ -847,29 +861,82 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
-/* Local-light move: the shadow cubes rendered (gllights_set), finished and timed; -1 with err. */
+/* Without a tv: the element buffer ordered by whether a triangle has a corner of a glossy material
+ * (spec_tris), so that only those pixels run the glossy lobe's VSGL term: llvmpipe runs a branch's
+ * body under a mask for every pixel, and the floor of bunny + floor paid for the bunny's term. A
+ * stable partition: the draw order within each class stays the mesh's. -1 on OOM. */
+static int order_spec_tris(glrt *rt, prt_error *err) {
+    const prt_mesh *m = &rt->d->scene.mesh;
+    uint32_t *idx = prt_calloc(3 * (size_t)m->ntris + 3, sizeof(uint32_t), err);
+    if (!idx) return -1;
+    int n = 0;
+    for (int cls = 0; cls < 2; cls++)
+        for (int f = 0; f < m->ntris; f++) {
+            const uint32_t *t = m->tris + 3 * (size_t)f;
+            bool g = false;
+            for (int k = 0; k < 3; k++) g |= glvsgl_glossy(rt->vsgl, m->mat ? (int)m->mat[t[k]] : 0);
+            if (g != (cls == 1)) continue;
+            memcpy(idx + 3 * (size_t)n++, t, 3 * sizeof(uint32_t));
+            rt->spec_tris[cls]++;
+        }
+    rt->gl->BindVertexArray(rt->vao);   /* the element binding is the vertex array's (core profile) */
+    rt->gl->BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), idx);
+    rt->gl->BindVertexArray(0);
+    free(idx);
+    return 0;
+}
+
+/* The view programs again when what they must hold changed: the local lights' code at the first local
+ * light (LMAX), the glossy lobe's VSGL term when the VSGLs are on and a material is glossy (VSGL_SPEC;
+ * compiled in only then, as the local lights' code: see build_view_program). -1 with err. */
+static int rebuild_view_programs(glrt *rt, int lmax, prt_error *err) {
+    bool spec = lmax > 0 && rt->local_bounce && rt->vsgl && glvsgl_fit_rows(rt->vsgl) > 0;
+    if (lmax == rt->lmax && spec == rt->vsgl_spec) return 0;
+    if (lmax > 0 && !gllights_supported(rt->gl))
+        return prt_fail(err, "gl runtime: this GL context has too few texture units for local lights");
+    for (int i = 0; i < 4; i++) {
+        if (rt->prog_view[i]) rt->gl->DeleteProgram(rt->prog_view[i]);
+        rt->prog_view[i] = 0;
+    }
+    rt->lmax = lmax;
+    rt->vsgl_spec = spec;
+    if (spec && !rt->tv && rt->spec_tris[0] + rt->spec_tris[1] == 0 && order_spec_tris(rt, err)) return -1;
+    return build_view_programs(rt, err);
+}
+
+/* Local-light move: the shadow cubes rendered (gllights_set), the VSGLs when on, finished and timed; -1 with err. */
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     if (current(rt, err)) return -1;
     double t0 = prt_now();
-    if (rt->lmax == 0 && ls->count > 0) {   /* the first local light: the view programs with them */
-        if (!gllights_supported(rt->gl))
-            return prt_fail(err, "gl runtime: this GL context has too few texture units for local lights");
-        for (int i = 0; i < 4; i++) {
-            if (rt->prog_view[i]) rt->gl->DeleteProgram(rt->prog_view[i]);
-            rt->prog_view[i] = 0;
-        }
-        rt->lmax = GLLIGHTS_MAX;
-        if (build_view_programs(rt, err)) return -1;
+    /* issue 11 item 3: the VSGLs' lobe tables before the programs that read them */
+    if (rt->local_bounce && ls->count > 0 && !rt->vsgl) {
+        if (!(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+        glvsgl_set_glossy(rt->vsgl, rt->vsgl_glossy);
     }
+    if (rebuild_view_programs(rt, rt->lmax > 0 || ls->count > 0 ? GLLIGHTS_MAX : 0, err)) return -1;
     if (!rt->local && !(rt->local = gllights_create(rt->gl, &rt->d->scene, err))) return -1;
     if (gllights_set(rt->local, ls, rt->vao, rt->d->scene.mesh.ntris, err)) return -1;
-    if (rt->local_bounce) {   /* issue 11 item 3: the VSGLs, from an RSM on the CPU (glvsgl.h) */
-        if (!rt->vsgl && !(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
+    rt->timing.bounce_ms = 0;
+    if (rt->local_bounce && rt->vsgl) {   /* an RSM on the CPU (glvsgl.h) */
         if (glvsgl_set(rt->vsgl, ls, err)) return -1;
+        rt->timing.bounce_ms = glvsgl_ms(rt->vsgl);
     }
+    rt->lights = *ls;
     rt->gl->Finish();
     rt->timing.local_ms = 1e3 * (prt_now() - t0);
     return 0;
+}
+
+/* Turns the VSGLs and their glossy-lobe term on or off (the viewer's keys); a light move follows
+ * (the VSGLs of the lights held). -1 with err. */
+int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
+    if (current(rt, err)) return -1;
+    bool was = rt->local_bounce;
+    rt->local_bounce = bounce;
+    rt->vsgl_glossy = glossy;
+    if (rt->vsgl) glvsgl_set_glossy(rt->vsgl, glossy);
+    if (bounce == was || rt->lights.count == 0) return rebuild_view_programs(rt, rt->lmax, err);
+    return glrt_set_local_lights(rt, &rt->lights, err);
 }
 
 /* L scaled by 2^-e into a new vector (free()) when its largest |value| is 2^97 or more, setting
@@ -963,7 +1030,8 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
     if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
-        if (rt->vsgl) glvsgl_bind(rt->vsgl, rt->gl, p);
+        if (rt->vsgl && rt->local_bounce) glvsgl_bind(rt->vsgl, rt->gl, p);
+        else gl->Uniform1i(gl->GetUniformLocation(p, "u_nvsgl"), 0);
         gl->ActiveTexture(GL_TEXTURE1);
     }
     gl->DrawElements(GL_TRIANGLES, n * 3, GL_UNSIGNED_INT, (const void *)(3 * sizeof(uint32_t) * (size_t)first));
@@ -982,8 +1050,11 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);
-    if (rt->view_mode == GLRT_VIEW_VERTEX || !rt->tv) draw_tris(rt, rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX], mvp, cam, kmax, 0,
-                                                                 rt->d->scene.mesh.ntris);
+    if (rt->view_mode != GLRT_VIEW_VERTEX && !rt->tv && rt->vsgl_spec) {   /* the glossy VSGL term on its triangles only */
+        draw_tris(rt, rt->prog_view[0], mvp, cam, kmax, 0, rt->spec_tris[0]);
+        draw_tris(rt, rt->prog_view[2], mvp, cam, kmax, rt->spec_tris[0], rt->spec_tris[1]);
+    } else if (rt->view_mode == GLRT_VIEW_VERTEX || !rt->tv)
+        draw_tris(rt, rt->prog_view[rt->view_mode == GLRT_VIEW_VERTEX], mvp, cam, kmax, 0, rt->d->scene.mesh.ntris);
     else   /* the triangles in tv_tris's order, each class by the program that holds what it needs */
         for (int c = 0, first = 0; c < 3; first += rt->tv_tris[c++])
             draw_tris(rt, rt->prog_view[c == 0 ? 2 : c == 1 ? 3 : 0], mvp, cam, kmax, first, rt->tv_tris[c]);

@@ -96,7 +96,7 @@ typedef struct glrt_desc {
     glctx *ctx;                 /* NULL: a headless context owned by the glrt */
     glrt_light_method light;    /* AUTO: the fastest, measured at create */
     glrt_view_mode view;
-    bool local_bounce;          /* local lights: add their one bounce by VSGLs (glvsgl.h: receiver-diffuse) */
+    bool local_bounce;          /* local lights: add their one bounce by VSGLs (glvsgl.h: both lobes of the receiver) */
 } glrt_desc;
 
 typedef struct glrt_timing {
@@ -106,6 +106,7 @@ typedef struct glrt_timing {
     double view_ms;             /* last glrt_draw or glrt_draw_vertex_colors, wall clock (finished) */
     double view_gpu_ms;         /* GPU time of the last glrt_draw */
     double local_ms;            /* last glrt_set_local_lights (shadow cubes), wall clock, finished */
+    double bounce_ms;           /* of local_ms: the VSGLs (RSM and sums on the CPU, glvsgl.h) */
     double method_ms[GLRT_LIGHT_COUNT]; /* AUTO: measured kernel time per method (0: not run / unavailable) */
     size_t gpu_bytes;           /* bytes uploaded for transport, view maps and mesh */
     glrt_light_method light_method;
@@ -123,6 +124,11 @@ int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
 /* Local lights (issue 11, gllights.h): their direct light with shadow cubes is added per pixel (or per
  * vertex in GLRT_VIEW_VERTEX) to every later draw; count 0 turns them off. At most GLLIGHTS_MAX. */
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err);
+/* Local lights' one bounce on (the VSGLs, glvsgl.h) or off, and with glossy, their light on the receivers'
+ * glossy lobe too (false when the indirect highlights light that lobe, as the cpu runtime's indirect.h).
+ * The view programs are rebuilt when the glossy term's code must come or go; with lights held, a light
+ * move follows. -1 with err. */
+int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err);
 /* Probe shown behind the scene (NULL: black); R as render_desc.background_rotation (may be NULL). */
 int glrt_set_background(glrt *rt, const prt_probe *p, const float R[9], prt_error *err);
 /* Changes only the background's rotation (R NULL: none); the probe stays uploaded. */

@@ -26,12 +26,18 @@
  *                u_lbias, samplers t_shadow0..3 and t_brdf on units GLLIGHTS_UNIT..) and the view
  *                programs add the GLSL function local_lights(material, p, n, eye) (gllights_glsl)
  *                to the probe's shading: per pixel in k_view_fs, per vertex in k_view_vs (glrt.c).
- *                A per-vertex effect computed on the CPU can go through glrt_set_vertex_add instead.
+ *                A per-vertex effect computed on the CPU can go through glrt_set_vertex_add instead:
+ *                the indirect highlights do (desc.highlight_samples: an indirect_ctx without its
+ *                VSGLs, its light move in gl_set_local_lights, indirect_shade_vertices per view
+ *                change in gl_render), while glrt's VSGLs (glvsgl.h) then light the diffuse lobe only.
+ *   toggles:     gl_set_local_effects (runtime_set_local_effects, the viewer's keys o and i).
  *   vertex colours (gl_shade_vertices): the per-vertex model on the CPU, so the local lights there
- *                are direct.h's (Embree shadow rays), exactly the cpu backend's. */
+ *                are direct.h's (Embree shadow rays) and indirect.h's VSGLs and highlights, exactly
+ *                the cpu backend's. */
 #include "runtime.h"
 #include "direct.h"
 #include "glrt.h"
+#include "indirect.h"
 #include "relight.h"
 #include <math.h>
 #include <stdlib.h>
@@ -52,9 +58,17 @@ typedef struct gl_rt {
     const float *bg_pixels;
     bool bg_set, has_frame;
     double view_ms, raster_ms;  /* the last view change (draw or vertex finish) and read-back */
+    double local_ms;            /* the last local-light move: glrt's and the highlights' */
     prt_lights lights;          /* the local lights (issue 11) */
     direct_ctx *local;          /* vertex colours with local lights: made on first use */
     bool direct_stale;          /* lights moved since direct's last light move */
+    int hl_samples;             /* indirect highlights: rays per glossy vertex (0: off) */
+    int hl_made;                /* the sample count g->hl was made with */
+    bool add_used;              /* the last vertex add uploaded was not all zeros */
+    bool bounce;                /* the VSGLs (glrt, per pixel) */
+    indirect_ctx *hl;           /* the highlights per vertex on the CPU (indirect.h without its VSGLs) */
+    indirect_ctx *vind;         /* vertex colours: the VSGLs and highlights as the cpu backend (first use) */
+    double hl_ms;               /* the last view change's highlights */
 } gl_rt;
 
 /* Frees the glrt (and its context when it made one) and the vertex-finish state. */
@@ -62,6 +76,8 @@ static void gl_destroy(void *self) {
     gl_rt *g = self;
     if (!g) return;
     glrt_destroy(g->rt);
+    indirect_destroy(g->hl);
+    indirect_destroy(g->vind);   /* before g->local: it borrows its BVH */
     relight_destroy(g->finish);
     direct_destroy(g->local);
     free(g->g);
@@ -100,10 +116,11 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
     if (!g->rt) { gl_destroy(g); return NULL; }
     g->sparse = (int)(prt_data_transfer(d) - d->transfers);
     for (int i = 0; i < d->ntransfers; i++) g->nonlinear |= d->transfers[i].ops->shade_vertices != NULL;
-    if (g->nonlinear) {
-        g->add = prt_calloc(3 * (size_t)d->scene.mesh.nverts + 3, sizeof(float), err);
-        if (!g->add) { gl_destroy(g); return NULL; }
-    }
+    g->bounce = desc->local_bounce;
+    g->hl_samples = desc->highlight_samples > 0 ? desc->highlight_samples : 0;
+    /* with the highlights, the glossy lobe's one bounce is theirs (indirect.h): the VSGLs light the diffuse lobe */
+    if (g->hl_samples && glrt_set_local_effects(g->rt, g->bounce, false, err)) { gl_destroy(g); return NULL; }
+    if (!(g->add = prt_calloc(3 * (size_t)d->scene.mesh.nverts + 3, sizeof(float), err))) { gl_destroy(g); return NULL; }
     if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) {
         if (glrt_use_direct(g->rt, true, err)) { gl_destroy(g); return NULL; }
         g->direct = true;
@@ -136,6 +153,18 @@ static int add_nonlinear(gl_rt *g, const float eye[3], bool pixel, float *rgb, p
     return 0;
 }
 
+/* The vertex colours' VSGLs and highlights: the cpu backend's indirect_ctx (its desc, direct's BVH),
+ * made on first use, its lights moved when they are stale. -1 with err. */
+static int vertex_indirect(gl_rt *g, prt_error *err) {
+    if (!g->vind) {
+        indirect_desc id = { .hl_samples = g->hl_samples, .no_highlights = g->hl_samples <= 0, .no_bounce = !g->bounce,
+                             .threads = g->nthreads, .vs = direct_vis(g->local) };
+        if (!(g->vind = indirect_create(&g->d->scene, &id, err))) return -1;
+        g->direct_stale = true;
+    }
+    return g->direct_stale ? indirect_set_lights(g->vind, &g->lights, err) : 0;
+}
+
 /* Read back g, finish h . g per vertex on the CPU (see the header comment). */
 static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rgb, prt_error *err) {
     gl_rt *g = self;
@@ -152,8 +181,10 @@ static int gl_shade_vertices(void *self, const float eye[3], int kmax, float *rg
     if (g->lights.count > 0) {   /* the per-vertex model's local lights: direct.h, as the cpu backend */
         if (!g->local && !(g->local = direct_create(&g->d->scene, g->nthreads, err))) return -1;
         if (g->direct_stale && direct_set_lights(g->local, &g->lights, err)) return -1;
+        if ((g->bounce || g->hl_samples) && vertex_indirect(g, err)) return -1;
         g->direct_stale = false;
         direct_shade_vertices(g->local, eye, rgb);
+        if (g->vind) indirect_shade_vertices(g->vind, eye, rgb);
     }
     g->view_ms = 1e3 * (prt_now() - t0);
     return 0;
@@ -170,9 +201,19 @@ static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err
         g->bg_set = true;
     } else glrt_set_background_rotation(g->rt, rd->background_rotation);
     double t0 = prt_now();
-    if (g->nonlinear) {   /* the vMF lobes per vertex on the CPU, added on the GPU (unless per pixel) */
+    bool hl = g->hl && g->hl_samples > 0 && g->lights.count > 0;
+    g->hl_ms = 0;
+    if (g->nonlinear || hl || g->add_used) {   /* the vMF lobes and the highlights per vertex on the CPU, added on the GPU */
         memset(g->add, 0, sizeof(float) * 3 * (size_t)g->d->scene.mesh.nverts);
-        if (add_nonlinear(g, rd->camera.eye, true, g->add, err) || glrt_set_vertex_add(g->rt, g->add, err)) return -1;
+        if (g->nonlinear && add_nonlinear(g, rd->camera.eye, true, g->add, err)) return -1;
+        if (hl) {
+            indirect_stats st;
+            indirect_shade_vertices(g->hl, rd->camera.eye, g->add);
+            indirect_get_stats(g->hl, &st);
+            g->hl_ms = st.view_ms;
+        }
+        if (glrt_set_vertex_add(g->rt, g->add, err)) return -1;
+        g->add_used = g->nonlinear || hl;
     }
     double t_add = 1e3 * (prt_now() - t0);
     if (glrt_draw(g->rt, &rd->camera, rd->width, rd->height, kmax, err)) return -1;
@@ -194,12 +235,41 @@ static int gl_read(void *self, prt_image *out, prt_error *err) {
     return rc;
 }
 
-/* Local-light move: the shadow cubes on the GPU (glrt_set_local_lights). */
+/* The highlights' per-vertex context (made again for another sample count) and its light move. -1 with err. */
+static int gl_highlights_set(gl_rt *g, prt_error *err) {
+    if (g->hl_samples <= 0 || (g->lights.count == 0 && !g->hl)) return 0;
+    if (g->hl && g->hl_made != g->hl_samples) {
+        indirect_destroy(g->hl);
+        g->hl = NULL;
+    }
+    indirect_desc id = { .hl_samples = g->hl_samples, .no_bounce = true, .threads = g->nthreads };   /* VSGLs: glrt */
+    if (!g->hl && !(g->hl = indirect_create(&g->d->scene, &id, err))) return -1;
+    g->hl_made = g->hl_samples;
+    return indirect_set_lights(g->hl, &g->lights, err);
+}
+
+/* Local-light move: the shadow cubes (and VSGLs) on the GPU (glrt_set_local_lights), the highlights' lights. */
 static int gl_set_local_lights(void *self, const prt_lights *ls, prt_error *err) {
     gl_rt *g = self;
+    double t0 = prt_now();
     if (glrt_set_local_lights(g->rt, ls, err)) return -1;
     g->lights = *ls;
     g->direct_stale = true;
+    if (gl_highlights_set(g, err)) return -1;
+    g->local_ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+/* The viewer's toggles: the VSGLs (glrt) and the highlights (per vertex here), with a light move. */
+static int gl_set_local_effects(void *self, bool bounce, int highlight_samples, prt_error *err) {
+    gl_rt *g = self;
+    g->bounce = bounce;
+    g->hl_samples = highlight_samples > 0 ? highlight_samples : 0;
+    indirect_destroy(g->vind);   /* the vertex colours' context is made again with these effects */
+    g->vind = NULL;
+    double t0 = prt_now();
+    if (glrt_set_local_effects(g->rt, bounce, g->hl_samples == 0, err) || gl_highlights_set(g, err)) return -1;
+    g->local_ms = 1e3 * (prt_now() - t0);
     return 0;
 }
 
@@ -234,7 +304,9 @@ static void gl_get_timing(const void *self, runtime_timing *t) {
     t->view_ms = g->view_ms;
     t->view_gpu_ms = gt.view_gpu_ms;
     t->raster_ms = g->raster_ms;
-    t->local_ms = gt.local_ms;
+    t->local_ms = g->local_ms;
+    t->bounce_ms = gt.bounce_ms;
+    t->indirect_view_ms = g->hl_ms;
     t->bytes = gt.gpu_bytes;
     t->kernel = gt.light_method_name;
     snprintf(t->device, sizeof t->device, "%s, %s (%s context)", gt.renderer, gt.version, gt.context);
@@ -258,4 +330,5 @@ const runtime_backend runtime_gl = {
     .set_view = gl_set_view,
     .get_timing = gl_get_timing,
     .set_local_lights = gl_set_local_lights,
+    .set_local_effects = gl_set_local_effects,
 };

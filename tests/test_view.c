@@ -163,7 +163,8 @@ static void help(void) {
     snprintf(cmd, sizeof cmd, "%s view --help", check_prt_bin());
     CHECK(check_run(cmd, out, sizeof out) == 0, "view --help failed: %s", out);
     const char *keys[] = { "orbit", "pan", "zoom", "rotate the lighting", "1 .. 9", "next / previous probe",
-                           "exposure", "K / k", "CPU runtime", "direct only", "screenshot", "quit", "--frames",
+                           "exposure", "K / k", "CPU runtime", "direct only", "screenshot", "quit", "--frames", "one bounce",
+                           "indirect highlights",
                            "--screenshot", "--probes" };
     for (size_t i = 0; i < sizeof keys / sizeof keys[0]; i++)
         CHECK(strstr(out, keys[i]) != NULL, "--help does not mention '%s'", keys[i]);
@@ -303,6 +304,38 @@ static void direct_cpu(void) {
     CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
 }
 
+/* Keys o and i (issue 11): with a local light, the one bounce and the indirect highlights turned on
+ * in the viewer give, on either runtime, the headless `render --local-bounce --highlights` of that
+ * runtime (2 codes, as the other cases), and the effects changed the image (the power check). */
+static void local_effects(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir(), *backends[2] = { "cpu", "gl" }, *light = "'point:pos=0.9,1.2,0.8;intensity=2'";
+    char shot[512], ref[512], plain[512], args[8192], out[16384];
+    for (int b = 0; b < 2; b++) {
+        snprintf(shot, sizeof shot, "%s/shot_fx_%s.png", dir, backends[b]);
+        snprintf(ref, sizeof ref, "%s/ref_fx_%s.png", dir, backends[b]);
+        snprintf(plain, sizeof plain, "%s/ref_nofx_%s.png", dir, backends[b]);
+        snprintf(args, sizeof args, "%s --probe %s --light %s --camera %s --size %dx%d --exposure -1 --backend %s --frames 3 "
+                 "--keys oi --screenshot %s", g_scene, g_sky, light, k_cam, W, H, backends[b], shot);
+        int rc = run_view(args, out, sizeof out);
+        CHECK(rc == 0 && strstr(out, "one bounce on, indirect highlights on"), "view --keys oi (%s) failed (%d): %s",
+              backends[b], rc, out);
+        for (int k = 0; k < 2; k++) {
+            snprintf(args, sizeof args, "%s --probe %s --light %s --camera %s --size %dx%d --exposure -1 --backend %s %s -o %s",
+                     g_scene, g_sky, light, k_cam, W, H, backends[b], k ? "" : "--local-bounce --highlights", k ? plain : ref);
+            rc = run_render(args, out, sizeof out);
+            CHECK(rc == 0, "render (%s) failed (%d): %s", backends[b], rc, out);
+        }
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst >= 0 && worst <= 2, "%s: keys o, i differ from render --local-bounce --highlights (max %g, mean %.4f codes)",
+              backends[b], worst, mean);
+        worst = compare_png(ref, plain, &mean);
+        fprintf(stderr, "test_view: %s: the bounce and highlights change the image by max %g, mean %.3f codes\n", backends[b],
+                worst, mean);
+        CHECK(worst > 3, "%s: the effects had no visible effect (max %g codes)", backends[b], worst);
+    }
+}
+
 /* `prt bench --backend gl` (what replaced glbench) runs headless and prints the same lines as the CPU one. */
 static void bench(void) {
     const char *backends[2] = { "cpu", "gl" };
@@ -332,6 +365,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(direct_gl);
     CHECK_CASE(camera_power);
     CHECK_CASE(direct_cpu);
+    CHECK_CASE(local_effects);
     CHECK_CASE(bench);
     return check_summary();
 }

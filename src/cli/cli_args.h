@@ -84,14 +84,14 @@ int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *ca
 int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, bool *no_file);
 /* The scene's lights: the file's (none with no_file) then extra. 0, or 2 after printing. */
 int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, bool no_file);
-/* The cpu runtime's indirect local light (indirect.h), off unless asked for: takes
+/* The runtimes' indirect local light (indirect.h, glvsgl.h), off unless asked for: takes
  * "--local-bounce", "--highlights" (samples = 32) and "--highlight-samples N" (1..1024, implies
  * --highlights) out of argv; samples 0 means none. Returns 0, or 2 after printing one line. */
 int cli_take_indirect(const char *cmd, int *argc, char **argv, int *samples, bool *bounce);
 #define CLI_INDIRECT_HELP \
-    "  --local-bounce          add the local lights' one bounce (two VSGLs per light; gl: diffuse part)\n" \
-    "  --highlights            cpu: add their indirect highlights (32 rays per glossy vertex)\n" \
-    "  --highlight-samples N   cpu: the same with N rays (1..1024)\n"
+    "  --local-bounce          add the local lights' one bounce (two VSGLs per light; cpu per vertex, gl per pixel)\n" \
+    "  --highlights            add their indirect highlights (32 rays per glossy vertex, on the CPU; gl adds them)\n" \
+    "  --highlight-samples N   the same with N rays (1..1024)\n"
 /* The help lines of those flags. */
 #define CLI_LIGHT_HELP \
     "  --light SPEC            add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n" \

@@ -15,7 +15,10 @@
  * Local lights (issue 11): the file's lights plus --light ones; key l picks the next
  * light, alt + left drag (or, after key m, a plain left drag) moves the picked one in
  * the view plane; each move is a local-light move (runtime_set_local_lights: shadow
- * rays on the CPU, shadow cubes on GL), timed in the overlay.
+ * rays on the CPU, shadow cubes on GL), timed in the overlay. Keys o and i turn their one
+ * bounce (VSGLs) and indirect highlights on and off (runtime_set_local_effects on both
+ * runtimes), where the effects plan has them (view_effects_plan); the overlay shows each
+ * effect's time (the bounce's part of the light move, the highlights' of the view change).
  *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
@@ -58,6 +61,8 @@ static const char *k_keys =
     "  l                        pick the next local light (point / spot lights of the file and --light)\n"
     "  alt + left drag          move the picked local light in the view plane: a light move\n"
     "  m                        mouse mode: left drag moves the picked local light / orbits\n"
+    "  o                        local lights' one bounce (two VSGLs per light) on / off, where the effects plan has it\n"
+    "  i                        local lights' indirect highlights on / off, where the effects plan has them\n"
     "  r                        reset camera, light rotation and local lights\n"
     "  h or ?                   show / hide this help on screen\n"
     "  q or Esc                 quit\n";
@@ -122,8 +127,11 @@ typedef struct viewer {
     int pick;                   /* the picked local light */
     bool move_mode;             /* key m: left drag moves the picked light */
     bool local_dirty, local_stale[2];
-    double local_ms;
+    double local_ms, bounce_ms, indirect_ms;   /* the last light move, its one-bounce part; the indirect view part */
     const char *local_backend;
+    bool bounce;                /* key o: the local lights' one bounce (VSGLs) */
+    int hl_on, hl_samples;      /* key i: rays per glossy vertex when on (--highlight-samples or 32), now (0: off) */
+    const char *no_bounce, *no_hl;   /* why the effects plan has no such effect (NULL: it has) */
 } viewer;
 
 /* Shows msg on screen for a few seconds and on stderr. */
@@ -178,6 +186,7 @@ static int local_move(viewer *v, prt_error *err) {
     runtime_timing t;
     runtime_get_timing(rt, &t);
     v->local_ms = t.local_ms;
+    v->bounce_ms = t.bounce_ms;
     v->local_backend = v->gl ? "GL" : "CPU";
     v->local_stale[v->gl] = false;
     return 0;
@@ -192,8 +201,24 @@ static int view_change(viewer *v, prt_error *err) {
     runtime_set_terms(rt, v->kmax);
     if (runtime_render(rt, &rd, NULL, err)) return -1;
     v->view_ms = 1e3 * (prt_now() - t0);
+    runtime_timing t;
+    runtime_get_timing(rt, &t);
+    v->indirect_ms = t.indirect_view_ms;
     v->view_backend = v->gl ? "GL" : "CPU";
     return 0;
+}
+
+/* The local-light effects' line of the overlay (keys o, i) into buf; its length. */
+static int overlay_effects(const viewer *v, char *buf, size_t cap) {
+    char b[96], h[96];
+    if (v->no_bounce) snprintf(b, sizeof b, "none (%s)", v->no_bounce);
+    else if (v->bounce) snprintf(b, sizeof b, "on, %.1f ms of the light move", v->bounce_ms);
+    else snprintf(b, sizeof b, "off");
+    if (v->no_hl) snprintf(h, sizeof h, "none (%s)", v->no_hl);
+    else if (v->hl_samples) snprintf(h, sizeof h, "on (%d rays), %.1f ms of the view change", v->hl_samples, v->indirect_ms);
+    else snprintf(h, sizeof h, "off");
+    int n = snprintf(buf, cap, "o: one bounce %s   i: indirect highlights %s\n", b, h);
+    return n < 0 ? 0 : n >= (int)cap ? (int)cap - 1 : n;
 }
 
 /* Draws the status text (and the key help when toggled) over the window. */
@@ -220,6 +245,7 @@ static void overlay(viewer *v) {
                       v->pick + 1, v->lights.count, l->type == PRT_LIGHT_SPOT ? "spot" : "point", l->pos[0], l->pos[1],
                       l->pos[2], v->local_ms, v->local_backend ? v->local_backend : "",
                       v->move_mode ? "   [m: drag moves the light]" : "");
+        n += overlay_effects(v, buf + n, sizeof buf - (size_t)n);
     }
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? k_keys : "h: help");
@@ -463,6 +489,33 @@ static void toggle_direct(viewer *v) {
     set_status(v, msg);
 }
 
+/* Keys o and i: the one bounce or the highlights on / off on both runtimes (a light move each), where
+ * the effects plan has them. */
+static void toggle_effect(viewer *v, bool highlights) {
+    const char *why = highlights ? v->no_hl : v->no_bounce;
+    char msg[1200];
+    if (v->lights.count == 0) why = "no local lights";
+    if (why) {
+        snprintf(msg, sizeof msg, "no %s: %s", highlights ? "indirect highlights" : "one bounce", why);
+        set_status(v, msg);
+        return;
+    }
+    bool bounce = highlights ? v->bounce : !v->bounce;
+    int hl = highlights ? (v->hl_samples ? 0 : v->hl_on) : v->hl_samples;
+    prt_error err = { { 0 } };
+    if (runtime_set_local_effects(v->rts[0], bounce, hl, &err) || runtime_set_local_effects(v->rts[1], bounce, hl, &err)) {
+        runtime_set_local_effects(v->rts[0], v->bounce, v->hl_samples, NULL);
+        snprintf(msg, sizeof msg, "cannot switch: %s", err.msg);
+        set_status(v, msg);
+        return;
+    }
+    v->bounce = bounce;
+    v->hl_samples = hl;
+    v->local_stale[0] = v->local_stale[1] = true;   /* each runtime's time of the move shows at its next frame */
+    snprintf(msg, sizeof msg, "local lights: one bounce %s, indirect highlights %s", bounce ? "on" : "off", hl ? "on" : "off");
+    set_status(v, msg);
+}
+
 /* Character keys (see k_keys). */
 static void on_char(GLFWwindow *w, unsigned int c) {
     viewer *v = glfwGetWindowUserPointer(w);
@@ -494,6 +547,8 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         break;
     case 'd': case 'D': toggle_direct(v); break;
     case 'l': case 'L': pick_light(v); break;
+    case 'o': case 'O': toggle_effect(v, false); break;
+    case 'i': case 'I': toggle_effect(v, true); break;
     case 'm': case 'M':
         v->move_mode = !v->move_mode;
         set_status(v, v->move_mode ? "left drag moves the picked local light" : "left drag orbits the camera");
@@ -584,7 +639,7 @@ typedef struct view_args {
     int ndirs, npaths, w, h, frames;
     prt_lights extra;           /* --light */
     bool no_file_lights;
-    int hl_samples;             /* --highlights / --highlight-samples (0: none; cpu runtime) */
+    int hl_samples;             /* --highlights / --highlight-samples (0: none) */
     bool bounce;                /* --local-bounce */
 } view_args;
 
@@ -666,6 +721,24 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     return check_args(v, a) ? 2 : -1;
 }
 
+/* The effects plan's word on the local lights' one bounce and highlights (issue 11, item 6): the plan
+ * `prt precompute` stored with the file where it has local-light lines, else its rule on the file's
+ * figures (surfaces see each other when at least 0.5% of the visibility rays hit, PC_HIT_MIN); the
+ * highlights need a material with a lobe fit (lightmat.h: phong, blinn, ggx, beckmann) too. */
+static void view_effects_plan(viewer *v) {
+    const char *plan = v->d.plan;
+    bool see = v->d.stats.hit_fraction >= 0.005, lobe = false;
+    for (int m = 0; m < v->d.scene.nmaterials; m++) {
+        brdf_type t = v->d.scene.materials[m].type;
+        lobe |= t == BRDF_PHONG || t == BRDF_BLINN || t == BRDF_GGX || t == BRDF_BECKMANN;
+    }
+    if (strstr(plan, "one bounce (two VSGLs): none")) see = false;
+    else if (strstr(plan, "one bounce (two VSGLs): needed")) see = true;
+    v->no_bounce = see ? NULL : "surfaces do not see each other";
+    v->no_hl = !lobe ? "no glossy material" : !see || strstr(plan, "indirect highlights: none") ? "no glossy surface faces another"
+                                                                                               : NULL;
+}
+
 /* Reads the file and the probes, frames the camera. Returns 0, or the exit status after printing. */
 static int load_inputs(viewer *v, const view_args *a) {
     prt_error err = { { 0 } };
@@ -674,6 +747,7 @@ static int load_inputs(viewer *v, const view_args *a) {
     if (lr) return lr;
     v->lights = v->lights0 = v->d.scene.lights;
     v->local_dirty = v->lights.count > 0;
+    view_effects_plan(v);
     if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)
@@ -700,7 +774,11 @@ static int open_window(viewer *v, const view_args *a) {
     runtime_desc cpu = { .backend = "cpu", .threads = v->nthreads, .ctx = v->ctx, .local_bounce = a->bounce,
                          .highlight_samples = a->hl_samples };
     runtime_desc gl = { .backend = "gl", .threads = v->nthreads, .ctx = v->ctx,
-                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, .local_bounce = a->bounce };
+                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, .local_bounce = a->bounce,
+                        .highlight_samples = a->hl_samples };
+    v->bounce = a->bounce;
+    v->hl_samples = a->hl_samples;
+    v->hl_on = a->hl_samples ? a->hl_samples : 32;
     if (!(v->rts[0] = runtime_create(&v->d, &cpu, &err)) || !(v->rts[1] = runtime_create(&v->d, &gl, &err)) ||
         gltext_init(&v->text, &v->ctx->gl, &err))
         return cli_error(k_view, "%s", err.msg);

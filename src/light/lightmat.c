@@ -50,6 +50,9 @@ const brdf_params *lightmat_brdf(const lightmat *lm, int m)
 /* Whether m has a lobe fit. */
 bool lightmat_glossy(const lightmat *lm, int m) { return m >= 0 && m < lm->n && lm->glossy[m]; }
 
+/* The fitted table, or NULL for a diffuse-only material. */
+const lobefit_table *lightmat_fit(const lightmat *lm, int m) { return lightmat_glossy(lm, m) ? &lm->fit[m] : NULL; }
+
 /* lobefit_lookup in brdf_frame(n), the lobe axis rotated back to world. */
 bool lightmat_lobe(const lightmat *lm, int m, const float n[3], const float wo[3], vmf_lobe *lobe, float alpha[3])
 {

@@ -40,6 +40,9 @@ int lightmat_count(const lightmat *lm);
 const brdf_params *lightmat_brdf(const lightmat *lm, int m);
 /* True when material m has a fitted lobe. */
 bool lightmat_glossy(const lightmat *lm, int m);
+/* Material m's lobe table (lobefit.h), NULL when m is not glossy: what a GPU runtime uploads to
+ * evaluate lightmat_lobe in a shader (gpu/glvsgl.c). */
+const struct lobefit_table *lightmat_fit(const lightmat *lm, int m);
 /* The world-frame lobe over wi of f_s(wi, wo) cos(theta_i) at normal n and its colour alpha
  * (rgb); false (alpha 0) when m is not glossy or wo is below the horizon of n. */
 bool lightmat_lobe(const lightmat *lm, int m, const float n[3], const float wo[3], vmf_lobe *lobe, float alpha[3]);

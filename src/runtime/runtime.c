@@ -183,6 +183,13 @@ int runtime_set_local_lights(prt_runtime *rt, const prt_lights *ls, prt_error *e
     return rt->be->set_local_lights(rt->self, ls, err);
 }
 
+/* The local lights' one bounce and highlights on or off (the viewer's keys); a light move. */
+int runtime_set_local_effects(prt_runtime *rt, bool bounce, int highlight_samples, prt_error *err) {
+    PRT_CHECK(rt != NULL && highlight_samples >= 0);
+    if (!rt->be->set_local_effects) return prt_fail(err, "the %s backend cannot switch local-light effects", rt->be->name);
+    return rt->be->set_local_effects(rt->self, bounce, highlight_samples, err);
+}
+
 /* BRDF terms of the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax) {
     PRT_CHECK(rt != NULL && kmax >= 0);

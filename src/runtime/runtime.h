@@ -110,8 +110,9 @@ typedef struct runtime_desc {
     const char *kernel;         /* light-change kernel by name (NULL: the backend's default; gl: "auto"
                                    times fragment/thread/warp once at create and keeps the fastest) */
     bool local_bounce;          /* local lights: add their one bounce by two VSGLs per light (cpu: indirect.h,
-                                   both lobes; gl: glvsgl.h, per pixel, the receiver's diffuse lobe) */
-    int highlight_samples;      /* local lights, cpu: indirect-highlight rays per glossy vertex (0: none) */
+                                   per vertex; gl: glvsgl.h, per pixel; both lobes of the receiver) */
+    int highlight_samples;      /* local lights: indirect-highlight rays per glossy vertex (0: none); per vertex
+                                   on the CPU for both backends (gl: added as a vertex attribute) */
 } runtime_desc;
 
 /* The last call's timings; the same fields for every backend. */
@@ -123,8 +124,10 @@ typedef struct runtime_timing {
     double raster_ms;           /* last image: drawing beyond the view change (background, raster, read) */
     double light_gpu_ms, view_gpu_ms; /* GPU timer queries of the last light / view change (0: none) */
     double local_ms;            /* last local-light move (runtime_set_local_lights): shadow rays / maps */
-    double bounce_ms;           /* of local_ms: RSMs, VSGLs and the Lambert vertices' bounce (cpu, indirect.h) */
-    double indirect_view_ms;    /* of view_ms: VSGL light at glossy vertices and indirect highlights (cpu) */
+    double bounce_ms;           /* of local_ms: RSMs, VSGLs and the Lambert vertices' bounce (cpu, indirect.h);
+                                   RSMs and VSGLs (gl) */
+    double indirect_view_ms;    /* of view_ms: VSGL light at glossy vertices and indirect highlights (cpu); the
+                                   highlights (gl) */
     size_t bytes;               /* memory the backend holds for the scene (gl: uploaded to the GPU) */
     const char *kernel;         /* the light-change kernel in use ("sparse T x L", "fragment", ...) */
     char device[256];           /* "2 threads" / "GL renderer, version (context)" */
@@ -160,6 +163,10 @@ int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err);
 /* Local lights (lights.h) for the next view changes, replacing the previous ones (count 0: none);
  * a light move. -1 with err (invalid light, a backend without local lights). */
 int runtime_set_local_lights(prt_runtime *rt, const prt_lights *ls, prt_error *err);
+/* Turns the local lights' one bounce (desc.local_bounce) and indirect highlights (desc.highlight_samples
+ * rays per glossy vertex, 0: off) on or off from now on, as if the runtime had been created with them;
+ * with lights held, a light move (timed as local_ms). The viewer's keys. -1 with err. */
+int runtime_set_local_effects(prt_runtime *rt, bool bounce, int highlight_samples, prt_error *err);
 /* BRDF terms used by the next view changes (0: all). */
 void runtime_set_terms(prt_runtime *rt, int kmax);
 /* Switches the view model; -1 with err when the backend lacks it (cpu: per pixel). */
@@ -205,6 +212,8 @@ typedef struct runtime_backend {
     void (*get_timing)(const void *self, runtime_timing *t);
     /* Local lights (issue 11): keeps ls (copied) and prepares their shadows; view changes add them. */
     int (*set_local_lights)(void *self, const prt_lights *ls, prt_error *err);
+    /* The one bounce and the highlights on or off (runtime_set_local_effects), lights kept. */
+    int (*set_local_effects)(void *self, bool bounce, int highlight_samples, prt_error *err);
 } runtime_backend;
 
 extern const runtime_backend runtime_cpu;   /* src/runtime/runtime_cpu.c */

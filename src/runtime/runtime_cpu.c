@@ -53,6 +53,7 @@ typedef struct cpu_rt {
     double local_ms;            /* the last local-light move */
     indirect_ctx *indirect;     /* local lights' VSGL bounce and indirect highlights (made with direct), or NULL */
     indirect_desc ind_desc;
+    prt_lights lights;          /* the last local lights (set_local_effects moves them again) */
     double bounce_ms, indirect_view_ms;
 } cpu_rt;
 
@@ -155,6 +156,7 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     if (!c->direct && ls->count == 0) return 0;
     if (!c->direct && !(c->direct = direct_create(&c->d->scene, c->nthreads, err))) return -1;
     int rc = direct_set_lights(c->direct, ls, err);
+    c->lights = *ls;
     c->bounce_ms = 0;
     if (rc == 0 && !(c->ind_desc.no_bounce && c->ind_desc.no_highlights)) {   /* issue 11 items 3-4 */
         indirect_desc id = c->ind_desc;
@@ -216,6 +218,18 @@ static int cpu_read(void *self, prt_image *out, prt_error *err) {
     return rc;
 }
 
+/* The viewer's toggles: a new indirect context for the effects asked (its desc is fixed), then a light
+ * move with the lights held. -1 with err. */
+static int cpu_set_local_effects(void *self, bool bounce, int highlight_samples, prt_error *err) {
+    cpu_rt *c = self;
+    indirect_destroy(c->indirect);
+    c->indirect = NULL;
+    c->ind_desc.no_bounce = !bounce;
+    c->ind_desc.hl_samples = highlight_samples;
+    c->ind_desc.no_highlights = highlight_samples <= 0;
+    return c->direct ? cpu_set_local_lights(c, &c->lights, err) : 0;
+}
+
 /* Tone-mapped blit of the target to the window (nothing headless). */
 static void cpu_present(void *self, int win_w, int win_h, float exposure_stops) {
     cpu_rt *c = self;
@@ -272,4 +286,5 @@ const runtime_backend runtime_cpu = {
     .set_view = cpu_set_view,
     .get_timing = cpu_get_timing,
     .set_local_lights = cpu_set_local_lights,
+    .set_local_effects = cpu_set_local_effects,
 };
