@@ -543,6 +543,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     if (desc && desc->stream_dir && transport_stage_to_file(next, desc->stream_dir, err)) return drop_set(next);
     next->solid_angle = prev->solid_angle;
     next->select = prev->select;
+    next->block_level = prev->block_level;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
 
     gather_ctx c;
@@ -645,6 +646,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     if (rc) { memset(out, 0, sizeof *out); return -1; }
     out->solid_angle = a->solid_angle;
     out->select = a->select;
+    out->block_level = a->block_level;
     int nth = prt_thread_count(nthreads);
     sum_ctx c = { .a = a, .b = b, .out = out };
     c.plane = prt_calloc((size_t)nth, sizeof(float *), err);

@@ -721,6 +721,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
+    r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;

@@ -22,8 +22,8 @@
  * instead of 2.27%, steps of at most 0.72% instead of 2.85%, but with a uniform -1% bias; on a
  * reduced bunny over a floor the floor's sun-shadow error falls from 12.5% to 5.7%.
  * Truncation also drops a share of each face's integral (W's details correlate with T/w's):
- * transport_store puts it back into the face's scaling coefficient (transport.h, solid_angle),
- * which moves that bias to -0.64%.
+ * transport_store puts it back per 4x4 block of each face, into the coarse coefficients
+ * (transport.h, solid_angle and block_level), which moves that bias to about -0.6%.
  * Files written before issue 10 have no measure flag: measure 0, the texels. */
 #include "transfer.h"
 #include "haar.h"

@@ -168,36 +168,81 @@ static int select_expected(const float *r, const float *g, const float *b, int N
 
 static double sq(double x) { return x * x; }
 
-/* Why: the transported light of a uniform environment L is L sum_j T_j = L sum_m c_m W_m, and
- * W (the Haar coefficients of the solid-angle bowl w_j) has detail terms that correlate with the
- * details of T/w (both are smooth bowls over a face), so dropping the small details removes a
- * same-signed share of the integral: on an unoccluded plane a uniform 1% too little (README
- * "Shadows"). Putting what was dropped back into the face's scaling coefficient makes every
- * face's integral, hence uniform light, exact again, at no storage. */
-void transport_face_integrals(const float *const ch[3], const uint32_t *idx, int n, const float *W, float adj[6][3]) {
-    for (int f = 0; f < 6; f++)
-        for (int c = 0; c < 3; c++) {
-            const float *x = ch[c] + (size_t)f * FACE;
-            double all = 0, kept = 0;
-            for (int m = 0; m < FACE; m++) all += (double)x[m] * W[m];
-            bool scaling = false;
-            for (int k = 0; k < n; k++) {
-                uint32_t m = idx[k] - (uint32_t)(f * FACE);
-                if (m >= FACE) continue;
-                kept += (double)x[m] * W[m];
-                scaling |= m == 0;
+/* Why: the transported light of a uniform environment L is L sum_j T_j = L sum_m c_m W_m, and W (the
+ * Haar coefficients of the solid-angle bowl w_j) has details that correlate with those of T/w (both
+ * smooth bowls over a face), so dropping the small details removes a same-signed share of the
+ * integral: on an unoccluded plane a uniform 1% too little (README "Shadows"). Putting what was
+ * dropped back makes the integral exact again at no storage; done per block of the face rather than
+ * per face, a shadowed block's loss stays in that block.
+ * Per block B of the 2^b x 2^b grid of a face, what was dropped integrates under w to
+ * D_B = sum over dropped m of c_m <psi_m, w 1_B>: a detail finer than B lies inside one block and
+ * gives c_m W_m there (its block is the top 2b bits of its position within its level's morton
+ * range); the coarse ones (m < 4^b, constant on every block) give their value on B times w's
+ * integral over B. Adding the piecewise constant D_B / |B|_w, expressed in the coarse coefficients
+ * m < 4^b (the Haar transform of the s x s image, times 64/s), makes each block's integral exact
+ * where those coefficients are kept; where some are not, what is added is the correction's
+ * projection on the kept ones. b = 0 is the face correction. wsum: w summed over each block
+ * (row-major s x s); x: one face's coefficients; kept: the face's kept mask; adj: [4^b] to add. */
+static void block_integrals(const float *x, const uint8_t *kept, const float *W, const double *wsum, int b, float *adj) {
+    int s = 1 << b, nb = s * s;
+    double D[16] = { 0 };
+    float img[16] = { 0 }, tmp[16];
+    for (int l = b + 1, lo = 1 << 2 * b; l < TRANSPORT_LEVELS; l++, lo *= 4) {   /* details of level l: [lo, 4 lo) */
+        uint32_t mask = (uint32_t)lo - 1, sh = (uint32_t)(2 * (l - 1 - b));
+        for (int m = lo; m < 4 * lo; m++)
+            if (!kept[m] && isfinite(x[m])) {
+                uint32_t bi, bj;
+                haar_unmorton(((uint32_t)m & mask) >> sh, &bi, &bj);
+                D[bj * (uint32_t)s + bi] += (double)x[m] * W[m];
             }
-            float a = (float)((all - kept) / W[0]);
-            adj[f][c] = scaling && isfinite(a) ? a : 0.f;   /* non-finite inputs: no correction */
-        }
+    }
+    for (int m = 0; m < nb; m++) {   /* the dropped coarse part, an s x s image in quadrant layout */
+        uint32_t i, j;
+        haar_unmorton((uint32_t)m, &i, &j);
+        img[j * (uint32_t)s + i] = !kept[m] && isfinite(x[m]) ? x[m] : 0.f;
+    }
+    haar_inverse(img, s, tmp);
+    for (int B = 0; B < nb; B++) {
+        double u = img[B] * (double)s / CUBE_RES;   /* its value on block B (orthonormal at res 64) */
+        double d = (D[B] + u * wsum[B]) / wsum[B];
+        img[B] = isfinite(d) ? (float)d : 0.f;
+    }
+    haar_forward(img, s, tmp);
+    for (int m = 0; m < nb; m++) {
+        uint32_t i, j;
+        haar_unmorton((uint32_t)m, &i, &j);
+        adj[m] = kept[m] ? img[j * (uint32_t)s + i] * (float)(CUBE_RES / s) : 0.f;
+    }
 }
 
-/* Value k of channel c before quantization: the input, plus the face correction on a scaling
- * coefficient. */
-static float kept_value(const float *x, uint32_t index, float adj[6][3], int c) {
+/* Value of kept coefficient index of channel c before quantization: the input, plus the block
+ * correction on a coarse coefficient (adj[(c * 6 + face) * 16 + m], m < 16). */
+static float kept_value(const float *x, uint32_t index, const float *adj, int c) {
     if (!isfinite(x[index])) return 0.f;
-    float v = x[index];
-    return index % FACE == 0 ? v + adj[index / FACE][c] : v;
+    uint32_t m = index % FACE;
+    return m < 16 ? x[index] + adj[(c * 6 + index / FACE) * 16 + m] : x[index];
+}
+
+/* With t->solid_angle, the block correction of every channel and face (block_integrals) into
+ * adj[3][6][16]; zeros without. scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask. */
+static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
+                              float *scratch, float *adj) {
+    memset(adj, 0, 3 * 6 * 16 * sizeof *adj);
+    if (!t->solid_angle) return;
+    int b = t->block_level, s = 1 << b, side = CUBE_RES / s;
+    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
+    float *w = scratch;
+    uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
+    memset(kept, 0, CUBE_TEXELS);
+    for (int k = 0; k < n; k++) kept[idx[k]] = 1;
+    haar_face_solid_angle(w, CUBE_RES, false);
+    double wsum[16] = { 0 };
+    for (int j = 0; j < CUBE_RES; j++)
+        for (int i = 0; i < CUBE_RES; i++) wsum[(j / side) * s + i / side] += w[j * CUBE_RES + i];
+    haar_face_solid_angle_coeffs(W, CUBE_RES, W + FACE);
+    for (int c = 0; c < 3; c++)
+        for (int f = 0; f < 6; f++)
+            block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, adj + (c * 6 + f) * 16);
 }
 
 /* Selects, quantizes and stages vector i; returns the squared L2 error of what is kept. */
@@ -210,11 +255,8 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
     int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t->N, idx, keys, wc)
                                                    : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     const float *ch[3] = { r, g, b };
-    float adj[6][3] = { { 0 } };
-    if (t->solid_angle) {
-        haar_face_solid_angle_coeffs(W, CUBE_RES, W + FACE);
-        transport_face_integrals(ch, idx, n, W, adj);
-    }
+    float adj[3 * 6 * 16];
+    block_corrections(t, ch, idx, n, W, wc, adj);   /* wc is free once selected */
     float *val = t->stage_val + (size_t)i * t->N * 3;
     uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
     int qmax = qmax_of(t->qbits);

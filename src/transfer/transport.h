@@ -42,6 +42,12 @@ typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT
 /* Haar levels of a CUBE_RES face: 0 the scaling coefficient, l >= 1 the details of morton indices
  * [4^(l-1), 4^l) (haar.h), the finest CUBE_RES / 2 x CUBE_RES / 2 blocks at level 6. */
 #define TRANSPORT_LEVELS 7
+/* The integral correction's blocks (prt_transport.block_level): 4 x 4 per face, 16 x 16 texels each
+ * (README "Shadows": level 2 measured better than whole faces on the floor's shadow, every vertex and
+ * the image; transport_store puts each block's dropped integral into the kept coefficients of levels
+ * below it, so the file and the runtimes are unchanged). */
+#define TRANSPORT_BLOCK_LEVEL 2
+#define TRANSPORT_BLOCK_LEVEL_MAX 2
 /* sigma_l per level, relative to the finest (tools/level_spectrum.c measured it; transport.c says how). */
 extern const float transport_level_sigma[TRANSPORT_LEVELS];
 /* The Haar level (0..TRANSPORT_LEVELS-1) of wavelet index i. */
@@ -52,7 +58,11 @@ typedef struct prt_transport {
     int N;                  /* coefficients kept per vector (max) */
     int qbits;              /* 8, 16 or 32 (float) */
     bool solid_angle;       /* Haar of T/w (transfer_haar's solid-angle measure): transport_store keeps
-                             * each face's solid-angle integral (set after transport_init; 0 = off) */
+                             * the solid-angle integral of each block of block_level (set after
+                             * transport_init; 0 = off) */
+    int block_level;        /* with solid_angle: the integrals kept are those of the 2^l x 2^l blocks of
+                             * each face, 0 (whole faces) .. TRANSPORT_BLOCK_LEVEL_MAX (set after init;
+                             * precompute: TRANSPORT_BLOCK_LEVEL) */
     int select;             /* which N coefficients transport_store keeps (transport_select; set after
                              * transport_init; 0 = the paper's largest magnitudes) */
     uint32_t *vec_first;    /* [nverts+1] */
@@ -80,11 +90,6 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
  * Returns the L2 error squared of the stored approximation (truncation + quantization). */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 size_t transport_scratch_size(void);
-/* With t->solid_angle, the per-face correction transport_store applies to vector (r, g, b) with
- * the kept indices idx[0..n): adj[f][ch] is added to face f's scaling coefficient so that
- * sum_m c~_m W_m = sum_m c_m W_m (haar.h), 0 where the face's scaling coefficient is not kept.
- * W: the face's solid-angle coefficients (haar_face_solid_angle_coeffs). */
-void transport_face_integrals(const float *const ch[3], const uint32_t *idx, int n, const float *W, float adj[6][3]);
 /* Streams the staging of a set fresh from transport_init to an unlinked temporary file in dir
  * (issue 13): staged vectors live in the page cache and the file, not in the process's memory,
  * once transport_release drops them; results are the same bits. Returns 0 or -1 (err: dir). */
