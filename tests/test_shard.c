@@ -121,6 +121,31 @@ static void bounces(void) {
     if (rc == 0) check_same("one-l.prt", "three-l.prt");
 }
 
+/* The file does not depend on the cores a process may use (OpenBLAS sizes its pool by them; the
+ * factorization runs on a fixed one, factor.c): one process on all cores with 2 threads, one bound
+ * to core 0 (taskset) with 1, and -np 2 under mpirun's default binding (a core per rank) all give
+ * the same bytes, with bounces (the Phong scene's factorization reaches every pass). */
+static void binding(void) {
+    char buf[8192];
+    const char *b = "--bounces 1 --force-bounces";
+    int rc = precompute("", 0, "free.prt", "--bounces 1 --force-bounces --threads 2", buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    if (check_run("command -v taskset", NULL, 0) == 0) {
+        rc = precompute("taskset -c 0", 0, "bound.prt", "--bounces 1 --force-bounces --threads 1", buf, sizeof buf);
+        CHECK(rc == 0, "taskset -c 0 failed (%d): %s", rc, buf);
+        if (rc == 0) check_same("free.prt", "bound.prt");
+    } else
+        printf("  taskset not found (util-linux): the bound process skipped\n");
+    if (!have_mpirun()) return;
+    char cmd[8192];   /* mpirun's own default binding, not k_mpi's --bind-to none */
+    snprintf(cmd, sizeof cmd, "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 ASAN_OPTIONS=detect_leaks=0 mpirun -q "
+             "--oversubscribe -np 2 %s precompute %s/scene.json -o %s/ranks.prt %s %s --threads 1",
+             check_prt_bin(), g_dir, g_dir, k_opts, b);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 (default binding) failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("free.prt", "ranks.prt");
+}
+
 /* Rank 1 fails mid-run: one line, exit 1, no file. */
 static void rank_fails(void) {
     if (!have_mpirun()) return;
@@ -165,6 +190,7 @@ int main(int argc, char **argv) {
     setup();
     CHECK_CASE(direct);
     CHECK_CASE(bounces);
+    CHECK_CASE(binding);
     CHECK_CASE(rank_fails);
     CHECK_CASE(resume);
     CHECK_CASE(streamed);
