@@ -14,9 +14,11 @@
  *   streamed    --memory 0.0001 (the direct pass's staged vectors through a temporary file,
  *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
  *               streaming said on stderr, no file left beside the output; and under -np 2.
- * The ranks run unbound (--bind-to none) as the one process does: OpenBLAS sizes its thread pool by
- * the cores a process may use, and the BRDF factorization's last bits depend on that count (README
- * "Running on a cluster"). The Phong sphere (K = 2) runs where the factorization matters; the
+ *   binding     one process on all cores, one under taskset -c 0, and -np 2 under mpirun's default
+ *               core binding: the same bytes (the factorization runs on one OpenBLAS thread,
+ *               factor.c; before, its last bits followed the cores a process could use).
+ * The other cases run the ranks unbound (--bind-to none), as before the fix. The Phong sphere
+ * (K = 2) runs where the factorization matters; the
  * cases about failing use a Lambert one (no factorization time).
  * Every case is skipped, with the reason printed, when mpirun is not installed. Runs as root need
  * OpenMPI's OMPI_ALLOW_RUN_AS_ROOT; the sanitizer build's leak check is off under mpirun (OpenMPI
