@@ -189,16 +189,22 @@ typedef struct gather_ctx {
     pthread_mutex_t lock;
     atomic_int done;
     atomic_bool cancel;
+    shard_pass *sp;           /* the pass's progress over the ranks (shard.h) */
+    atomic_long others;       /* rank 0: vertices the other ranks have gathered, as last heard */
 } gather_ctx;
 
 static int nvec_of(const prt_transport *t, int v) { return (int)(t->vec_first[v + 1] - t->vec_first[v]); }
 
-/* Reports progress after a finished chunk; sets ctx->cancel when the callback says stop. */
-static void report(gather_ctx *c, int nfinished, int total) {
+/* Reports progress after a finished chunk (this rank's and, on rank 0, the others' over the whole
+ * pass of total vertices; thread 0, the caller's, exchanges the counts: shard.h); sets ctx->cancel
+ * when the callback says stop. */
+static void report(gather_ctx *c, int nfinished, int total, int thread) {
     atomic_fetch_add(&c->done, nfinished);
+    if (thread == 0) atomic_store(&c->others, shard_pass_poll(c->sp, atomic_load(&c->done)));
     if (!c->desc || !c->desc->progress) return;
     pthread_mutex_lock(&c->lock);
-    int done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
+    /* read under the lock, so the fractions reported rise; others only grows */
+    long done = atomic_load(&c->done) + atomic_load(&c->others);
     if (!atomic_load(&c->cancel) &&
         !c->desc->progress(c->desc->progress_user, c->desc->stage ? c->desc->stage : "gather", (double)done / total))
         atomic_store(&c->cancel, true);
@@ -384,7 +390,7 @@ static void gather_range(void *ctx, int begin, int end, int thread) {
     }
     if (end > begin)   /* streamed: the chunk's staged vectors leave memory */
         transport_release(c->next, (int)c->next->vec_first[c->v0 + begin], (int)c->next->vec_first[c->v0 + end]);
-    report(c, n, c->v1 - c->v0);
+    report(c, n, c->prev->nverts, thread);
 }
 
 static void free_threads(gather_thread *th, int nth) {
@@ -565,7 +571,14 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     pthread_mutex_init(&c.lock, NULL);
     atomic_init(&c.done, 0);
     atomic_init(&c.cancel, false);
+    atomic_init(&c.others, 0);
+    const char *stage = desc && desc->stage ? desc->stage : "gather";
+    if (!(c.sp = shard_pass_begin(desc ? desc->shard : NULL, stage, m->nverts, err))) {
+        ctx_free(&c, nth);
+        return drop_set(next);
+    }
     prt_parallel_for(c.v1 - c.v0, GATHER_GRAIN, nth, gather_range, &c);
+    shard_pass_end(c.sp, atomic_load(&c.done), desc ? desc->progress : NULL, desc ? desc->progress_user : NULL);
     pthread_mutex_destroy(&c.lock);
     bool cancelled = atomic_load(&c.cancel);
     ctx_free(&c, nth);

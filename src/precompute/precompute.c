@@ -120,7 +120,10 @@ typedef struct pc_ctx {
     pthread_mutex_t lock;
     atomic_int cancelled;
     atomic_long done;
-    long total;
+    long total;             /* the pass's vertices over every rank */
+    struct shard_pass *sp;  /* the split pass's progress over the ranks (shard.h); NULL in the sample */
+    long base;              /* done vertices that are not this rank's share (the sample, on ranks > 0) */
+    atomic_long others;     /* rank 0: vertices the other ranks have done, as last heard */
     prt_progress_fn progress;
     void *progress_user;
     bool report;            /* false during the planning sample, so the plan prints before any bar */
@@ -294,9 +297,12 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
         transport_release(c->t, (int)c->t->vec_first[c->order[begin]], (int)c->t->vec_first[c->order[end - 1] + 1]);
     s->t_cpu += pc_cpu_now() - cpu0;
     atomic_fetch_add(&c->done, end - begin);
+    if (c->sp && thread == 0)   /* MPI from the caller's thread only (prt_parallel_for's thread 0) */
+        atomic_store(&c->others, shard_pass_poll(c->sp, atomic_load(&c->done) - c->base));
     if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
-        long done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
+        /* read under the lock, so the fractions reported rise; others only grows */
+        long done = atomic_load(&c->done) + atomic_load(&c->others);
         if (!atomic_load(&c->cancelled) &&
             !c->progress(c->progress_user, "visibility+transport", (double)done / (double)c->total))
             atomic_store(&c->cancelled, 1);
@@ -934,11 +940,14 @@ static int pc_direct(pc_run *r, prt_error *err) {
         if (v >= r->first[rank] && v < r->first[rank + 1]) r->order[r->nsample + k++] = v;
     }
     r->c.order = r->order + r->nsample;
-    r->c.total = r->nsample + k;   /* this rank's share: balanced by cost, so rank 0's bar stands for all */
     r->c.report = true;
+    r->c.base = rank == 0 ? 0 : r->nsample;   /* the sample, computed on every rank, counts on rank 0 */
+    if (!(r->c.sp = shard_pass_begin(r->d.shard, "visibility+transport", m->nverts, err))) return -1;
     double ts = prt_now();
     prt_parallel_for(k, PC_GRAIN, r->nthreads, pc_range, &r->c);
     double t_direct = r->t_sample + (prt_now() - ts);
+    shard_pass_end(r->c.sp, atomic_load(&r->c.done) - r->c.base, r->d.progress, r->d.progress_user);
+    r->c.sp = NULL;
     if (pc_share_direct(r, err)) return -1;
     double tv = 0, tb = 0, es = 0;
     long ec = 0;
