@@ -190,6 +190,7 @@ typedef struct gather_ctx {
     atomic_int done;
     atomic_bool cancel;
     shard_pass *sp;           /* the pass's progress over the ranks (shard.h) */
+    int dropped;              /* thread 0: done when prev's mapped pages were last dropped */
     atomic_long others;       /* rank 0: vertices the other ranks have gathered, as last heard */
 } gather_ctx;
 
@@ -375,6 +376,16 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
     gather_store(c, th, x, nk);
 }
 
+/* A mapped set's pages (transport_map_to_file) leave this process's memory every 1% of a pass of
+ * total: the pass reads them at random (hit vertices anywhere), so without this they would all
+ * come back into its resident set; each drop costs one minor fault per page read again. */
+static void drop_mapped(const prt_transport *t, int done, int *dropped, int total) {
+    int step = total / 100 > 1 ? total / 100 : 1;
+    if (!t->data_map || done - *dropped < step) return;
+    transport_drop_mapped(t);
+    *dropped = done;
+}
+
 static void gather_range(void *ctx, int begin, int end, int thread) {
     gather_ctx *c = ctx;
     int n = 0;
@@ -391,6 +402,7 @@ static void gather_range(void *ctx, int begin, int end, int thread) {
     if (end > begin)   /* streamed: the chunk's staged vectors leave memory */
         transport_release(c->next, (int)c->next->vec_first[c->v0 + begin], (int)c->next->vec_first[c->v0 + end]);
     report(c, n, c->prev->nverts, thread);
+    if (thread == 0) drop_mapped(c->prev, atomic_load(&c->done), &c->dropped, c->prev->nverts);
 }
 
 static void free_threads(gather_thread *th, int nth) {
@@ -584,6 +596,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     ctx_free(&c, nth);
     if (share(&c, first, cancelled, err)) return drop_set(next);
     if (transport_finish(next, err)) return drop_set(next);
+    if (desc && desc->stream_dir && transport_map_to_file(next, desc->stream_dir, err)) return drop_set(next);
     return 0;
 }
 
@@ -594,6 +607,7 @@ typedef struct sum_ctx {
     prt_transport *out;
     float **plane;     /* per thread [3][CUBE_TEXELS], zero between vectors */
     void **scratch;
+    int dropped;       /* thread 0: vectors done when a and b's mapped pages were last dropped */
 } sum_ctx;
 
 /* Adds vector i of t (dequantized) into planar R, G, B; marks touched blocks. */
@@ -641,10 +655,22 @@ static void sum_range(void *ctx, int begin, int end, int thread) {
             memset(B + o, 0, sizeof(float) * SPARSE_BLOCK);
         }
     }
+    transport_release(c->out, begin, end);   /* streamed: the chunk's staging leaves memory */
+    if (thread == 0) {   /* a and b are read in order, so one drop per 1% keeps about 1% of each resident */
+        int d0 = c->dropped;
+        drop_mapped(c->a, end, &c->dropped, c->a->nvecs);
+        if (c->dropped != d0) transport_drop_mapped(c->b);
+    }
 }
 
 /* out = a + b (see gather.h). Returns 0, or -1 with err set (out left zeroed). */
 int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt_transport *out, prt_error *err) {
+    return gather_sum_streamed(a, b, nthreads, NULL, out, err);
+}
+
+/* See gather.h. */
+int gather_sum_streamed(const prt_transport *a, const prt_transport *b, int nthreads, const char *stream_dir,
+                        prt_transport *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     if (check_set(a, "first", err) || check_set(b, "second", err)) return -1;
     if (a->nverts != b->nverts || a->nvecs != b->nvecs ||
@@ -656,6 +682,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     int rc = transport_init(out, a->nverts, cnt, a->N, a->qbits, err);
     free(cnt);
     if (rc) { memset(out, 0, sizeof *out); return -1; }
+    if (stream_dir && transport_stage_to_file(out, stream_dir, err)) return drop_set(out);
     out->solid_angle = a->solid_angle;
     out->select = a->select;
     int nth = prt_thread_count(nthreads);
@@ -675,11 +702,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     }
     free(c.plane);
     free(c.scratch);
-    if (!ok || transport_finish(out, err)) {
-        transport_free(out);
-        memset(out, 0, sizeof *out);
-        return -1;
-    }
+    if (!ok || transport_finish(out, err) || (stream_dir && transport_map_to_file(out, stream_dir, err))) return drop_set(out);
     return 0;
 }
 

@@ -964,6 +964,8 @@ static int pc_direct(pc_run *r, prt_error *err) {
     st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
     for (int t = 0; t < r->nthreads; t++) pc_scratch_free(&r->scratch[t]);
     if (transport_finish(&r->direct, err)) return -1;
+    /* streamed: the gathering passes read the direct set through a mapped file (issue 13) */
+    if (r->streamed && transport_map_to_file(&r->direct, pc_stream_dir(r), err)) return -1;
     if (r->d.force_bounces == 0) {
         bool full = st->hit_fraction >= PC_HIT_MIN;
         if (full != r->plan_bounces) {
@@ -995,7 +997,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         double tb0 = prt_now();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
         double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
-        if (gather_sum(b == 1 ? &r->direct : &r->total, &next, r->nthreads, &sum, err)) {
+        if (gather_sum_streamed(b == 1 ? &r->direct : &r->total, &next, r->nthreads, gd.stream_dir, &sum, err)) {
             transport_free(&next);
             return -1;
         }
