@@ -14,6 +14,7 @@
  *   streamed    --memory 0.0001 (the direct pass's staged vectors through a temporary file,
  *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
  *               streaming said on stderr, no file left beside the output; and under -np 2.
+ *   vmf         the vMF lobe passes (--glossy vmf, two gathering passes) under -np 2;
  *   binding     one process on all cores, one under taskset -c 0, and -np 2 under mpirun's default
  *               core binding: the same bytes (the factorization runs on one OpenBLAS thread,
  *               factor.c; before, its last bits followed the cores a process could use).
@@ -201,6 +202,35 @@ static void balance(void) {
     }
 }
 
+/* The vMF lobe passes split across ranks (vmfpass.c): the Phong sphere on the vMF path (2 lobes, 42
+ * views, 32 rays per slice) with two gathering passes gives the one-process file under -np 2, and
+ * the file does hold stored slices of three passes (uneven ranges: the bounces case's -np 3). */
+static void vmf(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    const char *o = "--glossy vmf --view-level 1 --lobe-samples 32 --bounces 2 --force-bounces";
+    char one[512], many[512];
+    snprintf(one, sizeof one, "%s --threads 2", o);
+    snprintf(many, sizeof many, "%s --threads 1", o);
+    int rc = precompute("", 0, "vmf1.prt", one, buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    prt_data d;
+    prt_error err;
+    char p[1024];
+    snprintf(p, sizeof p, "%s/vmf1.prt", g_dir);
+    if (rc == 0 && prtfile_read(p, &d, &err) == 0) {
+        const vmft_data *t = NULL;
+        for (int i = 0; i < d.ntransfers; i++)
+            if (strcmp(d.transfers[i].ops->name, "vmf") == 0) t = vmft_get(&d.transfers[i]);
+        CHECK(t && t->hash.n > 0 && t->passes == 3, "no vmf transfer with stored slices of 3 passes (%zu slices, %d passes)",
+              t ? t->hash.n : 0, t ? t->passes : 0);
+        prt_data_free(&d);
+    }
+    rc = precompute("", 2, "vmf2.prt", many, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("vmf1.prt", "vmf2.prt");
+}
+
 /* Rank 1 fails mid-run: one line, exit 1, no file. */
 static void rank_fails(void) {
     if (!have_mpirun()) return;
@@ -247,6 +277,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(bounces);
     CHECK_CASE(binding);
     CHECK_CASE(balance);
+    CHECK_CASE(vmf);
     CHECK_CASE(rank_fails);
     CHECK_CASE(resume);
     CHECK_CASE(streamed);

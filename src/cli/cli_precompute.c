@@ -75,26 +75,26 @@ static void help(void) {
          "rank 0 writes OUT.prt (the same file as one process) and --resume is refused.\n");
 }
 
-/* Under MPI, each split pass's balance (shard_balance): the vertices, wall and CPU time of every
+/* Under MPI, each split pass's balance (shard_balance): the items, wall and CPU time of every
  * rank (of the fastest and slowest beyond 16 ranks), and the slowest rank's wall time over the mean. */
 static void balance(const prt_shard *sh) {
     int P = shard_size(sh);
-    const char *name;
+    const char *name, *unit;
     const shard_rank_stats *b;
-    if (P > 1 && shard_balance(sh, 0, &name)) fprintf(stderr, "balance over %d ranks\n", P);
-    for (int i = 0; (b = shard_balance(sh, i, &name)); i++) {
+    if (P > 1 && shard_balance(sh, 0, &name, &unit)) fprintf(stderr, "balance over %d ranks\n", P);
+    for (int i = 0; (b = shard_balance(sh, i, &name, &unit)); i++) {
         long n = 0;
         double sum = 0;
         int fast = 0, slow = 0;
         for (int r = 0; r < P; r++) {
-            n += b[r].vertices, sum += b[r].seconds;
+            n += b[r].items, sum += b[r].seconds;
             if (b[r].seconds < b[fast].seconds) fast = r;
             if (b[r].seconds > b[slow].seconds) slow = r;
         }
-        fprintf(stderr, "  %s: %ld vertices, slowest rank %.2fx the mean time\n", name, n, sum > 0 ? b[slow].seconds * P / sum : 1.0);
+        fprintf(stderr, "  %s: %ld %s, slowest rank %.2fx the mean time\n", name, n, unit, sum > 0 ? b[slow].seconds * P / sum : 1.0);
         for (int r = 0; r < P; r++)
             if (P <= 16 || r == fast || r == slow)
-                fprintf(stderr, "    rank %-4d %10ld vertices %9.2fs %9.2fs CPU\n", r, b[r].vertices, b[r].seconds, b[r].cpu);
+                fprintf(stderr, "    rank %-4d %10ld %-8s %9.2fs %9.2fs CPU\n", r, b[r].items, unit, b[r].seconds, b[r].cpu);
     }
 }
 

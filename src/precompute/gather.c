@@ -585,7 +585,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     atomic_init(&c.cancel, false);
     atomic_init(&c.others, 0);
     const char *stage = desc && desc->stage ? desc->stage : "gather";
-    if (!(c.sp = shard_pass_begin(desc ? desc->shard : NULL, stage, m->nverts, err))) {
+    if (!(c.sp = shard_pass_begin(desc ? desc->shard : NULL, stage, "vertices", m->nverts, err))) {
         ctx_free(&c, nth);
         return drop_set(next);
     }

@@ -942,7 +942,7 @@ static int pc_direct(pc_run *r, prt_error *err) {
     r->c.order = r->order + r->nsample;
     r->c.report = true;
     r->c.base = rank == 0 ? 0 : r->nsample;   /* the sample, computed on every rank, counts on rank 0 */
-    if (!(r->c.sp = shard_pass_begin(r->d.shard, "visibility+transport", m->nverts, err))) return -1;
+    if (!(r->c.sp = shard_pass_begin(r->d.shard, "visibility+transport", "vertices", m->nverts, err))) return -1;
     double ts = prt_now();
     prt_parallel_for(k, PC_GRAIN, r->nthreads, pc_range, &r->c);
     double t_direct = r->t_sample + (prt_now() - ts);
@@ -1025,7 +1025,8 @@ static int pc_vmf(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
     transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
                                   .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
-                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck };
+                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck,
+                                  .shard = r->d.shard };
     double t0 = prt_now();
     if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
     r->out->stats.t_vmf = prt_now() - t0;

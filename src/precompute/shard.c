@@ -26,13 +26,13 @@ struct prt_shard {
     bool joined;    /* MPI_Init was called (launched by mpirun / srun) */
     bool shared_failure;   /* shard_status saw a failure: every rank knows, no abort needed */
     int npasses;           /* rank 0: passes recorded by shard_pass_end */
-    char names[SHARD_MAX_PASSES][32];
+    char names[SHARD_MAX_PASSES][32], units[SHARD_MAX_PASSES][16];
     shard_rank_stats *balance[SHARD_MAX_PASSES];   /* [size] each */
 };
 
 struct shard_pass {
     prt_shard *sh;
-    char name[32];
+    char name[32], unit[16];
     long total, step;      /* vertices over all ranks; a count is sent every step of them */
     long sent, buf;        /* the last count sent; the send buffer of the one in flight */
     bool inflight;
@@ -157,6 +157,29 @@ int shard_share_staged(const prt_shard *sh, prt_transport *t, const int *first, 
     return 0;
 }
 
+/* See shard.h: the counts by MPI_Allgather, then each rank's part broadcast from it (bcast_ranges). */
+int shard_share_list(const prt_shard *sh, void **base, size_t *n, size_t size, prt_error *err) {
+    if (shard_size(sh) == 1) return 0;
+    unsigned long long mine = *n, *cnt = prt_calloc((size_t)sh->size, sizeof *cnt, err);
+    size_t *lo = cnt ? prt_calloc((size_t)sh->size + 1, sizeof *lo, err) : NULL;
+    if (!lo) { free(cnt); return -1; }
+    MPI_Allgather(&mine, 1, MPI_UNSIGNED_LONG_LONG, cnt, 1, MPI_UNSIGNED_LONG_LONG, MPI_COMM_WORLD);
+    for (int r = 0; r < sh->size; r++) lo[r + 1] = lo[r] + (size_t)cnt[r];
+    size_t total = lo[sh->size];
+    char *all = malloc(total ? total * size : 1);
+    if (!all) {
+        free(cnt), free(lo);
+        return prt_fail(err, "mpi: out of memory for %zu shared items", total);
+    }
+    if (mine) memcpy(all + lo[sh->rank] * size, *base, mine * size);
+    bcast_ranges(sh, all, size, lo);
+    free(*base);
+    *base = all;
+    *n = total;
+    free(cnt), free(lo);
+    return 0;
+}
+
 bool shard_failed_together(const prt_shard *sh) { return sh && sh->shared_failure; }
 
 /* See shard.h. */
@@ -175,11 +198,12 @@ static double cpu_now(void) {
 }
 
 /* See shard.h. */
-shard_pass *shard_pass_begin(prt_shard *sh, const char *name, long total, prt_error *err) {
+shard_pass *shard_pass_begin(prt_shard *sh, const char *name, const char *unit, long total, prt_error *err) {
     shard_pass *p = prt_calloc(1, sizeof *p, err);
     if (!p) return NULL;
     p->sh = sh;
     snprintf(p->name, sizeof p->name, "%s", name);
+    snprintf(p->unit, sizeof p->unit, "%s", unit);
     p->total = total;
     p->step = total / 100 > 1 ? total / 100 : 1;
     if (shard_size(sh) > 1 && sh->rank == 0 && !(p->heard = prt_calloc((size_t)sh->size, sizeof *p->heard, err))) {
@@ -240,7 +264,7 @@ static void gather_finals(shard_pass *p, shard_rank_stats *bal, long mine, prt_p
             MPI_Recv(fin, 3, MPI_DOUBLE, src, SHARD_TAG_FINAL, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
             p->others += (long)fin[0] - p->heard[src];
             p->heard[src] = (long)fin[0];
-            if (bal) bal[src] = (shard_rank_stats){ .vertices = (long)fin[0], .seconds = fin[1], .cpu = fin[2] };
+            if (bal) bal[src] = (shard_rank_stats){ .items = (long)fin[0], .seconds = fin[1], .cpu = fin[2] };
             finals++;
         }
         if (progress && p->total > 0) progress(user, p->name, (double)(mine + p->others) / (double)p->total);
@@ -258,10 +282,11 @@ void shard_pass_end(shard_pass *p, long mine, prt_progress_fn progress, void *us
     } else if (shard_size(sh) > 1) {
         /* out of memory: the messages are still taken, the balance (a report, not a result) not kept */
         shard_rank_stats *bal = calloc((size_t)sh->size, sizeof *bal);
-        if (bal) bal[0] = (shard_rank_stats){ .vertices = mine, .seconds = prt_now() - p->t0, .cpu = cpu_now() - p->cpu0 };
+        if (bal) bal[0] = (shard_rank_stats){ .items = mine, .seconds = prt_now() - p->t0, .cpu = cpu_now() - p->cpu0 };
         gather_finals(p, bal, mine, progress, user);
         if (bal && sh->npasses < SHARD_MAX_PASSES) {
             snprintf(sh->names[sh->npasses], sizeof sh->names[0], "%s", p->name);
+            snprintf(sh->units[sh->npasses], sizeof sh->units[0], "%s", p->unit);
             sh->balance[sh->npasses++] = bal;
         } else {
             free(bal);
@@ -272,8 +297,9 @@ void shard_pass_end(shard_pass *p, long mine, prt_progress_fn progress, void *us
 }
 
 /* See shard.h. */
-const shard_rank_stats *shard_balance(const prt_shard *sh, int i, const char **name) {
+const shard_rank_stats *shard_balance(const prt_shard *sh, int i, const char **name, const char **unit) {
     if (!sh || i < 0 || i >= sh->npasses) return NULL;
     if (name) *name = sh->names[i];
+    if (unit) *unit = sh->units[i];
     return sh->balance[i];
 }

@@ -66,10 +66,11 @@ int shard_share_staged(const prt_shard *sh, prt_transport *t, const int *first, 
 int shard_share_rows(const prt_shard *sh, void *base, size_t size, const int *first, prt_error *err);
 /* One split pass's progress and balance (shard_pass_begin .. shard_pass_end). */
 typedef struct shard_pass shard_pass;
-/* Starts a pass of total vertices over all ranks, named name (kept for the balance). NULL with err
- * on OOM. Collective only in that every rank must call it and shard_pass_end. */
-shard_pass *shard_pass_begin(prt_shard *sh, const char *name, long total, prt_error *err);
-/* Main thread only: this rank has done mine vertices of the pass; returns how many the other ranks
+/* Starts a pass of total items (unit: "vertices", "slices") over all ranks, named name (both kept for
+ * the balance). NULL with err on OOM. Collective only in that every rank must call it and
+ * shard_pass_end. */
+shard_pass *shard_pass_begin(prt_shard *sh, const char *name, const char *unit, long total, prt_error *err);
+/* Main thread only: this rank has done mine items of the pass; returns how many the other ranks
  * have done as last heard (rank 0; 0 elsewhere and on one process). Never blocks. */
 long shard_pass_poll(shard_pass *p, long mine);
 /* Collective: this rank's final count (mine); rank 0 receives every rank's, reporting the running
@@ -78,15 +79,20 @@ long shard_pass_poll(shard_pass *p, long mine);
  * result, so no rank fails for it). Frees p (NULL: nothing). */
 void shard_pass_end(shard_pass *p, long mine, prt_progress_fn progress, void *user);
 
-/* Per rank of a recorded pass: its vertices and its wall and CPU (process) seconds in the pass. */
+/* Per rank of a recorded pass: its items (vertices or slices) and its wall and CPU (process) seconds. */
 typedef struct shard_rank_stats {
-    long vertices;
+    long items;
     double seconds, cpu;
 } shard_rank_stats;
-/* Rank 0, after shard_pass_end: pass i's name and its [size] per-rank stats (NULL past the last
- * pass or on the other ranks). At most SHARD_MAX_PASSES passes are kept (the first ones). */
+/* Rank 0, after shard_pass_end: pass i's name, unit and its [size] per-rank stats (NULL past the
+ * last pass or on the other ranks). At most SHARD_MAX_PASSES passes are kept (the first ones). */
 #define SHARD_MAX_PASSES 32
-const shard_rank_stats *shard_balance(const prt_shard *sh, int i, const char **name);
+const shard_rank_stats *shard_balance(const prt_shard *sh, int i, const char **name, const char **unit);
+
+/* Collective: every rank's list (*n elements of size bytes at *base, malloc'd; NULL when empty)
+ * becomes on every rank the concatenation of all ranks' lists in rank order (*base realloc'd, *n
+ * the total). Returns 0 or -1 (OOM, err; *base and *n unchanged). */
+int shard_share_list(const prt_shard *sh, void **base, size_t *n, size_t size, prt_error *err);
 
 /* Collective sum of x over the ranks (the identity on one). */
 double shard_sum(const prt_shard *sh, double x);
