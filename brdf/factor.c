@@ -26,12 +26,23 @@
  * Texels outside the disk are filled from their nearest inside texel so
  * bilinear lookups near the horizon do not fade to zero. Lookups are plain
  * bilinear fetches from [res*res][K][3] arrays: no allocation, no trigonometry
- * for the grid parameterization. */
+ * for the grid parameterization.
+ *
+ * Why one BLAS thread: OpenBLAS sizes its pool by the cores the process may use, and a blocked
+ * reduction (dsytrd's symmetric matrix-vector products) sums in an order that depends on the
+ * thread count, so the last bits of the factors, and of every transport vector after them, moved
+ * with taskset or an MPI rank's core binding (issue 13). brdf_factorize fixes OpenBLAS at one
+ * thread: the factors are then the same bits on any core count (tests/test_shard.c, "binding").
+ * Measured cost below ("Cost of one thread"). */
 #include "factor.h"
 #include <lapacke.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* OpenBLAS's own API (its cblas.h, which Debian's alternatives may point elsewhere): the one
+ * library the Makefile links for BLAS, and liblapack's BLAS calls land in it. */
+void openblas_set_num_threads(int num_threads);
 
 #define PI 3.14159265358979323846
 #define RANK_TOL 1e-5   /* singular values below this fraction of the largest count as zero */
@@ -483,6 +494,9 @@ static int factor_maps(const fac_channels *ch, const fac_grid *g, int K, brdf_pa
 int brdf_factorize(const brdf_params *p, const brdf_factor_desc *desc, brdf_factor *out, prt_error *err) {
     double t0 = prt_now();
     memset(out, 0, sizeof *out);
+    /* the same bits whatever cores this process has (see the top); nothing else in prt calls BLAS,
+     * and setting it every call (never restoring) keeps concurrent calls on one thread too */
+    openblas_set_num_threads(1);
     brdf_factor_desc d;
     if (factor_desc_resolve(p, desc, &d, err)) return -1;
     fac_grid g;

@@ -14,9 +14,12 @@
  *   streamed    --memory 0.0001 (the direct pass's staged vectors through a temporary file,
  *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
  *               streaming said on stderr, no file left beside the output; and under -np 2.
- * The ranks run unbound (--bind-to none) as the one process does: OpenBLAS sizes its thread pool by
- * the cores a process may use, and the BRDF factorization's last bits depend on that count (README
- * "Running on a cluster"). The Phong sphere (K = 2) runs where the factorization matters; the
+ *   vmf         the vMF lobe passes (--glossy vmf, two gathering passes) under -np 2;
+ *   binding     one process on all cores, one under taskset -c 0, and -np 2 under mpirun's default
+ *               core binding: the same bytes (the factorization runs on one OpenBLAS thread,
+ *               factor.c; before, its last bits followed the cores a process could use).
+ * The other cases run the ranks unbound (--bind-to none), as before the fix. The Phong sphere
+ * (K = 2) runs where the factorization matters; the
  * cases about failing use a Lambert one (no factorization time).
  * Every case is skipped, with the reason printed, when mpirun is not installed. Runs as root need
  * OpenMPI's OMPI_ALLOW_RUN_AS_ROOT; the sanitizer build's leak check is off under mpirun (OpenMPI
@@ -121,6 +124,113 @@ static void bounces(void) {
     if (rc == 0) check_same("one-l.prt", "three-l.prt");
 }
 
+/* The file does not depend on the cores a process may use (OpenBLAS sizes its pool by them; the
+ * factorization runs on a fixed one, factor.c): one process on all cores with 2 threads, one bound
+ * to core 0 (taskset) with 1, and -np 2 under mpirun's default binding (a core per rank) all give
+ * the same bytes (the direct pass: the Phong scene's two vectors per vertex come from its factors). */
+static void binding(void) {
+    char buf[8192];
+    int rc = precompute("", 0, "free.prt", "--no-bounces --threads 2", buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    if (check_run("command -v taskset", NULL, 0) == 0) {
+        rc = precompute("taskset -c 0", 0, "bound.prt", "--no-bounces --threads 1", buf, sizeof buf);
+        CHECK(rc == 0, "taskset -c 0 failed (%d): %s", rc, buf);
+        if (rc == 0) check_same("free.prt", "bound.prt");
+    } else
+        printf("  taskset not found (util-linux): the bound process skipped\n");
+    if (!have_mpirun()) return;
+    char cmd[8192];   /* mpirun's own default binding, not k_mpi's --bind-to none */
+    snprintf(cmd, sizeof cmd, "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 ASAN_OPTIONS=detect_leaks=0 mpirun -q "
+             "--oversubscribe -np 2 %s precompute %s/scene.json -o %s/ranks.prt %s --no-bounces --threads 1",
+             check_prt_bin(), g_dir, g_dir, k_opts);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 (default binding) failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("free.prt", "ranks.prt");
+}
+
+/* The vertices of pass name in the balance of out ("  NAME: N vertices, ..." then one "    rank R
+ * COUNT vertices ..." line per rank): returns N, the sum of the rank lines in *sum and their number
+ * in *ranks; -1 when the pass is not listed. */
+static long balance_of(const char *out, const char *name, long *sum, int *ranks) {
+    char key[128];
+    snprintf(key, sizeof key, "\n  %s: ", name);
+    const char *p = strstr(out, key);
+    *sum = 0, *ranks = 0;
+    if (!p) return -1;
+    long n = strtol(p + strlen(key), NULL, 10);
+    const char *rank = "\n    rank ";
+    for (p = strchr(p + 1, '\n'); p && strncmp(p, rank, strlen(rank)) == 0; p = strchr(p + 1, '\n')) {
+        char *e;
+        strtol(p + strlen(rank), &e, 10);   /* the rank */
+        *sum += strtol(e, NULL, 10);
+        (*ranks)++;
+    }
+    return n;
+}
+
+/* The timing summary's balance under -np 2: every split pass lists both ranks, and their vertices
+ * add up to the scene's (282: the 97-vertex sphere and the 185-vertex floor, as the closing line
+ * says); rank 0's bar reaches 100% in every pass and never goes back. */
+static void balance(void) {
+    if (!have_mpirun()) return;
+    char buf[16384], cmd[8192];
+    snprintf(cmd, sizeof cmd, "%s -np 2 %s precompute %s/lambert.json -o %s/bal.prt --vis-res 64 --coeffs 16 --gather-res 4 "
+             "--bounces 2 --force-bounces --threads 1 2>&1", k_mpi, check_prt_bin(), g_dir, g_dir);
+    int rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    const char *w = strstr(buf, "\nwrote ");
+    w = w ? strstr(w, " MB, ") : NULL;
+    long nverts = w ? strtol(w + 5, NULL, 10) : 0;
+    CHECK(nverts == 282 && strstr(buf, "\nbalance over 2 ranks\n"), "closing line or balance missing (%ld): %s", nverts, buf);
+    const char *passes[] = { "visibility+transport", "bounce 1", "bounce 2" };
+    for (int i = 0; i < 3; i++) {
+        long sum;
+        int ranks;
+        long n = balance_of(buf, passes[i], &sum, &ranks);
+        CHECK(n == nverts && sum == nverts && ranks == 2, "%s: %ld vertices listed, the ranks' add up to %ld over %d lines (want %ld, 2)",
+              passes[i], n, sum, ranks, nverts);
+        char key[64];
+        snprintf(key, sizeof key, "%s: ", passes[i]);
+        int last = -1, ok = 1;
+        for (const char *q = strstr(buf, key); q; q = strstr(q + 1, key)) {   /* "NAME:  70%  (..." lines */
+            int pct = 0, len = 0;
+            if ((q != buf && q[-1] != '\n') || sscanf(q + strlen(key), "%d%n", &pct, &len) != 1 || q[strlen(key) + len] != '%') continue;
+            ok &= pct >= last;
+            last = pct;
+        }
+        CHECK(ok && last == 100, "%s: the bar went back or stopped at %d%%", passes[i], last);
+    }
+}
+
+/* The vMF lobe passes split across ranks (vmfpass.c): the Phong sphere on the vMF path (2 lobes, 42
+ * views, 32 rays per slice) with two gathering passes gives the one-process file under -np 2, and
+ * the file does hold stored slices of three passes (uneven ranges: the bounces case's -np 3). */
+static void vmf(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    const char *o = "--glossy vmf --view-level 1 --lobe-samples 32 --bounces 2 --force-bounces";
+    char one[512], many[512];
+    snprintf(one, sizeof one, "%s --threads 2", o);
+    snprintf(many, sizeof many, "%s --threads 1", o);
+    int rc = precompute("", 0, "vmf1.prt", one, buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    prt_data d;
+    prt_error err;
+    char p[1024];
+    snprintf(p, sizeof p, "%s/vmf1.prt", g_dir);
+    if (rc == 0 && prtfile_read(p, &d, &err) == 0) {
+        const vmft_data *t = NULL;
+        for (int i = 0; i < d.ntransfers; i++)
+            if (strcmp(d.transfers[i].ops->name, "vmf") == 0) t = vmft_get(&d.transfers[i]);
+        CHECK(t && t->hash.n > 0 && t->passes == 3, "no vmf transfer with stored slices of 3 passes (%zu slices, %d passes)",
+              t ? t->hash.n : 0, t ? t->passes : 0);
+        prt_data_free(&d);
+    }
+    rc = precompute("", 2, "vmf2.prt", many, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("vmf1.prt", "vmf2.prt");
+}
+
 /* Rank 1 fails mid-run: one line, exit 1, no file. */
 static void rank_fails(void) {
     if (!have_mpirun()) return;
@@ -165,6 +275,9 @@ int main(int argc, char **argv) {
     setup();
     CHECK_CASE(direct);
     CHECK_CASE(bounces);
+    CHECK_CASE(binding);
+    CHECK_CASE(balance);
+    CHECK_CASE(vmf);
     CHECK_CASE(rank_fails);
     CHECK_CASE(resume);
     CHECK_CASE(streamed);

@@ -269,6 +269,44 @@ static void light_product(void) {
     }
 }
 
+/* transport_map_to_file (issue 13's mapped previous pass): for each quantization, a set moved to an
+ * unlinked file has the heap set's runs and coefficients byte for byte, the same T x L bits before
+ * and after its pages are dropped (transport_drop_mapped; read again from the page cache), and
+ * frees cleanly (ASan); a folder that does not exist fails with one line naming it, the set
+ * unchanged and still on the heap. */
+static void mapped_file(void) {
+    uint32_t s = 5;
+    fill_light(&s);
+    for (int q = 0; q < 3; q++) {
+        prt_transport a, m;
+        double *ea = NULL, *em = NULL;
+        if (build(&a, 60, 128, qb[q], 2, &ea) || build(&m, 60, 128, qb[q], 2, &em)) { CHECK(false, "build q%d", qb[q]); break; }
+        prt_error err = { { 0 } };
+        CHECK(transport_map_to_file(&m, "/nonexistent-prt-dir", &err) == -1 && strstr(err.msg, "/nonexistent-prt-dir: ") &&
+              !strchr(err.msg, '\n') && m.data_map == NULL, "q%d: missing folder: %s", qb[q], err.msg);
+        CHECK(transport_map_to_file(&m, check_tmpdir(), &err) == 0 && m.data_map, "q%d: %s", qb[q], err.msg);
+        size_t nc = transport_ncoefs(&a), nr = transport_nruns(&a);
+        bool same = nr == transport_nruns(&m) && nc == transport_ncoefs(&m) && memcmp(a.runs, m.runs, 2 * nr) == 0;
+        if (qb[q] == 8) same = same && memcmp(a.packed, m.packed, 4 * nc) == 0;
+        else same = same && memcmp(a.offs, m.offs, nc) == 0;
+        if (qb[q] == 16) same = same && memcmp(a.q16, m.q16, 6 * nc) == 0;
+        if (qb[q] == 32) same = same && memcmp(a.f32, m.f32, 12 * nc) == 0;
+        CHECK(same, "q%d: the mapped set's arrays differ from the heap set's", qb[q]);
+        float *ga = malloc(sizeof(float) * 3 * a.nvecs), *gm = malloc(sizeof(float) * 3 * a.nvecs);
+        transport_light(&a, (const float (*)[4])L, ga, 2);
+        transport_light(&m, (const float (*)[4])L, gm, 2);
+        CHECK(memcmp(ga, gm, sizeof(float) * 3 * a.nvecs) == 0, "q%d: T x L differs when mapped", qb[q]);
+        transport_drop_mapped(&m);
+        transport_drop_mapped(&a);   /* a heap set: nothing happens */
+        transport_light(&m, (const float (*)[4])L, gm, 1);
+        CHECK(memcmp(ga, gm, sizeof(float) * 3 * a.nvecs) == 0, "q%d: T x L differs after the pages were dropped", qb[q]);
+        free(ga); free(gm); free(ea); free(em);
+        transport_free(&a);
+        transport_free(&m);
+        CHECK(m.data_map == NULL && m.packed == NULL && m.runs == NULL, "q%d: free zeroes the mapped set", qb[q]);
+    }
+}
+
 static void free_zeroes_set(void) {
     for (int q = 0; q < 3; q++) qset_get(q);   /* a filter may have skipped the cases that build them */
     qsets_free();
@@ -804,6 +842,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(special_vectors);
     CHECK_CASE(light_product);
     CHECK_CASE(free_zeroes_set);
+    CHECK_CASE(mapped_file);
     CHECK_CASE(index_runs);
     CHECK_CASE(sun_turning);
     CHECK_CASE(face_integral);

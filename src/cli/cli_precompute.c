@@ -75,8 +75,31 @@ static void help(void) {
          "rank 0 writes OUT.prt (the same file as one process) and --resume is refused.\n");
 }
 
-/* The per-stage timing summary and the closing line (stderr). */
-static void summary(const char *out, const prt_data *data, double t_load, double t0) {
+/* Under MPI, each split pass's balance (shard_balance): the items, wall and CPU time of every
+ * rank (of the fastest and slowest beyond 16 ranks), and the slowest rank's wall time over the mean. */
+static void balance(const prt_shard *sh) {
+    int P = shard_size(sh);
+    const char *name, *unit;
+    const shard_rank_stats *b;
+    if (P > 1 && shard_balance(sh, 0, &name, &unit)) fprintf(stderr, "balance over %d ranks\n", P);
+    for (int i = 0; (b = shard_balance(sh, i, &name, &unit)); i++) {
+        long n = 0;
+        double sum = 0;
+        int fast = 0, slow = 0;
+        for (int r = 0; r < P; r++) {
+            n += b[r].items, sum += b[r].seconds;
+            if (b[r].seconds < b[fast].seconds) fast = r;
+            if (b[r].seconds > b[slow].seconds) slow = r;
+        }
+        fprintf(stderr, "  %s: %ld %s, slowest rank %.2fx the mean time\n", name, n, unit, sum > 0 ? b[slow].seconds * P / sum : 1.0);
+        for (int r = 0; r < P; r++)
+            if (P <= 16 || r == fast || r == slow)
+                fprintf(stderr, "    rank %-4d %10ld %-8s %9.2fs %9.2fs CPU\n", r, b[r].items, unit, b[r].seconds, b[r].cpu);
+    }
+}
+
+/* The per-stage timing summary, the ranks' balance and the closing line (stderr). */
+static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t0) {
     struct stat st;
     double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_stats *s = &data->stats;
@@ -94,6 +117,7 @@ static void summary(const char *out, const prt_data *data, double t_load, double
     if (s->t_vmf > 0) fprintf(stderr, "  %-28s %9.2fs\n", "vMF lobes (all passes)", s->t_vmf);
     fprintf(stderr, "  %-28s %9.2fs\n", "writing", s->t_write);
     fprintf(stderr, "  %-28s %9.2fs\n", "total", prt_now() - t0);
+    balance(sh);
     const prt_transport *t = &prt_data_transfer(data)->transport;
     fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit", out, mb, t->nverts,
             t->nvecs, t->N, t->qbits);
@@ -195,7 +219,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     }
     data.stats.t_write = prt_now() - tw;
     if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
-    if (!quiet) summary(out, &data, t_load, t0);
+    if (!quiet) summary(out, &data, pd->shard, t_load, t0);
     prt_data_free(&data);
     return 0;
 }

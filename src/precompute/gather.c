@@ -189,16 +189,23 @@ typedef struct gather_ctx {
     pthread_mutex_t lock;
     atomic_int done;
     atomic_bool cancel;
+    shard_pass *sp;           /* the pass's progress over the ranks (shard.h) */
+    int dropped;              /* thread 0: done when prev's mapped pages were last dropped */
+    atomic_long others;       /* rank 0: vertices the other ranks have gathered, as last heard */
 } gather_ctx;
 
 static int nvec_of(const prt_transport *t, int v) { return (int)(t->vec_first[v + 1] - t->vec_first[v]); }
 
-/* Reports progress after a finished chunk; sets ctx->cancel when the callback says stop. */
-static void report(gather_ctx *c, int nfinished, int total) {
+/* Reports progress after a finished chunk (this rank's and, on rank 0, the others' over the whole
+ * pass of total vertices; thread 0, the caller's, exchanges the counts: shard.h); sets ctx->cancel
+ * when the callback says stop. */
+static void report(gather_ctx *c, int nfinished, int total, int thread) {
     atomic_fetch_add(&c->done, nfinished);
+    if (thread == 0) atomic_store(&c->others, shard_pass_poll(c->sp, atomic_load(&c->done)));
     if (!c->desc || !c->desc->progress) return;
     pthread_mutex_lock(&c->lock);
-    int done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
+    /* read under the lock, so the fractions reported rise; others only grows */
+    long done = atomic_load(&c->done) + atomic_load(&c->others);
     if (!atomic_load(&c->cancel) &&
         !c->desc->progress(c->desc->progress_user, c->desc->stage ? c->desc->stage : "gather", (double)done / total))
         atomic_store(&c->cancel, true);
@@ -369,6 +376,16 @@ static void gather_vertex(gather_ctx *c, gather_thread *th, int x) {
     gather_store(c, th, x, nk);
 }
 
+/* A mapped set's pages (transport_map_to_file) leave this process's memory every 1% of a pass of
+ * total: the pass reads them at random (hit vertices anywhere), so without this they would all
+ * come back into its resident set; each drop costs one minor fault per page read again. */
+static void drop_mapped(const prt_transport *t, int done, int *dropped, int total) {
+    int step = total / 100 > 1 ? total / 100 : 1;
+    if (!t->data_map || done - *dropped < step) return;
+    transport_drop_mapped(t);
+    *dropped = done;
+}
+
 static void gather_range(void *ctx, int begin, int end, int thread) {
     gather_ctx *c = ctx;
     int n = 0;
@@ -384,7 +401,8 @@ static void gather_range(void *ctx, int begin, int end, int thread) {
     }
     if (end > begin)   /* streamed: the chunk's staged vectors leave memory */
         transport_release(c->next, (int)c->next->vec_first[c->v0 + begin], (int)c->next->vec_first[c->v0 + end]);
-    report(c, n, c->v1 - c->v0);
+    report(c, n, c->prev->nverts, thread);
+    if (thread == 0) drop_mapped(c->prev, atomic_load(&c->done), &c->dropped, c->prev->nverts);
 }
 
 static void free_threads(gather_thread *th, int nth) {
@@ -566,12 +584,20 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     pthread_mutex_init(&c.lock, NULL);
     atomic_init(&c.done, 0);
     atomic_init(&c.cancel, false);
+    atomic_init(&c.others, 0);
+    const char *stage = desc && desc->stage ? desc->stage : "gather";
+    if (!(c.sp = shard_pass_begin(desc ? desc->shard : NULL, stage, "vertices", m->nverts, err))) {
+        ctx_free(&c, nth);
+        return drop_set(next);
+    }
     prt_parallel_for(c.v1 - c.v0, GATHER_GRAIN, nth, gather_range, &c);
+    shard_pass_end(c.sp, atomic_load(&c.done), desc ? desc->progress : NULL, desc ? desc->progress_user : NULL);
     pthread_mutex_destroy(&c.lock);
     bool cancelled = atomic_load(&c.cancel);
     ctx_free(&c, nth);
     if (share(&c, first, cancelled, err)) return drop_set(next);
     if (transport_finish(next, err)) return drop_set(next);
+    if (desc && desc->stream_dir && transport_map_to_file(next, desc->stream_dir, err)) return drop_set(next);
     return 0;
 }
 
@@ -582,6 +608,7 @@ typedef struct sum_ctx {
     prt_transport *out;
     float **plane;     /* per thread [3][CUBE_TEXELS], zero between vectors */
     void **scratch;
+    int dropped;       /* thread 0: vectors done when a and b's mapped pages were last dropped */
 } sum_ctx;
 
 /* Adds vector i of t (dequantized) into planar R, G, B; marks touched blocks. */
@@ -629,10 +656,22 @@ static void sum_range(void *ctx, int begin, int end, int thread) {
             memset(B + o, 0, sizeof(float) * SPARSE_BLOCK);
         }
     }
+    transport_release(c->out, begin, end);   /* streamed: the chunk's staging leaves memory */
+    if (thread == 0) {   /* a and b are read in order, so one drop per 1% keeps about 1% of each resident */
+        int d0 = c->dropped;
+        drop_mapped(c->a, end, &c->dropped, c->a->nvecs);
+        if (c->dropped != d0) transport_drop_mapped(c->b);
+    }
 }
 
 /* out = a + b (see gather.h). Returns 0, or -1 with err set (out left zeroed). */
 int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt_transport *out, prt_error *err) {
+    return gather_sum_streamed(a, b, nthreads, NULL, out, err);
+}
+
+/* See gather.h. */
+int gather_sum_streamed(const prt_transport *a, const prt_transport *b, int nthreads, const char *stream_dir,
+                        prt_transport *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     if (check_set(a, "first", err) || check_set(b, "second", err)) return -1;
     if (a->nverts != b->nverts || a->nvecs != b->nvecs ||
@@ -644,6 +683,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     int rc = transport_init(out, a->nverts, cnt, a->N, a->qbits, err);
     free(cnt);
     if (rc) { memset(out, 0, sizeof *out); return -1; }
+    if (stream_dir && transport_stage_to_file(out, stream_dir, err)) return drop_set(out);
     out->solid_angle = a->solid_angle;
     out->select = a->select;
     out->block_level = a->block_level;
@@ -664,11 +704,7 @@ int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt
     }
     free(c.plane);
     free(c.scratch);
-    if (!ok || transport_finish(out, err)) {
-        transport_free(out);
-        memset(out, 0, sizeof *out);
-        return -1;
-    }
+    if (!ok || transport_finish(out, err) || (stream_dir && transport_map_to_file(out, stream_dir, err))) return drop_set(out);
     return 0;
 }
 

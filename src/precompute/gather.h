@@ -38,7 +38,9 @@ typedef struct gather_desc {
     struct prt_shard *shard; /* MPI ranks (shard.h): this rank gathers its range of vertices, cut by cost,
                               * then every rank gets the whole pass; NULL: every vertex here */
     const char *stream_dir;  /* non-NULL: next's staged vectors go through a temporary file there
-                              * (transport_stage_to_file; precompute's memory budget) */
+                              * (transport_stage_to_file; precompute's memory budget), and the finished
+                              * next is moved to another (transport_map_to_file); a mapped prev's pages
+                              * are dropped from memory every 1% of the pass either way */
     double *cost;            /* [nverts] or NULL: in, each vertex's relative cost (the split); out, the
                               * seconds each took here (every rank's, after the exchange) */
 } gather_desc;
@@ -49,6 +51,10 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
                 prt_transport *next, prt_error *err);
 /* out = a + b, truncated to N and requantized (a and b share layout). Returns 0 or -1. */
 int gather_sum(const prt_transport *a, const prt_transport *b, int nthreads, prt_transport *out, prt_error *err);
+/* gather_sum with out staged through, then moved to, temporary files in stream_dir (NULL: in memory,
+ * which is gather_sum), as gather_desc.stream_dir does for a pass; the same bits. */
+int gather_sum_streamed(const prt_transport *a, const prt_transport *b, int nthreads, const char *stream_dir,
+                        prt_transport *out, prt_error *err);
 /* Sum of squared dequantized coefficients over all vectors and channels. */
 double gather_energy(const prt_transport *t);
 #endif

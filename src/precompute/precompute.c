@@ -120,7 +120,10 @@ typedef struct pc_ctx {
     pthread_mutex_t lock;
     atomic_int cancelled;
     atomic_long done;
-    long total;
+    long total;             /* the pass's vertices over every rank */
+    struct shard_pass *sp;  /* the split pass's progress over the ranks (shard.h); NULL in the sample */
+    long base;              /* done vertices that are not this rank's share (the sample, on ranks > 0) */
+    atomic_long others;     /* rank 0: vertices the other ranks have done, as last heard */
     prt_progress_fn progress;
     void *progress_user;
     bool report;            /* false during the planning sample, so the plan prints before any bar */
@@ -294,9 +297,12 @@ static void pc_range(void *ctx, int begin, int end, int thread) {
         transport_release(c->t, (int)c->t->vec_first[c->order[begin]], (int)c->t->vec_first[c->order[end - 1] + 1]);
     s->t_cpu += pc_cpu_now() - cpu0;
     atomic_fetch_add(&c->done, end - begin);
+    if (c->sp && thread == 0)   /* MPI from the caller's thread only (prt_parallel_for's thread 0) */
+        atomic_store(&c->others, shard_pass_poll(c->sp, atomic_load(&c->done) - c->base));
     if (c->progress && c->report) {
         pthread_mutex_lock(&c->lock);
-        long done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
+        /* read under the lock, so the fractions reported rise; others only grows */
+        long done = atomic_load(&c->done) + atomic_load(&c->others);
         if (!atomic_load(&c->cancelled) &&
             !c->progress(c->progress_user, "visibility+transport", (double)done / (double)c->total))
             atomic_store(&c->cancelled, 1);
@@ -935,11 +941,14 @@ static int pc_direct(pc_run *r, prt_error *err) {
         if (v >= r->first[rank] && v < r->first[rank + 1]) r->order[r->nsample + k++] = v;
     }
     r->c.order = r->order + r->nsample;
-    r->c.total = r->nsample + k;   /* this rank's share: balanced by cost, so rank 0's bar stands for all */
     r->c.report = true;
+    r->c.base = rank == 0 ? 0 : r->nsample;   /* the sample, computed on every rank, counts on rank 0 */
+    if (!(r->c.sp = shard_pass_begin(r->d.shard, "visibility+transport", "vertices", m->nverts, err))) return -1;
     double ts = prt_now();
     prt_parallel_for(k, PC_GRAIN, r->nthreads, pc_range, &r->c);
     double t_direct = r->t_sample + (prt_now() - ts);
+    shard_pass_end(r->c.sp, atomic_load(&r->c.done) - r->c.base, r->d.progress, r->d.progress_user);
+    r->c.sp = NULL;
     if (pc_share_direct(r, err)) return -1;
     double tv = 0, tb = 0, es = 0;
     long ec = 0;
@@ -956,6 +965,8 @@ static int pc_direct(pc_run *r, prt_error *err) {
     st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
     for (int t = 0; t < r->nthreads; t++) pc_scratch_free(&r->scratch[t]);
     if (transport_finish(&r->direct, err)) return -1;
+    /* streamed: the gathering passes read the direct set through a mapped file (issue 13) */
+    if (r->streamed && transport_map_to_file(&r->direct, pc_stream_dir(r), err)) return -1;
     if (r->d.force_bounces == 0) {
         bool full = st->hit_fraction >= PC_HIT_MIN;
         if (full != r->plan_bounces) {
@@ -987,7 +998,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         double tb0 = prt_now();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
         double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
-        if (gather_sum(b == 1 ? &r->direct : &r->total, &next, r->nthreads, &sum, err)) {
+        if (gather_sum_streamed(b == 1 ? &r->direct : &r->total, &next, r->nthreads, gd.stream_dir, &sum, err)) {
             transport_free(&next);
             return -1;
         }
@@ -1015,7 +1026,8 @@ static int pc_vmf(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
     transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
                                   .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
-                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck };
+                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck,
+                                  .shard = r->d.shard };
     double t0 = prt_now();
     if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
     r->out->stats.t_vmf = prt_now() - t0;

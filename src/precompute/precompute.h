@@ -54,7 +54,9 @@
  * all follow); each gathering pass is cut by the previous gathering pass's per-vertex times (the
  * first by 1 + the vertex's vector count). After each pass the ranks exchange their vectors and
  * statistics, so every rank holds the whole pass and the result is the one-process result bit for
- * bit. The vMF passes are not split (every rank runs them in full). Not combined with a checkpoint.
+ * bit. The vMF passes are split by count (vmfpass.c) and exchanged the same way. Rank 0's progress
+ * counts every rank's vertices, and each split pass's balance (shard_balance) is kept for the
+ * timing summary. Not combined with a checkpoint.
  *
  * Cancelling: the progress callback returning false stops the run with error "cancelled". */
 #ifndef PRT_PRECOMPUTE_H
@@ -111,8 +113,9 @@ typedef struct precompute_desc {
     float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
                              * bytes) exceed half of it, they (and each gathering pass's) stream to a temporary
                              * file in stream_dir, dropped from memory as vertices finish
-                             * (transport_stage_to_file; the same bits);
-                             * 0: half the machine's physical memory */
+                             * (transport_stage_to_file; the same bits), and the finished sets (each pass, the
+                             * running sum) move to mapped files that the gathering passes read, their pages
+                             * dropped every 1% (transport_map_to_file); 0: half the machine's physical memory */
     const char *stream_dir; /* that file's folder (unlinked at once: nothing is left); NULL: "." */
     struct prt_shard *shard; /* MPI ranks to split the passes across (shard.h); NULL: this process alone */
     int shard_fail;         /* test hook: rank shard_fail - 1 fails after its share of the direct pass (0: none) */

@@ -19,6 +19,13 @@
  * all of it and the result is the one a single process computes (each vertex's work depends on
  * the vertex alone: no seeds, no per-thread state; precompute.h).
  *
+ * Progress over all ranks (shard_pass_*): around a split pass, every rank's main thread (thread 0 of
+ * prt_parallel_for, which is the caller's) calls shard_pass_poll now and then with its own count;
+ * the other ranks send theirs to rank 0 every 1% of the pass (MPI_Isend, never waiting), rank 0
+ * takes what has arrived (MPI_Iprobe) and its bar shows the count over every rank. shard_pass_end
+ * sends each rank's final count, wall and CPU time to rank 0, which keeps reporting as they arrive
+ * and records them: the balance, listed per pass by shard_balance for the timing summary.
+ *
  * Errors: a rank that fails calls shard_status(sh, -1, err) at the next exchange point; every
  * rank then fails with one line naming the first failed rank and its message ("rank 1 of 2:
  * ..."), rank 0 prints it and writes no file. MPI errors themselves abort the job (MPI's
@@ -57,6 +64,36 @@ bool shard_failed_together(const prt_shard *sh);
 int shard_share_staged(const prt_shard *sh, prt_transport *t, const int *first, prt_error *err);
 /* Collective: every rank gets bytes [first[r] * size, first[r+1] * size) of base from rank r. */
 int shard_share_rows(const prt_shard *sh, void *base, size_t size, const int *first, prt_error *err);
+/* One split pass's progress and balance (shard_pass_begin .. shard_pass_end). */
+typedef struct shard_pass shard_pass;
+/* Starts a pass of total items (unit: "vertices", "slices") over all ranks, named name (both kept for
+ * the balance). NULL with err on OOM. Collective only in that every rank must call it and
+ * shard_pass_end. */
+shard_pass *shard_pass_begin(prt_shard *sh, const char *name, const char *unit, long total, prt_error *err);
+/* Main thread only: this rank has done mine items of the pass; returns how many the other ranks
+ * have done as last heard (rank 0; 0 elsewhere and on one process). Never blocks. */
+long shard_pass_poll(shard_pass *p, long mine);
+/* Collective: this rank's final count (mine); rank 0 receives every rank's, reporting the running
+ * total through progress(user, name, fraction) (may be NULL) as they arrive, and records each rank's
+ * count, wall and CPU time since begin (shard_balance; not kept when out of memory: a report, not a
+ * result, so no rank fails for it). Frees p (NULL: nothing). */
+void shard_pass_end(shard_pass *p, long mine, prt_progress_fn progress, void *user);
+
+/* Per rank of a recorded pass: its items (vertices or slices) and its wall and CPU (process) seconds. */
+typedef struct shard_rank_stats {
+    long items;
+    double seconds, cpu;
+} shard_rank_stats;
+/* Rank 0, after shard_pass_end: pass i's name, unit and its [size] per-rank stats (NULL past the
+ * last pass or on the other ranks). At most SHARD_MAX_PASSES passes are kept (the first ones). */
+#define SHARD_MAX_PASSES 32
+const shard_rank_stats *shard_balance(const prt_shard *sh, int i, const char **name, const char **unit);
+
+/* Collective: every rank's list (*n elements of size bytes at *base, malloc'd; NULL when empty)
+ * becomes on every rank the concatenation of all ranks' lists in rank order (*base realloc'd, *n
+ * the total). Returns 0 or -1 (OOM, err; *base and *n unchanged). */
+int shard_share_list(const prt_shard *sh, void **base, size_t *n, size_t size, prt_error *err);
+
 /* Collective sum of x over the ranks (the identity on one). */
 double shard_sum(const prt_shard *sh, double x);
 #endif

@@ -9,6 +9,7 @@
 #include "checkpoint.h"
 #include "check.h"
 #include "scene.h"
+#include "shard.h"
 #include "visibility.h"
 #include "vmf.h"
 #include <math.h>
@@ -59,6 +60,9 @@ typedef struct vp_ctx {
     int pass, total;
     uint8_t *restored;            /* per item of the running stage: restored from the checkpoint */
     const char *stage;
+    int off;                      /* the running stage's first item on this rank (vp_stage) */
+    shard_pass *sp;               /* its progress over the ranks (shard.h) */
+    atomic_long others;           /* rank 0: items the other ranks have done, as last heard */
     atomic_int done;
     atomic_bool cancel;
     pthread_mutex_t lock;
@@ -263,12 +267,15 @@ static bool vp_list_push(vp_list *L, uint32_t v, uint32_t j, const uint32_t *w) 
     return true;
 }
 
-/* Reports a finished chunk of `count` items; sets cancel when the callback says stop. */
-static void vp_progress(vp_ctx *c, int count) {
+/* Reports a finished chunk of `count` items (with, on rank 0, the other ranks' count, exchanged by
+ * thread 0, the caller's: shard.h); sets cancel when the callback says stop. */
+static void vp_progress(vp_ctx *c, int count, int thread) {
     atomic_fetch_add(&c->done, count);
+    if (thread == 0) atomic_store(&c->others, shard_pass_poll(c->sp, atomic_load(&c->done)));
     if (!c->in->progress) return;
     pthread_mutex_lock(&c->lock);
-    int done = atomic_load(&c->done);   /* read under the lock, so the fractions reported rise */
+    /* read under the lock, so the fractions reported rise; others only grows */
+    long done = atomic_load(&c->done) + atomic_load(&c->others);
     if (!atomic_load(&c->cancel) && !c->in->progress(c->in->progress_user, c->stage, (double)done / c->total))
         atomic_store(&c->cancel, true);
     pthread_mutex_unlock(&c->lock);
@@ -336,7 +343,7 @@ static int vp_restore_vertex(void *user, uint32_t gi, const uint8_t *b, uint32_t
 static void vp_direct_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
     vp_thread *th = &c->th[thread];
-    for (int gi = begin; gi < end && !atomic_load(&c->cancel); gi++) {
+    for (int gi = c->off + begin; gi < c->off + end && !atomic_load(&c->cancel); gi++) {
         if (c->restored && c->restored[gi]) continue;
         size_t first = th->list.n;
         int v = c->gverts[gi];
@@ -353,7 +360,7 @@ static void vp_direct_range(void *ctx, int begin, int end, int thread) {
         c->nactive[gi] = na;
         vp_record_vertex(c, gi, &th->list, first);
     }
-    vp_progress(c, end - begin);
+    vp_progress(c, end - begin, thread);
 }
 
 /* Renumbers the entries in slot order (the validator's rule, vmf.h), moving their lobes. */
@@ -539,9 +546,9 @@ static int vp_restore_slice(void *user, uint32_t e, const uint8_t *b, uint32_t l
 
 static void vp_gather_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
-    for (int e = begin; e < end && !atomic_load(&c->cancel); e++)
+    for (int e = c->off + begin; e < c->off + end && !atomic_load(&c->cancel); e++)
         if (!c->restored || !c->restored[e]) vp_gather_slice(c, &c->th[thread], (size_t)e);
-    vp_progress(c, end - begin);
+    vp_progress(c, end - begin, thread);
 }
 
 /* ---- diffuse lobes of the hit surfaces ------------------------------------------------------- */
@@ -579,28 +586,85 @@ static void vp_diffuse_vertex(const vp_ctx *c, vp_thread *th, int v) {
 
 static void vp_diffuse_range(void *ctx, int begin, int end, int thread) {
     vp_ctx *c = ctx;
-    for (int v = begin; v < end && !atomic_load(&c->cancel); v++) vp_diffuse_vertex(c, &c->th[thread], v);
-    vp_progress(c, end - begin);
+    for (int v = c->off + begin; v < c->off + end && !atomic_load(&c->cancel); v++) vp_diffuse_vertex(c, &c->th[thread], v);
+    vp_progress(c, end - begin, thread);
 }
 
 /* ---- the run ---------------------------------------------------------------------------------- */
 
-/* One stage over n items in chunks of grain: fn through prt_parallel_for, progress as `stage`;
- * with a checkpoint, the items of its pass ckpass (-1: none) that it holds are restored first
- * (restore) and skipped. */
+/* After the diffuse stage on every rank: each rank's vertices' lobes to every rank. */
+static int vp_share_diffuse(vp_ctx *c, const int *first, prt_error *err) {
+    return shard_share_rows(c->in->shard, c->dlobe, sizeof *c->dlobe, first, err);
+}
+
+/* After the direct stage: each rank's energies, active counts and stored slices (the threads'
+ * lists, joined into thread 0's) to every rank; vp_build sorts the slices, so the order they
+ * arrive in changes nothing. */
+static int vp_share_direct(vp_ctx *c, const int *first, prt_error *err) {
+    prt_shard *sh = c->in->shard;
+    if (shard_size(sh) == 1) return 0;
+    vp_list *L = &c->th[0].list;
+    for (int i = 1; i < VP_MAX_THREADS; i++) {
+        for (size_t k = 0; k < c->th[i].list.n; k++) vp_list_push(L, c->th[i].list.e[k].v, c->th[i].list.e[k].j, c->th[i].list.e[k].w);
+        free(c->th[i].list.e);
+        c->th[i].list = (vp_list){ .oom = c->th[i].list.oom };
+    }
+    for (int i = 0; i < VP_MAX_THREADS; i++)
+        if (c->th[i].list.oom) return prt_fail(err, "vmf precompute: out of memory (stored slices)");
+    if (shard_share_rows(sh, c->energy, sizeof *c->energy, first, err) ||
+        shard_share_rows(sh, c->nactive, sizeof *c->nactive, first, err))
+        return -1;
+    void *e = L->e;
+    if (shard_share_list(sh, &e, &L->n, sizeof *L->e, err)) return -1;
+    L->e = e, L->cap = L->n;
+    return 0;
+}
+
+/* After a gathering stage: each rank's slices' energies, pass-1 hit flags and lobes of this pass
+ * (scattered over the hash's entries, so gathered in slice order for the exchange) to every rank. */
+static int vp_share_gather(vp_ctx *c, const int *first, prt_error *err) {
+    prt_shard *sh = c->in->shard;
+    if (shard_size(sh) == 1) return 0;
+    size_t per = (size_t)c->t->lobes * VMFT_WORDS;
+    uint32_t *buf = prt_calloc(c->nslices * per + 1, sizeof *buf, err);
+    if (!buf) return -1;
+    for (int e = first[shard_rank(sh)]; e < first[shard_rank(sh) + 1]; e++)
+        memcpy(buf + (size_t)e * per, vp_slice_lobes(c, (size_t)e), per * sizeof *buf);
+    int rc = shard_share_rows(sh, c->energy, sizeof *c->energy, first, err) ||
+             shard_share_rows(sh, c->hitfit, sizeof *c->hitfit, first, err) ||
+             shard_share_rows(sh, buf, per * sizeof *buf, first, err) ? -1 : 0;
+    for (size_t e = 0; rc == 0 && e < c->nslices; e++) memcpy(vp_slice_lobes(c, e), buf + e * per, per * sizeof *buf);
+    free(buf);
+    return rc;
+}
+
+/* One stage over n items in chunks of grain: fn through prt_parallel_for on this rank's range of
+ * them (shard.h: cut by count; one process: all), progress as `stage` over every rank; with a
+ * checkpoint, the items of its pass ckpass (-1: none) that it holds are restored first (restore)
+ * and skipped. Then the ranks' common status (cancelled on one: on all) and share, which gives
+ * every rank the others' results. */
 static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, int ckpass,
-                    int (*restore)(void *, uint32_t, const uint8_t *, uint32_t), prt_error *err) {
+                    int (*restore)(void *, uint32_t, const uint8_t *, uint32_t),
+                    int (*share)(vp_ctx *, const int *, prt_error *), prt_error *err) {
     c->stage = stage, c->total = n > 0 ? n : 1;
     atomic_store(&c->done, 0);
+    atomic_store(&c->others, 0);
     free(c->restored);
     c->restored = NULL;
     if (ckpass >= 0 && ckpt_count(c->in->ckpt, ckpass) > 0) {
         c->restored = prt_calloc((size_t)n + 1, 1, err);
         if (!c->restored || ckpt_restore_blobs(c->in->ckpt, ckpass, restore, c, err) < 0) return -1;
     }
-    prt_parallel_for(n, grain, c->in->nthreads, fn, c);
-    if (atomic_load(&c->cancel)) return prt_fail(err, "vmf precompute: cancelled");
-    return 0;
+    int first[SHARD_MAX_RANKS + 1], rank = shard_rank(c->in->shard);
+    shard_split(c->in->shard, NULL, n, first);
+    c->off = first[rank];
+    if (!(c->sp = shard_pass_begin(c->in->shard, stage, fn == vp_gather_range ? "slices" : "vertices", n, err))) return -1;
+    prt_parallel_for(first[rank + 1] - first[rank], grain, c->in->nthreads, fn, c);
+    shard_pass_end(c->sp, atomic_load(&c->done), c->in->progress, c->in->progress_user);
+    c->sp = NULL;
+    int st = atomic_load(&c->cancel) ? prt_fail(err, "vmf precompute: cancelled") : 0;
+    if (shard_status(c->in->shard, st, err)) return -1;
+    return share(c, first, err);
 }
 
 /* The transfer's materials fitted (lobefit.h), its vertices listed, the scratch allocated. */
@@ -663,7 +727,7 @@ static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
     for (int p = 1; p < R; p++) {
         double t0 = prt_now();
         c->pass = p;
-        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, CKPT_PASS_VMF + p, vp_restore_slice, err)) return -1;
+        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, CKPT_PASS_VMF + p, vp_restore_slice, vp_share_gather, err)) return -1;
         double e = 0;
         for (size_t i = 0; i < c->nslices; i++) e += c->energy[i];
         t->energy[p] = e0 > 0 ? e / e0 : 0;
@@ -688,8 +752,8 @@ int vmfpass_run(const transfer_precompute_in *in, prt_transfer *tr, prt_error *e
         vp_setup(c, tr, err))
         goto done;
     double t0 = prt_now();
-    if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, -1, NULL, err)) goto done;
-    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, CKPT_PASS_VMF, vp_restore_vertex, err) ||
+    if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, -1, NULL, vp_share_diffuse, err)) goto done;
+    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, CKPT_PASS_VMF, vp_restore_vertex, vp_share_direct, err) ||
         vp_build(c, R, err))
         goto done;
     double e0 = 0;

@@ -131,6 +131,7 @@ typedef struct transfer_precompute_in {
     void *progress_user;
     struct prt_checkpoint *ckpt;    /* non-NULL: the passes restore what it holds and record the rest
                                      * (checkpoint.h: a resumable run) */
+    struct prt_shard *shard;        /* MPI ranks to split the passes across (shard.h); NULL: this process */
 } transfer_precompute_in;
 
 /* GLSL sources of a light kernel family, compiled by glrt (gpu/glrt.c). The kernel computes

@@ -107,6 +107,52 @@ void transport_release(const prt_transport *t, int i0, int i1) {
     drop_pages(t->stage_val + (size_t)i0 * N * 3, (size_t)(i1 - i0) * N * 3 * sizeof *t->stage_val);
 }
 
+/* Writes n bytes of p at offset off of fd; returns 0 or -1 (errno). */
+static int write_all(int fd, const void *p, size_t n, size_t off) {
+    for (size_t done = 0; done < n;) {
+        ssize_t w = pwrite(fd, (const char *)p + done, n - done, (off_t)(off + done));
+        if (w < 0 && errno == EINTR) continue;
+        if (w <= 0) return -1;
+        done += (size_t)w;
+    }
+    return 0;
+}
+
+/* See transport.h: the file holds runs, then packed (8-bit) or offs and q16 / f32, each at a
+ * 64-byte boundary; written from the heap arrays (into the page cache, not through the mapping, so
+ * they never count twice in this process), then mapped and the heap copies freed. */
+int transport_map_to_file(prt_transport *t, const char *dir, prt_error *err) {
+    PRT_CHECK(t->coef_first && !t->stage_count && !t->data_map);
+    size_t nc = transport_ncoefs(t), nr = transport_nruns(t);
+    const void *src[4] = { t->runs, t->packed, t->offs, t->qbits == 32 ? (const void *)t->f32 : (const void *)t->q16 };
+    size_t len[4] = { 2 * nr, t->qbits == 8 ? 4 * nc : 0, t->qbits == 8 ? 0 : nc, t->qbits == 16 ? 6 * nc : t->qbits == 32 ? 12 * nc : 0 };
+    size_t off[4], bytes = 0;
+    for (int k = 0; k < 4; k++) { off[k] = bytes; bytes += (len[k] + 63) & ~(size_t)63; }
+    if (bytes == 0) return 0;
+    int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);   /* unlinked from the start: nothing left behind */
+    if (fd < 0) return prt_fail(err, "%s: cannot create the mapped pass's temporary file: %s", dir, strerror(errno));
+    int bad = ftruncate(fd, (off_t)bytes);
+    for (int k = 0; k < 4 && !bad; k++) bad = len[k] ? write_all(fd, src[k], len[k], off[k]) : 0;
+    void *m = bad ? MAP_FAILED : mmap(NULL, bytes, PROT_READ, MAP_SHARED, fd, 0);
+    int e = errno;
+    close(fd);
+    if (m == MAP_FAILED) return prt_fail(err, "%s: cannot write and map the mapped pass's %zu-byte temporary file: %s", dir, bytes, strerror(e));
+    char *b = m;
+    if (len[0]) { free(t->runs); t->runs = (uint8_t *)b; }
+    if (len[1]) { free(t->packed); t->packed = (uint32_t *)(void *)(b + off[1]); }
+    if (len[2]) { free(t->offs); t->offs = (uint8_t *)(b + off[2]); }
+    if (len[3] && t->qbits == 16) { free(t->q16); t->q16 = (int16_t *)(void *)(b + off[3]); }
+    if (len[3] && t->qbits == 32) { free(t->f32); t->f32 = (float *)(void *)(b + off[3]); }
+    t->data_map = m;
+    t->data_mapped = bytes;
+    return 0;
+}
+
+/* See transport.h. */
+void transport_drop_mapped(const prt_transport *t) {
+    if (t->data_map) madvise(t->data_map, t->data_mapped, MADV_DONTNEED);
+}
+
 /* Frees the staging arrays (an unmap when streamed). */
 static void free_staging(prt_transport *t) {
     free(t->stage_count);
@@ -568,8 +614,11 @@ void transport_light(const prt_transport *t, const float (*L)[4], float *g, int 
 
 /* Frees every array; leaves a zeroed set. */
 void transport_free(prt_transport *t) {
-    free(t->vec_first); free(t->coef_first); free(t->run_first); free(t->runs); free(t->scale);
-    free(t->packed); free(t->offs); free(t->q16); free(t->f32);
+    free(t->vec_first); free(t->coef_first); free(t->run_first); free(t->scale);
+    void *heap[5] = { t->runs, t->packed, t->offs, t->q16, t->f32 };
+    for (int k = 0; k < 5; k++)   /* a mapped set's empty arrays stayed on the heap */
+        if ((uintptr_t)heap[k] - (uintptr_t)t->data_map >= t->data_mapped) free(heap[k]);
+    if (t->data_map) munmap(t->data_map, t->data_mapped);
     free_staging(t);
     memset(t, 0, sizeof *t);
 }

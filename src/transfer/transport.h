@@ -80,6 +80,10 @@ typedef struct prt_transport {
     float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping) */
     size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
                              * file (transport_stage_to_file), released as vectors are done */
+    void *data_map;         /* non-NULL: runs and the coefficient arrays (packed / offs, q16, f32) live in this
+                             * read-only mapping of data_mapped bytes of an unlinked file (transport_map_to_file),
+                             * not on the heap; transport_free unmaps it */
+    size_t data_mapped;
 } prt_transport;
 
 /* Sizes a set: nverts vertices, vertex v has nvec_of_vertex[v] vectors (vectors numbered
@@ -99,6 +103,15 @@ int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err);
 void transport_release(const prt_transport *t, int i0, int i1);
 /* Compacts staged vectors into the final arrays. Returns 0 or -1 (OOM). */
 int transport_finish(prt_transport *t, prt_error *err);
+/* Moves a finished set's runs and coefficients (all but about 20 bytes per vector of it) to an
+ * unlinked temporary file in dir, mapped read-only (issue 13): a later pass reads them through the
+ * page cache, which the kernel can drop and read back, instead of from the process's own memory;
+ * the same bits. Returns 0, or -1 with err naming dir (the set is then unchanged). */
+int transport_map_to_file(prt_transport *t, const char *dir, prt_error *err);
+/* Drops the pages of a mapped set (transport_map_to_file) from this process's memory; a reader's
+ * next access faults them in again from the page cache. Any thread, while others read. No-op for a
+ * set on the heap. */
+void transport_drop_mapped(const prt_transport *t);
 
 /* Decodes vector i (after finish) into dense planar r,g,b[CUBE_TEXELS] (zeros elsewhere). */
 void transport_decode(const prt_transport *t, int i, float *r, float *g, float *b);
