@@ -57,7 +57,7 @@ struct glrt {
     bool bg_rotated, light_set;
     glrt_view_mode view_mode;
     glrt_light_method method;
-    float unshift;              /* 2^e: the uploaded light is L x 2^-e (light_scaled), the kernels undo it */
+    float unshift;              /* 2^e: the uploaded light is L x 2^-e (light_scaled_copy), the kernels undo it */
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
@@ -939,33 +939,15 @@ int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
     return glrt_set_local_lights(rt, &rt->lights, err);
 }
 
-/* L scaled by 2^-e into a new vector (free()) when its largest |value| is 2^97 or more, setting
- * *unshift = 2^e; else NULL and *unshift = 1. The kernels sum codes (up to 127, or 32767 at 16
- * bits) times L in float before the vector's scale, so an L of a finite 1e37 sun overflowed to Inf
- * and the pixels came out black (issue 12); a power of two scales exactly, as transfer_light does
- * on the CPU, so both backends compute the same g. NULL too when out of memory (unscaled, as before). */
-static float (*light_scaled(const float (*L)[4], float *unshift))[4] {
-    float m = 0;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) m = fmaxf(m, fabsf(L[k][c]));
-    int e;
-    frexpf(m, &e);
-    *unshift = 1.f;
-    float (*Ls)[4] = e > 96 ? light_alloc() : NULL;
-    if (!Ls) return NULL;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) Ls[k][c] = ldexpf(L[k][c], 96 - e);
-    *unshift = ldexpf(1.f, e - 96);
-    return Ls;
-}
-
-/* Light change: uploads L (scaled when huge: light_scaled) and runs the kernel, finished and timed;
+/* Light change: uploads L (scaled when huge: light_scaled_copy) and runs the kernel, finished and timed;
  * -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
     double t0 = prt_now();
-    float (*Ls)[4] = light_scaled(L, &rt->unshift);
+    int shift;
+    float (*Ls)[4] = light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */
+    rt->unshift = ldexpf(1.f, shift);
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_L);
     gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, Ls ? (const float (*)[4])Ls : L);
     gl->BindBuffer(GL_ARRAY_BUFFER, 0);

@@ -122,3 +122,18 @@ float (*light_alloc(void))[4] {
     if (L) memset(L, 0, bytes);
     return L;
 }
+
+float (*light_scaled_copy(const float (*L)[4], int *shift))[4] {
+    float m = 0;
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int c = 0; c < 3; c++) m = fmaxf(m, fabsf(L[k][c]));
+    int e;
+    frexpf(m, &e);
+    *shift = 0;
+    float (*Ls)[4] = e > 96 ? light_alloc() : NULL;
+    if (!Ls) return NULL;
+    *shift = e - 96;
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int c = 0; c < 3; c++) Ls[k][c] = ldexpf(L[k][c], -*shift);
+    return Ls;
+}

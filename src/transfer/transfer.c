@@ -56,25 +56,17 @@ float (*transfer_light_vector(const struct prt_data *d, const float *cube_rgb))[
     return L;
 }
 
-/* The kernels sum integer codes (up to 127, or 32767 at 16 bits) times L in float before the
- * vector's scale, so an L above about FLT_MAX / 2^21 (a finite sun of 1e37, issue 12) would
- * overflow to Inf and the vertex turn black. Such a light runs scaled down by a power of two
- * (exact) and g is scaled back, clamped to the float range. */
+/* A light above about FLT_MAX / 2^21 (a finite sun of 1e37, issue 12) would overflow the kernels'
+ * float sums and turn the vertex black: it runs scaled down by a power of two (light_scaled_copy,
+ * exact) and g is scaled back, clamped to the float range. */
 void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
     PRT_CHECK(tr->ops->light_range != NULL);
-    float m = 0;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) m = fmaxf(m, fabsf(L[k][c]));
-    int e;
-    frexpf(m, &e);
-    float (*Ls)[4] = e > 96 ? light_alloc() : NULL;
+    int shift;
+    float (*Ls)[4] = light_scaled_copy(L, &shift);
     if (!Ls) {   /* the usual case (or out of memory: as before) */
         transport_light_with(t, L, g, nthreads, tr->ops->light_range);
         return;
     }
-    int shift = e - 96;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) Ls[k][c] = ldexpf(L[k][c], -shift);
     transport_light_with(t, (const float (*)[4])Ls, g, nthreads, tr->ops->light_range);
     free(Ls);
     for (size_t i = 0; i < 3 * (size_t)t->nvecs; i++) {
