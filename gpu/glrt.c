@@ -452,30 +452,46 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
-/* The element buffer reordered by what a triangle's pixels need (struct glrt: tv_tris): no corner of the
- * tv's materials, every corner at vattr 1 (its fast path), the rest; perm[i] = the mesh's index of
- * drawn triangle i. -1 on OOM. */
-static int order_tris(glrt *rt, const float *pix, const float *tva, uint32_t *perm, prt_error *err) {
+/* The element buffer as a stable partition of the mesh's triangles into ncls classes (cls_of: a
+ * triangle's class), class 0 first, the mesh's order within each; counts[c] += the triangles of class
+ * c; perm (may be NULL): perm[i] = the mesh's index of drawn triangle i. -1 on OOM. */
+static int partition_tris(glrt *rt, int ncls, int (*cls_of)(const glrt *rt, const uint32_t *t, const void *ctx),
+                          const void *ctx, int *counts, uint32_t *perm, prt_error *err) {
     const prt_mesh *m = &rt->d->scene.mesh;
     uint32_t *idx = prt_calloc(3 * (size_t)m->ntris + 3, sizeof(uint32_t), err);
     if (!idx) return -1;
     int n = 0;
-    memset(rt->tv_tris, 0, sizeof rt->tv_tris);
-    for (int cls = 0; cls < 3; cls++)
+    for (int cls = 0; cls < ncls; cls++)
         for (int f = 0; f < m->ntris; f++) {
             const uint32_t *t = m->tris + 3 * (size_t)f;
-            bool none = pix[t[0]] == 0 && pix[t[1]] == 0 && pix[t[2]] == 0;
-            bool fast = pix[t[0]] == 1 && pix[t[1]] == 1 && pix[t[2]] == 1 && tva[t[0]] == 1 && tva[t[1]] == 1 && tva[t[2]] == 1;
-            if ((none ? 0 : fast ? 1 : 2) != cls) continue;
+            if (cls_of(rt, t, ctx) != cls) continue;
             memcpy(idx + 3 * (size_t)n, t, 3 * sizeof(uint32_t));
-            perm[n++] = (uint32_t)f;
-            rt->tv_tris[cls]++;
+            if (perm) perm[n] = (uint32_t)f;
+            n++;
+            counts[cls]++;
         }
     rt->gl->BindVertexArray(rt->vao);   /* the element binding is the vertex array's (core profile) */
     rt->gl->BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), idx);
     rt->gl->BindVertexArray(0);
     free(idx);
     return 0;
+}
+
+/* What a triangle's pixels need of the tv (struct glrt: tv_tris): 0 no corner of the tv's materials,
+ * 1 every corner at vattr 1 (its fast path), 2 the rest. ctx: the float arrays pix, tva. */
+static int tv_class(const glrt *rt, const uint32_t *t, const void *ctx) {
+    (void)rt;
+    const float *const *a = ctx, *pix = a[0], *tva = a[1];
+    bool none = pix[t[0]] == 0 && pix[t[1]] == 0 && pix[t[2]] == 0;
+    bool fast = pix[t[0]] == 1 && pix[t[1]] == 1 && pix[t[2]] == 1 && tva[t[0]] == 1 && tva[t[1]] == 1 && tva[t[2]] == 1;
+    return none ? 0 : fast ? 1 : 2;
+}
+
+/* The element buffer reordered by tv_class; perm[i] = the mesh's index of drawn triangle i. -1 on OOM. */
+static int order_tris(glrt *rt, const float *pix, const float *tva, uint32_t *perm, prt_error *err) {
+    const float *ctx[2] = { pix, tva };
+    memset(rt->tv_tris, 0, sizeof rt->tv_tris);
+    return partition_tris(rt, 3, tv_class, ctx, rt->tv_tris, perm, err);
 }
 
 /* The per-pixel transfer's data (rt->tv, ops->glsl_view): its two arrays as buffer textures (t_tv
@@ -861,29 +877,21 @@ void glrt_destroy(glrt *rt) {
     free(rt);
 }
 
+/* 1 when a corner of the triangle has a glossy material (the glossy lobe's VSGL term), else 0. */
+static int spec_class(const glrt *rt, const uint32_t *t, const void *ctx) {
+    (void)ctx;
+    const prt_mesh *m = &rt->d->scene.mesh;
+    bool g = false;
+    for (int k = 0; k < 3; k++) g |= glvsgl_glossy(rt->vsgl, m->mat ? (int)m->mat[t[k]] : 0);
+    return g;
+}
+
 /* Without a tv: the element buffer ordered by whether a triangle has a corner of a glossy material
  * (spec_tris), so that only those pixels run the glossy lobe's VSGL term: llvmpipe runs a branch's
  * body under a mask for every pixel, and the floor of bunny + floor paid for the bunny's term. A
  * stable partition: the draw order within each class stays the mesh's. -1 on OOM. */
 static int order_spec_tris(glrt *rt, prt_error *err) {
-    const prt_mesh *m = &rt->d->scene.mesh;
-    uint32_t *idx = prt_calloc(3 * (size_t)m->ntris + 3, sizeof(uint32_t), err);
-    if (!idx) return -1;
-    int n = 0;
-    for (int cls = 0; cls < 2; cls++)
-        for (int f = 0; f < m->ntris; f++) {
-            const uint32_t *t = m->tris + 3 * (size_t)f;
-            bool g = false;
-            for (int k = 0; k < 3; k++) g |= glvsgl_glossy(rt->vsgl, m->mat ? (int)m->mat[t[k]] : 0);
-            if (g != (cls == 1)) continue;
-            memcpy(idx + 3 * (size_t)n++, t, 3 * sizeof(uint32_t));
-            rt->spec_tris[cls]++;
-        }
-    rt->gl->BindVertexArray(rt->vao);   /* the element binding is the vertex array's (core profile) */
-    rt->gl->BufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), idx);
-    rt->gl->BindVertexArray(0);
-    free(idx);
-    return 0;
+    return partition_tris(rt, 2, spec_class, NULL, rt->spec_tris, NULL, err);
 }
 
 /* The view programs again when what they must hold changed: the local lights' code at the first local
