@@ -90,9 +90,14 @@ static void setup(void) {
 }
 
 /* A runtime of backend (view model view) over d, lit by p rotated by R; NULL after a failed check. */
-static prt_runtime *lit_on(const prt_data *d, const char *backend, runtime_view view, const prt_probe *p, const float *R) {
+/* A runtime of backend on d lit by p (rotated by R). kernel: the gl light kernel (NULL: auto). Two gl
+ * runtimes compared bit for bit must name one: auto picks the fastest by timing at create, so
+ * under load two runtimes can pick different kernels, whose float sums round differently (a CI run
+ * failed that way in runtime/images). */
+static prt_runtime *lit_kernel(const prt_data *d, const char *backend, runtime_view view, const prt_probe *p, const float *R,
+                               const char *kernel) {
     prt_error err = { { 0 } };
-    runtime_desc desc = { .backend = backend, .view = view };
+    runtime_desc desc = { .backend = backend, .view = view, .kernel = kernel };
     prt_runtime *rt = runtime_create(d, &desc, &err);
     CHECK(rt != NULL, "%s: %s", backend, err.msg);
     if (rt && runtime_set_light(rt, p, R, &err)) {
@@ -101,6 +106,10 @@ static prt_runtime *lit_on(const prt_data *d, const char *backend, runtime_view 
         return NULL;
     }
     return rt;
+}
+
+static prt_runtime *lit_on(const prt_data *d, const char *backend, runtime_view view, const prt_probe *p, const float *R) {
+    return lit_kernel(d, backend, view, p, R, NULL);
 }
 
 static prt_runtime *lit(const char *backend, runtime_view view, const prt_probe *p, const float *R) {
@@ -201,8 +210,8 @@ static void images(void) {
     prt_error err = { { 0 } };
     render_desc rd = { .width = W, .height = H, .camera = g_cam, .background = &g_sky };
     prt_image ic = { 0 }, iv = { 0 }, ip = { 0 }, ref = { 0 };
-    prt_runtime *cpu = lit("cpu", 0, &g_sky, NULL), *glv = lit("gl", RUNTIME_VIEW_VERTEX, &g_sky, NULL);
-    prt_runtime *glp = lit("gl", 0, &g_sky, NULL);
+    prt_runtime *cpu = lit("cpu", 0, &g_sky, NULL), *glv = lit_kernel(&g_d, "gl", RUNTIME_VIEW_VERTEX, &g_sky, NULL, "fragment");
+    prt_runtime *glp = lit_kernel(&g_d, "gl", 0, &g_sky, NULL, "fragment");   /* one kernel: compared bit for bit below */
     float *rgb = malloc(sizeof(float) * 3 * (size_t)g_d.scene.mesh.nverts);
     double *rel = malloc(sizeof(double) * W * H * 3);
     if (cpu && glv && glp && rgb && rel && runtime_render(cpu, &rd, &ic, &err) == 0 && runtime_render(glv, &rd, &iv, &err) == 0 &&
@@ -851,7 +860,9 @@ static void light_cube(void) {
     probe_to_cube(&g_sky, CUBE_RES, g_R, 0, cube);
     for (int k = 0; k < 2; k++) {
         prt_error err = { { 0 } };
-        prt_runtime *pr = lit(backends[k], RUNTIME_VIEW_VERTEX, &g_sky, g_R), *cr = lit(backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL);
+        const char *kern = k ? "fragment" : NULL;   /* one gl kernel: compared bit for bit below */
+        prt_runtime *pr = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky, g_R, kern);
+        prt_runtime *cr = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL, kern);
         int rc = pr && cr ? runtime_set_light_cube(cr, cube, &err) : -1;
         CHECK(rc == 0, "%s: %s", backends[k], err.msg);
         if (rc == 0 && runtime_shade_vertices(pr, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cr, g_cam.eye, b, &err) == 0)
