@@ -5,9 +5,16 @@
  * files with a valid checksum but out-of-range indices each fail with one line naming
  * the file; failed writes leave no file behind; the same bytes read from memory
  * (prtfile_read_memory) give the same data and the same messages. The transport lives in a Haar
- * transfer section (transfer.h), written and validated by that module. */
+ * transfer section (transfer.h), written and validated by that module. Issue 13's mapped loading:
+ * prtfile_read leaves the runs and coefficients in windows of the file (data_map), which hold the
+ * same values as the copies prtfile_read_memory makes and shade the same vertex colours; a file
+ * without the padding (older files) maps when its array is aligned and is copied when not; bad
+ * padding is refused; no read, failed or not, leaves a mapping of its file behind; the threaded CRC
+ * equals zlib's. */
 #include "harness.h"
 #include "prtfile.h"
+#include "prtio.h"
+#include "runtime.h"
 #include <dirent.h>
 #include <stdlib.h>
 #include <string.h>
@@ -190,6 +197,17 @@ static int count_files(const char *dir, const char *needle) {
     return n;
 }
 
+/* Lines of /proc/self/maps naming path: this process's mappings of that file. */
+static int mappings_of(const char *path) {
+    FILE *f = fopen("/proc/self/maps", "r");
+    char line[4096];
+    int n = 0;
+    while (f && fgets(line, sizeof line, f))
+        if (strstr(line, path)) n++;
+    if (f) fclose(f);
+    return n;
+}
+
 /* Reading path fails with one line that names it (and contains want, if given). */
 static void expect_fail(const char *path, const char *name, const char *want, const char *what) {
     prt_data d;
@@ -200,6 +218,7 @@ static void expect_fail(const char *path, const char *name, const char *want, co
     CHECK(strchr(err.msg, '\n') == NULL, "%s: one line", what);
     if (want) CHECK(strstr(err.msg, want) != NULL, "%s: message '%s' should say '%s'", what, err.msg, want);
     CHECK(d.scene.mesh.pos == NULL && d.ntransfers == 0, "%s: nothing left allocated", what);
+    CHECK(mappings_of(path) == 0, "%s: no mapping of the file left", what);
 }
 
 /* Offset of section tag's contents in a file image (walking the section headers). */
@@ -503,6 +522,206 @@ static void from_memory(void) {
     free(img);
 }
 
+/* ---- issue 13: mapped loading ------------------------------------------------------------------ */
+
+/* The coefficient values of a set (packed, q16 or f32). */
+static const void *values_of(const prt_transport *t) {
+    return t->qbits == 8 ? (const void *)t->packed : t->qbits == 16 ? (const void *)t->q16 : (const void *)t->f32;
+}
+
+/* True when t's runs and values lie in its data_map window (the mapped path). */
+static bool in_window(const prt_transport *t) {
+    uintptr_t a = (uintptr_t)t->data_map, b = a + t->data_mapped, v = (uintptr_t)values_of(t), r = (uintptr_t)t->runs;
+    return t->data_map && v >= a && v < b && r >= a && r < b;
+}
+
+/* The cpu runtime's vertex colours of d (its direct-only set with direct) under a fixed light cube
+ * that varies texel to texel, toward one eye; malloc'd, 3 per vertex. */
+static float *shade(const prt_data *d, bool direct) {
+    prt_error err = { { 0 } };
+    float *cube = malloc(3 * CUBE_TEXELS * sizeof *cube), *rgb = calloc(3 * (size_t)d->scene.mesh.nverts, sizeof *rgb);
+    for (int i = 0; i < 3 * CUBE_TEXELS; i++) cube[i] = 1.f + (float)((i * 7919) % 1000) / 250.f;
+    prt_runtime *rt = runtime_create(d, &(runtime_desc){ .backend = "cpu", .threads = 1, .direct_only = direct }, &err);
+    int ok = rt && runtime_set_light_cube(rt, cube, &err) == 0 && runtime_shade_vertices(rt, (float[3]){ 0.3f, 2.f, 4.f }, rgb, &err) == 0;
+    CHECK(ok, "cpu runtime shades: %s", err.msg);
+    runtime_destroy(rt);
+    free(cube);
+    return rgb;
+}
+
+/* The 8-bit test data with the direct-only set (the total's vectors again) at DIR/name. */
+static const char *written_direct(const char *name) {
+    static char path[512];
+    snprintf(path, sizeof path, "%s/%s", check_tmpdir(), name);
+    prt_data a, c;
+    prt_error err;
+    make_data(&a, 8);
+    make_data(&c, 8);
+    a.transfers[0].direct = c.transfers[0].transport;
+    memset(&c.transfers[0].transport, 0, sizeof c.transfers[0].transport);
+    prt_data_free(&c);
+    CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
+    prt_data_free(&a);
+    return path;
+}
+
+/* prtfile_read (mapped) against prtfile_read_memory (copied) at 8, 16 and 32 bits and with the
+ * direct-only set: every array equal (check_equal), the mapped sets in windows of the file with the
+ * values 64-byte aligned (the writer's padding), the copies on the heap; the cpu runtime's vertex
+ * colours equal bit for bit (total and direct-only); once freed, no mapping of the file is left. */
+static void mapped(void) {
+    const char *paths[4] = { written(8), written(16), written(32), written_direct("mapped_dirt.prt") };
+    for (int k = 0; k < 4; k++) {
+        int q = k < 3 ? 8 << k : 8;
+        prt_error err = { { 0 } };
+        size_t n = 0;
+        unsigned char *img = (unsigned char *)check_read_file(paths[k], &n);
+        prt_data m, c;
+        int rm = prtfile_read(paths[k], &m, &err);
+        CHECK(rm == 0, "mapped read: %s", err.msg);
+        int rc = prtfile_read_memory("copy.prt", img, n, &c, &err);
+        CHECK(rc == 0, "copied read: %s", err.msg);
+        if (rm == 0 && rc == 0) {
+            check_equal(&c, &m, q);
+            for (int set = 0; set < (k == 3 ? 2 : 1); set++) {
+                const prt_transport *tm = set ? &m.transfers[0].direct : &m.transfers[0].transport;
+                const prt_transport *tc = set ? &c.transfers[0].direct : &c.transfers[0].transport;
+                CHECK(in_window(tm) && (uintptr_t)values_of(tm) % 64 == 0, "%s, set %d: mapped, values 64-byte aligned", paths[k], set);
+                CHECK(tc->data_map == NULL && tc->runs && values_of(tc), "%s, set %d: the copy on the heap", paths[k], set);
+            }
+            CHECK(mappings_of(paths[k]) >= 1, "%s: while loaded, its windows map the file", paths[k]);
+            for (int direct = 0; direct < (k == 3 ? 2 : 1); direct++) {
+                float *a = shade(&m, direct), *b = shade(&c, direct), top = 0;
+                for (int i = 0; i < 3 * m.scene.mesh.nverts; i++) top = a[i] > top ? a[i] : top;
+                CHECK(top > 0 && memcmp(a, b, 3 * (size_t)m.scene.mesh.nverts * sizeof *a) == 0,
+                      "%s%s: vertex colours equal bit for bit (max %g)", paths[k], direct ? " (direct only)" : "", top);
+                free(a);
+                free(b);
+            }
+        }
+        if (rm == 0) prt_data_free(&m);
+        if (rc == 0) prt_data_free(&c);
+        CHECK(mappings_of(paths[k]) == 0, "%s: freed, no mapping of it left", paths[k]);
+        free(img);
+    }
+}
+
+/* Offset in the 8- or 16/32-bit test file image of the total set's padding (its u8 count), and the
+ * HAAR section's contents. */
+static size_t pad_offset(const unsigned char *img, size_t n, int q, size_t *haar) {
+    prt_data a;
+    make_data(&a, q);
+    const prt_transport *t = &a.transfers[0].transport;
+    size_t nr = t->run_first[t->nvecs];
+    *haar = section(img, n, "HAAR");
+    size_t at = *haar + TRANSFER_HEAD + 32 + 4 * ((size_t)t->nverts + 1) + 8 * ((size_t)t->nvecs + 1) + 2 * nr + 12 * (size_t)t->nvecs;
+    prt_data_free(&a);
+    return at;
+}
+
+/* The file image as an older prt wrote it (no padding, flag bit 2 clear), with an unknown section of
+ * j bytes before HAAR (readers skip it) to move the arrays; fresh lengths and CRC. *len: its size. */
+static unsigned char *unpadded(const unsigned char *img, size_t n, size_t j, size_t *len, size_t *values_at) {
+    size_t haar, at = pad_offset(img, n, 8, &haar), cut = 1 + img[at];
+    unsigned char *o = calloc(n + 12 + j, 1);
+    size_t h = haar - 12, w = 0;
+    memcpy(o, img, h);
+    memcpy(o + h, "JUNK", 4);
+    uint64_t jl = j;
+    memcpy(o + h + 4, &jl, 8);
+    w = h + 12 + j;
+    memcpy(o + w, img + h, at - h);
+    w += at - h;
+    memcpy(o + w, img + at + cut, n - 4 - at - cut);
+    w += n - 4 - at - cut;
+    *values_at = at + 12 + j;
+    uint64_t payload, seclen;
+    memcpy(&payload, o + 8, 8);
+    payload = payload + 12 + j - cut;
+    memcpy(o + 8, &payload, 8);
+    memcpy(&seclen, o + haar + j + 4, 8);   /* HAAR's header now starts at haar - 12 + 12 + j */
+    seclen -= cut;
+    memcpy(o + haar + j + 4, &seclen, 8);
+    o[haar + 12 + j + 20] &= (unsigned char)~4;
+    uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), o, (uInt)w);
+    memcpy(o + w, &crc, 4);
+    *len = w + 4;
+    return o;
+}
+
+/* Files from before the padding: mapped when the values happen to be 4-byte aligned, copied when
+ * not; either way the same data as the padded file read from memory. */
+static void mapped_older_files(void) {
+    prt_error err = { { 0 } };
+    size_t n = 0;
+    unsigned char *img = (unsigned char *)check_read_file(written(8), &n);
+    prt_data want;
+    CHECK(prtfile_read_memory("padded.prt", img, n, &want, &err) == 0, "%s", err.msg);
+    char path[512];
+    snprintf(path, sizeof path, "%s/older.prt", check_tmpdir());
+    int seen[2] = { 0, 0 };
+    for (size_t j = 0; j < 4; j++) {
+        size_t len, vat;
+        unsigned char *o = unpadded(img, n, j, &len, &vat);
+        spit(path, o, len);
+        free(o);
+        prt_data d;
+        CHECK(prtfile_read(path, &d, &err) == 0, "older file, junk %zu: %s", j, err.msg);
+        if (d.scene.mesh.pos) {
+            check_equal(&want, &d, 8);
+            bool aligned = vat % 4 == 0;
+            seen[aligned]++;
+            CHECK(aligned ? in_window(&d.transfers[0].transport) : d.transfers[0].transport.data_map == NULL,
+                  "older file with values at %zu: %s", vat, aligned ? "mapped" : "copied");
+            prt_data_free(&d);
+        }
+        CHECK(mappings_of(path) == 0, "older file: no mapping left");
+    }
+    CHECK(seen[0] == 3 && seen[1] == 1, "both paths taken (%d copied, %d mapped)", seen[0], seen[1]);
+    prt_data_free(&want);
+    free(img);
+}
+
+/* Padding longer than 63 bytes or not zero (with a valid CRC): refused with one line. */
+static void mapped_bad_padding(void) {
+    char bad[512];
+    snprintf(bad, sizeof bad, "%s/badpad.prt", check_tmpdir());
+    int nonzero = 0;
+    for (int q = 8; q <= 32; q *= 2) {
+        size_t n = 0, haar;
+        unsigned char *img = (unsigned char *)check_read_file(written(q), &n);
+        size_t at = pad_offset(img, n, q, &haar);
+        uint32_t w;
+        memcpy(&w, img + at, 4);
+        CHECK(img[at] < 64 && (q != 8 || (at + 1 + img[at]) % 64 == 0), "%d-bit: pad count %u puts the values on 64 bytes", q, img[at]);
+        patch32(bad, img, n, at, (w & ~0xffu) | 64u);
+        expect_fail(bad, "badpad.prt", "bad padding", "pad count 64");
+        if (img[at] > 0) {
+            nonzero++;
+            patch32(bad, img, n, at, w | 0x100u);
+            expect_fail(bad, "badpad.prt", "bad padding", "a pad byte not zero");
+        }
+        free(img);
+    }
+    CHECK(nonzero > 0, "some file had padding to spoil");
+}
+
+/* prtio_crc_threads equals zlib's crc32 over the same bytes: one chunk, exactly one, one byte past,
+ * several, on 1 and 2 threads. */
+static void crc_threads(void) {
+    size_t big = (size_t)40 << 20;
+    unsigned char *b = malloc(big);
+    uint32_t x = 12345;
+    for (size_t i = 0; i < big; i++) { x = x * 1664525u + 1013904223u; b[i] = (unsigned char)(x >> 24); }
+    size_t lens[] = { 0, 5, (size_t)16 << 20, ((size_t)16 << 20) + 1, big };
+    for (size_t i = 0; i < sizeof lens / sizeof lens[0]; i++)
+        for (int th = 1; th <= 2; th++) {
+            unsigned long want = crc32(crc32(0L, Z_NULL, 0), b, (uInt)lens[i]);
+            CHECK(prtio_crc_threads(b, lens[i], th, false) == want, "%zu bytes on %d threads", lens[i], th);
+        }
+    free(b);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(round_trip);
@@ -513,5 +732,9 @@ int main(int argc, char **argv) {
     CHECK_CASE(failed_writes);
     CHECK_CASE(transfers_rule);
     CHECK_CASE(from_memory);
+    CHECK_CASE(mapped);
+    CHECK_CASE(mapped_older_files);
+    CHECK_CASE(mapped_bad_padding);
+    CHECK_CASE(crc_threads);
     return check_summary();
 }

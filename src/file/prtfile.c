@@ -22,14 +22,16 @@
  * serializer, so the file streams out with no copy of the data in memory; it
  * goes to a temporary name and is renamed at the end (prt_atomic_*).
  *
- * Reading loads the file, checks magic, version, the payload length against
- * the file size, the CRC, then parses each section with a bounds-checked
+ * Reading maps the file (or, where mmap refuses, reads it into memory), checks magic,
+ * version, the payload length against the file size, the CRC (chunks folded on every
+ * core and joined), then parses each section with a bounds-checked
  * cursor and finally validates every index the runtime will follow (triangle
  * indices, materials, then each transfer's own checks: per-vertex vector counts
  * against each material's K, coefficient and run offsets, blocks, ascending
  * indices) and that every float is finite. A CRC only catches accidents; these
  * checks are what make a crafted file fail with one line instead of crashing the
- * renderer. */
+ * renderer. A sparse transfer keeps its runs and coefficients in windows of the mapped
+ * file (transfer_sparse.c): the largest arrays are never copied. */
 #include "prtfile.h"
 #include "check.h"
 #include "prtio.h"
@@ -37,7 +39,10 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define TAG_META TRANSFER_TAG('M', 'E', 'T', 'A')
 #define TAG_MESH TRANSFER_TAG('M', 'E', 'S', 'H')
@@ -48,6 +53,7 @@
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 
 static bool data_ok(const prt_data *d, char *why);
+static int read_image(const char *name, const uint8_t *buf, size_t size, const prtio_file *file, prt_data *out, prt_error *err);
 
 /* ---- writing ---------------------------------------------------------------------------- */
 
@@ -153,12 +159,19 @@ static void sec_write(prt_writer *w, const section *s, const prt_data *d) {
     else s->tr->ops->write(w, s->tr);
 }
 
+/* The length of section s when its bytes start at offset `at` of the file: a silent pass of its
+ * writer from there (a section pads its arrays to offsets from the file's start, prtio_put_pad). */
+static uint64_t section_length(const section *s, const prt_data *d, uint64_t at) {
+    prt_writer count = { .n = at };
+    sec_write(&count, s, d);
+    return count.n - at;
+}
+
 /* Writes one tagged section: sizes it with a counting pass, then writes it. */
 static void put_section(prt_writer *w, const section *s, const prt_data *d) {
-    prt_writer count = { 0 };
-    sec_write(&count, s, d);
+    uint64_t len = section_length(s, d, w->n + 12);
     prtio_put_u32(w, s->tag);
-    prtio_put_u64(w, count.n);
+    prtio_put_u64(w, len);
     sec_write(w, s, d);
 }
 
@@ -178,11 +191,7 @@ int prtfile_write(const char *path, const prt_data *d, prt_error *err) {
     if (!f) return -1;
     /* Payload length: the sections, each with its 12-byte tag and length. */
     uint64_t payload = 0;
-    for (int i = 0; i < nsec; i++) {
-        prt_writer c = { 0 };
-        sec_write(&c, &secs[i], d);
-        payload += 12 + c.n;
-    }
+    for (int i = 0; i < nsec; i++) payload += 12 + section_length(&secs[i], d, HEADER_BYTES + payload + 12);
     prt_writer w = { .f = f, .crc = prtio_crc_init() };
     prtio_put_bytes(&w, "PRTF", 4);
     prtio_put_u32(&w, PRTFILE_VERSION);
@@ -418,41 +427,26 @@ static bool rd_transfer(parse *P, prt_reader *r, const transfer_ops *ops) {
     return ops->read(r, tr, P->why);
 }
 
-/* The file's bytes (malloc'd into *buf, *size; NULL on failure). Returns 0 or -1 with one line
- * naming the file. */
-static int load_file(const char *path, uint8_t **buf, size_t *size, prt_error *err) {
-    *buf = NULL;
-    FILE *f = fopen(path, "rb");
-    if (!f) return prt_fail(err, "%s: cannot open: %s", path, strerror(errno));
-    struct stat st;
-    if (fstat(fileno(f), &st) != 0 || !S_ISREG(st.st_mode)) {
-        fclose(f);
-        return prt_fail(err, "%s: not a regular file", path);
-    }
-    size_t n = (size_t)st.st_size;
-    if (n == 0) {
-        fclose(f);
-        return prt_fail(err, "%s: empty file (not a prt file)", path);
-    }
+/* The read path (a file mmap refused): the n bytes of fd read into memory, then read_image. */
+static int read_copied(const char *path, int fd, size_t n, prt_data *out, prt_error *err) {
     uint8_t *b = malloc(n);
-    if (!b) {
-        fclose(f);
-        return prt_fail(err, "%s: out of memory reading %zu bytes", path, n);
+    if (!b) return prt_fail(err, "%s: out of memory reading %zu bytes", path, n);
+    size_t got = 0;
+    while (got < n) {
+        ssize_t k = pread(fd, b + got, n - got, (off_t)got);
+        if (k < 0 && errno == EINTR) continue;
+        if (k <= 0) break;
+        got += (size_t)k;
     }
-    size_t got = fread(b, 1, n, f);
-    fclose(f);
-    if (got != n) {
-        free(b);
-        return prt_fail(err, "%s: read error: %s", path, strerror(errno));
-    }
-    *buf = b;
-    *size = n;
-    return 0;
+    int rc = got == n ? read_image(path, b, n, NULL, out, err) : prt_fail(err, "%s: read error: %s", path, got < n && errno ? strerror(errno) : "short read");
+    free(b);
+    return rc;
 }
 
-/* The checks of the frame of b[n]: magic, version, payload length, CRC. Returns 0 or -1 with one
+/* The checks of the frame of b[n]: magic, version, payload length, CRC (on every core; with drop, b
+ * is a file mapping whose pages leave this process as they are folded). Returns 0 or -1 with one
  * line naming the file. */
-static int frame_checked(const char *path, const uint8_t *b, size_t n, prt_error *err) {
+static int frame_checked(const char *path, const uint8_t *b, size_t n, bool drop, prt_error *err) {
     if (n == 0) return prt_fail(err, "%s: empty file (not a prt file)", path);
     if (n < 4 || memcmp(b, "PRTF", 4) != 0) return prt_fail(err, "%s: not a prt file (bad magic)", path);
     if (n < HEADER_BYTES + 4) return prt_fail(err, "%s: truncated (%zu bytes, less than a header)", path, n);
@@ -467,7 +461,7 @@ static int frame_checked(const char *path, const uint8_t *b, size_t n, prt_error
     if (payload < n - HEADER_BYTES - 4)
         return prt_fail(err, "%s: corrupt (%zu bytes, but the header says %llu)", path, n, (unsigned long long)(payload + HEADER_BYTES + 4));
     prt_reader tail = { .p = b, .n = n, .pos = n - 4 };
-    if ((uint32_t)prtio_crc(prtio_crc_init(), b, n - 4) != prtio_get_u32(&tail))
+    if ((uint32_t)prtio_crc_threads(b, n - 4, 0, drop) != prtio_get_u32(&tail))
         return prt_fail(err, "%s: corrupt (checksum mismatch)", path);
     return 0;
 }
@@ -499,12 +493,13 @@ static int parse_section(parse *P, const char *path, uint32_t tag, prt_reader *s
     return 0;
 }
 
-/* Reads path into out. Returns 0, or -1 with one line naming the file (out is then empty). */
-int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_data *out, prt_error *err) {
+/* Reads the file image buf[size] into out; with file, buf is its mapping and the transfers may keep
+ * windows of it. Returns 0, or -1 with one line naming the file (out is then empty). */
+static int read_image(const char *name, const uint8_t *buf, size_t size, const prtio_file *file, prt_data *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->scene.floor_first_vertex = -1;
     parse P = { .d = out };
-    if (frame_checked(name, buf, size, err)) return -1;
+    if (frame_checked(name, buf, size, file != NULL, err)) return -1;
     /* Sections; the cross-section checks follow in data_ok(). */
     prt_reader s = { .p = buf, .n = size - 4, .pos = HEADER_BYTES };
     bool seen[3] = { false, false, false };
@@ -516,7 +511,7 @@ int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_d
             prt_fail(err, "%s: corrupt (section runs past the end)", name);
             goto done;
         }
-        prt_reader sec = { .p = buf + s.pos, .n = (size_t)len };
+        prt_reader sec = { .p = buf + s.pos, .n = (size_t)len, .file = file };
         s.pos += (size_t)len;
         if (parse_section(&P, name, tag, &sec, seen, err)) goto done;
     }
@@ -540,15 +535,40 @@ done:
     return rc;
 }
 
-/* Reads the file into memory, then prtfile_read_memory under its path. */
+/* Reads the bytes buf[size] (copying every array) into out. */
+int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_data *out, prt_error *err) {
+    return read_image(name, buf, size, NULL, out, err);
+}
+
+/* Maps the file and reads it in place (read_image with the file: the transport sets keep windows
+ * of it, paged in by the validation as the runtime will need them, so a light change meets no page
+ * fault); when mmap refuses, reads it into memory instead. The windows are private read-only mappings: prt replaces files by
+ * renaming (prt_atomic_commit), which leaves a mapped file's pages as they were. */
 int prtfile_read(const char *path, prt_data *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->scene.floor_first_vertex = -1;
-    uint8_t *buf = NULL;
-    size_t size = 0;
-    if (load_file(path, &buf, &size, err)) return -1;
-    int rc = prtfile_read_memory(path, buf, size, out, err);
-    free(buf);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return prt_fail(err, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return prt_fail(err, "%s: not a regular file", path);
+    }
+    size_t n = (size_t)st.st_size;
+    if (n == 0) {
+        close(fd);
+        return prt_fail(err, "%s: empty file (not a prt file)", path);
+    }
+    void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
+    int rc;
+    if (m == MAP_FAILED) {
+        rc = read_copied(path, fd, n, out, err);
+    } else {
+        prtio_file file = { fd, m, n };
+        rc = read_image(path, m, n, &file, out, err);
+        munmap(m, n);
+    }
+    close(fd);
     return rc;
 }
 
@@ -561,6 +581,13 @@ void prt_data_free(prt_data *d) {
         if (d->transfers[i].ops) d->transfers[i].ops->release(&d->transfers[i]);
     memset(d, 0, sizeof *d);
     d->scene.floor_first_vertex = -1;
+}
+
+/* The transport sets' windows (see prtfile.h). */
+size_t prt_data_mapped_bytes(const prt_data *d) {
+    size_t n = 0;
+    for (int i = 0; i < d->ntransfers && i < PRT_MAX_TRANSFERS; i++) n += d->transfers[i].transport.data_mapped + d->transfers[i].direct.data_mapped;
+    return n;
 }
 
 /* The first transfer with a light kernel, or NULL (see prtfile.h). */

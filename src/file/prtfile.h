@@ -15,8 +15,19 @@
  * the same on bytes already in memory (a name stands for the path in its errors).
  * prtfile_write writes to a temporary file and renames it.
  *
- * Ownership: prt_data owns everything in it; prt_data_free frees it (each transfer
- * through its ops->release). */
+ * Mapped loading (issue 13): prtfile_read maps the file instead of reading it, folds the
+ * CRC on every core, and a sparse transfer's runs and coefficients (nearly all of a large
+ * file) stay in the file's pages as a read-only window per transport set (its data_map)
+ * rather than being copied; the writer pads them to 64-byte offsets so that they can.
+ * The checks are the same. The windows' pages are the page cache's: shared by every process
+ * that loads the file, never copied, dropped by the kernel under memory pressure and read
+ * back; the CRC's pass over the whole file leaves none resident. prtfile_read_memory, an
+ * older file whose arrays fall on odd offsets, or a file mmap refuses, copy as before: the
+ * same data.
+ * A loaded file may be replaced (prt writes by rename) but must not be truncated in place.
+ *
+ * Ownership: prt_data owns everything in it, mappings included; prt_data_free frees it
+ * (each transfer through its ops->release). */
 #ifndef PRT_PRTFILE_H
 #define PRT_PRTFILE_H
 #include "common.h"
@@ -62,6 +73,9 @@ int prtfile_read(const char *path, prt_data *out, prt_error *err);
 /* prtfile_read on the bytes buf[size] (the caller's; only read), naming them name in errors. */
 int prtfile_read_memory(const char *name, const uint8_t *buf, size_t size, prt_data *out, prt_error *err);
 void prt_data_free(prt_data *d);
+/* Bytes of d that prtfile_read left in the file's pages (the transport sets' windows, data_map)
+ * instead of copying: 0 for data read from memory or built by a precompute. */
+size_t prt_data_mapped_bytes(const prt_data *d);
 /* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range), or NULL when
  * there is none (a file holding only a vmf transfer, as its tests write: valid, but the runtimes
  * refuse it with one line). Precompute makes exactly one, covering every material (a material on

@@ -1,9 +1,13 @@
 /* prtio.c - the .prt byte-level serializer (prtio.h). Arrays go out in one
- * fwrite on a little-endian host and element by element otherwise. */
+ * fwrite on a little-endian host and element by element otherwise; on the way in
+ * they are copied, or on a little-endian host left in the file's pages
+ * (prtio_map_window). */
 #include "prtio.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
@@ -22,6 +26,40 @@ unsigned long prtio_crc(unsigned long crc, const void *p, size_t len) {
         crc = crc32(crc, b + off, (uInt)chunk);
         off += chunk;
     }
+    return crc;
+}
+
+/* prtio_crc_threads: chunks of 16 MB, each folded from zero on its own and joined in order. */
+#define CRC_CHUNK ((size_t)16 << 20)
+typedef struct crc_job { const uint8_t *p; size_t len; bool drop; unsigned long *part; } crc_job;
+
+static void crc_chunk(void *ctx, int begin, int end, int thread) {
+    (void)thread;
+    crc_job *j = ctx;
+    for (int c = begin; c < end; c++) {
+        size_t off = (size_t)c * CRC_CHUNK, n = j->len - off < CRC_CHUNK ? j->len - off : CRC_CHUNK;
+        j->part[c] = prtio_crc(prtio_crc_init(), j->p + off, n);
+        if (j->drop) {   /* whole pages only: a page shared with the next chunk stays for it */
+            uintptr_t a = ((uintptr_t)(j->p + off) + 4095) & ~(uintptr_t)4095, b = (uintptr_t)(j->p + off + n) & ~(uintptr_t)4095;
+            if (b > a) madvise((void *)a, b - a, MADV_DONTNEED);
+        }
+    }
+}
+
+/* See prtio.h. A CRC is a polynomial remainder, so the chunks' CRCs join exactly (zlib's
+ * crc32_combine). A file of one chunk (or a failed allocation) is folded in one go, its pages kept. */
+unsigned long prtio_crc_threads(const void *p, size_t len, int nthreads, bool drop) {
+    size_t nchunks = (len + CRC_CHUNK - 1) / CRC_CHUNK;
+    unsigned long *part = nchunks > 1 && nchunks < INT32_MAX ? malloc(nchunks * sizeof *part) : NULL;
+    if (!part) return prtio_crc(prtio_crc_init(), p, len);
+    crc_job j = { p, len, drop, part };
+    prt_parallel_for((int)nchunks, 1, nthreads, crc_chunk, &j);
+    unsigned long crc = part[0];
+    for (size_t c = 1; c < nchunks; c++) {
+        size_t n = len - c * CRC_CHUNK < CRC_CHUNK ? len - c * CRC_CHUNK : CRC_CHUNK;
+        crc = crc32_combine(crc, part[c], (z_off_t)n);
+    }
+    free(part);
     return crc;
 }
 
@@ -74,6 +112,13 @@ void prtio_put_str(prt_writer *w, const char *s, size_t cap) {
     prtio_put_bytes(w, s, n);
 }
 
+void prtio_put_pad(prt_writer *w, size_t after, size_t align) {
+    static const uint8_t zero[256];
+    size_t k = (align - (size_t)((w->n + 1 + after) % align)) % align;
+    prtio_put_u8(w, (uint8_t)k);
+    prtio_put_bytes(w, zero, k);
+}
+
 bool prtio_need(prt_reader *r, size_t count, size_t es) {
     if (r->bad) return false;
     if (es && count > (r->n - r->pos) / es) {
@@ -109,17 +154,16 @@ double prtio_get_f64(prt_reader *r) {
     memcpy(&v, &u, 8);
     return v;
 }
-void *prtio_get_arr(prt_reader *r, size_t count, size_t es) {
-    if (!prtio_need(r, count, es)) return NULL;
+void *prtio_copy_arr(prt_reader *r, const void *p, size_t count, size_t es) {
     void *dst = malloc(count * es > 0 ? count * es : 1);
     if (!dst) {
         r->oom = true;
         r->bad = true;
         return NULL;
     }
-    const uint8_t *b = r->p + r->pos;
+    const uint8_t *b = p;
     if (HOST_LE || es == 1) {
-        memcpy(dst, b, count * es);
+        if (count) memcpy(dst, b, count * es);
     } else {
         for (size_t i = 0; i < count; i++) {
             const uint8_t *e = b + i * es;
@@ -127,8 +171,40 @@ void *prtio_get_arr(prt_reader *r, size_t count, size_t es) {
             else { uint32_t v = (uint32_t)e[0] | (uint32_t)e[1] << 8 | (uint32_t)e[2] << 16 | (uint32_t)e[3] << 24; memcpy((uint8_t *)dst + 4 * i, &v, 4); }
         }
     }
-    r->pos += count * es;
     return dst;
+}
+const void *prtio_peek_arr(prt_reader *r, size_t count, size_t es) {
+    if (!prtio_need(r, count, es)) return NULL;
+    const uint8_t *b = r->p + r->pos;
+    r->pos += count * es;
+    return b;
+}
+void *prtio_get_arr(prt_reader *r, size_t count, size_t es) {
+    const void *b = prtio_peek_arr(r, count, es);
+    return b ? prtio_copy_arr(r, b, count, es) : NULL;
+}
+bool prtio_skip_pad(prt_reader *r, size_t align) {
+    uint8_t k = prtio_get_u8(r);
+    const uint8_t *z = prtio_peek_arr(r, k, 1);
+    if (k >= align) r->bad = true;
+    for (size_t i = 0; z && i < k; i++)
+        if (z[i]) r->bad = true;
+    return !r->bad;
+}
+/* See prtio.h: the window starts at the page holding p (mmap's offsets are whole pages), so p keeps
+ * its alignment; the pages are the page cache's, shared with the reader's mapping, never copied. */
+const void *prtio_map_window(const prt_reader *r, const void *p, size_t len, void **map, size_t *mapped) {
+    *map = NULL;
+    *mapped = 0;
+    const prtio_file *f = r->file;
+    if (!f || !HOST_LE || len == 0) return NULL;
+    size_t off = (size_t)((const uint8_t *)p - f->base), pg = (size_t)sysconf(_SC_PAGESIZE), start = off / pg * pg;
+    PRT_CHECK(off <= f->size && len <= f->size - off);
+    void *m = mmap(NULL, off + len - start, PROT_READ, MAP_PRIVATE, f->fd, (off_t)start);
+    if (m == MAP_FAILED) return NULL;
+    *map = m;
+    *mapped = off + len - start;
+    return (const uint8_t *)m + (off - start);
 }
 bool prtio_get_str(prt_reader *r, char *buf, size_t cap) {
     uint32_t n = prtio_get_u32(r);

@@ -7,11 +7,20 @@
  *     u64 materials                      bit i: material i
  *     u8  flags                          bit 0: the direct-only set follows the total;
  *                                        bit 1: Haar's solid-angle measure (transfer.h;
- *                                        files before issue 10 have only bit 0)
+ *                                        files before issue 10 have only bit 0);
+ *                                        bit 2: padded (below; files before issue 13's
+ *                                        mapped loading have no padding)
  *     transport, [direct transport]      each: i32 nverts, nvecs, N, qbits; u64 ncoefs, nruns;
- *                                        vec_first, coef_first, run_first, runs, scale, then
+ *                                        vec_first, coef_first, run_first, runs, scale,
+ *                                        [padded: u8 k, k zero bytes], then
  *                                        packed (8-bit) or offs + q16 / f32
- * Reading sizes and allocates only; transfer_sparse_validate then checks every
+ * The padding puts packed, q16 or f32 at a multiple of 64 bytes from the file's start, so that
+ * prtfile_read can leave the coefficients in the file's pages (issue 13): the runs and the
+ * coefficient arrays, all but about 24 bytes per vector, become one read-only window of the file
+ * (prtio_map_window, kept in the set's data_map as transport_map_to_file's are) instead of a copy.
+ * A reader with no file (bytes in memory), a big-endian host, or an older file whose array falls
+ * on an odd address copies them as before: the same values either way.
+ * Reading sizes and allocates (or maps) only; transfer_sparse_validate then checks every
  * index the runtimes follow: per-vertex vector counts against each material's K
  * (0 for materials outside the mask), coefficient and run offsets, blocks, strictly
  * ascending indices below the representation's limit, finite values. */
@@ -22,6 +31,7 @@
 #include <string.h>
 
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
+#define SPARSE_FILE_ALIGN 64   /* the coefficient arrays' alignment in the file (a cache line) */
 
 /* N default 128 (the paper's budget for a 64x64x6 cube), 8-bit values. */
 int transfer_sparse_configure(transfer_config *cfg, prt_error *err) {
@@ -55,6 +65,7 @@ static void put_transport(prt_writer *w, const prt_transport *t) {
     prtio_put_arr(w, t->run_first, (size_t)t->nvecs + 1, 4);
     prtio_put_arr(w, t->runs, 2 * nr, 1);
     prtio_put_arr(w, t->scale, 3 * (size_t)t->nvecs, 4);
+    prtio_put_pad(w, t->qbits == 8 ? 0 : nc, SPARSE_FILE_ALIGN);
     if (t->qbits == 8) {
         prtio_put_arr(w, t->packed, nc, 4);
     } else {
@@ -70,14 +81,38 @@ void transfer_sparse_write(prt_writer *w, const prt_transfer *tr) {
     prtio_put_i32(w, tr->cfg.order);
     prtio_put_u64(w, tr->materials);
     bool direct = tr->direct.nvecs > 0;
-    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE ? 2 : 0)));
+    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE ? 2 : 0) | 4));
     put_transport(w, &tr->transport);
     if (direct) put_transport(w, &tr->direct);
 }
 
 /* ---- reading ---------------------------------------------------------------------------- */
 
-static bool get_transport(prt_reader *r, prt_transport *t, char *why) {
+/* Points t's runs and coefficients (runs at p, nr of them; offs at offs (16/32 bits); the values at
+ * vals; nc coefficients) at a window of r's file when r has one and the values are aligned for
+ * their type, else copies them. False only when a copy's allocation fails (r->oom). */
+static bool place_arrays(prt_reader *r, prt_transport *t, const uint8_t *p, const uint8_t *offs, const uint8_t *vals, size_t nr, size_t nc) {
+    size_t es = t->qbits == 16 ? 2 : 4, nval = t->qbits == 8 ? nc : 3 * nc;
+    const uint8_t *m = NULL;
+    if (nc > 0 && (uintptr_t)vals % es == 0) m = prtio_map_window(r, p, (size_t)(vals + nval * es - p), &t->data_map, &t->data_mapped);
+    if (m) {   /* every array lies inside the window (nc > 0 ends it with values), as transport_free expects */
+        t->runs = (uint8_t *)m;
+        if (offs) t->offs = (uint8_t *)(m + (offs - p));
+        void *v = (void *)(m + (vals - p));
+        if (t->qbits == 8) t->packed = v;
+        else if (t->qbits == 16) t->q16 = v;
+        else t->f32 = v;
+        return true;
+    }
+    t->runs = prtio_copy_arr(r, p, 2 * nr, 1);
+    if (offs) t->offs = prtio_copy_arr(r, offs, nc, 1);
+    if (t->qbits == 8) t->packed = prtio_copy_arr(r, vals, nc, 4);
+    else if (t->qbits == 16) t->q16 = prtio_copy_arr(r, vals, 3 * nc, 2);
+    else t->f32 = prtio_copy_arr(r, vals, 3 * nc, 4);
+    return !r->bad;
+}
+
+static bool get_transport(prt_reader *r, prt_transport *t, bool padded, char *why) {
     int nverts = prtio_get_i32(r), nvecs = prtio_get_i32(r), N = prtio_get_i32(r), qbits = prtio_get_i32(r);
     uint64_t nc = prtio_get_u64(r), nr = prtio_get_u64(r);
     if (r->bad) return BAD(why, "transfer section too short");
@@ -92,16 +127,13 @@ static bool get_transport(prt_reader *r, prt_transport *t, char *why) {
     t->vec_first = prtio_get_arr(r, (size_t)nverts + 1, 4);
     t->coef_first = prtio_get_arr(r, (size_t)nvecs + 1, 4);
     t->run_first = prtio_get_arr(r, (size_t)nvecs + 1, 4);
-    t->runs = prtio_get_arr(r, 2 * (size_t)nr, 1);
+    const uint8_t *runs = prtio_peek_arr(r, 2 * (size_t)nr, 1);
     t->scale = prtio_get_arr(r, 3 * (size_t)nvecs, 4);
-    if (qbits == 8) {
-        t->packed = prtio_get_arr(r, (size_t)nc, 4);
-    } else {
-        t->offs = prtio_get_arr(r, (size_t)nc, 1);
-        if (qbits == 16) t->q16 = prtio_get_arr(r, 3 * (size_t)nc, 2);
-        else t->f32 = prtio_get_arr(r, 3 * (size_t)nc, 4);
-    }
+    if (padded && !r->bad && !prtio_skip_pad(r, SPARSE_FILE_ALIGN)) return BAD(why, "bad padding before the coefficients");
+    const uint8_t *offs = qbits == 8 ? NULL : prtio_peek_arr(r, (size_t)nc, 1);
+    const uint8_t *vals = prtio_peek_arr(r, qbits == 8 ? (size_t)nc : 3 * (size_t)nc, qbits == 16 ? 2 : 4);
     if (r->bad) return BAD(why, "transfer section too short for %d vectors, %llu coefficients", nvecs, (unsigned long long)nc);
+    if (!place_arrays(r, t, runs, offs, vals, (size_t)nr, (size_t)nc)) return BAD(why, "out of memory");
     /* The arrays were sized by nc and nr: the offsets must end exactly there. */
     if (t->coef_first[nvecs] != nc || t->run_first[nvecs] != nr) return BAD(why, "coefficient or run offsets do not match their totals");
     return true;
@@ -114,10 +146,10 @@ bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why) {
     tr->materials = prtio_get_u64(r);
     uint8_t flags = prtio_get_u8(r), direct = flags & 1;
     if (r->bad) return BAD(why, "transfer section too short");
-    if (flags > 3) return BAD(why, "bad transfer flags %u", flags);
+    if (flags > 7) return BAD(why, "bad transfer flags %u", flags);
     tr->cfg.measure = flags & 2 ? TRANSFER_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
-    if (!get_transport(r, &tr->transport, why)) return false;
-    if (direct && !get_transport(r, &tr->direct, why)) return false;
+    if (!get_transport(r, &tr->transport, flags & 4, why)) return false;
+    if (direct && !get_transport(r, &tr->direct, flags & 4, why)) return false;
     if (r->pos != r->n) return BAD(why, "transfer section longer than its data");
     return true;
 }
