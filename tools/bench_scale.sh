@@ -5,7 +5,11 @@
 #   1. the direct pass (--no-bounces, one process, 2 threads) at each size: wall and CPU time, CPU
 #      time per 1,000 vertices (linear in vertices: about the same at every size; the bunny's K = 4
 #      vertices cost more than the floor's), peak memory (/usr/bin/time -v);
-#   2. `mpirun -np 2` (1 thread per rank, unbound) against one process with 2 threads on one scene.
+#   2. loading each size's file (issue 13: mapped, prtfile_read): `prt info` (the whole load: map,
+#      CRC on every core, every index validated) and `prt render` at 320x240 on 2 threads (its time
+#      to the first frame: load, probe, light change, view change, raster, write), wall and CPU time
+#      and peak memory of each;
+#   3. `mpirun -np 2` (1 thread per rank, unbound) against one process with 2 threads on one scene.
 #
 #   tools/bench_scale.sh [build/prt]     (needs ../shared/data or $PRT_DATA, /usr/bin/time; writes build/bench-scale/)
 #   SCALE_SIZES="100k 300k"              the sizes to run (default: 100k 300k 1m)
@@ -37,7 +41,7 @@ run() {
        /Maximum resident set size/ { kb = $NF }
        /User time \(seconds\)|System time \(seconds\)/ { cpu += $NF }
        /^scene: / && !v { v = $2 }
-       END { printf "%.1f %.2f %d %.1f\n", s, kb / 1e6, v, cpu }' "$log"
+       END { printf "%.2f %.2f %d %.2f\n", s, kb / 1e6, v, cpu }' "$log"
 }
 
 echo "== prt bench-scale: bunny (paper-phong, K = 4) over a dense Lambert floor, N = 128, direct pass only"
@@ -45,9 +49,18 @@ echo "   machine: $(nproc) cores, $(awk '/MemTotal/{printf "%.0f GB", $2/1e6}' /
 echo
 printf "   %-6s %10s %10s %10s %16s %10s   %s\n" size vertices "wall s" "CPU s" "CPU s / 1K verts" "peak GB" "target (1 M: <= 25 min, <= 8 GB; linear)"
 base=""
+loads=""
 for s in $SIZES; do
   r=$(run "$s" "$OUT/direct-$s.log" "$PRT" precompute "$OUT/scale-$s.json" --glossy svd --terms 4 --no-bounces --threads 2 $OPTS -o "$OUT/$s.prt")
-  rm -f "$OUT/$s.prt"
+  if [ "$r" != fail ]; then   # the file's load, printed after this table
+    mb=$(stat -c %s "$OUT/$s.prt" | awk '{ printf "%.1f", $1 / 1e6 }')
+    i=$(run info "$OUT/info-$s.log" "$PRT" info "$OUT/$s.prt")
+    f=$(run render "$OUT/render-$s.log" "$PRT" render "$OUT/$s.prt" --probe "$DATA/probes/studio.exr" --size 320x240 --threads 2 -o "$OUT/render-$s.png")
+    [ "$i" = fail ] && i="fail 0 0 0"
+    [ "$f" = fail ] && f="fail 0 0 0"
+    loads="$loads$s $mb $i $f"$'\n'
+  fi
+  rm -f "$OUT/$s.prt" "$OUT/render-$s.png"
   if [ "$r" = fail ]; then printf "   %-6s failed (see %s)\n" "$s" "$OUT/direct-$s.log"; continue; fi
   read -r wall peak verts cpu <<< "$r"
   per=$(awk -v w="$cpu" -v v="$verts" 'BEGIN { printf "%.3f", w / v * 1000 }')
@@ -58,6 +71,17 @@ for s in $SIZES; do
   fi
   printf "   %-6s %10d %10.1f %10.1f %16s %10.2f   %s\n" "$s" "$verts" "$wall" "$cpu" "$per" "$peak" "$note"
 done
+
+if [ -n "$loads" ]; then
+  echo
+  echo "-- loading each file (mapped): prt info; prt render 320x240, 2 threads (time to the first frame)"
+  printf "   %-6s %9s %24s %24s\n" size "file MB" "info: wall s, CPU s, GB" "render: wall s, CPU s, GB"
+  printf "%s" "$loads" | while read -r s mb iw ip _ ic fw fp _ fc; do
+    [ -z "$s" ] && continue
+    if [ "$iw" = fail ] || [ "$fw" = fail ]; then printf "   %-6s %9s   failed (see %s)\n" "$s" "$mb" "$OUT/info-$s.log, $OUT/render-$s.log"; continue; fi
+    printf "   %-6s %9s %10.2f %6.2f %6.2f %10.2f %6.2f %6.2f\n" "$s" "$mb" "$iw" "$ic" "$ip" "$fw" "$fc" "$fp"
+  done
+fi
 
 if [ -n "$NP" ]; then
   echo

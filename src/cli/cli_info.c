@@ -2,10 +2,25 @@
 #include "cli.h"
 #include "cli_args.h"
 #include "prtfile.h"
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
 static const char *k_cmd = "info";
+
+/* This process's resident memory from /proc/self/status (kB): its own (RssAnon) and file pages
+ * mapped (RssFile); false where there is no such file. */
+static bool resident_kb(long *anon, long *file) {
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    *anon = *file = -1;
+    while (f && fgets(line, sizeof line, f)) {
+        if (!strncmp(line, "RssAnon:", 8)) *anon = atol(line + 8);
+        if (!strncmp(line, "RssFile:", 8)) *file = atol(line + 8);
+    }
+    if (f) fclose(f);
+    return *anon >= 0 && *file >= 0;
+}
 
 int cli_info(int argc, char **argv) {
     const char *in = NULL;
@@ -95,6 +110,11 @@ int cli_info(int argc, char **argv) {
     if (ps->bounces) printf(", bounces %.2fs", tb);
     printf(", total %.2fs\n", ps->t_total);
     if (ps->peak_rss_bytes) printf("peak memory   %.2f GB\n", ps->peak_rss_bytes / 1e9);
+    /* issue 13: how the file sits in memory once loaded (prtfile.h, mapped loading) */
+    long anon, file;
+    if (resident_kb(&anon, &file))
+        printf("loaded        %.2f MB of the file mapped in place (the transport's runs and coefficients: page cache, "
+               "shared), %.2f MB of this process's own memory resident\n", prt_data_mapped_bytes(&d) / 1e6, anon * 1024 / 1e6);
     for (int i = 0; i < d.scene.lights.count; i++) {   /* issue 11: the file's local lights */
         char spec[300];
         light_format(&d.scene.lights.light[i], spec, sizeof spec);
