@@ -75,11 +75,11 @@ done
 if [ -n "$loads" ]; then
   echo
   echo "-- loading each file (mapped): prt info; prt render 320x240, 2 threads (time to the first frame)"
-  printf "   %-6s %9s %24s %24s\n" size "file MB" "info: wall s, CPU s, GB" "render: wall s, CPU s, GB"
+  printf "   %-6s %9s %11s %7s %7s %13s %7s %7s\n" size "file MB" "info wall s" "CPU s" "peak GB" "render wall s" "CPU s" "peak GB"
   printf "%s" "$loads" | while read -r s mb iw ip _ ic fw fp _ fc; do
     [ -z "$s" ] && continue
     if [ "$iw" = fail ] || [ "$fw" = fail ]; then printf "   %-6s %9s   failed (see %s)\n" "$s" "$mb" "$OUT/info-$s.log, $OUT/render-$s.log"; continue; fi
-    printf "   %-6s %9s %10.2f %6.2f %6.2f %10.2f %6.2f %6.2f\n" "$s" "$mb" "$iw" "$ic" "$ip" "$fw" "$fc" "$fp"
+    printf "   %-6s %9s %11.2f %7.2f %7.2f %13.2f %7.2f %7.2f\n" "$s" "$mb" "$iw" "$ic" "$ip" "$fw" "$fc" "$fp"
   done
 fi
 
