@@ -884,7 +884,7 @@ static void light_cube(void) {
 
 /* A shared coefficient budget (transport.h, README "Shadows"): a Lambert box over a floor under the
  * solid-angle measure, N = 32 shared, one bounce, the direct set kept. Both sets hold at most 32 x
- * vectors in all and some vector more than 32 (the file's N, 128, is the most one may hold); the file
+ * vectors in all and some vector more than 32 (the file's N, 64, is the most one may hold); the file
  * reads back and shades the same bits; every gl light kernel's vertex colours equal the cpu's to float
  * rounding (1e-4 relative, as vertex_colours), and the per-pixel view renders a finite, lit image. */
 static void shared_budget(void) {
@@ -911,7 +911,7 @@ static void shared_budget(void) {
         printf("  %s set: %zu coefficients for %d vectors (budget %d), a vector up to %u (N %d)\n", k ? "direct" : "total",
                transport_ncoefs(t), t->nvecs, 32 * t->nvecs, most, t->N);
         CHECK(t->nvecs > 0 && transport_ncoefs(t) <= 32 * (size_t)t->nvecs, "%s: within the budget", k ? "direct" : "total");
-        CHECK(most > 32 && most <= (uint32_t)t->N && t->N == 128 && t->budget == 32, "%s: shared (most %u, N %d)", k ? "direct" : "total", most, t->N);
+        CHECK(most > 32 && most <= (uint32_t)t->N && t->N == TRANSPORT_SHARED_CAP * 32 && t->budget == 32, "%s: shared (most %u, N %d)", k ? "direct" : "total", most, t->N);
     }
     char path[512];
     snprintf(path, sizeof path, "%s/shared.prt", check_tmpdir());

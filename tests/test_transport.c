@@ -860,8 +860,8 @@ static double shared_objective(int V, int NZ, const int pos[][6], const float va
 }
 
 /* shared_budget: three vectors of six non-zero coefficients (one bright, one dim, one with a dominant
- * coefficient), N = 2 shared (6 in all), a vector up to 4, float values, no correction. Truth: brute force
- * over every subset of the 18 coefficients with at most 6 in all and 4 per vector; the stored choice's
+ * coefficient), N = 2 shared (6 in all), a vector 1 to 4, float values, no correction. Truth: brute force
+ * over every subset of the 18 coefficients with at most 6 in all and 1 to 4 per vector; the stored choice's
  * objective (shared_objective) is the least (1e-6 relative, float weights), for the absolute and the
  * relative weights, the stored values are the inputs exactly, and the total is 6. */
 static void shared_budget(void) {
@@ -881,7 +881,10 @@ static void shared_budget(void) {
         for (int mask = 0; mask < 1 << (V * NZ); mask++) {
             if (__builtin_popcount((unsigned)mask) > V * NB) continue;
             bool ok = true;
-            for (int v = 0; v < V; v++) ok &= __builtin_popcount((unsigned)(mask >> (v * NZ)) & 63u) <= CAP;
+            for (int v = 0; v < V; v++) {   /* at most CAP, at least NB / TRANSPORT_SHARED_MIN (its best: the weights rule) */
+                int c = __builtin_popcount((unsigned)(mask >> (v * NZ)) & 63u);
+                ok &= c <= CAP && c >= NB / TRANSPORT_SHARED_MIN;
+            }
             if (!ok) continue;
             for (int k = 0; k < V * NZ; k++) kept[k] = mask >> k & 1;
             best = fmin(best, shared_objective(V, NZ, pos, val, kept, rel));
@@ -932,7 +935,8 @@ static void shared_store(void *p, int begin, int end, int thread) {
 /* shared_threads: 240 make_vec vectors (zero, single, huge, sparse, shadowed lobes, noise), 8-bit, the
  * solid-angle correction, N = 16 shared by absolute and by relative weights: one thread, two threads in
  * reverse order, and two threads streamed through a file (transport_stage_to_file) give the same bytes;
- * the total stays within 16 x 240 and the quantization bound (step / 2 per kept coefficient) holds. */
+ * the total stays within 16 x 240, every vector keeps 8 (or all its non-zeros) to 32, and the quantization
+ * bound (step / 2 per kept coefficient) holds. */
 static void shared_threads(void) {
     enum { NV = 240, NB = 16 };
     void *scr[2] = { malloc(transport_scratch_size()), malloc(transport_scratch_size()) };
@@ -959,10 +963,14 @@ static void shared_threads(void) {
                   t[0].chosen_err == t[q].chosen_err, "kind %d: build %d differs from the serial one", kind, q);
         uint32_t most = 0;
         double worst = 0;
+        int starved = 0;
         for (int i = 0; i < NV; i++) {
-            most = t[0].coef_first[i + 1] - t[0].coef_first[i] > most ? t[0].coef_first[i + 1] - t[0].coef_first[i] : most;
+            uint32_t n = t[0].coef_first[i + 1] - t[0].coef_first[i], nz = 0;
+            most = n > most ? n : most;
             static float r[T], g[T], b[T], x[3][T];
             make_vec(i, x[0], x[1], x[2]);
+            for (int j = 0; j < T; j++) nz += x[0][j] != 0 || x[1][j] != 0 || x[2][j] != 0;
+            starved += n < (nz < NB / TRANSPORT_SHARED_MIN ? nz : NB / TRANSPORT_SHARED_MIN);
             transport_decode(&t[0], i, r, g, b);
             for (int j = 0; j < T; j++)   /* coarse coefficients carry the block correction: not bounded here */
                 if (r[j] != 0 && j % (CUBE_RES * CUBE_RES) >= 16 && isfinite(x[0][j]) && t[0].scale[3 * i] > 0)
@@ -970,7 +978,8 @@ static void shared_threads(void) {
         }
         printf("  %s: %zu coefficients of %d, a vector up to %u, worst quantization %.3f steps\n",
                kind == TRANSPORT_BUDGET_SHARED ? "shared" : "relative", nc, NB * NV, most, worst);
-        CHECK(nc <= (size_t)NB * NV && most > NB, "within the budget, shared");
+        CHECK(nc <= (size_t)NB * NV && most > NB && most <= TRANSPORT_SHARED_CAP * NB, "within the budget, shared, capped");
+        CHECK(starved == 0, "%d vectors kept fewer than their minimum %d", starved, NB / TRANSPORT_SHARED_MIN);
         CHECK_LE(worst, 0.5 + 1e-3, "quantization within half a step");
         for (int q = 0; q < 3; q++) transport_free(&t[q]);
     }

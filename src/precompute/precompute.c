@@ -689,8 +689,8 @@ static int pc_choose(pc_run *r, prt_error *err) {
     if (r->d.budget != TRANSPORT_BUDGET_VECTOR && ops == &transfer_haar)
         plan_add(r->plan, r->pcap, "  coefficients: %s\n", pc_budget(r) == TRANSPORT_BUDGET_VECTOR
                  ? "N per vector (a shared budget is not combined with MPI ranks)"
-                 : r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "N x vectors shared, each vector up to 4N, by relative error"
-                                                            : "N x vectors shared, each vector up to 4N, by expected error");
+                 : r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "N x vectors shared, each vector N/2 to 2N, by relative error"
+                                                            : "N x vectors shared, each vector N/2 to 2N, by expected error");
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 

@@ -17,7 +17,7 @@
  * its other coefficients drop from each correction block; finish finds the one weight threshold that
  * keeps budget x nvecs of them (a radix select over all the weights' bits), then corrects and
  * quantizes each vector's kept ones in its staging, and packs as before. Staging grows from 16 bytes
- * per kept coefficient to 20 per candidate plus 1,160 per vector (about 6x at N_max = 4N = 512), which
+ * per kept coefficient to 20 per candidate plus 1,160 per vector (3.1x at N_max = 2N = 256), which
  * transport_stage_to_file streams through a file like the rest.
  *
  * The runtime kernel (Eq. 5, T x L) walks each vector's runs with a base pointer
@@ -29,6 +29,7 @@
 #include "transport.h"
 #include "haar.h"
 #include <errno.h>
+#include <float.h>
 #include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
@@ -96,6 +97,7 @@ int transport_share_budget(prt_transport *t, int kind, int nmax, prt_error *err)
     t->stage_idx = idx; t->stage_val = val; t->stage_key = key; t->stage_blk = blk;
     t->budget = t->N;
     t->budget_kind = kind;
+    t->budget_min = t->budget / TRANSPORT_SHARED_MIN;
     t->N = nmax;
     return 0;
 }
@@ -422,6 +424,22 @@ static void block_stage(const prt_transport *t, const float *const ch[3], const 
         }
 }
 
+/* Why: a water-filling on absolute weights starves the darkest vertices (a floor vertex under the model
+ * kept nothing: black). Each vector's budget_min best candidates get the largest finite weight, so the
+ * threshold keeps them whatever the others hold (budget_min <= budget keeps the total within it).
+ * wc: the weighted copy (NULL: r, g, b themselves); keys, idx2: scratch. */
+static void keep_minimum(prt_transport *t, int i, int n, const float *wc, const float *r, const float *g, const float *b,
+                         float *keys, uint32_t *idx2) {
+    int m = wc ? sparse_select(wc, wc + CUBE_TEXELS, wc + 2 * CUBE_TEXELS, CUBE_TEXELS, t->budget_min, idx2, keys)
+               : sparse_select(r, g, b, CUBE_TEXELS, t->budget_min, idx2, keys);
+    size_t o = (size_t)i * t->N;
+    for (int k = 0, q = 0; k < n && q < m; k++) {   /* both ascending; idx2 is a subset of the candidates */
+        if (t->stage_idx[o + k] != idx2[q]) continue;
+        t->stage_key[o + k] = FLT_MAX;
+        q++;
+    }
+}
+
 /* Shared budget: stages vector i's t->N best candidates (by the selection weight, unquantized) with
  * their weights (RELATIVE: over the vector's total) for transport_finish. Returns the squared norm of
  * the coefficients outside them. */
@@ -442,6 +460,7 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
         t->stage_idx[o + k] = idx[k];
         for (int c = 0; c < 3; c++) t->stage_val[3 * (o + k) + c] = isfinite(ch[c][idx[k]]) ? ch[c][idx[k]] : 0.f;
     }
+    if (t->budget_min > 0 && n > 0) keep_minimum(t, i, n, t->select == TRANSPORT_SELECT_EXPECTED ? wc : NULL, r, g, b, keys, (uint32_t *)(void *)W);
     t->stage_count[i] = (uint32_t)n;
     double norm = 0;
     for (int j = 0; j < CUBE_TEXELS; j++) {

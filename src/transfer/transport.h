@@ -19,7 +19,7 @@
  * storage. After finish the set is immutable and can be written to a .prt file.
  * With a shared budget (transport_share_budget, README "Shadows": the default of
  * `prt precompute`) the set keeps at most budget x nvecs coefficients in all and a
- * vector up to N (then 4 x budget): transport_store stages each vector's N best
+ * vector up to N (then 2 x budget): transport_store stages each vector's N best
  * candidates unquantized, and transport_finish picks the best budget x nvecs of all
  * of them (one threshold on the selection weight), corrects and quantizes what each
  * vector keeps. N is always the most any vector holds, which is what a file states.
@@ -50,13 +50,20 @@ typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT
  *   SHARED:   the set keeps its budget x nvecs best selection weights (transport_select's: |c_i|^2, or
  *             |c_i|^2 sigma_l^2, summed over the channels), wherever they are: a vector whose transport
  *             has detail (a shadow edge crossing its cube) keeps more, a smooth one fewer. The global
- *             optimum of the summed expected squared error of T.L at that storage.
+ *             optimum of the summed expected squared error of T.L at that storage, given that each
+ *             vector keeps at least budget_min and at most N.
  *   RELATIVE: the same with each vector's weights divided by its own total weight (the expected T.L
  *             squared), so the summed relative error is what is minimised: dark vertices are not
  *             starved by bright ones. */
 typedef enum transport_budget { TRANSPORT_BUDGET_VECTOR = 0, TRANSPORT_BUDGET_SHARED = 1, TRANSPORT_BUDGET_RELATIVE = 2 } transport_budget;
-/* A shared budget's cap per vector, in multiples of the mean (transport_share_budget's nmax default). */
-#define TRANSPORT_SHARED_CAP 4
+/* A shared budget's cap per vector, in multiples of the mean (transport_share_budget's nmax default):
+ * on the reduced bunny + floor 2 gave the same figures as 4 (19 of 10,125 vectors at the cap), at half
+ * the staging (README "Shadows"). */
+#define TRANSPORT_SHARED_CAP 2
+/* What every vector keeps of a shared budget whatever the others hold: budget / TRANSPORT_SHARED_MIN
+ * of its best (README "Shadows": without it the absolute weights left 57 dark floor vertices under the
+ * model with nothing, black; N/2 and N/4 measured alike on the shadow, N/2 better on its darkest). */
+#define TRANSPORT_SHARED_MIN 2
 
 /* Haar levels of a CUBE_RES face: 0 the scaling coefficient, l >= 1 the details of morton indices
  * [4^(l-1), 4^l) (haar.h), the finest CUBE_RES / 2 x CUBE_RES / 2 blocks at level 6. */
@@ -82,6 +89,8 @@ typedef struct prt_transport {
     int budget;             /* 0: every vector keeps at most N of its own; > 0 (transport_share_budget): the
                              * set keeps at most budget x nvecs in all, any one vector up to N */
     int budget_kind;        /* transport_budget (VECTOR with budget 0) */
+    int budget_min;         /* shared budget: coefficients every vector keeps whatever the others hold
+                             * (budget / TRANSPORT_SHARED_MIN; its best by weight) */
     double chosen_err;      /* shared budget: the sum over vectors of the squared L2 error relative to the
                              * vector's squared norm that transport_finish's choice added to what
                              * transport_store returned (dropped candidates, quantization) */
