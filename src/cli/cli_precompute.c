@@ -38,11 +38,11 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
-         "  --budget vector|shared|relative  who shares the N x vectors coefficients: vector (default)\n"
-         "                         each vector its own N (the paper's); shared: the best weights of all\n"
-         "                         vectors, each keeping N/2 to 2N (a shadow edge's more, smooth ones\n"
-         "                         fewer; at most the same file size); relative: the same, weights over\n"
-         "                         each vector's own total (Haar only; per vector with MPI ranks)\n"
+         "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default)\n"
+         "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
+         "                         edge's more, smooth ones fewer; at most the same storage); vector:\n"
+         "                         each vector its own N (the paper's); relative: shared, weights over\n"
+         "                         each vector's own total (Haar only)\n"
          "glossy materials (the effects plan prints each material's path and why):\n"
          "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
          "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
@@ -230,11 +230,13 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     return 0;
 }
 
-/* --budget NAME into *out (transport_budget); returns 0, or 1 after saying why. */
+/* --budget NAME into *out (transport_budget; none: shared for Haar, README "Shadows"); returns 0, or 1
+ * after saying why. */
 static int budget_of(const char *name, int sh_bands, int *out) {
     static const char *names[] = { "vector", "shared", "relative" };
-    *out = TRANSPORT_BUDGET_VECTOR;
+    *out = sh_bands ? TRANSPORT_BUDGET_VECTOR : TRANSPORT_BUDGET_SHARED;
     if (!name) return 0;
+    *out = TRANSPORT_BUDGET_VECTOR;
     for (int k = 0; k < 3; k++)
         if (!strcmp(name, names[k])) *out = k;
     if (*out == TRANSPORT_BUDGET_VECTOR && strcmp(name, "vector"))

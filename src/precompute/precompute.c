@@ -645,12 +645,8 @@ static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
     return 0;
 }
 
-/* The coefficient budget the direct pass uses: the asked one for Haar, but per vector with MPI ranks,
- * whose exchanges (shard_share_staged) hold finished vectors (a shared budget chooses at the end). */
-static int pc_budget(const pc_run *r) {
-    if (r->tr->ops != &transfer_haar) return TRANSPORT_BUDGET_VECTOR;
-    return shard_size(r->d.shard) > 1 ? TRANSPORT_BUDGET_VECTOR : r->d.budget;
-}
+/* The coefficient budget the direct pass uses: the asked one for Haar, per vector for the others. */
+static int pc_budget(const pc_run *r) { return r->tr->ops == &transfer_haar ? r->d.budget : TRANSPORT_BUDGET_VECTOR; }
 
 /* Stage choose: the path of every material with the reason (see precompute.h), then the sparse
  * transfer (desc.basis, else Haar wavelets, the paper's all-frequency basis; SH is the low-frequency
@@ -686,11 +682,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
     ops->describe(&cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
-    if (r->d.budget != TRANSPORT_BUDGET_VECTOR && ops == &transfer_haar)
-        plan_add(r->plan, r->pcap, "  coefficients: %s\n", pc_budget(r) == TRANSPORT_BUDGET_VECTOR
-                 ? "N per vector (a shared budget is not combined with MPI ranks)"
-                 : r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "N x vectors shared, each vector N/2 to 2N, by relative error"
-                                                            : "N x vectors shared, each vector N/2 to 2N, by expected error");
+    if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
+        plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
+                 r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 

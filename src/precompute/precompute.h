@@ -94,8 +94,8 @@ typedef struct precompute_desc {
                              * (transport.h; what `prt precompute` asks for unless --select magnitude) */
     int budget;             /* Haar: who shares the N x vectors coefficients (transport_budget): 0 every vector its
                              * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
-                             * of them, a vector up to TRANSPORT_SHARED_CAP x N (README "Shadows"). With a
-                             * checkpoint or MPI ranks the per-vector budget is used (said in the plan). */
+                             * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N
+                             * (README "Shadows"; what `prt precompute` asks for unless --budget vector) */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
