@@ -115,7 +115,7 @@ typedef struct precompute_desc {
                              * options is refused); else it is started anew */
     int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
     float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
-                             * bytes) exceed half of it, they (and each gathering pass's) stream to a temporary
+                             * bytes; transport_staging_bytes: 3.1x with a shared budget) exceed half of it, they (and each gathering pass's) stream to a temporary
                              * file in stream_dir, dropped from memory as vertices finish
                              * (transport_stage_to_file; the same bits), and the finished sets (each pass, the
                              * running sum) move to mapped files that the gathering passes read, their pages
