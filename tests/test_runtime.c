@@ -884,7 +884,8 @@ static void light_cube(void) {
 
 /* A shared coefficient budget (transport.h, README "Shadows"): a Lambert box over a floor under the
  * solid-angle measure, N = 32 shared, one bounce, the direct set kept. Both sets hold at most 32 x
- * vectors in all and some vector more than 32 (the file's N, 64, is the most one may hold); the file
+ * vectors in all and some vector more than 32 (the file's N, 64, is the most one may hold), and the
+ * validation a reader runs refuses the set against a budget of 16 x vectors; the file
  * reads back and shades the same bits; every gl light kernel's vertex colours equal the cpu's to float
  * rounding (1e-4 relative, as vertex_colours), and the per-pixel view renders a finite, lit image. */
 static void shared_budget(void) {
@@ -913,6 +914,11 @@ static void shared_budget(void) {
         CHECK(t->nvecs > 0 && transport_ncoefs(t) <= 32 * (size_t)t->nvecs, "%s: within the budget", k ? "direct" : "total");
         CHECK(most > 32 && most <= (uint32_t)t->N && t->N == TRANSPORT_SHARED_CAP * 32 && t->budget == 32, "%s: shared (most %u, N %d)", k ? "direct" : "total", most, t->N);
     }
+    char why[256] = "";   /* a total above the config's N x vectors is refused (what a reader checks) */
+    CHECK(d.transfers[0].ops->validate(&d, &d.transfers[0], why), "the set as made: %s", why);
+    d.transfers[0].cfg.N = 16;
+    CHECK(!d.transfers[0].ops->validate(&d, &d.transfers[0], why) && strstr(why, "shared budget of 16 x"), "budget 16: %s", why);
+    d.transfers[0].cfg.N = 32;
     char path[512];
     snprintf(path, sizeof path, "%s/shared.prt", check_tmpdir());
     CHECK(prtfile_write(path, &d, &err) == 0 && prtfile_read(path, &back, &err) == 0, "%s", err.msg);
