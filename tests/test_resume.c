@@ -18,6 +18,8 @@
  *                  record (a kill mid-write): the identical file;
  *   killed_vmf:    the sphere on the vMF path (Haar diffuse + vMF lobes), killed inside the vMF
  *                  gathering pass: the identical file, lobes included;
+ *   killed_shared: a shared coefficient budget (--budget shared), killed in the gathering pass: the
+ *                  identical file (the staged candidates, not chosen vectors, are what is recorded);
  *   killed_twice:  killed after 20, resumed on one thread (every other run uses two: the work is
  *                  deterministic per vertex) and killed after 40 more, resumed: the identical file;
  *                  OUT.prt.tmp.PID of a dead process removed, one of a live process kept. */
@@ -48,16 +50,19 @@ static int precompute(const char *env, const char *out, const char *extra, char 
     return check_run(cmd, buf, cap);
 }
 
-static void reference(bool vmf);
+static void reference(int kind);
 
 
-/* name's file equals the uninterrupted run's (reference.prt; vmf-reference.prt for names starting
- * with "vmf") but for the timings. */
+/* The uninterrupted runs: the SVD sphere, its vMF path, and the SVD sphere with a shared budget. */
+static const char *k_refs[3] = { "reference.prt", "vmf-reference.prt", "shared-reference.prt" };
+
+/* name's file equals the uninterrupted run's (k_refs by the name's start: vmf..., shared..., else the
+ * first) but for the timings. */
 static void check_same(const char *name, const char *what) {
-    bool vmf = !strncmp(name, "vmf", 3);
-    reference(vmf);
+    int kind = !strncmp(name, "vmf", 3) ? 1 : !strncmp(name, "shared", 6) ? 2 : 0;
+    reference(kind);
     size_t na = 0, nb = 0;
-    char *a = prt_normalized(g_dir, vmf ? "vmf-reference.prt" : "reference.prt", &na), *b = prt_normalized(g_dir, name, &nb);
+    char *a = prt_normalized(g_dir, k_refs[kind], &na), *b = prt_normalized(g_dir, name, &nb);
     CHECK(a && b && na == nb && memcmp(a, b, na) == 0, "%s: %s differs from the uninterrupted run (%zu vs %zu bytes)", what, name, nb, na);
     free(a);
     free(b);
@@ -75,13 +80,14 @@ static void setup(void) {
     }
 }
 
-/* The uninterrupted run, made once (when a case first needs it); vmf: with the vMF lobes. */
-static void reference(bool vmf) {
+/* The uninterrupted run k_refs[kind], made once (when a case first needs it). */
+static void reference(int kind) {
     char p[1024], buf[8192];
-    const char *name = vmf ? "vmf-reference.prt" : "reference.prt";
+    const char *name = k_refs[kind];
     snprintf(p, sizeof p, "%s/%s", g_dir, name);
     if (exists(p)) return;
-    int rc = precompute("", name, vmf ? k_vmf : "--threads 2", buf, sizeof buf);   /* what an uninterrupted run writes */
+    static const char *extra[3] = { "--threads 2", NULL, "--threads 2 --budget shared" };
+    int rc = precompute("", name, kind == 1 ? k_vmf : extra[kind], buf, sizeof buf);   /* what an uninterrupted run writes */
     CHECK(rc == 0, "the uninterrupted run failed (%d): %s", rc, buf);
 }
 
@@ -179,6 +185,16 @@ static void killed_vmf(void) {
     check_same("vmf.prt", "killed in the vMF gathering pass");
 }
 
+/* A shared coefficient budget (--budget shared: the passes stage candidates, chosen at the end of each):
+ * killed after 75 flushes, inside the gathering pass, resumed: the identical file. */
+static void killed_shared(void) {
+    char buf[8192];
+    static const int at[] = { 75 };
+    kill_and_resume("shared.prt", "--budget shared " K_SVD, at, 1, NULL, buf, sizeof buf);
+    CHECK(strstr(buf, "visibility+transport 282 of 282 vertices done, bounce 1 "), "resume message: %s", buf);
+    check_same("shared.prt", "shared budget, killed in the bounce pass");
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -186,5 +202,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(killed_bounce);
     CHECK_CASE(killed_twice);
     CHECK_CASE(killed_vmf);
+    CHECK_CASE(killed_shared);
     return check_summary();
 }

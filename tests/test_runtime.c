@@ -882,6 +882,81 @@ static void light_cube(void) {
     free(b);
 }
 
+/* A shared coefficient budget (transport.h, README "Shadows"): a Lambert box over a floor under the
+ * solid-angle measure, N = 32 shared, one bounce, the direct set kept. Both sets hold at most 32 x
+ * vectors in all and some vector more than 32 (the file's N, 64, is the most one may hold), and the
+ * validation a reader runs refuses the set against a budget of 16 x vectors; the file
+ * reads back and shades the same bits; every gl light kernel's vertex colours equal the cpu's to float
+ * rounding (1e-4 relative, as vertex_colours), and the per-pixel view renders a finite, lit image. */
+static void shared_budget(void) {
+    prt_error err = { { 0 } };
+    prt_scene scene = { 0 };
+    static const char json[] =
+        "{ \"models\": [ { \"box\": { \"min\": [-0.3, 0.1, -0.3], \"max\": [0.3, 0.7, 0.3], \"n\": 2 },"
+        " \"material\": \"lambert:kd=0.6\" },\n"
+        "  { \"plane\": { \"x\": [-2, 2], \"z\": [-2, 2], \"height\": 0, \"nx\": 24, \"nz\": 24 }, \"material\": \"lambert:kd=0.5\" } ] }";
+    precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .keep_direct = true,
+                           .gather_res = 16, .measure = TRANSFER_MEASURE_SOLID_ANGLE, .select = TRANSPORT_SELECT_EXPECTED,
+                           .budget = TRANSPORT_BUDGET_SHARED };
+    prt_data d, back;
+    memset(&back, 0, sizeof back);
+    if (scene_parse_json("shared.json", json, strlen(json), NULL, &scene, &err) || precompute_run(&scene, &pd, &d, &err)) {
+        CHECK(false, "%s", err.msg);
+        return;
+    }
+    const prt_transport *sets[2] = { &d.transfers[0].transport, &d.transfers[0].direct };
+    for (int k = 0; k < 2; k++) {
+        const prt_transport *t = sets[k];
+        uint32_t most = 0;
+        for (int i = 0; i < t->nvecs; i++) most = t->coef_first[i + 1] - t->coef_first[i] > most ? t->coef_first[i + 1] - t->coef_first[i] : most;
+        printf("  %s set: %zu coefficients for %d vectors (budget %d), a vector up to %u (N %d)\n", k ? "direct" : "total",
+               transport_ncoefs(t), t->nvecs, 32 * t->nvecs, most, t->N);
+        CHECK(t->nvecs > 0 && transport_ncoefs(t) <= 32 * (size_t)t->nvecs, "%s: within the budget", k ? "direct" : "total");
+        CHECK(most > 32 && most <= (uint32_t)t->N && t->N == TRANSPORT_SHARED_CAP * 32 && t->budget == 32, "%s: shared (most %u, N %d)", k ? "direct" : "total", most, t->N);
+    }
+    char why[256] = "";   /* a total above the config's N x vectors is refused (what a reader checks) */
+    CHECK(d.transfers[0].ops->validate(&d, &d.transfers[0], why), "the set as made: %s", why);
+    d.transfers[0].cfg.N = 16;
+    CHECK(!d.transfers[0].ops->validate(&d, &d.transfers[0], why) && strstr(why, "shared budget of 16 x"), "budget 16: %s", why);
+    d.transfers[0].cfg.N = 32;
+    char path[512];
+    snprintf(path, sizeof path, "%s/shared.prt", check_tmpdir());
+    CHECK(prtfile_write(path, &d, &err) == 0 && prtfile_read(path, &back, &err) == 0, "%s", err.msg);
+    size_t n3 = 3 * (size_t)d.scene.mesh.nverts;
+    float *a = calloc(n3, sizeof(float)), *b = calloc(n3, sizeof(float));
+    prt_runtime *cpu = lit_on(&d, "cpu", 0, &g_sky, NULL), *cb = back.ntransfers ? lit_on(&back, "cpu", 0, &g_sky, NULL) : NULL;
+    if (cpu && cb && runtime_shade_vertices(cpu, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cb, g_cam.eye, b, &err) == 0)
+        CHECK(memcmp(a, b, sizeof(float) * n3) == 0, "the file read back shades differently");
+    static const char *kernels[3] = { "fragment", "thread", "warp" };
+    for (int k = 0; k < 3 && cpu; k++) {
+        prt_runtime *gl = lit_kernel(&d, "gl", RUNTIME_VIEW_VERTEX, &g_sky, NULL, kernels[k]);
+        double bmax = 0;
+        if (gl && runtime_shade_vertices(gl, g_cam.eye, b, &err) == 0)
+            CHECK_LE(max_rel(b, a, n3, 1e-3, &bmax), 1e-4, "gl %s kernel: vertex colours against the cpu's", kernels[k]);
+        else CHECK(false, "gl %s: %s", kernels[k], err.msg);
+        CHECK(bmax > 0.01, "black colours (%g)", bmax);
+        runtime_destroy(gl);
+    }
+    render_desc rd = { .width = W, .height = H, .camera = g_cam, .background = &g_sky };
+    prt_image ip = { 0 };
+    prt_runtime *glp = lit_kernel(&d, "gl", RUNTIME_VIEW_PIXEL, &g_sky, NULL, "fragment");
+    if (glp && runtime_render(glp, &rd, &ip, &err) == 0) {
+        double m = 0;
+        bool finite = true;
+        for (size_t i = 0; i < (size_t)W * H * 3; i++) { m = fmax(m, ip.data[i]); finite &= isfinite(ip.data[i]); }
+        CHECK(finite && m > 0.01, "per-pixel image: finite %d, max %g", finite, m);
+    } else CHECK(false, "gl per pixel: %s", err.msg);
+    image_free(&ip);
+    runtime_destroy(glp);
+    runtime_destroy(cpu);
+    runtime_destroy(cb);
+    free(a);
+    free(b);
+    prt_data_free(&d);
+    prt_data_free(&back);
+    scene_free(&scene);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -892,6 +967,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(direct);
     CHECK_CASE(timings);
     CHECK_CASE(lambert_unchanged);
+    CHECK_CASE(shared_budget);
     if (check_wants("vmf_sum") || check_wants("vmf_backends") || check_wants("vmf_file") || check_wants("vmf_rotation") ||
         check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout") ||
         check_wants("light_cube"))

@@ -585,7 +585,7 @@ static void mark_index(void *ctx, uint32_t index, float r, float g, float b) {
 /* Worst |T x L - sum of T_j over B| / the face's sum, over the 4x4 blocks B of 16x16 texels of the faces
  * whose coefficients m < 16 (all the levels coarser than a block) are kept, with L = 1 on B and 0
  * elsewhere (float values: truncation alone). *nfaces gets the number of such faces. */
-static double block_integral_error(const float *tex, const float (*coef)[T], int level, int *nfaces) {
+static double block_integral_error(const float *tex, const float (*coef)[T], int level, int *nfaces, int budget) {
     static float cube[3 * T];
     static _Alignas(64) float Lv[T][4];
     static uint8_t kept[T];
@@ -596,6 +596,7 @@ static double block_integral_error(const float *tex, const float (*coef)[T], int
     int one = 1;
     void *tscr = malloc(transport_scratch_size());
     CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
+    CHECK(transport_share_budget(&t, budget, 0, &err) == 0, "%s", err.msg);
     t.solid_angle = true;
     t.block_level = level;
     transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
@@ -654,12 +655,18 @@ static void block_integrals(void) {
     memcpy(coef[1], coef[0], sizeof coef[0]);
     memcpy(coef[2], coef[0], sizeof coef[0]);
     int n0, n2;
-    double e0 = block_integral_error(tex, (const float (*)[T])coef, 0, &n0);
-    double e2 = block_integral_error(tex, (const float (*)[T])coef, 2, &n2);
+    double e0 = block_integral_error(tex, (const float (*)[T])coef, 0, &n0, 0);
+    double e2 = block_integral_error(tex, (const float (*)[T])coef, 2, &n2, 0);
     printf("  worst block integral error / face: %.2e whole-face correction, %.2e per 4x4 block (%d faces)\n", e0, e2, n2);
     CHECK(n2 >= 1 && n0 == n2, "the +Y face's coarse coefficients are kept (%d, %d faces)", n0, n2);
     CHECK_LE(e2, 1e-5, "every block's integral exact to float rounding");
     CHECK_LE(20 * e2, e0, "the face correction alone leaves 20 times the block error or more");
+    /* A shared budget corrects at transport_finish from its staged parts: the same exactness. */
+    int ns;
+    double es = block_integral_error(tex, (const float (*)[T])coef, 2, &ns, TRANSPORT_BUDGET_SHARED);
+    printf("  shared budget, one vector: %.2e per 4x4 block (%d faces)\n", es, ns);
+    CHECK(ns == n2, "the same faces' coarse coefficients kept (%d, %d)", ns, n2);
+    CHECK_LE(es, 1e-5, "shared budget: every block's integral exact to float rounding");
 }
 
 /* Radiance toward +y of vertex v of d under a constant environment of radiance 1, through the
@@ -834,6 +841,170 @@ static void select_flag(void) {
     }
 }
 
+/* The objective a shared budget minimises for one set of V small vectors (expected squared error of T.L
+ * over the dropped coefficients, c^2 sigma_l^2 over three equal channels; relative: over each vector's
+ * total weight). */
+static double shared_objective(int V, int NZ, const int pos[][6], const float val[][6], const uint8_t *kept, bool rel) {
+    double obj = 0;
+    for (int v = 0; v < V; v++) {
+        double tot = 0, drop = 0;
+        for (int k = 0; k < NZ; k++) {
+            double s = transport_level_sigma[transport_level((uint32_t)pos[v][k])];
+            double w = 3.0 * (double)val[v][k] * val[v][k] * s * s;
+            tot += w;
+            if (!kept[v * NZ + k]) drop += w;
+        }
+        obj += rel ? drop / tot : drop;
+    }
+    return obj;
+}
+
+/* shared_budget: three vectors of six non-zero coefficients (one bright, one dim, one with a dominant
+ * coefficient), N = 2 shared (6 in all), a vector 1 to 4, float values, no correction. Truth: brute force
+ * over every subset of the 18 coefficients with at most 6 in all and 1 to 4 per vector; the stored choice's
+ * objective (shared_objective) is the least (1e-6 relative, float weights), for the absolute and the
+ * relative weights, the stored values are the inputs exactly, and the total is 6. */
+static void shared_budget(void) {
+    enum { V = 3, NZ = 6, NB = 2, CAP = 4 };
+    static const int pos[V][6] = { { 0, 2, 7, 30, 300, 4100 }, { 1, 5, 64, 200, 2000, 9000 }, { 0, 3, 18, 90, 1000, 20000 } };
+    static const float val[V][6] = { { 1.0f, 0.9f, -0.8f, 0.7f, 0.65f, 0.6f },
+                                     { 0.3f, -0.28f, 0.25f, 0.2f, 0.18f, -0.15f },
+                                     { 0.5f, 0.02f, -0.018f, 0.015f, 0.012f, 0.01f } };
+    static float c[V][T];
+    memset(c, 0, sizeof c);
+    for (int v = 0; v < V; v++)
+        for (int k = 0; k < NZ; k++) c[v][pos[v][k]] = val[v][k];
+    void *scr = malloc(transport_scratch_size());
+    for (int rel = 0; rel < 2; rel++) {
+        double best = INFINITY;
+        uint8_t kept[V * NZ];
+        for (int mask = 0; mask < 1 << (V * NZ); mask++) {
+            if (__builtin_popcount((unsigned)mask) > V * NB) continue;
+            bool ok = true;
+            for (int v = 0; v < V; v++) {   /* at most CAP, at least NB / TRANSPORT_SHARED_MIN (its best: the weights rule) */
+                int c = __builtin_popcount((unsigned)(mask >> (v * NZ)) & 63u);
+                ok &= c <= CAP && c >= NB / TRANSPORT_SHARED_MIN;
+            }
+            if (!ok) continue;
+            for (int k = 0; k < V * NZ; k++) kept[k] = mask >> k & 1;
+            best = fmin(best, shared_objective(V, NZ, pos, val, kept, rel));
+        }
+        prt_transport t;
+        prt_error err;
+        int ones[V] = { 1, 1, 1 };
+        CHECK(transport_init(&t, V, ones, NB, 32, &err) == 0, "%s", err.msg);
+        t.select = TRANSPORT_SELECT_EXPECTED;
+        CHECK(transport_share_budget(&t, rel ? TRANSPORT_BUDGET_RELATIVE : TRANSPORT_BUDGET_SHARED, CAP, &err) == 0, "%s", err.msg);
+        for (int v = V - 1; v >= 0; v--) transport_store(&t, v, c[v], c[v], c[v], scr);   /* any order */
+        CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+        int exact = 1, n[V];
+        for (int v = 0; v < V; v++) {
+            static float r[T], g[T], b[T];
+            transport_decode(&t, v, r, g, b);
+            n[v] = (int)(t.coef_first[v + 1] - t.coef_first[v]);
+            for (int k = 0; k < NZ; k++) {
+                kept[v * NZ + k] = r[pos[v][k]] != 0;
+                exact &= !kept[v * NZ + k] || (r[pos[v][k]] == val[v][k] && b[pos[v][k]] == val[v][k]);
+            }
+        }
+        double got = shared_objective(V, NZ, pos, val, kept, rel);
+        printf("  %s weights: kept %d / %d / %d of 6 each, objective %.6g (brute force %.6g)\n", rel ? "relative" : "absolute",
+               n[0], n[1], n[2], got, best);
+        CHECK(transport_ncoefs(&t) == V * NB && t.N == CAP && t.budget == NB, "6 in all (%zu), N %d", transport_ncoefs(&t), t.N);
+        CHECK_NEAR(got, best, 1e-6 * best, "%s weights: the least objective of any allowed subset", rel ? "relative" : "absolute");
+        CHECK(exact, "kept values are the inputs");
+        CHECK(n[0] != NB || n[1] != NB, "the case moves coefficients between vectors");
+        transport_free(&t);
+    }
+    free(scr);
+}
+
+typedef struct shared_job { prt_transport *t; void **scr; bool reverse; } shared_job;
+/* prt_parallel_for body: stores make_vec vectors (reverse: from the end of each chunk). */
+static void shared_store(void *p, int begin, int end, int thread) {
+    shared_job *j = p;
+    float *r = malloc(3 * sizeof(float) * T), *g = r + T, *b = g + T;
+    for (int k = begin; k < end && r; k++) {
+        int i = j->reverse ? end - 1 - (k - begin) : k;
+        make_vec(i, r, g, b);
+        transport_store(j->t, i, r, g, b, j->scr[thread]);
+    }
+    free(r);
+}
+
+/* shared_threads: 240 make_vec vectors (zero, single, huge, sparse, shadowed lobes, noise), 8-bit, the
+ * solid-angle correction, N = 16 shared by absolute and by relative weights: one thread, two threads in
+ * reverse order, and two threads streamed through a file (transport_stage_to_file) give the same bytes;
+ * the total stays within 16 x 240, every vector keeps 8 (or all its non-zeros) to 32, and the quantization
+ * bound (step / 2 per kept coefficient) holds. */
+static void shared_threads(void) {
+    enum { NV = 240, NB = 16 };
+    void *scr[2] = { malloc(transport_scratch_size()), malloc(transport_scratch_size()) };
+    int ones[NV];
+    for (int i = 0; i < NV; i++) ones[i] = 1;
+    for (int kind = TRANSPORT_BUDGET_SHARED; kind <= TRANSPORT_BUDGET_RELATIVE; kind++) {
+        prt_transport t[3];
+        prt_error err;
+        for (int q = 0; q < 3; q++) {
+            CHECK(transport_init(&t[q], NV, ones, NB, 8, &err) == 0, "%s", err.msg);
+            t[q].select = TRANSPORT_SELECT_EXPECTED;
+            t[q].solid_angle = true;
+            t[q].block_level = TRANSPORT_BLOCK_LEVEL;
+            CHECK(transport_share_budget(&t[q], kind, 0, &err) == 0, "%s", err.msg);
+            if (q == 2) CHECK(transport_stage_to_file(&t[q], check_tmpdir(), &err) == 0, "%s", err.msg);
+            shared_job j = { &t[q], scr, q > 0 };
+            prt_parallel_for(NV, 7, q ? 2 : 1, shared_store, &j);
+            CHECK(transport_finish(&t[q], &err) == 0, "%s", err.msg);
+        }
+        size_t nc = transport_ncoefs(&t[0]);
+        for (int q = 1; q < 3; q++)
+            CHECK(nc == transport_ncoefs(&t[q]) && memcmp(t[0].coef_first, t[q].coef_first, 4 * (NV + 1)) == 0 &&
+                  memcmp(t[0].packed, t[q].packed, 4 * nc) == 0 && memcmp(t[0].scale, t[q].scale, 12 * NV) == 0 &&
+                  t[0].chosen_err == t[q].chosen_err, "kind %d: build %d differs from the serial one", kind, q);
+        uint32_t most = 0;
+        double worst = 0;
+        int starved = 0;
+        for (int i = 0; i < NV; i++) {
+            uint32_t n = t[0].coef_first[i + 1] - t[0].coef_first[i], nz = 0;
+            most = n > most ? n : most;
+            static float r[T], g[T], b[T], x[3][T];
+            make_vec(i, x[0], x[1], x[2]);
+            for (int j = 0; j < T; j++) nz += x[0][j] != 0 || x[1][j] != 0 || x[2][j] != 0;
+            starved += n < (nz < NB / TRANSPORT_SHARED_MIN ? nz : NB / TRANSPORT_SHARED_MIN);
+            transport_decode(&t[0], i, r, g, b);
+            for (int j = 0; j < T; j++)   /* coarse coefficients carry the block correction: not bounded here */
+                if (r[j] != 0 && j % (CUBE_RES * CUBE_RES) >= 16 && isfinite(x[0][j]) && t[0].scale[3 * i] > 0)
+                    worst = fmax(worst, fabs(r[j] - x[0][j]) / t[0].scale[3 * i]);
+        }
+        printf("  %s: %zu coefficients of %d, a vector up to %u, worst quantization %.3f steps\n",
+               kind == TRANSPORT_BUDGET_SHARED ? "shared" : "relative", nc, NB * NV, most, worst);
+        CHECK(nc <= (size_t)NB * NV && most > NB && most <= TRANSPORT_SHARED_CAP * NB, "within the budget, shared, capped");
+        CHECK(starved == 0, "%d vectors kept fewer than their minimum %d", starved, NB / TRANSPORT_SHARED_MIN);
+        CHECK_LE(worst, 0.5 + 1e-3, "quantization within half a step");
+        for (int q = 0; q < 3; q++) transport_free(&t[q]);
+    }
+    free(scr[0]);
+    free(scr[1]);
+}
+
+/* prt precompute --budget: a bad value, and a shared budget with --sh, are refused with one line
+ * naming the flag, exit 2, no file. */
+static void budget_flag(void) {
+    static const char *bad[2][2] = { { "--budget global", "global" }, { "--budget shared --sh 4", "--sh" } };
+    for (int q = 0; q < 2; q++) {
+        char cmd[1024], buf[1024], outp[512];
+        snprintf(outp, sizeof outp, "%s/budget.prt", check_tmpdir());
+        snprintf(cmd, sizeof cmd, "%s precompute data/sphere-phong.json -o %s %s", check_prt_bin(), outp, bad[q][0]);
+        int rc = check_run(cmd, buf, sizeof buf);
+        CHECK(rc == 2, "exit status %d: %s", rc, buf);
+        CHECK(strstr(buf, "--budget") != NULL && strstr(buf, bad[q][1]) != NULL, "message: %s", buf);
+        CHECK(strchr(buf, '\n') == buf + strlen(buf) - 1, "one line: %s", buf);
+        FILE *f = fopen(outp, "rb");
+        CHECK(f == NULL, "no output file");
+        if (f) fclose(f);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(bad_arguments);
@@ -850,6 +1021,9 @@ int main(int argc, char **argv) {
     CHECK_CASE(sun_spectrum);
     CHECK_CASE(expected_selection);
     CHECK_CASE(select_flag);
+    CHECK_CASE(shared_budget);
+    CHECK_CASE(shared_threads);
+    CHECK_CASE(budget_flag);
     CHECK_CASE(measure_file);
     CHECK_CASE(benchmark);
     qsets_free();

@@ -9,6 +9,7 @@
 # and prints, per degree, each compressed file's radiance over the uncompressed one's; then per
 # file the mean, the worst |ratio - 1| and the largest change between neighbouring steps.
 #   tools/shimmer.sh [PROBE.exr] [build/prt]      (STEP=1 END=90 by default; about 5 minutes)
+#   SHIMMER_FLAGS="--budget shared"               precompute flags of the default file (the first column)
 set -eu
 PROBE=${1:-../shared/data/probes/city.exr}
 PRT=${2:-build/prt}
@@ -20,7 +21,7 @@ cat > "$W/plane.json" <<'J'
 { "comment": "tools/shimmer.sh: an unoccluded plane",
   "models": [ { "plane": { "x": [-1, 1], "z": [-1, 1], "height": 0, "nx": 2, "nz": 2 }, "material": "lambert:kd=0.7" } ] }
 J
-"$PRT" precompute "$W/plane.json" --quiet -o "$W/sa.prt" >/dev/null
+"$PRT" precompute "$W/plane.json" --quiet ${SHIMMER_FLAGS:-} -o "$W/sa.prt" >/dev/null
 "$PRT" precompute "$W/plane.json" --quiet --texel-measure -o "$W/texel.prt" >/dev/null
 "$PRT" precompute "$W/plane.json" --quiet --coeffs 24576 --quant 32 -o "$W/exact.prt" >/dev/null
 v0() { # file degrees -> r+g+b of vertex 0

@@ -65,9 +65,12 @@ int cli_info(int argc, char **argv) {
     }
     if (tr) {
         const prt_transport *t = &tr->transport;
-        printf("transport     %d vectors, N = %d kept per vector, %s, %zu coefficients, %zu block runs, %.2f MB\n",
-               t->nvecs, t->N, t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t),
-               transport_nruns(t), transport_bytes(t) / 1e6);
+        char kept[96];
+        if (t->budget) snprintf(kept, sizeof kept, "N = %d per vector shared (a vector up to %d)", t->budget, t->N);
+        else snprintf(kept, sizeof kept, "N = %d kept per vector", t->N);
+        printf("transport     %d vectors, %s, %s, %zu coefficients, %zu block runs, %.2f MB\n", t->nvecs, kept,
+               t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t), transport_nruns(t),
+               transport_bytes(t) / 1e6);
         printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
     }
     for (int i = 0; i < d.ntransfers; i++)

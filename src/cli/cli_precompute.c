@@ -38,6 +38,11 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
+         "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default)\n"
+         "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
+         "                         edge's more, smooth ones fewer; at most the same storage); vector:\n"
+         "                         each vector its own N (the paper's); relative: shared, weights over\n"
+         "                         each vector's own total (Haar only)\n"
          "glossy materials (the effects plan prints each material's path and why):\n"
          "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
          "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
@@ -120,7 +125,8 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
     balance(sh);
     const prt_transport *t = &prt_data_transfer(data)->transport;
     fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit", out, mb, t->nverts,
-            t->nvecs, t->N, t->qbits);
+            t->nvecs, t->budget ? t->budget : t->N, t->qbits);
+    if (t->budget) fprintf(stderr, ", shared (a vector up to %d)", t->N);
     for (int i = 0; i < data->ntransfers; i++)
         if (data->transfers[i].ops->bytes && !data->transfers[i].ops->light_range)
             fprintf(stderr, "; %s %.1f MB", data->transfers[i].ops->name, data->transfers[i].ops->bytes(&data->transfers[i]) / 1e6);
@@ -224,13 +230,28 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     return 0;
 }
 
+/* --budget NAME into *out (transport_budget; none: shared for Haar, README "Shadows"); returns 0, or 1
+ * after saying why. */
+static int budget_of(const char *name, int sh_bands, int *out) {
+    static const char *names[] = { "vector", "shared", "relative" };
+    *out = sh_bands ? TRANSPORT_BUDGET_VECTOR : TRANSPORT_BUDGET_SHARED;
+    if (!name) return 0;
+    *out = TRANSPORT_BUDGET_VECTOR;
+    for (int k = 0; k < 3; k++)
+        if (!strcmp(name, names[k])) *out = k;
+    if (*out == TRANSPORT_BUDGET_VECTOR && strcmp(name, "vector"))
+        return cli_error(k_cmd, "--budget must be vector, shared or relative (got '%s')", name);
+    if (*out != TRANSPORT_BUDGET_VECTOR && sh_bands) return cli_error(k_cmd, "--budget %s applies to Haar wavelets, not --sh", name);
+    return 0;
+}
+
 int cli_precompute(int argc, char **argv) {
     const char *in = NULL, *out = NULL;
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
-    const char *glossy = NULL, *select = NULL;
+    const char *glossy = NULL, *select = NULL, *budget = NULL;
     float refine_thr = -1;
     bool texel = false;
     const cli_option opts[] = {
@@ -257,6 +278,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
         CLI_S("--select", &select),
+        CLI_S("--budget", &budget),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
         CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
@@ -281,6 +303,7 @@ int cli_precompute(int argc, char **argv) {
         return cli_error(k_cmd, "--select expected needs Haar wavelets per steradian (not --texel-measure or --sh)") + 1;
     pd.select = pd.measure && !(select && !strcmp(select, "magnitude")) ? TRANSPORT_SELECT_EXPECTED
                                                                          : TRANSPORT_SELECT_MAGNITUDE;
+    if (budget_of(budget, sh_bands, &pd.budget)) return 2;
     if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
         pd.basis = "sh";
         pd.basis_order = sh_bands;

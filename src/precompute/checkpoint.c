@@ -32,6 +32,8 @@
  * them (transport.h): quantized, i8 or i16 [3 * count] (value = q * scale, what transport_finish
  * quantizes again to the same q), or f32 [3 * count] with 32 bits: about the output's size. */
 #define CKPT_FIXED 40
+/* With a shared budget (transport.h) a vector is staged as candidates: u32 count, u16 index[count],
+ * f32 value[3 * count], f32 weight[count], f32 block[TRANSPORT_STAGE]. */
 
 typedef struct ckpt_entry { uint32_t pass, v, len; uint64_t off; } ckpt_entry;
 
@@ -167,6 +169,38 @@ int ckpt_count(const prt_checkpoint *c, int pass) { return c && pass >= 0 && pas
 /* Bytes of one stored value channel: the quantized q of 8 / 16 bits, or the float. */
 static size_t value_bytes(int qbits) { return qbits == 8 ? 1 : qbits == 16 ? 2 : 4; }
 
+/* All finite? */
+static bool floats_ok(const float *x, size_t n) {
+    for (size_t j = 0; j < n; j++)
+        if (!isfinite(x[j])) return false;
+    return true;
+}
+
+/* stage_record for a shared budget's candidates (CKPT_FIXED's comment). Returns v, or -1. */
+static int stage_candidates(const uint8_t *p, uint32_t len, prt_transport *t, uint32_t v, uint32_t nvec) {
+    size_t q = CKPT_FIXED;
+    for (uint32_t k = 0; k < nvec; k++) {
+        size_t i = t->vec_first[v] + k;
+        if (q + 4 > len) return -1;
+        uint32_t n = get32(p + q);
+        if (n > (uint32_t)t->N || q + 4 + 18 * (uint64_t)n + 4 * TRANSPORT_STAGE > len) return -1;
+        q += 4;
+        uint32_t *idx = t->stage_idx + i * t->N;
+        for (uint32_t j = 0; j < n; j++, q += 2) {
+            idx[j] = (uint32_t)p[q] | (uint32_t)p[q + 1] << 8;
+            if (idx[j] >= CUBE_TEXELS || (j > 0 && idx[j] <= idx[j - 1])) return -1;
+        }
+        float *val = t->stage_val + i * t->N * 3, *key = t->stage_key + i * t->N, *blk = t->stage_blk + i * TRANSPORT_STAGE;
+        memcpy(val, p + q, 12 * (size_t)n);
+        memcpy(key, p + q + 12 * (size_t)n, 4 * (size_t)n);
+        memcpy(blk, p + q + 16 * (size_t)n, 4 * TRANSPORT_STAGE);
+        q += 16 * (size_t)n + 4 * TRANSPORT_STAGE;
+        if (!floats_ok(val, 3 * (size_t)n) || !floats_ok(key, n) || !floats_ok(blk, TRANSPORT_STAGE)) return -1;
+        t->stage_count[i] = n;
+    }
+    return q == len ? (int)v : -1;
+}
+
 /* Stages one record's payload p (len bytes) into t; vs gets the statistics. Returns the vertex,
  * or -1 when the record does not fit t. */
 static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_vstats *vs) {
@@ -179,6 +213,7 @@ static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_v
         memcpy(&vs->err, &e, 8);
         vs->errs = (int32_t)get32(p + 36);
     }
+    if (t->stage_key) return stage_candidates(p, len, t, v, nvec);
     const size_t vb = value_bytes(t->qbits);
     for (uint32_t k = 0; k < nvec; k++) {
         uint32_t i = t->vec_first[v] + k;
@@ -272,13 +307,30 @@ int ckpt_restore_blobs(prt_checkpoint *c, int pass, int (*fn)(void *user, uint32
     return each_record(c, pass, blob_one, &b, err);
 }
 
+/* Writes vector i's staged candidates (a shared budget's, CKPT_FIXED's comment) at p + q; returns the end. */
+static size_t put_candidates(uint8_t *p, size_t q, const prt_transport *t, size_t i) {
+    uint32_t n = t->stage_count[i];
+    put32(p + q, n);
+    q += 4;
+    for (uint32_t j = 0; j < n; j++, q += 2) {
+        uint32_t x = t->stage_idx[i * t->N + j];
+        p[q] = (uint8_t)x, p[q + 1] = (uint8_t)(x >> 8);
+    }
+    memcpy(p + q, t->stage_val + i * t->N * 3, 12 * (size_t)n);
+    memcpy(p + q + 12 * (size_t)n, t->stage_key + i * t->N, 4 * (size_t)n);
+    memcpy(p + q + 16 * (size_t)n, t->stage_blk + i * TRANSPORT_STAGE, 4 * TRANSPORT_STAGE);
+    return q + 16 * (size_t)n + 4 * TRANSPORT_STAGE;
+}
+
 /* Serializes vertex v of pass into c->buf. Returns the record's bytes, 0 on OOM. */
 static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, int v, const ckpt_vstats *vs) {
     uint32_t nvec = t->vec_first[v + 1] - t->vec_first[v];
     const size_t vb = value_bytes(t->qbits);
     const int qmax = t->qbits == 8 ? 127 : t->qbits == 16 ? 32767 : 0;
     size_t len = CKPT_FIXED;
-    for (uint32_t k = 0; k < nvec; k++) len += 16 + (2 + 3 * vb) * (size_t)t->stage_count[t->vec_first[v] + k];
+    for (uint32_t k = 0; k < nvec; k++)
+        len += t->stage_key ? 4 + 18 * (size_t)t->stage_count[t->vec_first[v] + k] + 4 * TRANSPORT_STAGE
+                            : 16 + (2 + 3 * vb) * (size_t)t->stage_count[t->vec_first[v] + k];
     if (len + 12 > c->bufcap) {
         uint8_t *b = realloc(c->buf, len + 12);
         if (!b) return 0;
@@ -293,7 +345,8 @@ static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, in
     put32(p, (uint32_t)pass); put32(p + 4, (uint32_t)v); put32(p + 8, nvec);
     put64(p + 12, (uint64_t)vs->traced); put64(p + 20, (uint64_t)vs->hits); put64(p + 28, e); put32(p + 36, (uint32_t)vs->errs);
     size_t q = CKPT_FIXED;
-    for (uint32_t k = 0; k < nvec; k++) {
+    for (uint32_t k = 0; k < nvec && t->stage_key; k++) q = put_candidates(p, q, t, t->vec_first[v] + k);
+    for (uint32_t k = 0; k < nvec && !t->stage_key; k++) {
         uint32_t i = t->vec_first[v] + k, n = t->stage_count[i];
         const float *sc = &t->scale[3 * (size_t)i], *val = t->stage_val + (size_t)i * t->N * 3;
         put32(p + q, n);

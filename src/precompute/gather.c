@@ -555,13 +555,10 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     const prt_mesh *m = &d->scene.mesh;
     int *cnt = vec_counts(prev, err);
     if (!cnt) return -1;
-    int rc = transport_init(next, prev->nverts, cnt, prev->N, prev->qbits, err);
+    int rc = transport_init_like(next, prev, cnt, err);   /* N, budget, qbits, selection, measure */
     free(cnt);
     if (rc) { memset(next, 0, sizeof *next); return -1; }
     if (desc && desc->stream_dir && transport_stage_to_file(next, desc->stream_dir, err)) return drop_set(next);
-    next->solid_angle = prev->solid_angle;
-    next->select = prev->select;
-    next->block_level = prev->block_level;
     if (m->nverts == 0 || kmax == 0) return transport_finish(next, err);
 
     gather_ctx c;
@@ -680,13 +677,10 @@ int gather_sum_streamed(const prt_transport *a, const prt_transport *b, int nthr
                         a->nverts, b->nverts, a->nvecs, b->nvecs);
     int *cnt = vec_counts(a, err);
     if (!cnt) return -1;
-    int rc = transport_init(out, a->nverts, cnt, a->N, a->qbits, err);
+    int rc = transport_init_like(out, a, cnt, err);   /* N, budget, qbits, selection, measure */
     free(cnt);
     if (rc) { memset(out, 0, sizeof *out); return -1; }
     if (stream_dir && transport_stage_to_file(out, stream_dir, err)) return drop_set(out);
-    out->solid_angle = a->solid_angle;
-    out->select = a->select;
-    out->block_level = a->block_level;
     int nth = prt_thread_count(nthreads);
     sum_ctx c = { .a = a, .b = b, .out = out };
     c.plane = prt_calloc((size_t)nth, sizeof(float *), err);

@@ -444,6 +444,8 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->select != TRANSPORT_SELECT_MAGNITUDE && d->select != TRANSPORT_SELECT_EXPECTED)
         return prt_fail(err, "precompute: select = %d (must be %d, magnitude, or %d, expected error)", d->select,
                         TRANSPORT_SELECT_MAGNITUDE, TRANSPORT_SELECT_EXPECTED);
+    if (d->budget < TRANSPORT_BUDGET_VECTOR || d->budget > TRANSPORT_BUDGET_RELATIVE)
+        return prt_fail(err, "precompute: budget = %d (must be 0 per vector, 1 shared or 2 shared relative)", d->budget);
     const transfer_ops *bops = d->basis ? transfer_find(d->basis) : NULL;
     if (d->basis && (!bops || !bops->project_transport)) {
         /* only the projection bases (the sparse family); vMF lobes are the glossy path's, not a basis */
@@ -643,6 +645,9 @@ static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
     return 0;
 }
 
+/* The coefficient budget the direct pass uses: the asked one for Haar, per vector for the others. */
+static int pc_budget(const pc_run *r) { return r->tr->ops == &transfer_haar ? r->d.budget : TRANSPORT_BUDGET_VECTOR; }
+
 /* Stage choose: the path of every material with the reason (see precompute.h), then the sparse
  * transfer (desc.basis, else Haar wavelets, the paper's all-frequency basis; SH is the low-frequency
  * baseline) over every material and, when some material took the vMF path, the vmf transfer over
@@ -677,6 +682,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
     ops->describe(&cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
+    if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
+        plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
+                 r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
@@ -687,7 +695,7 @@ static const char *pc_stream_dir(const pc_run *r) { return r->d.stream_dir ? r->
 static int pc_stream(pc_run *r, prt_error *err) {
     double phys = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGESIZE);
     double budget = r->d.memory_gb > 0 ? r->d.memory_gb * 1e9 : 0.5 * phys;
-    double staging = (double)r->direct.nvecs * r->direct.N * (sizeof(uint32_t) + 3 * sizeof(float));
+    double staging = (double)transport_staging_bytes(&r->direct);
     if (staging <= budget / 2) return 0;   /* each gathering pass stages as much again: streamed alike */
     const char *dir = pc_stream_dir(r);
     if (transport_stage_to_file(&r->direct, dir, err)) return -1;
@@ -728,6 +736,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
     r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
+    if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
@@ -789,6 +798,8 @@ static uint64_t pc_key(const pc_run *r) {
     int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
+    int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */
+    if (budget != TRANSPORT_BUDGET_VECTOR) ckpt_key_add(&k, &budget, sizeof budget);
     return ckpt_key_value(&k);
 }
 
@@ -962,9 +973,10 @@ static int pc_direct(pc_run *r, prt_error *err) {
     st->hit_fraction = st->rays_traced ? (double)st->rays_hit / (double)st->rays_traced : 0;
     st->t_visibility = tb > 0 ? t_direct * tv / tb : 0;
     st->t_transport = t_direct - st->t_visibility;
-    st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
     for (int t = 0; t < r->nthreads; t++) pc_scratch_free(&r->scratch[t]);
     if (transport_finish(&r->direct, err)) return -1;
+    es += r->direct.chosen_err;   /* a shared budget's choice (0 otherwise) */
+    st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
     /* streamed: the gathering passes read the direct set through a mapped file (issue 13) */
     if (r->streamed && transport_map_to_file(&r->direct, pc_stream_dir(r), err)) return -1;
     if (r->d.force_bounces == 0) {

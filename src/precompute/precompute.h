@@ -92,6 +92,10 @@ typedef struct precompute_desc {
     int select;             /* Haar with the solid-angle measure: which N coefficients a vector keeps,
                              * TRANSPORT_SELECT_MAGNITUDE (0, the paper's) or TRANSPORT_SELECT_EXPECTED
                              * (transport.h; what `prt precompute` asks for unless --select magnitude) */
+    int budget;             /* Haar: who shares the N x vectors coefficients (transport_budget): 0 every vector its
+                             * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
+                             * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N
+                             * (README "Shadows"; what `prt precompute` asks for unless --budget vector) */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
@@ -111,7 +115,7 @@ typedef struct precompute_desc {
                              * options is refused); else it is started anew */
     int checkpoint_kill;    /* test hook: SIGKILL after this many checkpoint flushes (0: never) */
     float memory_gb;        /* memory budget (issue 13): when the direct pass's staged vectors (nvecs x N x 16
-                             * bytes) exceed half of it, they (and each gathering pass's) stream to a temporary
+                             * bytes; transport_staging_bytes: 3.1x with a shared budget) exceed half of it, they (and each gathering pass's) stream to a temporary
                              * file in stream_dir, dropped from memory as vertices finish
                              * (transport_stage_to_file; the same bits), and the finished sets (each pass, the
                              * running sum) move to mapped files that the gathering passes read, their pages

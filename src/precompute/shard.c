@@ -153,6 +153,8 @@ int shard_share_staged(const prt_shard *sh, prt_transport *t, const int *first, 
     bcast_ranges(sh, t->stage_idx, N * sizeof *t->stage_idx, lo);
     bcast_ranges(sh, t->stage_val, 3 * N * sizeof *t->stage_val, lo);
     bcast_ranges(sh, t->scale, 3 * sizeof *t->scale, lo);
+    if (t->stage_key) bcast_ranges(sh, t->stage_key, N * sizeof *t->stage_key, lo);   /* a shared budget's (transport.h) */
+    if (t->stage_blk) bcast_ranges(sh, t->stage_blk, TRANSPORT_STAGE * sizeof *t->stage_blk, lo);
     free(lo);
     return 0;
 }

@@ -150,6 +150,9 @@ bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why) {
     tr->cfg.measure = flags & 2 ? TRANSFER_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
     if (!get_transport(r, &tr->transport, flags & 4, why)) return false;
     if (direct && !get_transport(r, &tr->direct, flags & 4, why)) return false;
+    prt_transport *sets[2] = { &tr->transport, &tr->direct };
+    for (int k = 0; k < 2; k++)   /* a shared budget (budget_ok): its kind is not recorded */
+        if (sets[k]->N > tr->cfg.N && tr->cfg.N > 0) { sets[k]->budget = tr->cfg.N; sets[k]->budget_kind = TRANSPORT_BUDGET_SHARED; }
     if (r->pos != r->n) return BAD(why, "transfer section longer than its data");
     return true;
 }
@@ -221,13 +224,22 @@ static bool set_ok(const struct prt_data *d, const prt_transfer *tr, const prt_t
     return true;
 }
 
+/* A set's N against the config's: equal (every vector its own N), or a shared budget (transport.h): the
+ * set's N is the most one vector holds, the config's the mean, and the total at most config N x vectors. */
+static bool budget_ok(const prt_transfer *tr, const prt_transport *t, char *why) {
+    if (tr->cfg.qbits != t->qbits) return BAD(why, "%s config and transport disagree on qbits", tr->ops->name);
+    if (t->N == tr->cfg.N) return true;
+    if (t->N < tr->cfg.N) return BAD(why, "%s config and transport disagree on N", tr->ops->name);
+    if ((uint64_t)t->coef_first[t->nvecs] > (uint64_t)tr->cfg.N * (uint64_t)t->nvecs)
+        return BAD(why, "%u coefficients exceed the shared budget of %d x %d vectors", t->coef_first[t->nvecs], tr->cfg.N, t->nvecs);
+    return true;
+}
+
 bool transfer_sparse_validate(const struct prt_data *d, const prt_transfer *tr, uint32_t max_index, char *why) {
-    if (!set_ok(d, tr, &tr->transport, max_index, why)) return false;
-    if (tr->cfg.N != tr->transport.N || tr->cfg.qbits != tr->transport.qbits)
-        return BAD(why, "%s config and transport disagree on N or qbits", tr->ops->name);
+    if (!set_ok(d, tr, &tr->transport, max_index, why) || !budget_ok(tr, &tr->transport, why)) return false;
     /* The optional direct-only set (the direct/bounces toggle) has the same layout as the total. */
     if (tr->direct.nvecs || tr->direct.vec_first) {
-        if (!set_ok(d, tr, &tr->direct, max_index, why)) return false;
+        if (!set_ok(d, tr, &tr->direct, max_index, why) || !budget_ok(tr, &tr->direct, why)) return false;
         if (tr->direct.nvecs != tr->transport.nvecs)
             return BAD(why, "direct transport has %d vectors, the total %d", tr->direct.nvecs, tr->transport.nvecs);
     }

@@ -12,6 +12,14 @@
  * (stage_count[i], stage_idx/stage_val[i*N ..], scale[3i ..]); transport_finish
  * then packs the variable-length vectors contiguously.
  *
+ * A shared budget (transport_share_budget) moves the choice to transport_finish: transport_store
+ * stages a vector's N_max best candidates raw with their selection weights, the squared norm and what
+ * its other coefficients drop from each correction block; finish finds the one weight threshold that
+ * keeps budget x nvecs of them (a radix select over all the weights' bits), then corrects and
+ * quantizes each vector's kept ones in its staging, and packs as before. Staging grows from 16 bytes
+ * per kept coefficient to 20 per candidate plus 1,160 per vector (3.1x at N_max = 2N = 256), which
+ * transport_stage_to_file streams through a file like the rest.
+ *
  * The runtime kernel (Eq. 5, T x L) walks each vector's runs with a base pointer
  * L + 256*block and accumulates value * L[offset] in float RGB(A) lanes: with
  * 8-bit data one 32-bit word gives the offset and the three int8 values, which
@@ -21,6 +29,7 @@
 #include "transport.h"
 #include "haar.h"
 #include <errno.h>
+#include <float.h>
 #include <fcntl.h>
 #include <math.h>
 #include <stdlib.h>
@@ -67,10 +76,68 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
     return 0;
 }
 
-/* See transport.h: one file-backed shared mapping holds the indices, then the values. */
+/* See transport.h: the staging is allocated again at nmax candidates per vector. */
+int transport_share_budget(prt_transport *t, int kind, int nmax, prt_error *err) {
+    PRT_CHECK(t->stage_count && !t->stage_mapped && !t->budget);
+    if (kind == TRANSPORT_BUDGET_VECTOR) return 0;
+    PRT_CHECK(kind == TRANSPORT_BUDGET_SHARED || kind == TRANSPORT_BUDGET_RELATIVE);
+    if (nmax <= 0) nmax = t->N > CUBE_TEXELS / TRANSPORT_SHARED_CAP ? CUBE_TEXELS : TRANSPORT_SHARED_CAP * t->N;
+    PRT_CHECK(nmax >= t->N && nmax <= CUBE_TEXELS);
+    size_t nk = (size_t)t->nvecs * (size_t)nmax;
+    uint32_t *idx = prt_calloc(nk, sizeof *idx, err);
+    float *val = idx ? prt_calloc(3 * nk, sizeof *val, err) : NULL;
+    float *key = val ? prt_calloc(nk, sizeof *key, err) : NULL;
+    float *blk = key ? prt_calloc((size_t)t->nvecs * TRANSPORT_STAGE, sizeof *blk, err) : NULL;
+    if (!blk) {
+        free(idx); free(val); free(key);
+        return prt_fail(err, "transport: out of memory staging %zu vectors of %d candidates (a shared budget)", (size_t)t->nvecs, nmax);
+    }
+    free(t->stage_idx);
+    free(t->stage_val);
+    t->stage_idx = idx; t->stage_val = val; t->stage_key = key; t->stage_blk = blk;
+    t->budget = t->N;
+    t->budget_kind = kind;
+    t->budget_min = t->budget / TRANSPORT_SHARED_MIN;
+    t->N = nmax;
+    return 0;
+}
+
+/* See transport.h. */
+int transport_init_like(prt_transport *t, const prt_transport *like, const int *nvec_of_vertex, prt_error *err) {
+    if (transport_init(t, like->nverts, nvec_of_vertex, like->budget ? like->budget : like->N, like->qbits, err)) return -1;
+    t->solid_angle = like->solid_angle;
+    t->select = like->select;
+    t->block_level = like->block_level;
+    if (like->budget && transport_share_budget(t, like->budget_kind, like->N, err)) {
+        transport_free(t);
+        return -1;
+    }
+    return 0;
+}
+
+/* The staging arrays' bytes: indices, values, and with a shared budget the keys and block integrals. */
+static void stage_sizes(const prt_transport *t, size_t len[4]) {
+    size_t nk = (size_t)t->nvecs * t->N;
+    len[0] = nk * sizeof *t->stage_idx;
+    len[1] = nk * 3 * sizeof *t->stage_val;
+    len[2] = t->stage_key ? nk * sizeof *t->stage_key : 0;
+    len[3] = t->stage_blk ? (size_t)t->nvecs * TRANSPORT_STAGE * sizeof *t->stage_blk : 0;
+}
+
+/* See transport.h. */
+size_t transport_staging_bytes(const prt_transport *t) {
+    size_t len[4];
+    stage_sizes(t, len);
+    return len[0] + len[1] + len[2] + len[3];
+}
+
+/* See transport.h: one file-backed shared mapping holds the indices, then the values (then a shared
+ * budget's keys and block integrals). */
 int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err) {
     PRT_CHECK(t->stage_idx && !t->stage_mapped);
-    size_t ni = (size_t)t->nvecs * t->N * sizeof *t->stage_idx, bytes = ni + (size_t)t->nvecs * t->N * 3 * sizeof *t->stage_val;
+    size_t len[4], bytes = 0;
+    stage_sizes(t, len);
+    for (int k = 0; k < 4; k++) bytes += len[k];
     if (bytes == 0) return 0;
     int fd = open(dir, O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);   /* unlinked from the start: nothing left behind */
     if (fd < 0) return prt_fail(err, "%s: cannot create the streamed pass's temporary file: %s", dir, strerror(errno));
@@ -84,8 +151,12 @@ int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err) {
     if (m == MAP_FAILED) return prt_fail(err, "%s: cannot map the streamed pass's temporary file: %s", dir, strerror(errno));
     free(t->stage_idx);
     free(t->stage_val);
+    free(t->stage_key);
+    free(t->stage_blk);
     t->stage_idx = m;
-    t->stage_val = (float *)(void *)((char *)m + ni);
+    t->stage_val = (float *)(void *)((char *)m + len[0]);
+    t->stage_key = len[2] ? (float *)(void *)((char *)m + len[0] + len[1]) : NULL;
+    t->stage_blk = len[3] ? (float *)(void *)((char *)m + len[0] + len[1] + len[2]) : NULL;
     t->stage_mapped = bytes;
     return 0;
 }
@@ -105,6 +176,8 @@ void transport_release(const prt_transport *t, int i0, int i1) {
     size_t N = (size_t)t->N;
     drop_pages(t->stage_idx + (size_t)i0 * N, (size_t)(i1 - i0) * N * sizeof *t->stage_idx);
     drop_pages(t->stage_val + (size_t)i0 * N * 3, (size_t)(i1 - i0) * N * 3 * sizeof *t->stage_val);
+    if (t->stage_key) drop_pages(t->stage_key + (size_t)i0 * N, (size_t)(i1 - i0) * N * sizeof *t->stage_key);
+    if (t->stage_blk) drop_pages(t->stage_blk + (size_t)i0 * TRANSPORT_STAGE, (size_t)(i1 - i0) * TRANSPORT_STAGE * sizeof *t->stage_blk);
 }
 
 /* Writes n bytes of p at offset off of fd; returns 0 or -1 (errno). */
@@ -157,8 +230,8 @@ void transport_drop_mapped(const prt_transport *t) {
 static void free_staging(prt_transport *t) {
     free(t->stage_count);
     if (t->stage_mapped) munmap(t->stage_idx, t->stage_mapped);
-    else { free(t->stage_idx); free(t->stage_val); }
-    t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL;
+    else { free(t->stage_idx); free(t->stage_val); free(t->stage_key); free(t->stage_blk); }
+    t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL; t->stage_key = NULL; t->stage_blk = NULL;
     t->stage_mapped = 0;
 }
 
@@ -214,6 +287,64 @@ static int select_expected(const float *r, const float *g, const float *b, int N
 
 static double sq(double x) { return x * x; }
 
+/* Entry j of the weights sparse_select leaves in its scratch (float bits, read without aliasing). */
+static float key_at(const float *keys, int j) {
+    float e;
+    memcpy(&e, keys + j, sizeof e);
+    return e;
+}
+
+/* The dropped coarse part coarse[m] (m < 4^b, morton order, zero where kept) into E: its value on each
+ * block times w's integral there (block_integrals). */
+static void block_coarse(const float *coarse, const double *wsum, int b, double *E) {
+    int s = 1 << b, nb = s * s;
+    float img[16] = { 0 }, tmp[16];
+    for (int m = 0; m < nb; m++) {   /* an s x s image in quadrant layout */
+        uint32_t i, j;
+        haar_unmorton((uint32_t)m, &i, &j);
+        img[j * (uint32_t)s + i] = coarse[m];
+    }
+    haar_inverse(img, s, tmp);
+    for (int B = 0; B < nb; B++) {
+        double u = img[B] * (double)s / CUBE_RES;   /* its value on block B (orthonormal at res 64) */
+        E[B] += u * wsum[B];
+    }
+}
+
+/* The integral under w of what was dropped of face x (not kept, finite), per block of level b, into E. */
+static void block_dropped(const float *x, const uint8_t *kept, const float *W, const double *wsum, int b, double *E) {
+    int s = 1 << b, nb = s * s;
+    float coarse[16];
+    for (int B = 0; B < 16; B++) E[B] = 0;
+    for (int l = b + 1, lo = 1 << 2 * b; l < TRANSPORT_LEVELS; l++, lo *= 4) {   /* details of level l: [lo, 4 lo) */
+        uint32_t mask = (uint32_t)lo - 1, sh = (uint32_t)(2 * (l - 1 - b));
+        for (int m = lo; m < 4 * lo; m++)
+            if (!kept[m] && isfinite(x[m])) {
+                uint32_t bi, bj;
+                haar_unmorton(((uint32_t)m & mask) >> sh, &bi, &bj);
+                E[bj * (uint32_t)s + bi] += (double)x[m] * W[m];
+            }
+    }
+    for (int m = 0; m < nb; m++) coarse[m] = !kept[m] && isfinite(x[m]) ? x[m] : 0.f;
+    block_coarse(coarse, wsum, b, E);
+}
+
+/* The piecewise constant E_B / |B|_w in the kept coarse coefficients of the face: adj[4^b]. */
+static void block_adjust(const double *E, const uint8_t *kept, const double *wsum, int b, float *adj) {
+    int s = 1 << b, nb = s * s;
+    float img[16], tmp[16];
+    for (int B = 0; B < nb; B++) {
+        double d = E[B] / wsum[B];
+        img[B] = isfinite(d) ? (float)d : 0.f;
+    }
+    haar_forward(img, s, tmp);
+    for (int m = 0; m < nb; m++) {
+        uint32_t i, j;
+        haar_unmorton((uint32_t)m, &i, &j);
+        adj[m] = kept[m] ? img[j * (uint32_t)s + i] * (float)(CUBE_RES / s) : 0.f;
+    }
+}
+
 /* Why: the transported light of a uniform environment L is L sum_j T_j = L sum_m c_m W_m, and W (the
  * Haar coefficients of the solid-angle bowl w_j) has details that correlate with those of T/w (both
  * smooth bowls over a face), so dropping the small details removes a same-signed share of the
@@ -230,35 +361,9 @@ static double sq(double x) { return x * x; }
  * projection on the kept ones. b = 0 is the face correction. wsum: w summed over each block
  * (row-major s x s); x: one face's coefficients; kept: the face's kept mask; adj: [4^b] to add. */
 static void block_integrals(const float *x, const uint8_t *kept, const float *W, const double *wsum, int b, float *adj) {
-    int s = 1 << b, nb = s * s;
-    double D[16] = { 0 };
-    float img[16] = { 0 }, tmp[16];
-    for (int l = b + 1, lo = 1 << 2 * b; l < TRANSPORT_LEVELS; l++, lo *= 4) {   /* details of level l: [lo, 4 lo) */
-        uint32_t mask = (uint32_t)lo - 1, sh = (uint32_t)(2 * (l - 1 - b));
-        for (int m = lo; m < 4 * lo; m++)
-            if (!kept[m] && isfinite(x[m])) {
-                uint32_t bi, bj;
-                haar_unmorton(((uint32_t)m & mask) >> sh, &bi, &bj);
-                D[bj * (uint32_t)s + bi] += (double)x[m] * W[m];
-            }
-    }
-    for (int m = 0; m < nb; m++) {   /* the dropped coarse part, an s x s image in quadrant layout */
-        uint32_t i, j;
-        haar_unmorton((uint32_t)m, &i, &j);
-        img[j * (uint32_t)s + i] = !kept[m] && isfinite(x[m]) ? x[m] : 0.f;
-    }
-    haar_inverse(img, s, tmp);
-    for (int B = 0; B < nb; B++) {
-        double u = img[B] * (double)s / CUBE_RES;   /* its value on block B (orthonormal at res 64) */
-        double d = (D[B] + u * wsum[B]) / wsum[B];
-        img[B] = isfinite(d) ? (float)d : 0.f;
-    }
-    haar_forward(img, s, tmp);
-    for (int m = 0; m < nb; m++) {
-        uint32_t i, j;
-        haar_unmorton((uint32_t)m, &i, &j);
-        adj[m] = kept[m] ? img[j * (uint32_t)s + i] * (float)(CUBE_RES / s) : 0.f;
-    }
+    double E[16];
+    block_dropped(x, kept, W, wsum, b, E);
+    block_adjust(E, kept, wsum, b, adj);
 }
 
 /* Value of kept coefficient index of channel c before quantization: the input, plus the block
@@ -269,31 +374,113 @@ static float kept_value(const float *x, uint32_t index, const float *adj, int c)
     return m < 16 ? x[index] + adj[(c * 6 + index / FACE) * 16 + m] : x[index];
 }
 
+/* w's Haar coefficients W[FACE] (tmp: FACE floats) and its integral over each block of level b. */
+static void block_tables(int b, float *W, float *tmp, double *wsum) {
+    int s = 1 << b, side = CUBE_RES / s;
+    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
+    haar_face_solid_angle(tmp, CUBE_RES, false);
+    for (int B = 0; B < 16; B++) wsum[B] = 0;
+    for (int j = 0; j < CUBE_RES; j++)
+        for (int i = 0; i < CUBE_RES; i++) wsum[(j / side) * s + i / side] += tmp[j * CUBE_RES + i];
+    haar_face_solid_angle_coeffs(W, CUBE_RES, tmp);
+}
+
+/* The mask of the n indices idx into kept[CUBE_TEXELS]. */
+static void mark(uint8_t *kept, const uint32_t *idx, int n) {
+    memset(kept, 0, CUBE_TEXELS);
+    for (int k = 0; k < n; k++) kept[idx[k]] = 1;
+}
+
 /* With t->solid_angle, the block correction of every channel and face (block_integrals) into
  * adj[3][6][16]; zeros without. scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask. */
 static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
                               float *scratch, float *adj) {
     memset(adj, 0, 3 * 6 * 16 * sizeof *adj);
     if (!t->solid_angle) return;
-    int b = t->block_level, s = 1 << b, side = CUBE_RES / s;
-    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
-    float *w = scratch;
+    int b = t->block_level;
     uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
-    memset(kept, 0, CUBE_TEXELS);
-    for (int k = 0; k < n; k++) kept[idx[k]] = 1;
-    haar_face_solid_angle(w, CUBE_RES, false);
-    double wsum[16] = { 0 };
-    for (int j = 0; j < CUBE_RES; j++)
-        for (int i = 0; i < CUBE_RES; i++) wsum[(j / side) * s + i / side] += w[j * CUBE_RES + i];
-    haar_face_solid_angle_coeffs(W, CUBE_RES, W + FACE);
+    mark(kept, idx, n);
+    double wsum[16];
+    block_tables(b, W, scratch, wsum);
     for (int c = 0; c < 3; c++)
         for (int f = 0; f < 6; f++)
             block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, adj + (c * 6 + f) * 16);
 }
 
+/* Why (shared budget): which candidates a vector keeps is known only at transport_finish, so its block
+ * correction is split: what the coefficients outside its candidates drop is fixed now (blk, per
+ * channel, face and block; finish adds the candidates it drops). scratch as block_corrections'. */
+static void block_stage(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
+                        float *scratch, float *blk) {
+    int b = t->block_level;
+    uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
+    mark(kept, idx, n);
+    double wsum[16], E[16];
+    block_tables(b, W, scratch, wsum);
+    for (int c = 0; c < 3; c++)
+        for (int f = 0; f < 6; f++) {
+            block_dropped(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, E);
+            for (int B = 0; B < 16; B++) blk[(c * 6 + f) * 16 + B] = (float)E[B];
+        }
+}
+
+/* Why: a water-filling on absolute weights starves the darkest vertices (a floor vertex under the model
+ * kept nothing: black). Each vector's budget_min best candidates get the largest finite weight, so the
+ * threshold keeps them whatever the others hold (budget_min <= budget keeps the total within it).
+ * wc: the weighted copy (NULL: r, g, b themselves); keys, idx2: scratch. */
+static void keep_minimum(prt_transport *t, int i, int n, const float *wc, const float *r, const float *g, const float *b,
+                         float *keys, uint32_t *idx2) {
+    int m = wc ? sparse_select(wc, wc + CUBE_TEXELS, wc + 2 * CUBE_TEXELS, CUBE_TEXELS, t->budget_min, idx2, keys)
+               : sparse_select(r, g, b, CUBE_TEXELS, t->budget_min, idx2, keys);
+    size_t o = (size_t)i * t->N;
+    for (int k = 0, q = 0; k < n && q < m; k++) {   /* both ascending; idx2 is a subset of the candidates */
+        if (t->stage_idx[o + k] != idx2[q]) continue;
+        t->stage_key[o + k] = FLT_MAX;
+        q++;
+    }
+}
+
+/* Shared budget: stages vector i's t->N best candidates (by the selection weight, unquantized) with
+ * their weights (RELATIVE: over the vector's total) for transport_finish. Returns the squared norm of
+ * the coefficients outside them. */
+static double store_candidates(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
+    float *keys = scratch;
+    uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
+    float *W = (float *)(void *)(idx + CUBE_TEXELS), *wc = W + 2 * FACE;
+    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t->N, idx, keys, wc)
+                                                   : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
+    double total = 0, err = 0;   /* keys[0 .. CUBE_TEXELS) hold the weights' float bits (sparse.h) */
+    if (t->budget_kind == TRANSPORT_BUDGET_RELATIVE)
+        for (int j = 0; j < CUBE_TEXELS; j++) total += key_at(keys, j);
+    const float *ch[3] = { r, g, b };
+    size_t o = (size_t)i * t->N;
+    for (int k = 0; k < n; k++) {
+        double e = key_at(keys, (int)idx[k]);
+        t->stage_key[o + k] = total > 0 ? (float)(e / total) : (float)e;
+        t->stage_idx[o + k] = idx[k];
+        for (int c = 0; c < 3; c++) t->stage_val[3 * (o + k) + c] = isfinite(ch[c][idx[k]]) ? ch[c][idx[k]] : 0.f;
+    }
+    if (t->budget_min > 0 && n > 0) keep_minimum(t, i, n, t->select == TRANSPORT_SELECT_EXPECTED ? wc : NULL, r, g, b, keys, (uint32_t *)(void *)W);
+    t->stage_count[i] = (uint32_t)n;
+    double norm = 0;
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        double e = sq(r[j]) + sq(g[j]) + sq(b[j]);
+        if (isfinite(e)) norm += e;
+    }
+    t->stage_blk[(size_t)i * TRANSPORT_STAGE + TRANSPORT_BLK] = (float)norm;
+    if (t->solid_angle) block_stage(t, ch, idx, n, W, wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
+    for (int j = 0, k = 0; j < CUBE_TEXELS; j++) {
+        if (k < n && idx[k] == (uint32_t)j) { k++; continue; }
+        double e = sq(r[j]) + sq(g[j]) + sq(b[j]);
+        if (isfinite(e)) err += e;
+    }
+    return err;
+}
+
 /* Selects, quantizes and stages vector i; returns the squared L2 error of what is kept. */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     PRT_CHECK(t->stage_count && i >= 0 && i < t->nvecs);
+    if (t->budget) return store_candidates(t, i, r, g, b, scratch);
     float *keys = scratch;
     uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
     float *W = (float *)(void *)(idx + CUBE_TEXELS);
@@ -340,6 +527,157 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
         if (isfinite(e)) err += e;
     }
     return err;
+}
+
+/* ---- a shared budget's choice (transport_finish) ---- */
+
+static uint32_t bits_of(float x) { uint32_t u; memcpy(&u, &x, sizeof u); return u; }
+
+/* Why: the best B candidates of all vectors (largest weights: the least expected error, summed) are those
+ * above one threshold, so a radix select over the weights' float bits (non-negative floats order like
+ * their bits) finds it in two passes: the top 16 bits, then the low 16 within that bin. Sets *T to the
+ * B-th largest weight's bits and *need_eq to how many equal to it are kept (ties go to the lower vector,
+ * then the lower index: deterministic). */
+static void budget_threshold(const prt_transport *t, uint64_t B, uint32_t *T, uint64_t *need_eq) {
+    uint64_t *hist = calloc(65536, sizeof *hist), above = 0;
+    PRT_CHECK(hist != NULL);
+    uint32_t hi = 0, lo = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        memset(hist, 0, 65536 * sizeof *hist);
+        for (int i0 = 0; i0 < t->nvecs; i0 += 4096) {   /* streamed: a chunk at a time in memory */
+            int i1 = t->nvecs - i0 < 4096 ? t->nvecs : i0 + 4096;
+            for (int i = i0; i < i1; i++)
+                for (uint32_t k = 0; k < t->stage_count[i]; k++) {
+                    uint32_t u = bits_of(t->stage_key[(size_t)i * t->N + k]);
+                    if (pass == 0) hist[u >> 16]++;
+                    else if ((u >> 16) == hi) hist[u & 65535u]++;
+                }
+            transport_release(t, i0, i1);
+        }
+        uint32_t bin = 65535;
+        while (above + hist[bin] < B) above += hist[bin--];
+        if (pass == 0) hi = bin; else lo = bin;
+    }
+    free(hist);
+    *T = hi << 16 | lo;
+    *need_eq = B - above;
+}
+
+typedef struct budget_ctx {
+    prt_transport *t;
+    uint32_t T;           /* weights above T are kept */
+    const uint32_t *take; /* [nvecs] how many of vector i's weights equal to T are kept */
+    double *err;          /* [nvecs] squared error the choice adds (dropped candidates, quantization) */
+    float W[FACE];        /* w's Haar coefficients (block_tables) */
+    double wsum[16];
+} budget_ctx;
+
+/* The block of level b that detail m (>= 4^b within its face) lies in (block_integrals' rule). */
+static int block_of(uint32_t m, int b) {
+    int l = transport_level(m);
+    uint32_t lo = 1u << 2 * (l - 1), sh = (uint32_t)(2 * (l - 1 - b)), bi, bj;
+    haar_unmorton((m & (lo - 1)) >> sh, &bi, &bj);
+    return (int)(bj * (1u << b) + bi);
+}
+
+/* Keeps vector i's chosen candidates in place (index order), with the block correction of what it
+ * drops (its staged non-candidates' part plus the dropped candidates'); adj[3][6][16] gets it. */
+static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
+    prt_transport *t = c->t;
+    size_t o = (size_t)i * t->N;
+    uint32_t *idx = t->stage_idx + o, n = 0, take = c->take[i];
+    float *val = t->stage_val + 3 * o, coarse[TRANSPORT_BLK] = { 0 };
+    int b = t->block_level, nb = 1 << 2 * b;
+    double E[TRANSPORT_BLK];
+    uint8_t kept[6 * 16] = { 0 };
+    for (int k = 0; k < TRANSPORT_BLK; k++) E[k] = t->solid_angle ? t->stage_blk[(size_t)i * TRANSPORT_STAGE + k] : 0;
+    for (uint32_t k = 0; k < t->stage_count[i]; k++) {
+        uint32_t u = bits_of(t->stage_key[o + k]), m = idx[k] % FACE, f = idx[k] / FACE;
+        bool keep = u > c->T || (u == c->T && take > 0);
+        take -= keep && u == c->T;
+        if (keep) {
+            if (m < 16) kept[f * 16 + m] = 1;
+            idx[n] = idx[k];
+            memmove(val + 3 * n, val + 3 * k, 3 * sizeof *val);
+            n++;
+        } else {
+            for (int ch = 0; ch < 3; ch++) c->err[i] += sq(val[3 * k + ch]);
+            for (int ch = 0; ch < 3 && t->solid_angle; ch++) {
+                if (m < (uint32_t)nb) coarse[(ch * 6 + f) * 16 + m] = val[3 * k + ch];
+                else E[(ch * 6 + f) * 16 + block_of(m, b)] += (double)val[3 * k + ch] * c->W[m];
+            }
+        }
+    }
+    memset(adj, 0, TRANSPORT_BLK * sizeof *adj);
+    if (t->solid_angle)
+        for (int q = 0; q < 18; q++) {   /* q = channel * 6 + face */
+            block_coarse(coarse + q * 16, c->wsum, b, E + q * 16);
+            block_adjust(E + q * 16, kept + (q % 6) * 16, c->wsum, b, adj + q * 16);
+        }
+    return n;
+}
+
+/* prt_parallel_for body: each vector's choice, corrected and quantized in its staging (as transport_store
+ * leaves a vector under the per-vector budget). */
+static void budget_vectors(void *p, int begin, int end, int thread) {
+    const budget_ctx *c = p;
+    prt_transport *t = c->t;
+    int qmax = qmax_of(t->qbits);
+    for (int i = begin; i < end; i++) {
+        float adj[TRANSPORT_BLK];
+        uint32_t n = budget_keep(c, i, adj), *idx = t->stage_idx + (size_t)i * t->N;
+        float *val = t->stage_val + 3 * (size_t)i * t->N;
+        for (int ch = 0; ch < 3; ch++) {
+            float mx = 0, step = 1.f;
+            for (uint32_t k = 0; k < n && qmax; k++) {
+                uint32_t m = idx[k] % FACE;
+                float x = fabsf(val[3 * k + ch] + (m < 16 ? adj[(ch * 6 + idx[k] / FACE) * 16 + m] : 0.f));
+                if (x > mx && isfinite(x)) mx = x;
+            }
+            if (qmax) step = t->scale[3 * i + ch] = sparse_step(mx, qmax);
+            for (uint32_t k = 0; k < n; k++) {
+                uint32_t m = idx[k] % FACE;
+                float raw = val[3 * k + ch], x = raw + (m < 16 ? adj[(ch * 6 + idx[k] / FACE) * 16 + m] : 0.f);
+                val[3 * k + ch] = qmax ? (float)sparse_quantize(x, step, qmax) * step : x;
+                c->err[i] += sq((double)raw - val[3 * k + ch]);
+            }
+        }
+        float norm = t->stage_blk[(size_t)i * TRANSPORT_STAGE + TRANSPORT_BLK];
+        c->err[i] = norm > 0 ? c->err[i] / norm : 0;
+        t->stage_count[i] = n;
+    }
+    transport_release(t, begin, end);
+}
+
+/* The shared budget's choice: at most budget x nvecs candidates in all, the largest weights. */
+static int budget_finish(prt_transport *t, prt_error *err) {
+    uint64_t B = (uint64_t)t->budget * (uint64_t)t->nvecs, S = 0, need_eq = UINT64_MAX;
+    for (int i = 0; i < t->nvecs; i++) S += t->stage_count[i];
+    budget_ctx *c = prt_calloc(1, sizeof *c, err);
+    uint32_t *take = c ? prt_calloc((size_t)t->nvecs + 1, sizeof *take, err) : NULL;
+    c->err = take ? prt_calloc((size_t)t->nvecs + 1, sizeof *c->err, err) : NULL;
+    if (!c || !c->err) { free(take); free(c); return prt_fail(err, "transport: out of memory choosing a shared budget"); }
+    c->t = t;
+    c->take = take;
+    if (S > B) budget_threshold(t, B, &c->T, &need_eq);
+    for (int i = 0; i < t->nvecs; i++) {   /* ties to the lower vector, in order */
+        uint32_t eq = 0;
+        for (uint32_t k = 0; k < t->stage_count[i] && need_eq; k++) eq += bits_of(t->stage_key[(size_t)i * t->N + k]) == c->T;
+        take[i] = eq < need_eq ? eq : (uint32_t)need_eq;
+        need_eq -= take[i];
+    }
+    float tmp[FACE];
+    block_tables(t->block_level, c->W, tmp, c->wsum);
+    prt_parallel_for(t->nvecs, 4096, 0, budget_vectors, c);
+    t->chosen_err = 0;
+    for (int i = 0; i < t->nvecs; i++) t->chosen_err += c->err[i];   /* in order: the same sum on any threads */
+    free(c->err);
+    free(take);
+    free(c);
+    if (!t->stage_mapped) { free(t->stage_key); free(t->stage_blk); }   /* mapped: unmapped with the rest */
+    t->stage_key = NULL;   /* chosen: a retried finish (after OOM) packs what is staged */
+    t->stage_blk = NULL;
+    return 0;
 }
 
 typedef struct finish_ctx { prt_transport *t; } finish_ctx;
@@ -402,6 +740,7 @@ static void pack_vectors(void *p, int begin, int end, int thread) {
 /* Compacts the staged vectors; frees staging. Returns 0, or -1 with err set (OOM, overflow). */
 int transport_finish(prt_transport *t, prt_error *err) {
     if (!t->stage_count) return 0;
+    if (t->stage_key && budget_finish(t, err)) return -1;
     size_t nv = (size_t)t->nvecs;
     t->coef_first = prt_calloc(nv + 1, sizeof *t->coef_first, err);
     t->run_first = prt_calloc(nv + 1, sizeof *t->run_first, err);

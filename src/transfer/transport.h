@@ -17,6 +17,12 @@
  * vectors per vertex and N; transport_store (thread-safe for distinct vectors)
  * selects, quantizes and stores one dense vector; transport_finish compacts the
  * storage. After finish the set is immutable and can be written to a .prt file.
+ * With a shared budget (transport_share_budget, README "Shadows": the default of
+ * `prt precompute`) the set keeps at most budget x nvecs coefficients in all and a
+ * vector up to N (then 2 x budget): transport_store stages each vector's N best
+ * candidates unquantized, and transport_finish picks the best budget x nvecs of all
+ * of them (one threshold on the selection weight), corrects and quantizes what each
+ * vector keeps. N is always the most any vector holds, which is what a file states.
  *
  * Runtime: transport_light (Eq. 5's T x L for every vector) computes the
  * light-dependent K-vectors: g[3*i+ch] = sum_c value(c, ch) * L[index(c)][ch].
@@ -39,6 +45,26 @@
  *              light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w. */
 typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT_EXPECTED = 1 } transport_select;
 
+/* Who shares the coefficient budget (transport_share_budget):
+ *   VECTOR:   every vector keeps its own N best (the paper's).
+ *   SHARED:   the set keeps its budget x nvecs best selection weights (transport_select's: |c_i|^2, or
+ *             |c_i|^2 sigma_l^2, summed over the channels), wherever they are: a vector whose transport
+ *             has detail (a shadow edge crossing its cube) keeps more, a smooth one fewer. The global
+ *             optimum of the summed expected squared error of T.L at that storage, given that each
+ *             vector keeps at least budget_min and at most N.
+ *   RELATIVE: the same with each vector's weights divided by its own total weight (the expected T.L
+ *             squared), so the summed relative error is what is minimised: dark vertices are not
+ *             starved by bright ones. */
+typedef enum transport_budget { TRANSPORT_BUDGET_VECTOR = 0, TRANSPORT_BUDGET_SHARED = 1, TRANSPORT_BUDGET_RELATIVE = 2 } transport_budget;
+/* A shared budget's cap per vector, in multiples of the mean (transport_share_budget's nmax default):
+ * on the reduced bunny + floor 2 gave the same figures as 4 (19 of 10,125 vectors at the cap), at half
+ * the staging (README "Shadows"). */
+#define TRANSPORT_SHARED_CAP 2
+/* What every vector keeps of a shared budget whatever the others hold: budget / TRANSPORT_SHARED_MIN
+ * of its best (README "Shadows": without it the absolute weights left 57 dark floor vertices under the
+ * model with nothing, black; N/2 and N/4 measured alike on the shadow, N/2 better on its darkest). */
+#define TRANSPORT_SHARED_MIN 2
+
 /* Haar levels of a CUBE_RES face: 0 the scaling coefficient, l >= 1 the details of morton indices
  * [4^(l-1), 4^l) (haar.h), the finest CUBE_RES / 2 x CUBE_RES / 2 blocks at level 6. */
 #define TRANSPORT_LEVELS 7
@@ -48,6 +74,10 @@ typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT
  * below it, so the file and the runtimes are unchanged). */
 #define TRANSPORT_BLOCK_LEVEL 2
 #define TRANSPORT_BLOCK_LEVEL_MAX 2
+/* Floats per vector of a shared budget's block staging: 3 channels x 6 faces x 16 blocks. */
+#define TRANSPORT_BLK (3 * 6 * 16)
+/* Floats per vector of that staging: the blocks, then the vector's squared L2 norm. */
+#define TRANSPORT_STAGE (TRANSPORT_BLK + 1)
 /* sigma_l per level, relative to the finest (tools/level_spectrum.c measured it; transport.c says how). */
 extern const float transport_level_sigma[TRANSPORT_LEVELS];
 /* The Haar level (0..TRANSPORT_LEVELS-1) of wavelet index i. */
@@ -55,7 +85,15 @@ int transport_level(uint32_t i);
 
 typedef struct prt_transport {
     int nverts, nvecs;
-    int N;                  /* coefficients kept per vector (max) */
+    int N;                  /* coefficients kept per vector (max; the staging stride) */
+    int budget;             /* 0: every vector keeps at most N of its own; > 0 (transport_share_budget): the
+                             * set keeps at most budget x nvecs in all, any one vector up to N */
+    int budget_kind;        /* transport_budget (VECTOR with budget 0) */
+    int budget_min;         /* shared budget: coefficients every vector keeps whatever the others hold
+                             * (budget / TRANSPORT_SHARED_MIN; its best by weight) */
+    double chosen_err;      /* shared budget: the sum over vectors of the squared L2 error relative to the
+                             * vector's squared norm that transport_finish's choice added to what
+                             * transport_store returned (dropped candidates, quantization) */
     int qbits;              /* 8, 16 or 32 (float) */
     bool solid_angle;       /* Haar of T/w (transfer_haar's solid-angle measure): transport_store keeps
                              * the solid-angle integral of each block of block_level (set after
@@ -77,7 +115,12 @@ typedef struct prt_transport {
     /* Build-time staging (NULL after transport_finish). */
     uint32_t *stage_count;  /* [nvecs] coefficients stored per vector */
     uint32_t *stage_idx;    /* [nvecs*N] wavelet indices */
-    float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping) */
+    float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping; with a shared
+                             * budget the candidates' raw values until transport_finish) */
+    float *stage_key;       /* shared budget: [nvecs*N] each candidate's selection weight */
+    float *stage_blk;       /* shared budget: [nvecs*TRANSPORT_STAGE] what the non-candidates add to each
+                             * block's dropped integral (with solid_angle), per channel, face and block, then
+                             * the vector's squared norm */
     size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
                              * file (transport_stage_to_file), released as vectors are done */
     void *data_map;         /* non-NULL: runs and the coefficient arrays (packed / offs, q16, f32) live in this
@@ -89,9 +132,21 @@ typedef struct prt_transport {
 /* Sizes a set: nverts vertices, vertex v has nvec_of_vertex[v] vectors (vectors numbered
  * consecutively). N in 1..CUBE_TEXELS, qbits 8/16/32. Returns 0 or -1 (OOM/bad args). */
 int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int N, int qbits, prt_error *err);
+/* Lets the vectors of a set fresh from transport_init (nothing stored, not streamed yet) share its
+ * budget of N x nvecs coefficients (kind SHARED or RELATIVE; VECTOR: no-op): each may keep up to
+ * nmax (0: TRANSPORT_SHARED_CAP x N, at most CUBE_TEXELS). Staging grows to nmax candidates per vector
+ * (transport_staging_bytes). Returns 0 or -1 (OOM; the set is then unchanged). */
+int transport_share_budget(prt_transport *t, int kind, int nmax, prt_error *err);
+/* transport_init with like's budget, kind, qbits, select, measure and block level, and the vector
+ * counts given (the gathering passes' sets). Returns 0 or -1. */
+int transport_init_like(prt_transport *t, const prt_transport *like, const int *nvec_of_vertex, prt_error *err);
+/* Bytes the staging of an unfinished set takes (what transport_stage_to_file moves to a file): nvecs x N x 16,
+ * and with a shared budget 4 more per candidate and 4 x TRANSPORT_STAGE per vector. */
+size_t transport_staging_bytes(const prt_transport *t);
 /* Selects, quantizes and stages vector i from dense wavelet coefficients r,g,b[CUBE_TEXELS].
  * t->select picks the coefficients; scratch: transport_scratch_size() bytes.
- * Returns the L2 error squared of the stored approximation (truncation + quantization). */
+ * Returns the L2 error squared of the stored approximation (truncation + quantization); with a
+ * shared budget, of its candidates (what it would keep at the cap N; transport_finish decides). */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 size_t transport_scratch_size(void);
 /* Streams the staging of a set fresh from transport_init to an unlinked temporary file in dir
@@ -101,7 +156,7 @@ int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err);
 /* Drops the pages vectors [i0, i1)'s staging touches from this process's memory (the file keeps
  * them; any thread may still read or write them). No-op unless staged to a file. */
 void transport_release(const prt_transport *t, int i0, int i1);
-/* Compacts staged vectors into the final arrays. Returns 0 or -1 (OOM). */
+/* Compacts staged vectors into the final arrays (a shared budget's choice first). Returns 0 or -1 (OOM). */
 int transport_finish(prt_transport *t, prt_error *err);
 /* Moves a finished set's runs and coefficients (all but about 20 bytes per vector of it) to an
  * unlinked temporary file in dir, mapped read-only (issue 13): a later pass reads them through the
