@@ -311,11 +311,41 @@ done:
 static void end_to_end_float(void) { end_to_end(0); }
 static void end_to_end_8bit(void) { end_to_end(1); }
 
+/* PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for) below PRECOMPUTE_SHARED_MAX_VECS vectors is
+ * the shared budget, coefficient for coefficient, and the plan says so; an explicit per-vector budget
+ * differs (at most N per vector) and its plan has no shared line. */
+static void budget_auto(void) {
+    prt_error err;
+    prt_data out[3];
+    const int kinds[3] = { PRECOMPUTE_BUDGET_AUTO, TRANSPORT_BUDGET_SHARED, TRANSPORT_BUDGET_VECTOR };
+    int ok = 0;
+    for (int k = 0; k < 3; k++) {
+        prt_scene sc;
+        CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
+        precompute_desc d = { .N = 32, .qbits = 8, .vis_res = 64, .quiet = true, .nthreads = 2, .force_bounces = -1,
+                              .select = TRANSPORT_SELECT_EXPECTED, .budget = kinds[k] };
+        int rc = precompute_run(&sc, &d, &out[k], &err);
+        CHECK(rc == 0, "budget %d: %s", kinds[k], err.msg);
+        ok += rc == 0;
+    }
+    if (ok < 3) return;
+    const prt_transport *a = &out[0].transfers[0].transport, *s = &out[1].transfers[0].transport, *v = &out[2].transfers[0].transport;
+    size_t n = transport_ncoefs(a);
+    CHECK(a->nvecs < PRECOMPUTE_SHARED_MAX_VECS && n == transport_ncoefs(s) && a->N == s->N &&
+              !memcmp(a->coef_first, s->coef_first, sizeof(uint32_t) * (a->nvecs + 1)) &&
+              !memcmp(a->packed, s->packed, sizeof(uint32_t) * n), "auto differs from shared (%zu coefficients)", n);
+    CHECK(strstr(out[0].plan, "N x vectors shared") && !strstr(out[2].plan, "N x vectors shared"), "plans: %s / %s",
+          out[0].plan, out[2].plan);
+    CHECK(v->N == 32 && a->N == 64 && n <= (size_t)32 * a->nvecs, "N per vector %d, shared up to %d", v->N, a->N);
+    for (int k = 0; k < 3; k++) prt_data_free(&out[k]);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lambert_open);
     CHECK_CASE(lambert_half);
     CHECK_CASE(end_to_end_float);
     CHECK_CASE(end_to_end_8bit);
+    CHECK_CASE(budget_auto);
     return check_summary();
 }

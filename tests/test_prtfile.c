@@ -351,7 +351,7 @@ static void header(void) {
     img[4] = 7;
     spit(bad, img, n);
     img[4] = PRTFILE_VERSION;
-    expect_fail(bad, "bad.prt", "bad.prt: version 7 not supported (expected 2)", "wrong version");
+    expect_fail(bad, "bad.prt", "bad.prt: version 7 not supported (expected 2 to 3)", "wrong version");
     img[4] = 1;
     spit(bad, img, n);
     img[4] = PRTFILE_VERSION;
@@ -619,7 +619,7 @@ static size_t pad_offset(const unsigned char *img, size_t n, int q, size_t *haar
     return at;
 }
 
-/* The file image as an older prt wrote it (no padding, flag bit 2 clear), with an unknown section of
+/* The file image as an older prt wrote it (version 2, no padding, flag bit 2 clear), with an unknown section of
  * j bytes before HAAR (readers skip it) to move the arrays; fresh lengths and CRC. *len: its size. */
 static unsigned char *unpadded(const unsigned char *img, size_t n, size_t j, size_t *len, size_t *values_at) {
     size_t haar, at = pad_offset(img, n, 8, &haar), cut = 1 + img[at];
@@ -643,6 +643,8 @@ static unsigned char *unpadded(const unsigned char *img, size_t n, size_t j, siz
     seclen -= cut;
     memcpy(o + haar + j + 4, &seclen, 8);
     o[haar + 12 + j + 20] &= (unsigned char)~4;
+    uint32_t version = PRTFILE_VERSION_OLDEST;   /* as the prt before the padding wrote it */
+    memcpy(o + 4, &version, 4);
     uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), o, (uInt)w);
     memcpy(o + w, &crc, 4);
     *len = w + 4;

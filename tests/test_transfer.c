@@ -303,7 +303,7 @@ static void version1(void) {
     unsigned char *img = (unsigned char *)check_read_file(path, &n);
     uint32_t v;
     memcpy(&v, img + 4, 4);
-    CHECK(v == PRTFILE_VERSION && PRTFILE_VERSION == 2, "written as version %u", v);
+    CHECK(v == PRTFILE_VERSION && PRTFILE_VERSION == 3, "written as version %u", v);
     v = 1;
     memcpy(img + 4, &v, 4);
     uint32_t crc = (uint32_t)crc32(crc32(0L, Z_NULL, 0), img, (uInt)(n - 4));

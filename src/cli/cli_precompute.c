@@ -38,7 +38,8 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
-         "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default)\n"
+         "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default\n"
+         "                         up to 500,000 vectors, then vector: its staging and time)\n"
          "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
          "                         edge's more, smooth ones fewer; at most the same storage); vector:\n"
          "                         each vector its own N (the paper's); relative: shared, weights over\n"
@@ -234,7 +235,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
  * after saying why. */
 static int budget_of(const char *name, int sh_bands, int *out) {
     static const char *names[] = { "vector", "shared", "relative" };
-    *out = sh_bands ? TRANSPORT_BUDGET_VECTOR : TRANSPORT_BUDGET_SHARED;
+    *out = sh_bands ? TRANSPORT_BUDGET_VECTOR : PRECOMPUTE_BUDGET_AUTO;   /* the plan picks (precompute.h) */
     if (!name) return 0;
     *out = TRANSPORT_BUDGET_VECTOR;
     for (int k = 0; k < 3; k++)

@@ -453,9 +453,10 @@ static int frame_checked(const char *path, const uint8_t *b, size_t n, bool drop
     prt_reader h = { .p = b, .n = n, .pos = 4 };
     uint32_t version = prtio_get_u32(&h);
     uint64_t payload = prtio_get_u64(&h);
-    if (version >= 1 && version < PRTFILE_VERSION)
+    if (version >= 1 && version < PRTFILE_VERSION_OLDEST)
         return prt_fail(err, "%s: written by an older prt (file version %u); precompute it again", path, version);
-    if (version != PRTFILE_VERSION) return prt_fail(err, "%s: version %u not supported (expected %d)", path, version, PRTFILE_VERSION);
+    if (version > PRTFILE_VERSION)
+        return prt_fail(err, "%s: version %u not supported (expected %d to %d)", path, version, PRTFILE_VERSION_OLDEST, PRTFILE_VERSION);
     if (payload > n - HEADER_BYTES - 4)
         return prt_fail(err, "%s: truncated (%zu bytes, expected %llu)", path, n, (unsigned long long)(payload + HEADER_BYTES + 4));
     if (payload < n - HEADER_BYTES - 4)

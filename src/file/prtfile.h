@@ -35,8 +35,13 @@
 #include "factor.h"
 #include "transfer.h"
 
-/* 2: one section per transfer representation (1: META basis + TRAN/DIRT). */
-#define PRTFILE_VERSION 2
+/* 3: a Haar set's coefficient arrays padded to 64-byte file offsets (transfer flag bit 2, for the
+ *    mapped load) and, with a shared coefficient budget, a set's N the most any vector holds;
+ * 2: one section per transfer representation, read still (the same sections, unpadded, N per vector);
+ * 1: META basis + TRAN/DIRT, refused. A prt older than version 3 refuses version 3 files with one line
+ * naming the version, rather than as corrupt. */
+#define PRTFILE_VERSION 3
+#define PRTFILE_VERSION_OLDEST 2
 #define PRT_MAX_BOUNCES 8
 
 typedef struct prt_stats {

@@ -444,8 +444,8 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->select != TRANSPORT_SELECT_MAGNITUDE && d->select != TRANSPORT_SELECT_EXPECTED)
         return prt_fail(err, "precompute: select = %d (must be %d, magnitude, or %d, expected error)", d->select,
                         TRANSPORT_SELECT_MAGNITUDE, TRANSPORT_SELECT_EXPECTED);
-    if (d->budget < TRANSPORT_BUDGET_VECTOR || d->budget > TRANSPORT_BUDGET_RELATIVE)
-        return prt_fail(err, "precompute: budget = %d (must be 0 per vector, 1 shared or 2 shared relative)", d->budget);
+    if (d->budget < PRECOMPUTE_BUDGET_AUTO || d->budget > TRANSPORT_BUDGET_RELATIVE)
+        return prt_fail(err, "precompute: budget = %d (must be -1 auto, 0 per vector, 1 shared or 2 shared relative)", d->budget);
     const transfer_ops *bops = d->basis ? transfer_find(d->basis) : NULL;
     if (d->basis && (!bops || !bops->project_transport)) {
         /* only the projection bases (the sparse family); vMF lobes are the glossy path's, not a basis */
@@ -648,6 +648,22 @@ static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
 /* The coefficient budget the direct pass uses: the asked one for Haar, per vector for the others. */
 static int pc_budget(const pc_run *r) { return r->tr->ops == &transfer_haar ? r->d.budget : TRANSPORT_BUDGET_VECTOR; }
 
+/* PRECOMPUTE_BUDGET_AUTO resolved from the mesh (the same on every rank): shared up to
+ * PRECOMPUTE_SHARED_MAX_VECS vectors, else per vector, said in the plan. */
+static void pc_budget_auto(pc_run *r) {
+    if (r->d.budget != PRECOMPUTE_BUDGET_AUTO) return;
+    const prt_mesh *m = &r->out->scene.mesh;
+    size_t nvecs = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        int mat = m->mat ? m->mat[v] : 0;
+        nvecs += (r->tr->materials >> mat) & 1 ? (size_t)r->out->factors[mat].K : 0;
+    }
+    r->d.budget = nvecs <= PRECOMPUTE_SHARED_MAX_VECS ? TRANSPORT_BUDGET_SHARED : TRANSPORT_BUDGET_VECTOR;
+    if (r->d.budget == TRANSPORT_BUDGET_VECTOR && r->tr->ops == &transfer_haar)
+        plan_add(r->plan, r->pcap, "  coefficients: N per vector (%zu vectors: a shared budget stops at %d, its staging and time)\n",
+                 nvecs, PRECOMPUTE_SHARED_MAX_VECS);
+}
+
 /* Stage choose: the path of every material with the reason (see precompute.h), then the sparse
  * transfer (desc.basis, else Haar wavelets, the paper's all-frequency basis; SH is the low-frequency
  * baseline) over every material and, when some material took the vMF path, the vmf transfer over
@@ -682,6 +698,7 @@ static int pc_choose(pc_run *r, prt_error *err) {
     ops->describe(&cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
+    pc_budget_auto(r);
     if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
         plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
                  r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");

@@ -76,6 +76,13 @@ typedef enum precompute_glossy {
 /* Interreflection passes at most when precompute_desc.bounces is 0 (the adaptive stop decides). */
 #define PRECOMPUTE_DEFAULT_BOUNCES 3
 
+/* precompute_desc.budget: the plan picks (pc_choose). A shared budget stages 2N candidates per vector
+ * (6.3 KB against 2 KB) and costs about 13% more CPU (README "Shadows"); above this many vectors it
+ * would take the 1 M-vertex scene (1.1 M vectors) past issue 13's 25-minute direct pass and triple its
+ * staging, so the plan keeps the paper's per-vector N there. */
+#define PRECOMPUTE_BUDGET_AUTO (-1)
+#define PRECOMPUTE_SHARED_MAX_VECS 500000
+
 typedef struct precompute_desc {
     int N;                  /* coefficients per vector; 0: 128 */
     int max_terms;          /* K cap for glossy materials; 0: 4 */
@@ -95,7 +102,8 @@ typedef struct precompute_desc {
     int budget;             /* Haar: who shares the N x vectors coefficients (transport_budget): 0 every vector its
                              * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
                              * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N
-                             * (README "Shadows"; what `prt precompute` asks for unless --budget vector) */
+                             * (README "Shadows"); PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for unless
+                             * --budget says): shared up to PRECOMPUTE_SHARED_MAX_VECS vectors, else per vector */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
