@@ -462,18 +462,17 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
     }
     if (t->budget_min > 0 && n > 0) keep_minimum(t, i, n, t->select == TRANSPORT_SELECT_EXPECTED ? wc : NULL, r, g, b, keys, (uint32_t *)(void *)W);
     t->stage_count[i] = (uint32_t)n;
-    double norm = 0;
-    for (int j = 0; j < CUBE_TEXELS; j++) {
+    double norm = 0;   /* one pass: the whole vector's squared norm, and the part outside the candidates */
+    for (int j = 0, k = 0; j < CUBE_TEXELS; j++) {
         double e = sq(r[j]) + sq(g[j]) + sq(b[j]);
-        if (isfinite(e)) norm += e;
+        bool cand = k < n && idx[k] == (uint32_t)j;
+        k += cand;
+        if (!isfinite(e)) continue;
+        norm += e;
+        if (!cand) err += e;
     }
     t->stage_blk[(size_t)i * TRANSPORT_STAGE + TRANSPORT_BLK] = (float)norm;
     if (t->solid_angle) block_stage(t, ch, idx, n, W, wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
-    for (int j = 0, k = 0; j < CUBE_TEXELS; j++) {
-        if (k < n && idx[k] == (uint32_t)j) { k++; continue; }
-        double e = sq(r[j]) + sq(g[j]) + sq(b[j]);
-        if (isfinite(e)) err += e;
-    }
     return err;
 }
 
@@ -538,9 +537,8 @@ static uint32_t bits_of(float x) { uint32_t u; memcpy(&u, &x, sizeof u); return 
  * their bits) finds it in two passes: the top 16 bits, then the low 16 within that bin. Sets *T to the
  * B-th largest weight's bits and *need_eq to how many equal to it are kept (ties go to the lower vector,
  * then the lower index: deterministic). */
-static void budget_threshold(const prt_transport *t, uint64_t B, uint32_t *T, uint64_t *need_eq) {
-    uint64_t *hist = calloc(65536, sizeof *hist), above = 0;
-    PRT_CHECK(hist != NULL);
+static void budget_threshold(const prt_transport *t, uint64_t B, uint64_t *hist, uint32_t *T, uint64_t *need_eq) {
+    uint64_t above = 0;   /* hist: 65536 counts of scratch */
     uint32_t hi = 0, lo = 0;
     for (int pass = 0; pass < 2; pass++) {
         memset(hist, 0, 65536 * sizeof *hist);
@@ -558,7 +556,6 @@ static void budget_threshold(const prt_transport *t, uint64_t B, uint32_t *T, ui
         while (above + hist[bin] < B) above += hist[bin--];
         if (pass == 0) hi = bin; else lo = bin;
     }
-    free(hist);
     *T = hi << 16 | lo;
     *need_eq = B - above;
 }
@@ -655,11 +652,17 @@ static int budget_finish(prt_transport *t, prt_error *err) {
     for (int i = 0; i < t->nvecs; i++) S += t->stage_count[i];
     budget_ctx *c = prt_calloc(1, sizeof *c, err);
     uint32_t *take = c ? prt_calloc((size_t)t->nvecs + 1, sizeof *take, err) : NULL;
-    c->err = take ? prt_calloc((size_t)t->nvecs + 1, sizeof *c->err, err) : NULL;
-    if (!c || !c->err) { free(take); free(c); return prt_fail(err, "transport: out of memory choosing a shared budget"); }
+    double *verr = take ? prt_calloc((size_t)t->nvecs + 1, sizeof *verr, err) : NULL;
+    uint64_t *hist = verr && S > B ? prt_calloc(65536, sizeof *hist, err) : NULL;
+    if (!verr || (S > B && !hist)) {
+        free(verr); free(take); free(c);
+        return prt_fail(err, "transport: out of memory choosing a shared budget");
+    }
     c->t = t;
     c->take = take;
-    if (S > B) budget_threshold(t, B, &c->T, &need_eq);
+    c->err = verr;
+    if (S > B) budget_threshold(t, B, hist, &c->T, &need_eq);
+    free(hist);
     for (int i = 0; i < t->nvecs; i++) {   /* ties to the lower vector, in order */
         uint32_t eq = 0;
         for (uint32_t k = 0; k < t->stage_count[i] && need_eq; k++) eq += bits_of(t->stage_key[(size_t)i * t->N + k]) == c->T;
