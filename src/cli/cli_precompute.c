@@ -38,6 +38,9 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
+         "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
+         "                         weighted by the transport on faces with no occluder edge, steadier\n"
+         "                         on an open floor under a turning sun)\n"
          "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default\n"
          "                         up to 500,000 vectors, then vector: its staging and time)\n"
          "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
@@ -254,7 +257,7 @@ int cli_precompute(int argc, char **argv) {
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
     const char *glossy = NULL, *select = NULL, *budget = NULL;
     float refine_thr = -1;
-    bool texel = false;
+    bool texel = false, no_smooth = false;
     const cli_option opts[] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
@@ -278,6 +281,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
+        CLI_B("--no-smooth-faces", &no_smooth),
         CLI_S("--select", &select),
         CLI_S("--budget", &budget),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
@@ -298,6 +302,7 @@ int cli_precompute(int argc, char **argv) {
     pd.param = (brdf_param)param;
     if (sh_bands && texel) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
     pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* README "Shadows" */
+    pd.smooth_faces = pd.measure == TRANSFER_MEASURE_SOLID_ANGLE && !no_smooth;
     if (select && strcmp(select, "expected") && strcmp(select, "magnitude"))
         return cli_error(k_cmd, "--select must be expected or magnitude (got '%s')", select) + 1;
     if (select && !strcmp(select, "expected") && !pd.measure)

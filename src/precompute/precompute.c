@@ -753,6 +753,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
     r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
+    r->direct.smooth_faces = r->direct.solid_angle && r->d.smooth_faces;
     if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
@@ -791,7 +792,7 @@ static uint64_t pc_key(const pc_run *r) {
     const prt_mesh *m = &sc->mesh;
     const precompute_desc *d = &r->d;
     ckpt_key k = ckpt_key_init();
-    ckpt_key_str(&k, "prt precompute checkpoint 1");
+    ckpt_key_str(&k, "prt precompute checkpoint 2");   /* 2: TRANSPORT_STAGE grew (smooth faces) */
     ckpt_key_add(&k, &m->nverts, sizeof m->nverts);
     ckpt_key_add(&k, &m->ntris, sizeof m->ntris);
     ckpt_key_add(&k, m->pos, 3 * sizeof(float) * (size_t)m->nverts);
@@ -812,7 +813,7 @@ static uint64_t pc_key(const pc_run *r) {
         ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */

@@ -99,6 +99,9 @@ typedef struct precompute_desc {
     int select;             /* Haar with the solid-angle measure: which N coefficients a vector keeps,
                              * TRANSPORT_SELECT_MAGNITUDE (0, the paper's) or TRANSPORT_SELECT_EXPECTED
                              * (transport.h; what `prt precompute` asks for unless --select magnitude) */
+    bool smooth_faces;      /* Haar with the solid-angle measure: a face of a vector with no occluder edge gets its
+                             * dropped part back weighted by the transport, not per block (transport.h
+                             * smooth_faces; what `prt precompute` asks for unless --no-smooth-faces) */
     int budget;             /* Haar: who shares the N x vectors coefficients (transport_budget): 0 every vector its
                              * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
                              * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N

@@ -108,6 +108,7 @@ int transport_init_like(prt_transport *t, const prt_transport *like, const int *
     t->solid_angle = like->solid_angle;
     t->select = like->select;
     t->block_level = like->block_level;
+    t->smooth_faces = like->smooth_faces;
     if (like->budget && transport_share_budget(t, like->budget_kind, like->N, err)) {
         transport_free(t);
         return -1;
@@ -391,8 +392,94 @@ static void mark(uint8_t *kept, const uint32_t *idx, int n) {
     for (int k = 0; k < n; k++) kept[idx[k]] = 1;
 }
 
-/* With t->solid_angle, the block correction of every channel and face (block_integrals) into
- * adj[3][6][16]; zeros without. scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask. */
+/* ---- smooth faces: the correction weighted by the transport (README "Shadows") ----
+ * Why: the block integrals make every block exact under a uniform light, but a sun sees a point of a
+ * block mean, and the block mean of a concave lobe falls below its value on the ring a sun at a fixed
+ * elevation turns along (Jensen): an unoccluded floor kept a -0.6% bias, with steps where the sun
+ * crosses a face edge. Putting the dropped part back weighted by the transport instead, sum over
+ * dropped m of c_m H_m (H the Haar coefficients of the texels T_j, Eq. 3) on the face's scaling
+ * coefficient, makes the product exact under a light shaped like the transport, where a sun matters
+ * most. One scalar per face spreads over the whole face, so it is taken only on faces with no occluder
+ * edge (face_smooth): on a shadowed face it lights the dark part where the sun may be (README: the
+ * floor's shadow 8.5% when taken on every face). H is that of the channels summed (a grey light of the
+ * transport's shape; for a material of one colour the same as per channel). */
+
+/* Face f of the channels' sum of T/w as texels (row-major, haar_forward's layout) into img: true when it
+ * is smooth (TRANSPORT_SMOOTH_JUMP) and not negative. tmp: FACE floats. */
+static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp) {
+    for (uint32_t j = 0; j < CUBE_RES; j++)
+        for (uint32_t i = 0; i < CUBE_RES; i++) {
+            uint32_t m = (uint32_t)f * FACE + haar_morton(i, j);
+            float v = 0;
+            for (int c = 0; c < 3; c++) v += isfinite(ch[c][m]) ? ch[c][m] : 0.f;
+            img[j * CUBE_RES + i] = v;
+        }
+    haar_inverse(img, CUBE_RES, tmp);
+    float mx = 0, lo = 0, jump = 0;
+    for (int j = 0; j < CUBE_RES; j++)
+        for (int i = 0; i < CUBE_RES; i++) {
+            float v = img[j * CUBE_RES + i];
+            mx = fmaxf(mx, v);
+            lo = fminf(lo, v);
+            if (i > 0) jump = fmaxf(jump, fabsf(v - img[j * CUBE_RES + i - 1]));
+            if (j > 0) jump = fmaxf(jump, fabsf(v - img[(j - 1) * CUBE_RES + i]));
+        }
+    return mx > 0 && lo >= -1e-4f * mx && jump <= TRANSPORT_SMOOTH_JUMP * mx;   /* lo: the transform's rounding */
+}
+
+/* The Haar coefficients of the texels img_j w_j (T_j from T/w), in place (row-major layout). */
+static void face_transport(float *img, const float *w, float *tmp) {
+    for (int k = 0; k < FACE; k++) img[k] *= w[k];
+    haar_forward(img, CUBE_RES, tmp);
+}
+
+/* Coefficient m (morton order) of a face in haar_forward's row-major layout. */
+static float at_morton(const float *img, uint32_t m) {
+    uint32_t i, j;
+    haar_unmorton(m, &i, &j);
+    return img[j * CUBE_RES + i];
+}
+
+/* For each smooth face f (face_smooth): S[c * 6 + f] = sum over its m outside `in` of c_m H_m, and
+ * H0[f] = H_0, the transport's integral over the face (times 64); H0[f] = 0 elsewhere.
+ * scratch: 3 x FACE floats. */
+static void smooth_faces(const float *const ch[3], const uint8_t *in, float *scratch, float *S, float *H0) {
+    float *img = scratch, *tmp = scratch + FACE, *w = scratch + 2 * FACE;
+    haar_face_solid_angle(w, CUBE_RES, false);
+    for (int f = 0; f < 6; f++) {
+        for (int c = 0; c < 3; c++) S[c * 6 + f] = 0;
+        H0[f] = 0;
+        if (!face_smooth(ch, f, img, tmp)) continue;
+        face_transport(img, w, tmp);
+        H0[f] = img[0];
+        for (int c = 0; c < 3; c++) {
+            double d = 0;
+            for (uint32_t m = 0; m < FACE; m++) {
+                float x = ch[c][(size_t)f * FACE + m];
+                if (!in[(size_t)f * FACE + m] && isfinite(x)) d += (double)x * at_morton(img, m);
+            }
+            S[c * 6 + f] = (float)d;
+        }
+    }
+}
+
+/* The smooth faces' correction into adj[3][6][16] (replacing their block correction) where the face's
+ * scaling coefficient is kept: S / H_0 on it, nothing on the face's other coarse coefficients.
+ * kept0: bit f set when face f's scaling coefficient is kept. */
+static void smooth_adjust(const float *S, const float *H0, unsigned kept0, float *adj) {
+    for (int f = 0; f < 6; f++) {
+        if (H0[f] == 0 || !(kept0 >> f & 1)) continue;
+        for (int c = 0; c < 3; c++) {
+            float *a = adj + (c * 6 + f) * 16, d = S[c * 6 + f] / H0[f];
+            memset(a, 0, 16 * sizeof *a);
+            a[0] = isfinite(d) ? d : 0.f;
+        }
+    }
+}
+
+/* With t->solid_angle, the block correction of every channel and face (block_integrals), and with
+ * smooth_faces theirs on the smooth faces (smooth_adjust), into adj[3][6][16]; zeros without.
+ * scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask, then at 3 x FACE smooth_faces'. */
 static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
                               float *scratch, float *adj) {
     memset(adj, 0, 3 * 6 * 16 * sizeof *adj);
@@ -405,11 +492,18 @@ static void block_corrections(const prt_transport *t, const float *const ch[3], 
     for (int c = 0; c < 3; c++)
         for (int f = 0; f < 6; f++)
             block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, adj + (c * 6 + f) * 16);
+    if (!t->smooth_faces) return;
+    float S[18], H0[6];
+    unsigned kept0 = 0;
+    smooth_faces(ch, kept, scratch + 3 * FACE, S, H0);
+    for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[(size_t)f * FACE] << f;
+    smooth_adjust(S, H0, kept0, adj);
 }
 
 /* Why (shared budget): which candidates a vector keeps is known only at transport_finish, so its block
  * correction is split: what the coefficients outside its candidates drop is fixed now (blk, per
- * channel, face and block; finish adds the candidates it drops). scratch as block_corrections'. */
+ * channel, face and block, and the smooth faces' S and H_0 after the norm; finish adds the candidates
+ * it drops). scratch as block_corrections'. */
 static void block_stage(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
                         float *scratch, float *blk) {
     int b = t->block_level;
@@ -422,6 +516,9 @@ static void block_stage(const prt_transport *t, const float *const ch[3], const 
             block_dropped(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, E);
             for (int B = 0; B < 16; B++) blk[(c * 6 + f) * 16 + B] = (float)E[B];
         }
+    float *S = blk + TRANSPORT_BLK + 1, *H0 = S + 18;
+    if (t->smooth_faces) smooth_faces(ch, kept, scratch + 3 * FACE, S, H0);
+    else memset(S, 0, 24 * sizeof *S);
 }
 
 /* Why: a water-filling on absolute weights starves the darkest vertices (a floor vertex under the model
@@ -566,8 +663,26 @@ typedef struct budget_ctx {
     const uint32_t *take; /* [nvecs] how many of vector i's weights equal to T are kept */
     double *err;          /* [nvecs] squared error the choice adds (dropped candidates, quantization) */
     float W[FACE];        /* w's Haar coefficients (block_tables) */
+    float w[FACE];        /* w's texels (haar_face_solid_angle), for the smooth faces */
     double wsum[16];
 } budget_ctx;
+
+/* Why: a smooth face's dropped candidates are weighted by H (smooth_faces), which is not staged; the
+ * candidates (a smooth face's 2N largest, by construction its shape) give it: the Haar coefficients of
+ * w times their reconstruction, over vector i's candidates [k, ...) of face f, into img (row-major). */
+static void candidates_transport(const budget_ctx *c, size_t o, uint32_t k, uint32_t f, float *img, float *tmp) {
+    const prt_transport *t = c->t;
+    const uint32_t *idx = t->stage_idx + o;
+    const float *val = t->stage_val + 3 * o;
+    memset(img, 0, FACE * sizeof *img);
+    for (; k < t->stage_count[o / (size_t)t->N] && idx[k] / FACE == f; k++) {
+        uint32_t i, j;
+        haar_unmorton(idx[k] % FACE, &i, &j);
+        img[j * CUBE_RES + i] = val[3 * k] + val[3 * k + 1] + val[3 * k + 2];
+    }
+    haar_inverse(img, CUBE_RES, tmp);
+    face_transport(img, c->w, tmp);
+}
 
 /* The block of level b that detail m (>= 4^b within its face) lies in (block_integrals' rule). */
 static int block_of(uint32_t m, int b) {
@@ -587,9 +702,14 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
     int b = t->block_level, nb = 1 << 2 * b;
     double E[TRANSPORT_BLK];
     uint8_t kept[6 * 16] = { 0 };
-    for (int k = 0; k < TRANSPORT_BLK; k++) E[k] = t->solid_angle ? t->stage_blk[(size_t)i * TRANSPORT_STAGE + k] : 0;
-    for (uint32_t k = 0; k < t->stage_count[i]; k++) {
+    const float *blk = t->stage_blk + (size_t)i * TRANSPORT_STAGE, *H0 = blk + TRANSPORT_BLK + 1 + 18;
+    float S[18], img[FACE], tmp[FACE];
+    for (int k = 0; k < TRANSPORT_BLK; k++) E[k] = t->solid_angle ? blk[k] : 0;
+    memcpy(S, blk + TRANSPORT_BLK + 1, sizeof S);
+    for (uint32_t k = 0, face = 6; k < t->stage_count[i]; k++) {
         uint32_t u = bits_of(t->stage_key[o + k]), m = idx[k] % FACE, f = idx[k] / FACE;
+        if (f != face && t->solid_angle && H0[f] != 0) candidates_transport(c, o, k, f, img, tmp);   /* before compacting */
+        face = f;
         bool keep = u > c->T || (u == c->T && take > 0);
         take -= keep && u == c->T;
         if (keep) {
@@ -602,15 +722,19 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
             for (int ch = 0; ch < 3 && t->solid_angle; ch++) {
                 if (m < (uint32_t)nb) coarse[(ch * 6 + f) * 16 + m] = val[3 * k + ch];
                 else E[(ch * 6 + f) * 16 + block_of(m, b)] += (double)val[3 * k + ch] * c->W[m];
+                if (H0[f] != 0) S[ch * 6 + f] += val[3 * k + ch] * at_morton(img, m);
             }
         }
     }
     memset(adj, 0, TRANSPORT_BLK * sizeof *adj);
-    if (t->solid_angle)
-        for (int q = 0; q < 18; q++) {   /* q = channel * 6 + face */
-            block_coarse(coarse + q * 16, c->wsum, b, E + q * 16);
-            block_adjust(E + q * 16, kept + (q % 6) * 16, c->wsum, b, adj + q * 16);
-        }
+    if (!t->solid_angle) return n;
+    unsigned kept0 = 0;
+    for (int q = 0; q < 18; q++) {   /* q = channel * 6 + face */
+        block_coarse(coarse + q * 16, c->wsum, b, E + q * 16);
+        block_adjust(E + q * 16, kept + (q % 6) * 16, c->wsum, b, adj + q * 16);
+    }
+    for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[f * 16] << f;
+    smooth_adjust(S, H0, kept0, adj);   /* H0 all 0 without smooth_faces */
     return n;
 }
 
@@ -671,6 +795,7 @@ static int budget_finish(prt_transport *t, prt_error *err) {
     }
     float tmp[FACE];
     block_tables(t->block_level, c->W, tmp, c->wsum);
+    haar_face_solid_angle(c->w, CUBE_RES, false);
     prt_parallel_for(t->nvecs, 4096, 0, budget_vectors, c);
     t->chosen_err = 0;
     for (int i = 0; i < t->nvecs; i++) t->chosen_err += c->err[i];   /* in order: the same sum on any threads */

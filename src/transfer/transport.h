@@ -76,8 +76,15 @@ typedef enum transport_budget { TRANSPORT_BUDGET_VECTOR = 0, TRANSPORT_BUDGET_SH
 #define TRANSPORT_BLOCK_LEVEL_MAX 2
 /* Floats per vector of a shared budget's block staging: 3 channels x 6 faces x 16 blocks. */
 #define TRANSPORT_BLK (3 * 6 * 16)
-/* Floats per vector of that staging: the blocks, then the vector's squared L2 norm. */
-#define TRANSPORT_STAGE (TRANSPORT_BLK + 1)
+/* Floats per vector of that staging: the blocks, the vector's squared L2 norm, then for the smooth faces
+ * (smooth_faces) what the non-candidates drop weighted by the transport (3 channels x 6 faces) and each
+ * face's transport integral H_0 (6; 0 where the face has an occluder edge). */
+#define TRANSPORT_STAGE (TRANSPORT_BLK + 1 + 24)
+/* A face is smooth (smooth_faces) when no two neighbouring texels of its T/w, the channels summed, differ
+ * by more than this share of its largest value and none is negative: an unoccluded cosine lobe changes
+ * by at most about 4.5% of its face's largest value between texels (1.8 degrees at a face's centre; the
+ * plane's side faces measured 3-5%), an occluder's edge by its cosine there (README "Shadows"). */
+#define TRANSPORT_SMOOTH_JUMP 0.1f
 /* sigma_l per level, relative to the finest (tools/level_spectrum.c measured it; transport.c says how). */
 extern const float transport_level_sigma[TRANSPORT_LEVELS];
 /* The Haar level (0..TRANSPORT_LEVELS-1) of wavelet index i. */
@@ -101,6 +108,10 @@ typedef struct prt_transport {
     int block_level;        /* with solid_angle: the integrals kept are those of the 2^l x 2^l blocks of
                              * each face, 0 (whole faces) .. TRANSPORT_BLOCK_LEVEL_MAX (set after init;
                              * precompute: TRANSPORT_BLOCK_LEVEL) */
+    bool smooth_faces;      /* with solid_angle: a face with no occluder edge (TRANSPORT_SMOOTH_JUMP) gets what
+                             * was dropped back weighted by the transport, on its scaling coefficient, instead
+                             * of per block (README "Shadows": exact under a light shaped like the transport,
+                             * which steadies an unoccluded floor under a turning sun; set after init) */
     int select;             /* which N coefficients transport_store keeps (transport_select; set after
                              * transport_init; 0 = the paper's largest magnitudes) */
     uint32_t *vec_first;    /* [nverts+1] */
@@ -137,7 +148,7 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
  * nmax (0: TRANSPORT_SHARED_CAP x N, at most CUBE_TEXELS). Staging grows to nmax candidates per vector
  * (transport_staging_bytes). Returns 0 or -1 (OOM; the set is then unchanged). */
 int transport_share_budget(prt_transport *t, int kind, int nmax, prt_error *err);
-/* transport_init with like's budget, kind, qbits, select, measure and block level, and the vector
+/* transport_init with like's budget, kind, qbits, select, measure, block level and smooth faces, and the vector
  * counts given (the gathering passes' sets). Returns 0 or -1. */
 int transport_init_like(prt_transport *t, const prt_transport *like, const int *nvec_of_vertex, prt_error *err);
 /* Bytes the staging of an unfinished set takes (what transport_stage_to_file moves to a file): nvecs x N x 16,
