@@ -166,6 +166,9 @@ static void morton_to_face(const float *restrict in, int res, float *restrict fa
     }
 }
 
+void haar_face_to_morton(const float *face, int res, float *morton) { face_to_morton(face, res, morton); }
+void haar_face_from_morton(const float *morton, int res, float *face) { morton_to_face(morton, res, face); }
+
 /* Six faces: texels[f*res^2 + j*res + i] -> wavelet[f*res^2 + morton(i, j)] of the transform. */
 void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp) {
     size_t nn = (size_t)res * res;

@@ -28,6 +28,11 @@ uint32_t haar_morton(uint32_t i, uint32_t j);
 /* Inverse of haar_morton. */
 void haar_unmorton(uint32_t m, uint32_t *i, uint32_t *j);
 
+/* One face's coefficients between haar_forward's quadrant layout (row-major) and morton order
+ * (res*res floats each; in and out may not alias). */
+void haar_face_to_morton(const float *face, int res, float *morton);
+void haar_face_from_morton(const float *morton, int res, float *face);
+
 /* Whole cube: row-major texels (cubemap.h indexing) of one channel -> wavelet-index order.
  * in and out may not alias; tmp holds 2*res*res floats. */
 void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp);

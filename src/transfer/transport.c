@@ -407,13 +407,15 @@ static void mark(uint8_t *kept, const uint32_t *idx, int n) {
 /* Face f of the channels' sum of T/w as texels (row-major, haar_forward's layout) into img: true when it
  * is smooth (TRANSPORT_SMOOTH_JUMP) and not negative. tmp: FACE floats. */
 static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp) {
-    for (uint32_t j = 0; j < CUBE_RES; j++)
-        for (uint32_t i = 0; i < CUBE_RES; i++) {
-            uint32_t m = (uint32_t)f * FACE + haar_morton(i, j);
-            float v = 0;
-            for (int c = 0; c < 3; c++) v += isfinite(ch[c][m]) ? ch[c][m] : 0.f;
-            img[j * CUBE_RES + i] = v;
-        }
+    const float *x[3] = { ch[0] + (size_t)f * FACE, ch[1] + (size_t)f * FACE, ch[2] + (size_t)f * FACE };
+    bool any = false;
+    for (int m = 0; m < FACE; m++) {
+        float v = (isfinite(x[0][m]) ? x[0][m] : 0.f) + (isfinite(x[1][m]) ? x[1][m] : 0.f) + (isfinite(x[2][m]) ? x[2][m] : 0.f);
+        tmp[m] = v;
+        any |= v != 0;
+    }
+    if (!any) return false;   /* nothing to correct (a face below the horizon) */
+    haar_face_from_morton(tmp, CUBE_RES, img);
     haar_inverse(img, CUBE_RES, tmp);
     float mx = 0, lo = 0, jump = 0;
     for (int j = 0; j < CUBE_RES; j++)
@@ -427,37 +429,31 @@ static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp)
     return mx > 0 && lo >= -1e-4f * mx && jump <= TRANSPORT_SMOOTH_JUMP * mx;   /* lo: the transform's rounding */
 }
 
-/* The Haar coefficients of the texels img_j w_j (T_j from T/w), in place (row-major layout). */
-static void face_transport(float *img, const float *w, float *tmp) {
+/* The Haar coefficients of the texels img_j w_j (T_j from T/w) in morton order into H; img is used up. */
+static void face_transport(float *img, const float *w, float *tmp, float *H) {
     for (int k = 0; k < FACE; k++) img[k] *= w[k];
     haar_forward(img, CUBE_RES, tmp);
-}
-
-/* Coefficient m (morton order) of a face in haar_forward's row-major layout. */
-static float at_morton(const float *img, uint32_t m) {
-    uint32_t i, j;
-    haar_unmorton(m, &i, &j);
-    return img[j * CUBE_RES + i];
+    haar_face_to_morton(img, CUBE_RES, H);
 }
 
 /* For each smooth face f (face_smooth): S[c * 6 + f] = sum over its m outside `in` of c_m H_m, and
  * H0[f] = H_0, the transport's integral over the face (times 64); H0[f] = 0 elsewhere.
- * scratch: 3 x FACE floats. */
+ * scratch: 4 x FACE floats. */
 static void smooth_faces(const float *const ch[3], const uint8_t *in, float *scratch, float *S, float *H0) {
-    float *img = scratch, *tmp = scratch + FACE, *w = scratch + 2 * FACE;
+    float *img = scratch, *tmp = scratch + FACE, *w = scratch + 2 * FACE, *H = scratch + 3 * FACE;
     haar_face_solid_angle(w, CUBE_RES, false);
     for (int f = 0; f < 6; f++) {
         for (int c = 0; c < 3; c++) S[c * 6 + f] = 0;
         H0[f] = 0;
         if (!face_smooth(ch, f, img, tmp)) continue;
-        face_transport(img, w, tmp);
-        H0[f] = img[0];
+        face_transport(img, w, tmp, H);
+        H0[f] = H[0];
+        const uint8_t *out = in + (size_t)f * FACE;
         for (int c = 0; c < 3; c++) {
+            const float *x = ch[c] + (size_t)f * FACE;
             double d = 0;
-            for (uint32_t m = 0; m < FACE; m++) {
-                float x = ch[c][(size_t)f * FACE + m];
-                if (!in[(size_t)f * FACE + m] && isfinite(x)) d += (double)x * at_morton(img, m);
-            }
+            for (int m = 0; m < FACE; m++)
+                if (!out[m] && isfinite(x[m])) d += (double)x[m] * H[m];
             S[c * 6 + f] = (float)d;
         }
     }
@@ -669,19 +665,17 @@ typedef struct budget_ctx {
 
 /* Why: a smooth face's dropped candidates are weighted by H (smooth_faces), which is not staged; the
  * candidates (a smooth face's 2N largest, by construction its shape) give it: the Haar coefficients of
- * w times their reconstruction, over vector i's candidates [k, ...) of face f, into img (row-major). */
-static void candidates_transport(const budget_ctx *c, size_t o, uint32_t k, uint32_t f, float *img, float *tmp) {
-    const prt_transport *t = c->t;
-    const uint32_t *idx = t->stage_idx + o;
-    const float *val = t->stage_val + 3 * o;
-    memset(img, 0, FACE * sizeof *img);
-    for (; k < t->stage_count[o / (size_t)t->N] && idx[k] / FACE == f; k++) {
-        uint32_t i, j;
-        haar_unmorton(idx[k] % FACE, &i, &j);
-        img[j * CUBE_RES + i] = val[3 * k] + val[3 * k + 1] + val[3 * k + 2];
-    }
+ * w times their reconstruction, over vector i's candidates [k, n) of face f, into H (morton order).
+ * scratch: 2 x FACE floats. */
+static void candidates_transport(const budget_ctx *c, size_t o, uint32_t k, uint32_t n, uint32_t f, float *scratch, float *H) {
+    const uint32_t *idx = c->t->stage_idx + o;
+    const float *val = c->t->stage_val + 3 * o;
+    float *img = scratch, *tmp = scratch + FACE;
+    memset(H, 0, FACE * sizeof *H);
+    for (; k < n && idx[k] / FACE == f; k++) H[idx[k] % FACE] = val[3 * k] + val[3 * k + 1] + val[3 * k + 2];
+    haar_face_from_morton(H, CUBE_RES, img);
     haar_inverse(img, CUBE_RES, tmp);
-    face_transport(img, c->w, tmp);
+    face_transport(img, c->w, tmp, H);
 }
 
 /* The block of level b that detail m (>= 4^b within its face) lies in (block_integrals' rule). */
@@ -703,12 +697,12 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
     double E[TRANSPORT_BLK];
     uint8_t kept[6 * 16] = { 0 };
     const float *blk = t->stage_blk + (size_t)i * TRANSPORT_STAGE, *H0 = blk + TRANSPORT_BLK + 1 + 18;
-    float S[18], img[FACE], tmp[FACE];
+    float S[18], H[FACE], scr[2 * FACE];
     for (int k = 0; k < TRANSPORT_BLK; k++) E[k] = t->solid_angle ? blk[k] : 0;
     memcpy(S, blk + TRANSPORT_BLK + 1, sizeof S);
     for (uint32_t k = 0, face = 6; k < t->stage_count[i]; k++) {
         uint32_t u = bits_of(t->stage_key[o + k]), m = idx[k] % FACE, f = idx[k] / FACE;
-        if (f != face && t->solid_angle && H0[f] != 0) candidates_transport(c, o, k, f, img, tmp);   /* before compacting */
+        if (f != face && t->solid_angle && H0[f] != 0) candidates_transport(c, o, k, t->stage_count[i], f, scr, H);   /* before compacting */
         face = f;
         bool keep = u > c->T || (u == c->T && take > 0);
         take -= keep && u == c->T;
@@ -722,7 +716,7 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
             for (int ch = 0; ch < 3 && t->solid_angle; ch++) {
                 if (m < (uint32_t)nb) coarse[(ch * 6 + f) * 16 + m] = val[3 * k + ch];
                 else E[(ch * 6 + f) * 16 + block_of(m, b)] += (double)val[3 * k + ch] * c->W[m];
-                if (H0[f] != 0) S[ch * 6 + f] += val[3 * k + ch] * at_morton(img, m);
+                if (H0[f] != 0) S[ch * 6 + f] += val[3 * k + ch] * H[m];
             }
         }
     }
