@@ -23,7 +23,8 @@
  * reduced bunny over a floor the floor's sun-shadow error falls from 12.5% to 5.7%.
  * Truncation also drops a share of each face's integral (W's details correlate with T/w's):
  * transport_store puts it back per 4x4 block of each face, into the coarse coefficients
- * (transport.h, solid_angle and block_level), which moves that bias to about -0.6%.
+ * (transport.h, solid_angle and block_level), which moves that bias to about -0.6%; on a face
+ * with no occluder edge weighted by the transport instead (smooth_faces), about -0.13%.
  * Files written before issue 10 have no measure flag: measure 0, the texels. */
 #include "transfer.h"
 #include "haar.h"

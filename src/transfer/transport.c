@@ -437,7 +437,7 @@ static void face_transport(float *img, const float *w, float *tmp, float *H) {
 }
 
 /* For each smooth face f (face_smooth): S[c * 6 + f] = sum over its m outside `in` of c_m H_m, and
- * H0[f] = H_0, the transport's integral over the face (times 64); H0[f] = 0 elsewhere.
+ * H0[f] = H_0, the transport's integral over the face over 64 (orthonormal); H0[f] = 0 elsewhere.
  * scratch: 4 x FACE floats. */
 static void smooth_faces(const float *const ch[3], const uint8_t *in, float *scratch, float *S, float *H0) {
     float *img = scratch, *tmp = scratch + FACE, *w = scratch + 2 * FACE, *H = scratch + 3 * FACE;

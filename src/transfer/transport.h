@@ -23,6 +23,9 @@
  * candidates unquantized, and transport_finish picks the best budget x nvecs of all
  * of them (one threshold on the selection weight), corrects and quantizes what each
  * vector keeps. N is always the most any vector holds, which is what a file states.
+ * With the solid-angle measure what truncation drops is put back into the kept coarse
+ * coefficients: per 16x16-texel block (block_level), or on a face with no occluder edge
+ * weighted by the transport (smooth_faces); README "Shadows".
  *
  * Runtime: transport_light (Eq. 5's T x L for every vector) computes the
  * light-dependent K-vectors: g[3*i+ch] = sum_c value(c, ch) * L[index(c)][ch].
