@@ -536,6 +536,18 @@ static void sun_turning(void) {
     free(tscr);
 }
 
+/* The solid-angle measure's Haar coefficients of the texels tex (N = 128, float), the same in the three
+ * channels coef[0..2]. */
+static void project_solid(const float *tex, float (*coef)[T]) {
+    static float scr[TRANSFER_SCRATCH_FLOATS];
+    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    prt_error err;
+    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
+    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
+    memcpy(coef[1], coef[0], sizeof coef[0]);
+    memcpy(coef[2], coef[0], sizeof coef[0]);
+}
+
 /* The same unoccluded up-facing vertex (N = 128, solid-angle measure, float values so that only
  * truncation acts) under a constant white environment: T x L against the exact cosine integral,
  * pi. Truncation drops details of T/w that correlate with those of the solid-angle bowl w (both
@@ -545,15 +557,13 @@ static void sun_turning(void) {
  * corrected: restoring it measured worse on the floor's shadow). Tolerance: 0.005%, and a tenth
  * of the uncorrected error. */
 static void face_integral(void) {
-    static float tex[T], coef[3][T], cube[3 * T], scr[TRANSFER_SCRATCH_FLOATS];
+    static float tex[T], coef[3][T], cube[3 * T];
     static _Alignas(64) float Lv[T][4];
     up_vertex_texels(tex);
+    project_solid(tex, coef);
     transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
     prt_error err;
     CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
-    memcpy(coef[1], coef[0], sizeof coef[0]);
-    memcpy(coef[2], coef[0], sizeof coef[0]);
     for (int k = 0; k < 3 * T; k++) cube[k] = 1.f;
     transfer_haar.project_light(&cfg, cube, Lv);
     void *tscr = malloc(transport_scratch_size());
@@ -653,15 +663,10 @@ static void cut_top_face(float *tex) {
  * coefficients are kept; the face correction (block_level 0) keeps only whole faces, and its block
  * error must be at least 20 times larger (measured 4.4e-4, printed). */
 static void block_integrals(void) {
-    static float tex[T], coef[3][T], scr[TRANSFER_SCRATCH_FLOATS];
+    static float tex[T], coef[3][T];
     up_vertex_texels(tex);
     cut_top_face(tex);
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
-    memcpy(coef[1], coef[0], sizeof coef[0]);
-    memcpy(coef[2], coef[0], sizeof coef[0]);
+    project_solid(tex, coef);
     int n0, n2;
     double e0 = block_integral_error(tex, (const float (*)[T])coef, 0, &n0, 0, false, -1);
     double e2 = block_integral_error(tex, (const float (*)[T])coef, 2, &n2, 0, false, -1);
@@ -680,19 +685,17 @@ static void block_integrals(void) {
 /* One vector (the three channels equal) of the texels tex, solid-angle measure, N = 128, float values,
  * block level 2, smooth faces as asked, under the budget given, stored and finished. */
 static void store_one(prt_transport *t, const float *tex, bool smooth, int budget) {
-    static float coef[T], scr[TRANSFER_SCRATCH_FLOATS];
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    static float coef[3][T];
+    project_solid(tex, coef);
     prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef, scr);
     int one = 1;
     void *tscr = malloc(transport_scratch_size());
-    CHECK(transport_init(t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
+    CHECK(transport_init(t, 1, &one, 128, 32, &err) == 0, "%s", err.msg);
     CHECK(transport_share_budget(t, budget, 0, &err) == 0, "%s", err.msg);
     t->solid_angle = true;
     t->block_level = TRANSPORT_BLOCK_LEVEL;
     t->smooth_faces = smooth;
-    transport_store(t, 0, coef, coef, coef, tscr);
+    transport_store(t, 0, coef[0], coef[1], coef[2], tscr);
     CHECK(transport_finish(t, &err) == 0, "%s", err.msg);
     free(tscr);
 }
@@ -759,14 +762,9 @@ static void smooth_faces(void) {
         CHECK_LE(10 * fabs(off[1]), fabs(off[0]), "the block correction misses it by 10 times that or more");
         CHECK_LE(fabs(bias[1]), fabs(bias[0]), "the sun ring's mean nearer the exact integral");
     }
-    static float coef[3][T], scr[TRANSFER_SCRATCH_FLOATS];
+    static float coef[3][T];
     cut_top_face(tex);
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
-    memcpy(coef[1], coef[0], sizeof coef[0]);
-    memcpy(coef[2], coef[0], sizeof coef[0]);
+    project_solid(tex, coef);
     for (int budget = 0; budget <= TRANSPORT_BUDGET_SHARED; budget++) {
         int n;
         double e = block_integral_error(tex, (const float (*)[T])coef, 2, &n, budget, true, 2);
