@@ -202,6 +202,5 @@ void haar_face_solid_angle(float *w, int res, bool inverse) {
 void haar_face_solid_angle_coeffs(float *W, int res, float *tmp) {
     haar_face_solid_angle(tmp, res, false);
     haar_forward(tmp, res, W);
-    for (int j = 0; j < res; j++)
-        for (int i = 0; i < res; i++) W[haar_morton((uint32_t)i, (uint32_t)j)] = tmp[j * res + i];
+    face_to_morton(tmp, res, W);
 }

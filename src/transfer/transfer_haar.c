@@ -64,9 +64,7 @@ static void haar_project_transport(const transfer_config *cfg, const float *texe
     for (int f = 0; f < 6; f++) {
         for (int k = 0; k < NN; k++) scratch[k] = texels[f * NN + k] * inv[k];
         haar_forward(scratch, CUBE_RES, scratch + NN);
-        for (int j = 0; j < CUBE_RES; j++)
-            for (int i = 0; i < CUBE_RES; i++)
-                coeffs[f * NN + haar_morton((uint32_t)i, (uint32_t)j)] = scratch[j * CUBE_RES + i];
+        haar_face_to_morton(scratch, CUBE_RES, coeffs + f * NN);
     }
 }
 

@@ -42,6 +42,31 @@
 
 static int qmax_of(int qbits) { return qbits == 8 ? 127 : qbits == 16 ? 32767 : 0; }
 
+enum { FACE = CUBE_RES * CUBE_RES };
+
+/* What every vector's corrections read, computed once per set (per vector they cost as much as the
+ * corrections themselves: make bench's transport stage). */
+typedef struct transport_tables {
+    float w[FACE];                                /* the solid angle per texel (haar_face_solid_angle) */
+    float W[FACE];                                /* its Haar coefficients, morton order */
+    double wsum[TRANSPORT_BLOCK_LEVEL_MAX + 1][16];   /* w summed over each block of level b (row-major) */
+} transport_tables;
+
+/* The tables of a set. Returns NULL on OOM. */
+static transport_tables *tables_create(prt_error *err) {
+    transport_tables *tb = prt_calloc(1, sizeof *tb, err);
+    if (!tb) return NULL;
+    haar_face_solid_angle(tb->w, CUBE_RES, false);
+    for (int b = 0; b <= TRANSPORT_BLOCK_LEVEL_MAX; b++) {
+        int s = 1 << b, side = CUBE_RES / s;
+        for (int j = 0; j < CUBE_RES; j++)
+            for (int i = 0; i < CUBE_RES; i++) tb->wsum[b][(j / side) * s + i / side] += tb->w[j * CUBE_RES + i];
+    }
+    float tmp[FACE];
+    haar_face_solid_angle_coeffs(tb->W, CUBE_RES, tmp);
+    return tb;
+}
+
 /* Sizes the set and allocates staging; returns 0, or -1 with err set. */
 int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int N, int qbits, prt_error *err) {
     memset(t, 0, sizeof *t);
@@ -64,7 +89,8 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
     t->stage_count = prt_calloc(nvecs, sizeof *t->stage_count, err);
     t->stage_idx = prt_calloc(nvecs * (size_t)N, sizeof *t->stage_idx, err);
     t->stage_val = prt_calloc(nvecs * (size_t)N * 3, sizeof *t->stage_val, err);
-    if (!t->vec_first || !t->scale || !t->stage_count || !t->stage_idx || !t->stage_val) {
+    t->tables = tables_create(err);
+    if (!t->vec_first || !t->scale || !t->stage_count || !t->stage_idx || !t->stage_val || !t->tables) {
         prt_error e2;
         prt_fail(&e2, "transport: out of memory for %zu vectors of %d coefficients", nvecs, N);
         transport_free(t);
@@ -230,13 +256,14 @@ void transport_drop_mapped(const prt_transport *t) {
 /* Frees the staging arrays (an unmap when streamed). */
 static void free_staging(prt_transport *t) {
     free(t->stage_count);
+    free(t->tables);
+    t->tables = NULL;
     if (t->stage_mapped) munmap(t->stage_idx, t->stage_mapped);
     else { free(t->stage_idx); free(t->stage_val); free(t->stage_key); free(t->stage_blk); }
     t->stage_count = NULL; t->stage_idx = NULL; t->stage_val = NULL; t->stage_key = NULL; t->stage_blk = NULL;
     t->stage_mapped = 0;
 }
 
-enum { FACE = CUBE_RES * CUBE_RES };
 _Static_assert(CUBE_RES == 1 << (TRANSPORT_LEVELS - 1), "transport_level_sigma has one entry per Haar level of a face");
 
 /* Bytes of scratch transport_store needs: selection keys and indices, for the solid-angle
@@ -316,15 +343,22 @@ static void block_coarse(const float *coarse, const double *wsum, int b, double 
 static void block_dropped(const float *x, const uint8_t *kept, const float *W, const double *wsum, int b, double *E) {
     int s = 1 << b, nb = s * s;
     float coarse[16];
+    uint8_t row[16];   /* block (row-major) of each morton position q < 4^b */
+    for (uint32_t q = 0, bi, bj; q < (uint32_t)nb; q++) {
+        haar_unmorton(q, &bi, &bj);
+        row[q] = (uint8_t)(bj * (uint32_t)s + bi);
+    }
     for (int B = 0; B < 16; B++) E[B] = 0;
     for (int l = b + 1, lo = 1 << 2 * b; l < TRANSPORT_LEVELS; l++, lo *= 4) {   /* details of level l: [lo, 4 lo) */
-        uint32_t mask = (uint32_t)lo - 1, sh = (uint32_t)(2 * (l - 1 - b));
-        for (int m = lo; m < 4 * lo; m++)
-            if (!kept[m] && isfinite(x[m])) {
-                uint32_t bi, bj;
-                haar_unmorton(((uint32_t)m & mask) >> sh, &bi, &bj);
-                E[bj * (uint32_t)s + bi] += (double)x[m] * W[m];
+        int run = lo >> 2 * b;   /* one block's positions within one of the level's three kinds of detail */
+        for (int m0 = lo; m0 < 4 * lo; m0 += run) {
+            float acc = 0;   /* at most 64 terms; branch-free for the compiler */
+            for (int m = m0; m < m0 + run; m++) {
+                float v = x[m] * W[m];
+                acc += kept[m] || !isfinite(v) ? 0.f : v;
             }
+            E[row[(m0 & (lo - 1)) / run]] += acc;
+        }
     }
     for (int m = 0; m < nb; m++) coarse[m] = !kept[m] && isfinite(x[m]) ? x[m] : 0.f;
     block_coarse(coarse, wsum, b, E);
@@ -375,17 +409,6 @@ static float kept_value(const float *x, uint32_t index, const float *adj, int c)
     return m < 16 ? x[index] + adj[(c * 6 + index / FACE) * 16 + m] : x[index];
 }
 
-/* w's Haar coefficients W[FACE] (tmp: FACE floats) and its integral over each block of level b. */
-static void block_tables(int b, float *W, float *tmp, double *wsum) {
-    int s = 1 << b, side = CUBE_RES / s;
-    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
-    haar_face_solid_angle(tmp, CUBE_RES, false);
-    for (int B = 0; B < 16; B++) wsum[B] = 0;
-    for (int j = 0; j < CUBE_RES; j++)
-        for (int i = 0; i < CUBE_RES; i++) wsum[(j / side) * s + i / side] += tmp[j * CUBE_RES + i];
-    haar_face_solid_angle_coeffs(W, CUBE_RES, tmp);
-}
-
 /* The mask of the n indices idx into kept[CUBE_TEXELS]. */
 static void mark(uint8_t *kept, const uint32_t *idx, int n) {
     memset(kept, 0, CUBE_TEXELS);
@@ -421,10 +444,11 @@ static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp)
     for (int j = 0; j < CUBE_RES; j++)
         for (int i = 0; i < CUBE_RES; i++) {
             float v = img[j * CUBE_RES + i];
-            mx = fmaxf(mx, v);
-            lo = fminf(lo, v);
-            if (i > 0) jump = fmaxf(jump, fabsf(v - img[j * CUBE_RES + i - 1]));
-            if (j > 0) jump = fmaxf(jump, fabsf(v - img[(j - 1) * CUBE_RES + i]));
+            float dx = i > 0 ? fabsf(v - img[j * CUBE_RES + i - 1]) : 0.f, dy = j > 0 ? fabsf(v - img[(j - 1) * CUBE_RES + i]) : 0.f;
+            mx = v > mx ? v : mx;   /* not fmaxf: a libm call per texel without -ffinite-math-only */
+            lo = v < lo ? v : lo;
+            jump = dx > jump ? dx : jump;
+            jump = dy > jump ? dy : jump;
         }
     return mx > 0 && lo >= -1e-4f * mx && jump <= TRANSPORT_SMOOTH_JUMP * mx;   /* lo: the transform's rounding */
 }
@@ -438,10 +462,9 @@ static void face_transport(float *img, const float *w, float *tmp, float *H) {
 
 /* For each smooth face f (face_smooth): S[c * 6 + f] = sum over its m outside `in` of c_m H_m, and
  * H0[f] = H_0, the transport's integral over the face over 64 (orthonormal); H0[f] = 0 elsewhere.
- * scratch: 4 x FACE floats. */
-static void smooth_faces(const float *const ch[3], const uint8_t *in, float *scratch, float *S, float *H0) {
-    float *img = scratch, *tmp = scratch + FACE, *w = scratch + 2 * FACE, *H = scratch + 3 * FACE;
-    haar_face_solid_angle(w, CUBE_RES, false);
+ * w: the solid angle per texel; scratch: 3 x FACE floats. */
+static void smooth_faces(const float *const ch[3], const uint8_t *in, const float *w, float *scratch, float *S, float *H0) {
+    float *img = scratch, *tmp = scratch + FACE, *H = scratch + 2 * FACE;
     for (int f = 0; f < 6; f++) {
         for (int c = 0; c < 3; c++) S[c * 6 + f] = 0;
         H0[f] = 0;
@@ -476,22 +499,22 @@ static void smooth_adjust(const float *S, const float *H0, unsigned kept0, float
 /* With t->solid_angle, the block correction of every channel and face (block_integrals), and with
  * smooth_faces theirs on the smooth faces (smooth_adjust), into adj[3][6][16]; zeros without.
  * scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask, then at 3 x FACE smooth_faces'. */
-static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
+static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n,
                               float *scratch, float *adj) {
     memset(adj, 0, 3 * 6 * 16 * sizeof *adj);
     if (!t->solid_angle) return;
     int b = t->block_level;
+    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
     uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
     mark(kept, idx, n);
-    double wsum[16];
-    block_tables(b, W, scratch, wsum);
     for (int c = 0; c < 3; c++)
         for (int f = 0; f < 6; f++)
-            block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, adj + (c * 6 + f) * 16);
+            block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, t->tables->W, t->tables->wsum[b], b,
+                            adj + (c * 6 + f) * 16);
     if (!t->smooth_faces) return;
     float S[18], H0[6];
     unsigned kept0 = 0;
-    smooth_faces(ch, kept, scratch + 3 * FACE, S, H0);
+    smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
     for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[(size_t)f * FACE] << f;
     smooth_adjust(S, H0, kept0, adj);
 }
@@ -500,20 +523,20 @@ static void block_corrections(const prt_transport *t, const float *const ch[3], 
  * correction is split: what the coefficients outside its candidates drop is fixed now (blk, per
  * channel, face and block, and the smooth faces' S and H_0 after the norm; finish adds the candidates
  * it drops). scratch as block_corrections'. */
-static void block_stage(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *W,
+static void block_stage(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n,
                         float *scratch, float *blk) {
     int b = t->block_level;
+    PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
     uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
     mark(kept, idx, n);
-    double wsum[16], E[16];
-    block_tables(b, W, scratch, wsum);
+    double E[16];
     for (int c = 0; c < 3; c++)
         for (int f = 0; f < 6; f++) {
-            block_dropped(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, W, wsum, b, E);
+            block_dropped(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, t->tables->W, t->tables->wsum[b], b, E);
             for (int B = 0; B < 16; B++) blk[(c * 6 + f) * 16 + B] = (float)E[B];
         }
     float *S = blk + TRANSPORT_BLK + 1, *H0 = S + 18;
-    if (t->smooth_faces) smooth_faces(ch, kept, scratch + 3 * FACE, S, H0);
+    if (t->smooth_faces) smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
     else memset(S, 0, 24 * sizeof *S);
 }
 
@@ -565,7 +588,7 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
         if (!cand) err += e;
     }
     t->stage_blk[(size_t)i * TRANSPORT_STAGE + TRANSPORT_BLK] = (float)norm;
-    if (t->solid_angle) block_stage(t, ch, idx, n, W, wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
+    if (t->solid_angle) block_stage(t, ch, idx, n, wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
     return err;
 }
 
@@ -581,7 +604,7 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
                                                    : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     const float *ch[3] = { r, g, b };
     float adj[3 * 6 * 16];
-    block_corrections(t, ch, idx, n, W, wc, adj);   /* wc is free once selected */
+    block_corrections(t, ch, idx, n, wc, adj);   /* wc is free once selected */
     float *val = t->stage_val + (size_t)i * t->N * 3;
     uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
     int qmax = qmax_of(t->qbits);
@@ -658,9 +681,6 @@ typedef struct budget_ctx {
     uint32_t T;           /* weights above T are kept */
     const uint32_t *take; /* [nvecs] how many of vector i's weights equal to T are kept */
     double *err;          /* [nvecs] squared error the choice adds (dropped candidates, quantization) */
-    float W[FACE];        /* w's Haar coefficients (block_tables) */
-    float w[FACE];        /* w's texels (haar_face_solid_angle), for the smooth faces */
-    double wsum[16];
 } budget_ctx;
 
 /* Why: a smooth face's dropped candidates are weighted by H (smooth_faces), which is not staged; the
@@ -675,7 +695,7 @@ static void candidates_transport(const budget_ctx *c, size_t o, uint32_t k, uint
     for (; k < n && idx[k] / FACE == f; k++) H[idx[k] % FACE] = val[3 * k] + val[3 * k + 1] + val[3 * k + 2];
     haar_face_from_morton(H, CUBE_RES, img);
     haar_inverse(img, CUBE_RES, tmp);
-    face_transport(img, c->w, tmp, H);
+    face_transport(img, c->t->tables->w, tmp, H);
 }
 
 /* The block of level b that detail m (>= 4^b within its face) lies in (block_integrals' rule). */
@@ -715,7 +735,7 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
             for (int ch = 0; ch < 3; ch++) c->err[i] += sq(val[3 * k + ch]);
             for (int ch = 0; ch < 3 && t->solid_angle; ch++) {
                 if (m < (uint32_t)nb) coarse[(ch * 6 + f) * 16 + m] = val[3 * k + ch];
-                else E[(ch * 6 + f) * 16 + block_of(m, b)] += (double)val[3 * k + ch] * c->W[m];
+                else E[(ch * 6 + f) * 16 + block_of(m, b)] += (double)val[3 * k + ch] * t->tables->W[m];
                 if (H0[f] != 0) S[ch * 6 + f] += val[3 * k + ch] * H[m];
             }
         }
@@ -724,8 +744,8 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
     if (!t->solid_angle) return n;
     unsigned kept0 = 0;
     for (int q = 0; q < 18; q++) {   /* q = channel * 6 + face */
-        block_coarse(coarse + q * 16, c->wsum, b, E + q * 16);
-        block_adjust(E + q * 16, kept + (q % 6) * 16, c->wsum, b, adj + q * 16);
+        block_coarse(coarse + q * 16, t->tables->wsum[b], b, E + q * 16);
+        block_adjust(E + q * 16, kept + (q % 6) * 16, t->tables->wsum[b], b, adj + q * 16);
     }
     for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[f * 16] << f;
     smooth_adjust(S, H0, kept0, adj);   /* H0 all 0 without smooth_faces */
@@ -787,9 +807,7 @@ static int budget_finish(prt_transport *t, prt_error *err) {
         take[i] = eq < need_eq ? eq : (uint32_t)need_eq;
         need_eq -= take[i];
     }
-    float tmp[FACE];
-    block_tables(t->block_level, c->W, tmp, c->wsum);
-    haar_face_solid_angle(c->w, CUBE_RES, false);
+    PRT_CHECK(t->block_level >= 0 && t->block_level <= TRANSPORT_BLOCK_LEVEL_MAX);
     prt_parallel_for(t->nvecs, 4096, 0, budget_vectors, c);
     t->chosen_err = 0;
     for (int i = 0; i < t->nvecs; i++) t->chosen_err += c->err[i];   /* in order: the same sum on any threads */

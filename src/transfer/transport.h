@@ -135,6 +135,8 @@ typedef struct prt_transport {
     float *stage_blk;       /* shared budget: [nvecs*TRANSPORT_STAGE] what the non-candidates add to each
                              * block's dropped integral (with solid_angle), per channel, face and block, then
                              * the vector's squared norm */
+    struct transport_tables *tables;   /* build-time: the solid angle per texel, its Haar coefficients and its sums
+                             * per block (transport_init computes them once; freed with the staging) */
     size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
                              * file (transport_stage_to_file), released as vectors are done */
     void *data_map;         /* non-NULL: runs and the coefficient arrays (packed / offs, q16, f32) live in this
