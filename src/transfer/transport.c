@@ -41,6 +41,7 @@
 #endif
 
 static int qmax_of(int qbits) { return qbits == 8 ? 127 : qbits == 16 ? 32767 : 0; }
+static uint32_t bits_of(float x) { uint32_t u; memcpy(&u, &x, sizeof u); return u; }
 
 enum { FACE = CUBE_RES * CUBE_RES };
 
@@ -432,8 +433,9 @@ static void mark(uint8_t *kept, const uint32_t *idx, int n) {
 static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp) {
     const float *x[3] = { ch[0] + (size_t)f * FACE, ch[1] + (size_t)f * FACE, ch[2] + (size_t)f * FACE };
     bool any = false;
-    for (int m = 0; m < FACE; m++) {
-        float v = (isfinite(x[0][m]) ? x[0][m] : 0.f) + (isfinite(x[1][m]) ? x[1][m] : 0.f) + (isfinite(x[2][m]) ? x[2][m] : 0.f);
+    for (int m = 0; m < FACE; m++) {   /* a non-finite channel (never from precompute) voids the texel's sum */
+        float v = x[0][m] + x[1][m] + x[2][m];
+        v = isfinite(v) ? v : 0.f;
         tmp[m] = v;
         any |= v != 0;
     }
@@ -475,8 +477,14 @@ static void smooth_faces(const float *const ch[3], const uint8_t *in, const floa
         for (int c = 0; c < 3; c++) {
             const float *x = ch[c] + (size_t)f * FACE;
             double d = 0;
-            for (int m = 0; m < FACE; m++)
-                if (!out[m] && isfinite(x[m])) d += (double)x[m] * H[m];
+            for (int m0 = 0; m0 < FACE; m0 += 64) {   /* float runs of 64, branch-free for the compiler */
+                float acc = 0;
+                for (int m = m0; m < m0 + 64; m++) {
+                    float v = x[m] * H[m];
+                    acc += out[m] || !isfinite(v) ? 0.f : v;
+                }
+                d += acc;
+            }
             S[c * 6 + f] = (float)d;
         }
     }
@@ -543,17 +551,22 @@ static void block_stage(const prt_transport *t, const float *const ch[3], const 
 /* Why: a water-filling on absolute weights starves the darkest vertices (a floor vertex under the model
  * kept nothing: black). Each vector's budget_min best candidates get the largest finite weight, so the
  * threshold keeps them whatever the others hold (budget_min <= budget keeps the total within it).
- * wc: the weighted copy (NULL: r, g, b themselves); keys, idx2: scratch. */
-static void keep_minimum(prt_transport *t, int i, int n, const float *wc, const float *r, const float *g, const float *b,
-                         float *keys, uint32_t *idx2) {
-    int m = wc ? sparse_select(wc, wc + CUBE_TEXELS, wc + 2 * CUBE_TEXELS, CUBE_TEXELS, t->budget_min, idx2, keys)
-               : sparse_select(r, g, b, CUBE_TEXELS, t->budget_min, idx2, keys);
+ * They are the best of all its coefficients, since the candidates are (sparse_select's order: larger
+ * weight first, ties to the lower index, zeros never), so they are picked among the n staged ones.
+ * order: scratch of n 64-bit words. */
+static int by_weight(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x < y) - (x > y);   /* descending */
+}
+static void keep_minimum(prt_transport *t, int i, int n, uint64_t *order) {
     size_t o = (size_t)i * t->N;
-    for (int k = 0, q = 0; k < n && q < m; k++) {   /* both ascending; idx2 is a subset of the candidates */
-        if (t->stage_idx[o + k] != idx2[q]) continue;
-        t->stage_key[o + k] = FLT_MAX;
-        q++;
+    int m = 0;
+    for (int k = 0; k < n; k++) {   /* weight bits high, then the complement of k: ties to the lower index */
+        uint32_t u = bits_of(t->stage_key[o + k]);
+        if (u) order[m++] = (uint64_t)u << 32 | (UINT32_MAX - (uint32_t)k);
     }
+    if (m > t->budget_min) qsort(order, (size_t)m, sizeof *order, by_weight);
+    for (int q = 0; q < m && q < t->budget_min; q++) t->stage_key[o + (UINT32_MAX - (uint32_t)order[q])] = FLT_MAX;
 }
 
 /* Shared budget: stages vector i's t->N best candidates (by the selection weight, unquantized) with
@@ -576,7 +589,7 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
         t->stage_idx[o + k] = idx[k];
         for (int c = 0; c < 3; c++) t->stage_val[3 * (o + k) + c] = isfinite(ch[c][idx[k]]) ? ch[c][idx[k]] : 0.f;
     }
-    if (t->budget_min > 0 && n > 0) keep_minimum(t, i, n, t->select == TRANSPORT_SELECT_EXPECTED ? wc : NULL, r, g, b, keys, (uint32_t *)(void *)W);
+    if (t->budget_min > 0 && n > 0) keep_minimum(t, i, n, (uint64_t *)(void *)keys);   /* keys are read: free */
     t->stage_count[i] = (uint32_t)n;
     double norm = 0;   /* one pass: the whole vector's squared norm, and the part outside the candidates */
     for (int j = 0, k = 0; j < CUBE_TEXELS; j++) {
@@ -646,7 +659,6 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
 
 /* ---- a shared budget's choice (transport_finish) ---- */
 
-static uint32_t bits_of(float x) { uint32_t u; memcpy(&u, &x, sizeof u); return u; }
 
 /* Why: the best B candidates of all vectors (largest weights: the least expected error, summed) are those
  * above one threshold, so a radix select over the weights' float bits (non-negative floats order like
