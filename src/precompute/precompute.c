@@ -702,6 +702,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
     if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
         plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
                  r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
+    if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE)   /* transport.h: block_level, smooth_faces */
+        plan_add(r->plan, r->pcap, "  what truncation drops: put back per 16x16-texel block%s\n",
+                 r->d.smooth_faces ? "; on faces with no occluder edge weighted by the transport" : "");
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
 }
 
