@@ -77,7 +77,7 @@ typedef enum precompute_glossy {
 #define PRECOMPUTE_DEFAULT_BOUNCES 3
 
 /* precompute_desc.budget: the plan picks (pc_choose). A shared budget stages 2N candidates per vector
- * (6.3 KB against 2 KB) and costs about 13% more CPU (README "Shadows"); above this many vectors it
+ * (6.4 KB against 2 KB) and costs about 13% more CPU (README "Shadows"); above this many vectors it
  * would take the 1 M-vertex scene (1.1 M vectors) past issue 13's 25-minute direct pass and triple its
  * staging, so the plan keeps the paper's per-vector N there. */
 #define PRECOMPUTE_BUDGET_AUTO (-1)

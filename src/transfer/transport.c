@@ -17,7 +17,7 @@
  * its other coefficients drop from each correction block; finish finds the one weight threshold that
  * keeps budget x nvecs of them (a radix select over all the weights' bits), then corrects and
  * quantizes each vector's kept ones in its staging, and packs as before. Staging grows from 16 bytes
- * per kept coefficient to 20 per candidate plus 1,160 per vector (3.1x at N_max = 2N = 256), which
+ * per kept coefficient to 20 per candidate plus 1,256 per vector (3.1x at N_max = 2N = 256), which
  * transport_stage_to_file streams through a file like the rest.
  *
  * The runtime kernel (Eq. 5, T x L) walks each vector's runs with a base pointer

@@ -134,7 +134,7 @@ typedef struct prt_transport {
     float *stage_key;       /* shared budget: [nvecs*N] each candidate's selection weight */
     float *stage_blk;       /* shared budget: [nvecs*TRANSPORT_STAGE] what the non-candidates add to each
                              * block's dropped integral (with solid_angle), per channel, face and block, then
-                             * the vector's squared norm */
+                             * the vector's squared norm, then the smooth faces' parts (TRANSPORT_STAGE) */
     struct transport_tables *tables;   /* build-time: the solid angle per texel, its Haar coefficients and its sums
                              * per block (transport_init computes them once; freed with the staging) */
     size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
