@@ -12,6 +12,11 @@
  * (stage_count[i], stage_idx/stage_val[i*N ..], scale[3i ..]); transport_finish
  * then packs the variable-length vectors contiguously.
  *
+ * With the solid-angle measure, what truncation drops is put back into the kept coarse
+ * coefficients (README "Shadows"): per 16x16-texel block under w (block_integrals), or, on a
+ * face with no occluder edge, weighted by the transport on its scaling coefficient (the smooth
+ * faces). The tables both read (w, its Haar coefficients, its block sums) are made once per set.
+ *
  * A shared budget (transport_share_budget) moves the choice to transport_finish: transport_store
  * stages a vector's N_max best candidates raw with their selection weights, the squared norm and what
  * its other coefficients drop from each correction block; finish finds the one weight threshold that
