@@ -495,12 +495,19 @@ static void smooth_faces(const float *const ch[3], const uint8_t *in, const floa
     }
 }
 
-/* The smooth faces' correction into adj[3][6][16] (replacing their block correction) where the face's
- * scaling coefficient is kept: S / H_0 on it, nothing on the face's other coarse coefficients.
- * kept0: bit f set when face f's scaling coefficient is kept. */
-static void smooth_adjust(const float *S, const float *H0, unsigned kept0, float *adj) {
+/* The faces whose correction is the smooth one: smooth (H0 != 0) with their scaling coefficient kept
+ * (kept0: bit f when face f's is). The others keep the block correction. */
+static unsigned smooth_mask(const float *H0, unsigned kept0) {
+    unsigned mask = 0;
+    for (int f = 0; f < 6; f++) mask |= (unsigned)(H0[f] != 0 && (kept0 >> f & 1)) << f;
+    return mask;
+}
+
+/* The smooth faces' correction into adj[3][6][16] on the faces of mask (smooth_mask): S / H_0 on the
+ * scaling coefficient, nothing on the face's other coarse coefficients. */
+static void smooth_adjust(const float *S, const float *H0, unsigned mask, float *adj) {
     for (int f = 0; f < 6; f++) {
-        if (H0[f] == 0 || !(kept0 >> f & 1)) continue;
+        if (!(mask >> f & 1)) continue;
         for (int c = 0; c < 3; c++) {
             float *a = adj + (c * 6 + f) * 16, d = S[c * 6 + f] / H0[f];
             memset(a, 0, 16 * sizeof *a);
@@ -520,16 +527,19 @@ static void block_corrections(const prt_transport *t, const float *const ch[3], 
     PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
     uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
     mark(kept, idx, n);
+    float S[18] = { 0 }, H0[6] = { 0 };
+    unsigned kept0 = 0, smooth = 0;
+    if (t->smooth_faces) {   /* first: the faces it corrects need no block integrals */
+        smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
+        for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[(size_t)f * FACE] << f;
+        smooth = smooth_mask(H0, kept0);
+    }
     for (int c = 0; c < 3; c++)
         for (int f = 0; f < 6; f++)
-            block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, t->tables->W, t->tables->wsum[b], b,
-                            adj + (c * 6 + f) * 16);
-    if (!t->smooth_faces) return;
-    float S[18], H0[6];
-    unsigned kept0 = 0;
-    smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
-    for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[(size_t)f * FACE] << f;
-    smooth_adjust(S, H0, kept0, adj);
+            if (!(smooth >> f & 1))
+                block_integrals(ch[c] + (size_t)f * FACE, kept + (size_t)f * FACE, t->tables->W, t->tables->wsum[b], b,
+                                adj + (c * 6 + f) * 16);
+    smooth_adjust(S, H0, smooth, adj);
 }
 
 /* Why (shared budget): which candidates a vector keeps is known only at transport_finish, so its block
@@ -553,16 +563,18 @@ static void block_stage(const prt_transport *t, const float *const ch[3], const 
     else memset(S, 0, 24 * sizeof *S);
 }
 
+/* qsort order of 64-bit words, largest first. */
+static int by_weight(const void *a, const void *b) {
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x < y) - (x > y);   /* descending */
+}
+
 /* Why: a water-filling on absolute weights starves the darkest vertices (a floor vertex under the model
  * kept nothing: black). Each vector's budget_min best candidates get the largest finite weight, so the
  * threshold keeps them whatever the others hold (budget_min <= budget keeps the total within it).
  * They are the best of all its coefficients, since the candidates are (sparse_select's order: larger
  * weight first, ties to the lower index, zeros never), so they are picked among the n staged ones.
  * order: scratch of n 64-bit words. */
-static int by_weight(const void *a, const void *b) {
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return (x < y) - (x > y);   /* descending */
-}
 static void keep_minimum(prt_transport *t, int i, int n, uint64_t *order) {
     size_t o = (size_t)i * t->N;
     int m = 0;
@@ -760,12 +772,14 @@ static uint32_t budget_keep(const budget_ctx *c, int i, float *adj) {
     memset(adj, 0, TRANSPORT_BLK * sizeof *adj);
     if (!t->solid_angle) return n;
     unsigned kept0 = 0;
+    for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[f * 16] << f;
+    unsigned smooth = smooth_mask(H0, kept0);   /* H0 all 0 without smooth_faces */
     for (int q = 0; q < 18; q++) {   /* q = channel * 6 + face */
+        if (smooth >> (q % 6) & 1) continue;
         block_coarse(coarse + q * 16, t->tables->wsum[b], b, E + q * 16);
         block_adjust(E + q * 16, kept + (q % 6) * 16, t->tables->wsum[b], b, adj + q * 16);
     }
-    for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[f * 16] << f;
-    smooth_adjust(S, H0, kept0, adj);   /* H0 all 0 without smooth_faces */
+    smooth_adjust(S, H0, smooth, adj);
     return n;
 }
 
