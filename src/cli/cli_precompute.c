@@ -4,6 +4,8 @@
 #include "cli_args.h"
 #include "checkpoint.h"
 #include "precompute.h"
+#include "light.h"
+#include "prior.h"
 #include "prtfile.h"
 #include "refine.h"
 #include "scene.h"
@@ -38,6 +40,10 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
+         "  --light-prior PROBE    weigh the expected-error selection by PROBE's light: each coefficient\n"
+         "                         by its RMS as PROBE turns about +y (the viewer's yaw), so a shadow\n"
+         "                         edge keeps its detail where the probe's sun can be (README\n"
+         "                         \"Shadows\"; the file serves any probe, best the one named)\n"
          "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
          "                         weighted by the transport on faces with no occluder edge, steadier\n"
          "                         on an open floor under a turning sun)\n"
@@ -152,9 +158,33 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
 
 static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool *stray);
 
+/* --light-prior PROBE: the probe's RMS light over its yaw orbit (prior.h) into *w (light_alloc'd:
+ * the caller frees it) and pd, its time said on stderr. Returns the exit status (1: said why). */
+static int light_prior(const char *path, precompute_desc *pd, bool quiet, float (**w)[4]) {
+    double t0 = prt_now();
+    prt_probe p = { 0 };
+    if (cli_load_probe(k_cmd, path, NULL, &p)) return 1;
+    prt_error err = { { 0 } };
+    prt_bar bar;
+    prt_bar_init(&bar, stderr, quiet);
+    prior_desc d = { .progress = prt_bar_report, .progress_user = &bar };
+    *w = light_alloc();
+    int rc = !*w ? cli_error(k_cmd, "light prior: out of memory") : 0;
+    if (!rc && prior_from_probe(&p, &d, *w, &err)) rc = cli_error(k_cmd, "%s: %s", path, err.msg);
+    prt_bar_done(&bar);
+    probe_free(&p);
+    if (rc) return rc;
+    const char *base = strrchr(path, '/');
+    pd->light_prior = (const float (*)[4]) * w;
+    pd->light_prior_name = base ? base + 1 : path;
+    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", path, PRIOR_STEPS, prt_now() - t0);
+    return 0;
+}
+
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
  * the others run quietly and write nothing). Returns the exit status. */
-static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet) {
+static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet,
+               const char *prior_path) {
     prt_error err = { { 0 } };
     prt_shard *sh = shard_create(&err);
     if (!sh) return cli_error(k_cmd, "%s", err.msg);
@@ -166,7 +196,11 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         const char *fail = getenv("PRT_SHARD_FAIL");   /* test hook: that rank fails (precompute.h) */
         pd->shard = sh;
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
-        rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, &stray);
+        float (*w)[4] = NULL;   /* every rank computes the same prior (prior.h: deterministic) */
+        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w) : 0;
+        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, &stray);
+        else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
+        free(w);
     }
     shard_destroy(sh, stray);
     return rc;
@@ -255,7 +289,7 @@ int cli_precompute(int argc, char **argv) {
     precompute_desc pd = { 0 };
     bool quiet = false;
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
-    const char *glossy = NULL, *select = NULL, *budget = NULL;
+    const char *glossy = NULL, *select = NULL, *budget = NULL, *prior = NULL;
     float refine_thr = -1;
     bool texel = false, no_smooth = false;
     const cli_option opts[] = {
@@ -284,6 +318,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_B("--no-smooth-faces", &no_smooth),
         CLI_S("--select", &select),
         CLI_S("--budget", &budget),
+        CLI_S("--light-prior", &prior),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
         CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
@@ -310,6 +345,9 @@ int cli_precompute(int argc, char **argv) {
     pd.select = pd.measure && !(select && !strcmp(select, "magnitude")) ? TRANSPORT_SELECT_EXPECTED
                                                                          : TRANSPORT_SELECT_MAGNITUDE;
     if (budget_of(budget, sh_bands, &pd.budget)) return 2;
+    if (prior && pd.select != TRANSPORT_SELECT_EXPECTED)
+        return cli_error(k_cmd, "--light-prior weighs the expected-error selection: not with --select magnitude, "
+                                "--texel-measure or --sh") + 1;
     if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
         pd.basis = "sh";
         pd.basis_order = sh_bands;
@@ -336,5 +374,5 @@ int cli_precompute(int argc, char **argv) {
         prt_error err = { { 0 } };
         if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
     }
-    return run(in, out, &sd, &pd, quiet);
+    return run(in, out, &sd, &pd, quiet, prior);
 }

@@ -425,6 +425,20 @@ static const transfer_ops *pc_vmf_ops(void) {
     return ops && ops->precompute && ops->shade_vertices ? ops : NULL;
 }
 
+/* A light prior (prior.h) weighs the expected-error selection of Haar wavelets per steradian only;
+ * its weights must be finite and not negative. Returns 0 or -1. */
+static int pc_check_prior(const precompute_desc *d, prt_error *err) {
+    if (!d->light_prior) return 0;
+    if (d->select != TRANSPORT_SELECT_EXPECTED || d->measure != TRANSFER_MEASURE_SOLID_ANGLE ||
+        (d->basis && strcmp(d->basis, "haar")))
+        return prt_fail(err, "precompute: a light prior needs the expected-error selection of Haar wavelets per steradian");
+    for (int i = 0; i < CUBE_TEXELS; i++)
+        for (int ch = 0; ch < 3; ch++)
+            if (!(d->light_prior[i][ch] >= 0 && isfinite(d->light_prior[i][ch])))
+                return prt_fail(err, "precompute: light prior weight %d (channel %d) is %g", i, ch, d->light_prior[i][ch]);
+    return 0;
+}
+
 /* Validates desc and fills defaults into *d. Returns 0 or -1. */
 static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_error *err) {
     *d = in ? *in : (precompute_desc){ 0 };
@@ -477,7 +491,7 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->refine_budget < 0) return prt_fail(err, "precompute: refine_budget = %d is negative", d->refine_budget);
     if (d->param != BRDF_PARAM_GRID && d->param != BRDF_PARAM_POLAR)
         return prt_fail(err, "precompute: unknown BRDF parameterization %d", (int)d->param);
-    return 0;
+    return pc_check_prior(d, err);
 }
 
 /* Checks that the scene can be precomputed. Returns 0 or -1. */
@@ -702,6 +716,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
     if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
         plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
                  r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
+    if (r->d.light_prior)   /* pc_check_prior: Haar, expected error */
+        plan_add(r->plan, r->pcap, "  light prior: %s turned about +y (each coefficient weighed by its RMS light)\n",
+                 r->d.light_prior_name ? r->d.light_prior_name : "given");
     if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE)   /* transport.h: block_level, smooth_faces */
         plan_add(r->plan, r->pcap, "  what truncation drops: put back per 16x16-texel block%s\n",
                  r->d.smooth_faces ? "; on faces with no occluder edge weighted by the transport" : "");
@@ -755,6 +772,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
     r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
     r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
+    r->direct.prior = r->d.light_prior;   /* pc_check_prior: only with EXPECTED; the gathering passes inherit it */
     r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
     r->direct.smooth_faces = r->direct.solid_angle && r->d.smooth_faces;
     if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
@@ -821,6 +839,7 @@ static uint64_t pc_key(const pc_run *r) {
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */
     if (budget != TRANSPORT_BUDGET_VECTOR) ckpt_key_add(&k, &budget, sizeof budget);
+    if (d->light_prior) ckpt_key_add(&k, d->light_prior, sizeof(float) * 4 * CUBE_TEXELS);   /* likewise */
     return ckpt_key_value(&k);
 }
 

@@ -99,6 +99,10 @@ typedef struct precompute_desc {
     int select;             /* Haar with the solid-angle measure: which N coefficients a vector keeps,
                              * TRANSPORT_SELECT_MAGNITUDE (0, the paper's) or TRANSPORT_SELECT_EXPECTED
                              * (transport.h; what `prt precompute` asks for unless --select magnitude) */
+    const float (*light_prior)[4]; /* NULL, or with the expected-error selection of Haar per steradian the
+                             * selection's weight per coefficient and channel, [CUBE_TEXELS][4] (prior.h:
+                             * a probe's RMS light over its yaw orbit; BORROWED, read during the run) */
+    const char *light_prior_name; /* what the plan calls it (the probe's file name); NULL: "given" */
     bool smooth_faces;      /* Haar with the solid-angle measure: a face of a vector with no occluder edge gets its
                              * dropped part back weighted by the transport, not per block (transport.h
                              * smooth_faces; what `prt precompute` asks for unless --no-smooth-faces) */

@@ -45,7 +45,8 @@
  *              sum over dropped i of c_i^2 sigma_l(i)^2, under lights whose coefficients are
  *              uncorrelated with variance sigma_l^2 per level (rotation moves a sun over positions
  *              but keeps its level spectrum). Its prior was measured with the solid-angle measure's
- *              light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w. */
+ *              light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w. With
+ *              prt_transport.prior the sigma is per coefficient and channel instead (prior.h). */
 typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT_EXPECTED = 1 } transport_select;
 
 /* Who shares the coefficient budget (transport_share_budget):
@@ -117,6 +118,9 @@ typedef struct prt_transport {
                              * which steadies an unoccluded floor under a turning sun; set after init) */
     int select;             /* which N coefficients transport_store keeps (transport_select; set after
                              * transport_init; 0 = the paper's largest magnitudes) */
+    const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_level_sigma of its level; else
+                             * by prior[i][ch], [CUBE_TEXELS] per channel (prior.h: a probe's RMS light
+                             * over its yaw orbit; BORROWED: the caller keeps it alive until finish) */
     uint32_t *vec_first;    /* [nverts+1] */
     uint32_t *coef_first;   /* [nvecs+1] */
     uint32_t *run_first;    /* [nvecs+1] */

@@ -1,0 +1,61 @@
+/* prior.c - the light prior of the expected-error selection (prior.h): the RMS light vector
+ * over a probe's yaw orbit, normalised, with a floor. The light vector is the one the runtime
+ * builds (transfer_haar's project_light with the solid-angle measure), so the weights are in
+ * the index space and measure of the transport they select. */
+#include "prior.h"
+#include "cubemap.h"
+#include "light.h"
+#include "transfer.h"
+#include <math.h>
+#include <stdlib.h>
+
+/* Adds the squared light vector of p turned by yaw (radians, about +y) to acc[CUBE_TEXELS * 3].
+ * cube: [CUBE_TEXELS][3] scratch; L: a light vector. */
+static void prior_add(const prt_probe *p, const transfer_config *cfg, double yaw, float *cube, float (*L)[4],
+                      double *acc) {
+    float c = (float)cos(yaw), s = (float)sin(yaw);
+    const float R[9] = { c, 0, s, 0, 1, 0, -s, 0, c };
+    probe_to_cube(p, CUBE_RES, R, 0, cube);
+    transfer_haar.project_light(cfg, cube, L);
+    for (int i = 0; i < CUBE_TEXELS; i++)
+        for (int ch = 0; ch < 3; ch++) acc[3 * i + ch] += (double)L[i][ch] * L[i][ch];
+}
+
+/* acc (mean squares) -> w: square roots over the largest, plus floor x the channel's RMS weight.
+ * Returns false when every weight is zero. */
+static bool prior_finish(const double *acc, float floor, float (*w)[4]) {
+    double mx = 0, ms[3] = { 0 };
+    for (int i = 0; i < 3 * CUBE_TEXELS; i++)
+        if (acc[i] > mx) mx = acc[i];
+    if (!(mx > 0) || !isfinite(mx)) return false;
+    for (int i = 0; i < CUBE_TEXELS; i++)
+        for (int ch = 0; ch < 3; ch++) ms[ch] += acc[3 * i + ch] / mx / CUBE_TEXELS;
+    for (int i = 0; i < CUBE_TEXELS; i++) {
+        for (int ch = 0; ch < 3; ch++) w[i][ch] = (float)(sqrt(acc[3 * i + ch] / mx) + floor * sqrt(ms[ch]));
+        w[i][3] = 0;
+    }
+    return true;
+}
+
+/* See prior.h. */
+int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], prt_error *err) {
+    int steps = desc && desc->steps > 0 ? desc->steps : PRIOR_STEPS;
+    float floor = !desc || desc->floor == 0 ? PRIOR_FLOOR : desc->floor < 0 ? 0 : desc->floor;
+    transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    if (transfer_haar.configure(&cfg, err)) return -1;
+    double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
+    float *cube = acc ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
+    float (*L)[4] = cube ? light_alloc() : NULL;
+    if (cube && !L) prt_fail(err, "light prior: out of memory");
+    int rc = L ? 0 : -1;
+    for (int k = 0; k < steps && rc == 0; k++) {
+        prior_add(p, &cfg, 2 * M_PI * k / steps, cube, L, acc);
+        if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", (k + 1.0) / steps))
+            rc = prt_fail(err, "cancelled");
+    }
+    if (rc == 0 && !prior_finish(acc, floor, w)) rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
+    free(acc);
+    free(cube);
+    free(L);
+    return rc;
+}
