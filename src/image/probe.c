@@ -613,12 +613,17 @@ int probe_parse_rotation(const char *s, float R[9]) {
         while (isspace((unsigned char)*end)) end++;
     }
     if (*end) return -1;
+    probe_rotation(yaw, pitch, R);
+    return 0;
+}
+
+/* See probe.h. */
+void probe_rotation(double yaw, double pitch, float R[9]) {
     double y = yaw * PI_D / 180, x = pitch * PI_D / 180;
     double cy = cos(y), sy = sin(y), cx = cos(x), sx = sin(x);
     /* Ry = [cy 0 sy; 0 1 0; -sy 0 cy], Rx = [1 0 0; 0 cx -sx; 0 sx cx], R = Rx Ry. */
     double M[9] = { cy, 0, sy, sx * sy, cx, -sx * cy, -cx * sy, sx, cx * cy };
     for (int i = 0; i < 9; i++) R[i] = (float)M[i];
-    return 0;
 }
 
 /* ---- procedural environments ------------------------------------------------------------- */

@@ -74,6 +74,8 @@ void probe_to_cube(const prt_probe *p, int res, const float R[9], int ss, float 
 
 /* Rotation matrix for --light-rotation "Y" or "Y,P" (degrees about +y, then pitch about +x). Returns -1 if unparsable. */
 int probe_parse_rotation(const char *s, float R[9]);
+/* The same rotation from yaw and pitch in degrees. */
+void probe_rotation(double yaw, double pitch, float R[9]);
 
 void probe_free(prt_probe *p);
 #endif

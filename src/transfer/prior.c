@@ -9,12 +9,12 @@
 #include <math.h>
 #include <stdlib.h>
 
-/* Adds the squared light vector of p turned by yaw (radians, about +y) to acc[CUBE_TEXELS * 3].
+/* Adds the squared light vector of p turned by yaw (degrees, about +y) to acc[CUBE_TEXELS * 3].
  * cube: [CUBE_TEXELS][3] scratch; L: a light vector. */
 static void prior_add(const prt_probe *p, const transfer_config *cfg, double yaw, float *cube, float (*L)[4],
                       double *acc) {
-    float c = (float)cos(yaw), s = (float)sin(yaw);
-    const float R[9] = { c, 0, s, 0, 1, 0, -s, 0, c };
+    float R[9];
+    probe_rotation(yaw, 0, R);
     probe_to_cube(p, CUBE_RES, R, 0, cube);
     transfer_haar.project_light(cfg, cube, L);
     for (int i = 0; i < CUBE_TEXELS; i++)
@@ -49,7 +49,7 @@ int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], 
     if (cube && !L) prt_fail(err, "light prior: out of memory");
     int rc = L ? 0 : -1;
     for (int k = 0; k < steps && rc == 0; k++) {
-        prior_add(p, &cfg, 2 * M_PI * k / steps, cube, L, acc);
+        prior_add(p, &cfg, 360.0 * k / steps, cube, L, acc);
         if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", (k + 1.0) / steps))
             rc = prt_fail(err, "cancelled");
     }

@@ -16,7 +16,7 @@
  * sun stays on one ring of elevation: the coefficients whose support the ring crosses carry
  * the sun, the others only sky. With the probe named at precompute time the selection keeps
  * the edge where the sun can be. On the reduced bunny + floor under city (README "Shadows")
- * the floor's sun-shadow error fell from 4.9% to 3.2%, near the 2.5% of keeping 4,096
+ * the floor's sun-shadow error fell from 4.9% to 2.9%, near the 2.5% of keeping 4,096
  * coefficients in float.
  *
  * What it computes: w[i][ch] = sqrt(mean over `steps` yaw angles 360 k / steps of L_i(yaw)^2),
@@ -32,7 +32,8 @@
 #include "probe.h"
 
 /* The yaw steps and the floor by default (README "Shadows": 360 steps, the sun's ring without
- * gaps at 1.4-degree texels; floor 0.1 measured the same shadow error as 0). */
+ * gaps at 1.4-degree texels; floors 0.1 / 0.3 / 1 / 3 measured 3.18 / 3.16 / 3.10 / 2.85% in city's
+ * shadow with city's prior and 5.09 / 3.23 / 2.77 / 2.63% in forest's, the level prior 2.65%). */
 #define PRIOR_STEPS 360
 #define PRIOR_FLOOR 3.0f
 
