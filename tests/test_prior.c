@@ -65,6 +65,38 @@ static void orbit_mean(void) {
     probe_free(&p);
 }
 
+/* Two probes: each counts the same whatever its brightness, so the prior of a city-like sun at 30
+ * degrees and a sun 1000 times brighter at 60 degrees must be sqrt((w1^2 + w2^2) / largest) of the
+ * two single priors w1, w2 (each checked against brute force above), to float rounding. */
+static void two_probes(void) {
+    prt_probe p[2];
+    prt_error err;
+    sun_sky(&p[0]);
+    const float e = (float)(60 * M_PI / 180);
+    sky_desc sd = { .width = 256, .sun_dir = { 0, sinf(e), cosf(e) }, .sun_radiance = 2e6f };
+    CHECK(probe_make_sky(&sd, &p[1], &err) == 0, "%s", err.msg);
+    float (*w)[4] = light_alloc(), (*w1)[4] = light_alloc(), (*w2)[4] = light_alloc();
+    prior_desc d = { .steps = 8, .floor = -1 };
+    const prt_probe *pp[2] = { &p[0], &p[1] };
+    CHECK(prior_from_probes(pp, 2, &d, w, &err) == 0, "%s", err.msg);
+    CHECK(prior_from_probe(&p[0], &d, w1, &err) == 0, "%s", err.msg);
+    CHECK(prior_from_probe(&p[1], &d, w2, &err) == 0, "%s", err.msg);
+    double mx = 0, worst = 0;
+    for (int i = 0; i < T; i++)
+        for (int c = 0; c < 3; c++) mx = fmax(mx, (double)w1[i][c] * w1[i][c] + (double)w2[i][c] * w2[i][c]);
+    for (int i = 0; i < T; i++)
+        for (int c = 0; c < 3; c++)
+            worst = fmax(worst, fabs(w[i][c] - sqrt(((double)w1[i][c] * w1[i][c] + (double)w2[i][c] * w2[i][c]) / mx)));
+    printf("  worst |w - sqrt((w1^2 + w2^2) / largest)| = %.2e\n", worst);
+    CHECK_LE(worst, 1e-5, "two probes count the same");
+    CHECK(prior_from_probes(pp, 0, &d, w, &err) == -1, "no probe is refused");
+    free(w);
+    free(w1);
+    free(w2);
+    probe_free(&p[0]);
+    probe_free(&p[1]);
+}
+
 /* A black probe has no prior: refused with one line, not weights of 0/0. */
 static void black_probe(void) {
     prt_probe p;
@@ -154,8 +186,10 @@ static void orbit_selection(void) {
     probe_free(&p);
 }
 
-/* `prt precompute --light-prior`: with --select magnitude a usage error (2); a probe that is not an
- * image a data error (1); both one line and no output. A good one says its line in the plan. */
+/* `prt precompute --light-prior`: with --select magnitude, or a list with an empty name, a usage
+ * error (2); a probe that is not an image, alone or in a list, a data error (1); each one line and
+ * no output. A JSON scene's "light_prior" of two probes is used and named in the plan, but not with
+ * --no-light-prior, nor with --select magnitude (a note says why). */
 static void prior_flag(void) {
     char probe[512], notimg[512], obj[512], outp[512], cmd[4096], buf[8192];
     snprintf(obj, sizeof obj, "%s/prior-squares.obj", check_tmpdir());
@@ -175,26 +209,45 @@ static void prior_flag(void) {
               "f 1 3 2\nf 1 4 3\nf 5 7 6\nf 5 8 7\n", f);
         fclose(f);
     }
-    const char *bad[2][2] = { { probe, "--select magnitude" }, { notimg, "" } };
-    for (int q = 0; q < 2; q++) {
+    char list[1100], empty[1100];
+    snprintf(list, sizeof list, "%s,%s", probe, notimg);   /* one bad file in a list: a data error */
+    snprintf(empty, sizeof empty, "%s,,%s", probe, probe);   /* an empty name in the list: usage */
+    const char *bad[4][2] = { { probe, "--select magnitude" }, { notimg, "" }, { empty, "" }, { list, "" } };
+    const int status[4] = { 2, 1, 2, 1 };
+    for (int q = 0; q < 4; q++) {
         remove(outp);
         snprintf(cmd, sizeof cmd, "%s precompute %s -o %s --light-prior %s %s", check_prt_bin(), obj, outp, bad[q][0],
                  bad[q][1]);
         int rc = check_run(cmd, buf, sizeof buf);
-        CHECK(rc == 2 - q, "exit status %d: %s", rc, buf);
+        CHECK(rc == status[q], "exit status %d: %s", rc, buf);
         CHECK(strchr(buf, '\n') == buf + strlen(buf) - 1, "one line: %s", buf);
         CHECK(access(outp, F_OK) != 0, "no output file");
     }
-    snprintf(cmd, sizeof cmd, "%s precompute %s --quiet -o %s --light-prior %s && %s info %s", check_prt_bin(), obj, outp,
-             probe, check_prt_bin(), outp);
-    int rc = check_run(cmd, buf, sizeof buf);
-    CHECK(rc == 0, "exit status %d: %s", rc, buf);
-    CHECK(strstr(buf, "light prior: prior-sky.exr turned about +y") != NULL, "the plan names it: %s", buf);
+    /* A JSON scene naming two probes (relative to it) is precomputed with their prior unless told not. */
+    char json[512];
+    snprintf(json, sizeof json, "%s/prior-scene.json", check_tmpdir());
+    f = fopen(json, "w");
+    if (f) {
+        fputs("{ \"models\": [ { \"obj\": \"prior-squares.obj\" } ], \"light_prior\": [\"prior-sky.exr\", \"prior-sky.exr\"] }\n", f);
+        fclose(f);
+    }
+    static const struct { const char *flags; bool prior; } k[] = { { "", true }, { "--no-light-prior", false },
+                                                                   { "--select magnitude", false } };
+    for (int q = 0; q < 3; q++) {
+        snprintf(cmd, sizeof cmd, "%s precompute %s -o %s %s 2>&1 && %s info %s", check_prt_bin(), json, outp, k[q].flags,
+                 check_prt_bin(), outp);
+        int rc = check_run(cmd, buf, sizeof buf);
+        CHECK(rc == 0, "exit status %d: %s", rc, buf);
+        bool named = strstr(buf, "light prior: prior-sky.exr,prior-sky.exr turned about +y") != NULL;
+        CHECK(named == k[q].prior, "'%s': the plan %s it: %s", k[q].flags, k[q].prior ? "names" : "does not name", buf);
+        CHECK(q < 2 || strstr(buf, "light_prior is not used") != NULL, "a note says why: %s", buf);
+    }
 }
 
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(orbit_mean);
+    CHECK_CASE(two_probes);
     CHECK_CASE(black_probe);
     CHECK_CASE(orbit_selection);
     CHECK_CASE(prior_flag);

@@ -272,6 +272,32 @@ static void json_errors(void) {
     expect_fail("floor zero verts", "fl0.json", "{ \"models\": [ { \"sphere\": {} } ], \"floor\": {\"vertices\": 0} }", "floor.vertices");
     expect_fail("floor bad key", "fl1.json", "{ \"models\": [ { \"sphere\": {} } ], \"floor\": {\"verts\": 10} }", "unknown key 'verts'");
     expect_fail("floor bad type", "fl2.json", "{ \"models\": [ { \"sphere\": {} } ], \"floor\": 3 }", "floor: expected an object or true/false");
+    expect_fail("light_prior type", "lp1.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": 3 }", "light_prior: expected a probe path");
+    expect_fail("light_prior empty", "lp2.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": [] }", "light_prior: expected");
+    expect_fail("light_prior comma", "lp3.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": \"a.exr,b.exr\" }", "light_prior");
+    expect_fail("light_prior item", "lp4.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": [\"a.exr\", 2] }", "light_prior");
+}
+
+/* "light_prior" (scene.h): one path or an array, each relative to the JSON's folder (absolute kept),
+ * comma-joined for precompute; none leaves it empty. */
+static void light_prior_key(void) {
+    static const struct { const char *text, *want; } k[] = {
+        { "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": \"city.exr\" }", "/city.exr" },
+        { "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": [\"p/a.exr\", \"/abs/b.exr\"] }", "/p/a.exr,/abs/b.exr" },
+        { "{ \"models\": [ { \"sphere\": {} } ] }", "" },
+    };
+    for (int i = 0; i < 3; i++) {
+        const char *path = tmp_path("lp-good.json");
+        write_file(path, k[i].text);
+        prt_scene s;
+        prt_error err = { "" };
+        CHECK(scene_load(path, NULL, &s, &err) == 0, "%s", err.msg);
+        char want[4096];
+        const char *slash = strrchr(path, '/');
+        snprintf(want, sizeof want, "%.*s%s", k[i].want[0] ? (int)(slash - path) : 0, path, k[i].want);   /* the folder, then */
+        CHECK(strcmp(s.light_prior, want) == 0, "light_prior '%s', want '%s'", s.light_prior, want);
+        scene_free(&s);
+    }
 }
 
 static void demo(void) {
@@ -331,6 +357,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(materials);
     CHECK_CASE(json_scene);
     CHECK_CASE(json_errors);
+    CHECK_CASE(light_prior_key);
     CHECK_CASE(demo);
     return check_summary();
 }

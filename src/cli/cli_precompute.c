@@ -40,10 +40,13 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
-         "  --light-prior PROBE    weigh the expected-error selection by PROBE's light: each coefficient\n"
+         "  --light-prior PROBE[,PROBE...]  weigh the expected-error selection by PROBE's light: each coefficient\n"
          "                         by its RMS as PROBE turns about +y (the viewer's yaw), so a shadow\n"
          "                         edge keeps its detail where the probe's sun can be (README\n"
-         "                         \"Shadows\"; the file serves any probe, best the one named)\n"
+         "                         \"Shadows\"; the file serves any probe, best the ones named); a\n"
+         "                         list weighs each probe the same. A JSON scene's \"light_prior\"\n"
+         "                         key names its own (used unless this flag or the next says otherwise)\n"
+         "  --no-light-prior       not the scene's light_prior: the per-level weights\n"
          "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
          "                         weighted by the transport on faces with no occluder edge, steadier\n"
          "                         on an open floor under a turning sun)\n"
@@ -156,35 +159,81 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
         fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
 }
 
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool *stray);
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
+                    bool *stray);
 
-/* --light-prior PROBE: the probe's RMS light over its yaw orbit (prior.h) into *w (light_alloc'd:
- * the caller frees it) and pd, its time said on stderr. Returns the exit status (1: said why). */
-static int light_prior(const char *path, precompute_desc *pd, bool quiet, float (**w)[4]) {
+/* Loads the probes of the comma-separated list `paths` into ps (at most PRIOR_MAX_PROBES) and their
+ * base names, comma-joined, into name[cap]. Returns how many, or -1 having said why (exit 1/2). */
+static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap, int *status) {
+    int n = 0;
+    name[0] = 0;
+    for (const char *s = paths; *s; ) {
+        size_t len = strcspn(s, ",");
+        char path[4096];
+        if (len == 0 || len >= sizeof path || n == PRIOR_MAX_PROBES) {
+            cli_error(k_cmd, "--light-prior %s: a comma-separated list of 1 to %d probe files", paths, PRIOR_MAX_PROBES);
+            *status = 2;
+            return -1;
+        }
+        memcpy(path, s, len);
+        path[len] = 0;
+        if (cli_load_probe(k_cmd, path, NULL, &ps[n])) { *status = 1; return -1; }
+        const char *base = strrchr(path, '/');
+        const char *b = base ? base + 1 : path;
+        size_t at = strlen(name), bl = strlen(b);
+        if (at + bl + 2 < cap) {   /* a name too long for the plan line is cut there */
+            if (n) name[at++] = ',';
+            memcpy(name + at, b, bl + 1);
+        }
+        n++;
+        s += len + (s[len] == ',');
+    }
+    return n;
+}
+
+/* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into *w
+ * (light_alloc'd: the caller frees it), pd and name[cap] (pd->light_prior_name points there), its
+ * time said on stderr. Returns the exit status (1 or 2: said why). */
+static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap) {
     double t0 = prt_now();
-    prt_probe p = { 0 };
-    if (cli_load_probe(k_cmd, path, NULL, &p)) return 1;
+    prt_probe ps[PRIOR_MAX_PROBES];
+    memset(ps, 0, sizeof ps);
+    const prt_probe *pp[PRIOR_MAX_PROBES];
+    int status = 0, n = prior_probes(paths, ps, name, cap, &status);
+    for (int j = 0; j < PRIOR_MAX_PROBES; j++) pp[j] = &ps[j];
     prt_error err = { { 0 } };
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     prior_desc d = { .progress = prt_bar_report, .progress_user = &bar };
-    *w = light_alloc();
-    int rc = !*w ? cli_error(k_cmd, "light prior: out of memory") : 0;
-    if (!rc && prior_from_probe(&p, &d, *w, &err)) rc = cli_error(k_cmd, "%s: %s", path, err.msg);
+    *w = n > 0 ? light_alloc() : NULL;
+    int rc = n < 0 ? status : !*w ? cli_error(k_cmd, "light prior: out of memory") : 0;
+    if (!rc && prior_from_probes(pp, n, &d, *w, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
     prt_bar_done(&bar);
-    probe_free(&p);
+    for (int j = 0; j < PRIOR_MAX_PROBES; j++) probe_free(&ps[j]);
     if (rc) return rc;
-    const char *base = strrchr(path, '/');
     pd->light_prior = (const float (*)[4]) * w;
-    pd->light_prior_name = base ? base + 1 : path;
-    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", path, PRIOR_STEPS, prt_now() - t0);
+    pd->light_prior_name = name;
+    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", paths, PRIOR_STEPS, prt_now() - t0);
     return 0;
+}
+
+/* The scene's own "light_prior" (scene.h) when the command line named none and did not say
+ * --no-light-prior: computed as --light-prior's into *w (the caller frees it), or, where the selection
+ * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
+ * Returns the exit status. */
+static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap) {
+    if (!s->light_prior[0] || pd->light_prior) return 0;
+    if (pd->select != TRANSPORT_SELECT_EXPECTED) {
+        if (!quiet) fprintf(stderr, "note: the scene's light_prior is not used (it weighs the expected-error selection)\n");
+        return 0;
+    }
+    return light_prior(s->light_prior, pd, quiet, w, name, cap);
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
  * the others run quietly and write nothing). Returns the exit status. */
 static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet,
-               const char *prior_path) {
+               const char *prior_path, bool no_prior) {
     prt_error err = { { 0 } };
     prt_shard *sh = shard_create(&err);
     if (!sh) return cli_error(k_cmd, "%s", err.msg);
@@ -197,8 +246,9 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         pd->shard = sh;
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
         float (*w)[4] = NULL;   /* every rank computes the same prior (prior.h: deterministic) */
-        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w) : 0;
-        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, &stray);
+        char name[1024];
+        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, name, sizeof name) : 0;
+        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, !prior_path && !no_prior, &stray);
         else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
         free(w);
     }
@@ -209,7 +259,8 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
 /* run's work on one rank; *stray: it failed alone, the others not told (shard.h). Every rank loads
  * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
  * Returns the exit status. */
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool *stray) {
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
+                    bool *stray) {
     prt_error err = { { 0 } };
     double t0 = prt_now();
     char ck[4096] = "";
@@ -229,6 +280,13 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
                 scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
+    float (*w)[4] = NULL;   /* the scene's prior; every rank computes the same (prior.h) */
+    char pname[1024];
+    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, pname, sizeof pname))) {
+        scene_free(&scene);
+        *stray = shard_size(pd->shard) > 1;
+        return st;
+    }
 
     int ranks = shard_size(pd->shard);
     if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
@@ -246,7 +304,10 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     pd->quiet = quiet;
     prt_data data;
     memset(&data, 0, sizeof data);
-    if (precompute_run(&scene, pd, &data, &err)) {
+    int prc = precompute_run(&scene, pd, &data, &err);
+    free(w);   /* the prior is read by the passes only (precompute.h) */
+    pd->light_prior = use_scene_prior ? NULL : pd->light_prior;
+    if (prc) {
         prt_bar_done(&bar);
         scene_free(&scene);
         *stray = !shard_failed_together(pd->shard);
@@ -291,7 +352,7 @@ int cli_precompute(int argc, char **argv) {
     int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
     const char *glossy = NULL, *select = NULL, *budget = NULL, *prior = NULL;
     float refine_thr = -1;
-    bool texel = false, no_smooth = false;
+    bool texel = false, no_smooth = false, no_prior = false;
     const cli_option opts[] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
@@ -319,6 +380,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_S("--select", &select),
         CLI_S("--budget", &budget),
         CLI_S("--light-prior", &prior),
+        CLI_B("--no-light-prior", &no_prior),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
         CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
@@ -345,6 +407,7 @@ int cli_precompute(int argc, char **argv) {
     pd.select = pd.measure && !(select && !strcmp(select, "magnitude")) ? TRANSPORT_SELECT_EXPECTED
                                                                          : TRANSPORT_SELECT_MAGNITUDE;
     if (budget_of(budget, sh_bands, &pd.budget)) return 2;
+    if (prior && no_prior) return cli_error(k_cmd, "--light-prior and --no-light-prior contradict each other") + 1;
     if (prior && pd.select != TRANSPORT_SELECT_EXPECTED)
         return cli_error(k_cmd, "--light-prior weighs the expected-error selection: not with --select magnitude, "
                                 "--texel-measure or --sh") + 1;
@@ -374,5 +437,5 @@ int cli_precompute(int argc, char **argv) {
         prt_error err = { { 0 } };
         if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
     }
-    return run(in, out, &sd, &pd, quiet, prior);
+    return run(in, out, &sd, &pd, quiet, prior, no_prior);
 }

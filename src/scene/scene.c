@@ -414,6 +414,30 @@ static int json_lights(json_ctx *c, const cJSON *root, prt_scene *s) {
     return 0;
 }
 
+/* The optional top-level "light_prior": a probe path or an array of them (relative to the JSON's
+ * folder), comma-joined into s->light_prior for precompute's --light-prior (prior.h). A path with a
+ * comma, an empty one or more than SCENE_MAX_PRIOR_PROBES are refused: the list is comma-joined. */
+static int json_light_prior(json_ctx *c, const cJSON *root, prt_scene *s) {
+    const cJSON *lp = cJSON_GetObjectItemCaseSensitive(root, "light_prior");
+    if (!lp) return 0;
+    c->where[0] = 0;
+    const char *want = "a probe path or an array of 1 to 16 probe paths";
+    const cJSON *one[1] = { lp };
+    int n = cJSON_IsArray(lp) ? cJSON_GetArraySize(lp) : 1;
+    if (n < 1 || n > SCENE_MAX_PRIOR_PROBES) return jfail_type(c, "light_prior", want);
+    const cJSON *it = cJSON_IsArray(lp) ? lp->child : one[0];
+    for (int i = 0; i < n; i++, it = it->next) {
+        if (!cJSON_IsString(it) || !it->valuestring[0] || strchr(it->valuestring, ','))
+            return jfail_type(c, "light_prior", want);
+        char path[4096];
+        join_path(c->path, it->valuestring, path, sizeof path);
+        size_t at = strlen(s->light_prior);
+        if (at + strlen(path) + 2 > sizeof s->light_prior) return jfail_type(c, "light_prior", "shorter paths");
+        snprintf(s->light_prior + at, sizeof s->light_prior - at, "%s%s", i ? "," : "", path);
+    }
+    return 0;
+}
+
 /* Parses JSON text (path names it in errors and anchors its relative OBJ paths). */
 static int json_scene(const char *path, const char *text, size_t len, const scene_desc *desc, prt_scene *s,
                       prt_error *err) {
@@ -431,7 +455,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
     }
     json_ctx c = { .path = path, .err = err };
     int rc = -1;
-    static const char *const top[] = { "models", "floor", "lights", "comment", NULL };
+    static const char *const top[] = { "models", "floor", "lights", "light_prior", "comment", NULL };
     const cJSON *models = NULL, *fl = NULL;
     if (!cJSON_IsObject(root)) { prt_fail(err, "%s: expected a JSON object at the top level", path); goto done; }
     if (jkeys(&c, root, top)) goto done;
@@ -470,7 +494,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
         prt_error e2;
         if (scene_add_floor(s, verts, size, fmat, &e2)) { prt_fail(err, "%s: %s", path, e2.msg); goto done; }
     }
-    if (json_lights(&c, root, s)) goto done;
+    if (json_lights(&c, root, s) || json_light_prior(&c, root, s)) goto done;
     rc = 0;
 done:
     cJSON_Delete(root);

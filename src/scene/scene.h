@@ -23,7 +23,9 @@
  * ("spot:pos=0,2,0;dir=0,-1,0;inner=20;outer=30;intensity=10") or an object
  * {"type":"point"|"spot", "pos":[x,y,z], "dir":[x,y,z], "inner":DEG, "outer":DEG,
  *  "intensity":W_PER_SR, "colour":[r,g,b]} with light_parse's defaults; at most
- * PRT_MAX_LIGHTS. Any other key is
+ * PRT_MAX_LIGHTS. "light_prior" (issue 10, prior.h) names the probe, or an array of up to 16 probes,
+ * the scene will be lit by (relative to the JSON file): precompute weighs its coefficient selection
+ * by their light, as --light-prior does, unless told otherwise. Any other key is
  * an error. Example scenes: data/ (data/README.md). The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
@@ -52,7 +54,9 @@ typedef struct prt_scene {
     float bmin[3], bmax[3];    /* bounds of everything, floor included */
     mesh_load_stats load_stats; /* summed over OBJ models */
     prt_lights lights;         /* local lights (issue 11): the JSON's "lights", plus --light flags */
+    char light_prior[8192];    /* the JSON's "light_prior" probes, resolved and comma-joined ("": none) */
 } prt_scene;
+#define SCENE_MAX_PRIOR_PROBES 16   /* prior.h's PRIOR_MAX_PROBES */
 
 typedef struct scene_desc {
     const char *material;   /* spec for an OBJ given alone (NULL: "lambert:kd=0.8") */

@@ -37,25 +37,49 @@ static bool prior_finish(const double *acc, float floor, float (*w)[4]) {
     return true;
 }
 
-/* See prior.h. */
-int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], prt_error *err) {
-    int steps = desc && desc->steps > 0 ? desc->steps : PRIOR_STEPS;
-    float floor = !desc || desc->floor == 0 ? PRIOR_FLOOR : desc->floor < 0 ? 0 : desc->floor;
-    transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    if (transfer_haar.configure(&cfg, err)) return -1;
-    double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
-    float *cube = acc ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
+/* Adds probe p's mean squared light vector over its yaw orbit, over its own largest, to acc:
+ * each probe of a prior counts the same, whatever its brightness. Returns 0, or -1 with err. */
+static int prior_orbit(const prt_probe *p, const transfer_config *cfg, int steps, const prior_desc *desc,
+                       double frac0, double frac1, double *acc, prt_error *err) {
+    double *one = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *one, err);
+    float *cube = one ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
     float (*L)[4] = cube ? light_alloc() : NULL;
     if (cube && !L) prt_fail(err, "light prior: out of memory");
     int rc = L ? 0 : -1;
     for (int k = 0; k < steps && rc == 0; k++) {
-        prior_add(p, &cfg, 360.0 * k / steps, cube, L, acc);
-        if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", (k + 1.0) / steps))
+        prior_add(p, cfg, 360.0 * k / steps, cube, L, one);
+        double f = frac0 + (frac1 - frac0) * (k + 1.0) / steps;
+        if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", f))
             rc = prt_fail(err, "cancelled");
     }
-    if (rc == 0 && !prior_finish(acc, floor, w)) rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
-    free(acc);
+    double mx = 0;
+    for (int i = 0; rc == 0 && i < 3 * CUBE_TEXELS; i++)
+        if (one[i] > mx) mx = one[i];
+    if (rc == 0 && (!(mx > 0) || !isfinite(mx)))
+        rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
+    for (int i = 0; rc == 0 && i < 3 * CUBE_TEXELS; i++) acc[i] += one[i] / mx;
+    free(one);
     free(cube);
     free(L);
     return rc;
+}
+
+/* See prior.h. */
+int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prt_error *err) {
+    int steps = desc && desc->steps > 0 ? desc->steps : PRIOR_STEPS;
+    float floor = !desc || desc->floor == 0 ? PRIOR_FLOOR : desc->floor < 0 ? 0 : desc->floor;
+    if (n < 1) return prt_fail(err, "light prior: no probe");
+    transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    if (transfer_haar.configure(&cfg, err)) return -1;
+    double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
+    int rc = acc ? 0 : -1;
+    for (int j = 0; j < n && rc == 0; j++) rc = prior_orbit(ps[j], &cfg, steps, desc, (double)j / n, (j + 1.0) / n, acc, err);
+    if (rc == 0 && !prior_finish(acc, floor, w)) rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
+    free(acc);
+    return rc;
+}
+
+/* See prior.h. */
+int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], prt_error *err) {
+    return prior_from_probes(&p, 1, desc, w, err);
 }

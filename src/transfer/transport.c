@@ -302,20 +302,25 @@ int transport_level(uint32_t i) {
     return l;
 }
 
-/* The prior's weighted copy of one channel: c_i sigma_i, less what quantization would lose anyway. A
- * kept coefficient still errs by its rounding (step = the channel's largest |c| / qmax, sparse.h), and
- * on a face with no occluder edge a dropped one is put back weighted by the transport (smooth_faces),
- * so a coefficient gains its slot only by what exceeds a step: sigma_i^2 (c_i^2 - step^2). Without
- * this the prior, which weighs a sun's ring heavily, kept the ring's many tiny fine coefficients of an
- * open floor, whose rounding at 8 bits left its ratio over the turn 1.10% off at worst (README
- * "Shadows"; step^2 / 12, the mean rounding error, measured 1.19%; step^2 0.26%). Non-finite stays so. */
-static void prior_channel(const float *c, const float (*prior)[4], int ch, int qbits, float *w) {
+static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp);   /* below, with its why */
+
+/* The prior's weighted copy of one channel: c_i sigma_i, less what quantization would lose anyway on
+ * the faces of `smooth` (face_smooth). A kept coefficient still errs by its rounding (step = the
+ * channel's largest |c| / qmax, sparse.h), and on a face with no occluder edge a dropped one is put
+ * back weighted by the transport (smooth_faces), so there a coefficient gains its slot only by what
+ * exceeds a step: sigma_i^2 (c_i^2 - step^2). Without this the prior, which weighs a sun's ring
+ * heavily, kept the ring's many tiny fine coefficients of an open floor, whose rounding at 8 bits left
+ * its ratio over the turn 1.10% off at worst (README "Shadows"; step^2 / 12, the mean rounding error,
+ * measured 1.19%; step^2 0.26%). On a face an occluder's edge crosses the fine coefficients are the
+ * edge, and nothing puts them back: there the term cost the full bunny's floor shadow 3.15% -> 4.63%,
+ * so it is not taken. Non-finite stays so. */
+static void prior_channel(const float *c, const float (*prior)[4], int ch, int qbits, unsigned smooth, float *w) {
     float mx = 0;
     for (int j = 0; j < CUBE_TEXELS; j++)
         if (isfinite(c[j]) && fabsf(c[j]) > mx) mx = fabsf(c[j]);
     double step = qbits == 32 ? 0 : mx / (qbits == 16 ? 32767.0 : 127.0), e2 = step * step;
     for (int j = 0; j < CUBE_TEXELS; j++) {
-        double d = (double)c[j] * c[j] - e2;
+        double d = (double)c[j] * c[j] - (smooth >> (j / FACE) & 1 ? e2 : 0);
         w[j] = !isfinite(c[j]) ? c[j] : d > 0 ? (float)(sqrt(d) * prior[j][ch]) : 0.f;
     }
 }
@@ -327,12 +332,15 @@ static void prior_channel(const float *c, const float (*prior)[4], int ch, int q
  * with a prior (prior.h) its own per channel (prior_channel). The copy is only for selecting; the
  * stored values are the input's. Non-finite inputs stay non-finite, so sparse_select skips them. */
 static int select_expected(const float *r, const float *g, const float *b, const prt_transport *t,
-                           uint32_t *idx, float *keys, float *wc) {
+                           uint32_t *idx, float *keys, float *W, float *wc) {
     float *wr = wc, *wg = wc + CUBE_TEXELS, *wb = wc + 2 * CUBE_TEXELS;
     if (t->prior) {
-        prior_channel(r, t->prior, 0, t->qbits, wr);
-        prior_channel(g, t->prior, 1, t->qbits, wg);
-        prior_channel(b, t->prior, 2, t->qbits, wb);
+        const float *ch[3] = { r, g, b };
+        unsigned smooth = 0;
+        for (int f = 0; f < 6; f++) smooth |= (unsigned)face_smooth(ch, f, W, W + FACE) << f;
+        prior_channel(r, t->prior, 0, t->qbits, smooth, wr);
+        prior_channel(g, t->prior, 1, t->qbits, smooth, wg);
+        prior_channel(b, t->prior, 2, t->qbits, smooth, wb);
     } else
         for (int f = 0; f < 6; f++)
             for (int l = 0, lo = 0; l < TRANSPORT_LEVELS; lo = l ? 4 * lo : 1, l++) {   /* level l: [lo, max(1, 4 lo)) */
@@ -618,7 +626,7 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
     float *keys = scratch;
     uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
     float *W = (float *)(void *)(idx + CUBE_TEXELS), *wc = W + 2 * FACE;
-    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, wc)
+    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, W, wc)
                                                    : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     double total = 0, err = 0;   /* keys[0 .. CUBE_TEXELS) hold the weights' float bits (sparse.h) */
     if (t->budget_kind == TRANSPORT_BUDGET_RELATIVE)
@@ -655,7 +663,7 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
     uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
     float *W = (float *)(void *)(idx + CUBE_TEXELS);
     float *wc = W + 2 * FACE;
-    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, wc)
+    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, W, wc)
                                                    : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     const float *ch[3] = { r, g, b };
     float adj[3 * 6 * 16];
