@@ -24,6 +24,8 @@
 #    (--refine-threshold; 0 = no refinement, the default). A refined point's mesh has its own
 #    vertices, so its per-vertex reference is traced for it; the floor is refined exactly and
 #    the models are not, so the scene's reference image serves.
+#  * The light prior (--light-prior, README "Shadows"): the sharp probe's, measured under it and
+#    under the soft one (the cost of a prior made for another probe).
 #  * SH baseline: --sh ORDER (ORDER^2 coefficients, same pipeline and 8-bit storage)
 #    against Haar with N = ORDER^2, under a probe with a sun (city) and a soft one.
 #  * The reference (prt reference: path tracing with the analytic BRDFs and the
@@ -124,7 +126,8 @@ fi
 
 # --- the points ----------------------------------------------------------------------
 # A point is "scene N K quant vis bounces gather sh refine measure" (refine: threshold in
-# thousandths, 0 none; measure: 1 for --texel-measure); ids name its files. A point may
+# thousandths, 0 none; measure: 1 for --texel-measure, 2 for --light-prior of the sharp probe);
+# ids name its files. A point may
 # belong to several sweeps (the default point to all); it is computed once.
 declare -A SWEEPS PROBES
 ORDER=()
@@ -145,6 +148,7 @@ for g in $G_LIST; do add gather $D 128 4 8 128 1 $g 0; done
 for b in $GB_LIST; do add bounces $G 128 4 8 128 $b 32 0; done
 for r in $R_LIST; do add refine $D 128 4 8 128 0 32 0 "$r"; done
 for s in $D $G; do add measure $s 128 4 8 128 0 32 0 0 0; add measure $s 128 4 8 128 0 32 0 0 1; done
+for s in $D $G; do add prior $s 128 4 8 128 0 32 0 0 0; add prior $s 128 4 8 128 0 32 0 0 2; done
 for o in $SH_LIST; do
   add sh $D $((o * o)) 4 8 128 0 32 "$o"
   add haar $D $((o * o)) 4 8 128 0 32 0
@@ -171,6 +175,7 @@ precompute() { # id
   # --glossy svd: the study sweeps the SVD path's knobs (K...); the vMF path is the plan's default since issue 9
   [ "$r" != 0 ] && args+=(--refine-threshold "$(awk -v r="$r" 'BEGIN { print r / 1000 }')")
   [ "$m" = 1 ] && args+=(--texel-measure)
+  [ "$m" = 2 ] && args+=(--light-prior "$DATA/probes/$SHARP.exr")
   if [ "$sh" != 0 ]; then args+=(--sh "$sh"); else args+=(--coeffs "$n"); fi
   if [ "$b" = 0 ]; then args+=(--no-bounces); else args+=(--bounces "$b" --force-bounces); fi
   f="$WORK/$id.prt"
@@ -225,7 +230,7 @@ reference() { # scene probe bounces base-id [image-from]
 
 # --- measure one point -----------------------------------------------------------------
 CSV="$WORK/study.csv"
-echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,shadow_rel_rmse,ref_shadow_noise,refine,texel_measure,verts,id" > "$CSV"
+echo "scene,probe,sweeps,basis,coeffs,N,K,quant,vis_res,bounces,gather_res,precompute_s,precompute_cpu_s,visibility_s,transport_s,bounce_s,file_mb,light_ms,view_ms,light_min_ms,view_min_ms,vert_rel_rmse,vert_max_rel_err,img_rel_rmse,img_max_rel_err,ref_vert_noise,ref_img_noise,shadow_rel_rmse,ref_shadow_noise,refine,texel_measure,light_prior,verts,id" > "$CSV"
 summary_s() { awk -v k="$2" 'index($0, "  " k) == 1 { v = $NF; sub(/s$/, "", v); s += v } END { printf "%.2f", s }' "$1"; }
 
 measure() { # index id
@@ -267,7 +272,7 @@ measure() { # index id
     fi
     ci=$("$PRT" compare "$o.exr" "$r.exr" --error-image "$o.err.png" 2>/dev/null) || die "prt compare (image) $id ($p) failed"
     oiiotool "$o.exr" --mulc "$(cat "$r.scale")" --colorconvert linear sRGB -o "$o.png" 2>/dev/null || true
-    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$(kv "$cs" rel_rmse),$(kv "$cs" ref_noise),$rf,$m,$verts,$id" >> "$CSV"
+    echo "$s,$p,${SWEEPS[$id]},$basis,$coeffs,$n,$kk,$q,$v,$b,$g,$pre_s,$cpu_s,$vis_s,$tr_s,$bo_s,$mb,$light,$view,$light_min,$view_min,$(kv "$cv" rel_rmse),$(kv "$cv" max_rel_err),$(kv "$ci" rel_rmse),$(kv "$ci" max_rel_err),$(kv "$cv" ref_noise),${REF_NOISE_I[$s-$p-$b]},$(kv "$cs" rel_rmse),$(kv "$cs" ref_noise),$rf,$(( m == 1 )),$( [ "$m" = 2 ] && echo "$SHARP"),$verts,$id" >> "$CSV"
     line="$line; $p: vertex err $(kv "$cv" rel_rmse), shadow $(kv "$cs" rel_rmse), image $(kv "$ci" rel_rmse)"
   done
   say "$line"

@@ -40,6 +40,8 @@ KNOBS = {
                lambda r: f"{r['gather_res']}^2"),
     "measure": ("Haar measure (N = 128, same bytes)", "file_mb", "file size (MB)", False,
                 lambda r: "texel (paper)" if r.get("texel_measure") == "1" else "per sr"),
+    "prior": ("light prior (N = 128, same bytes)", "precompute_s", "precompute (s)", False,
+              lambda r: f"{r['light_prior']}'s" if r.get("light_prior") else "none"),
     "refine": ("refinement threshold (floor)", "precompute_s", "precompute (s)", True,
                lambda r: "off" if r.get("refine", "0") in ("0", "") else f"{int(r['refine']) / 10:g}% ({r['verts']} v)"),
 }
@@ -93,7 +95,7 @@ def read(out):
 def is_default(r):
     return (r["basis"] == "haar" and r["N"] == "128" and r["quant"] == "8" and r["vis_res"] == "128"
             and r["bounces"] == "0" and r["K"] in ("1", "4") and r.get("refine", "0") in ("0", "")
-            and r.get("texel_measure", "0") in ("0", ""))
+            and r.get("texel_measure", "0") in ("0", "") and not r.get("light_prior"))
 
 
 def pct(x, d=2):
@@ -166,6 +168,8 @@ def short(r):
         s += f" r{int(r['refine']) / 10:g}%"
     if r.get("texel_measure") == "1":
         s += " texel"
+    if r.get("light_prior"):
+        s += " prior"
     return s
 
 
@@ -359,6 +363,8 @@ def table(rows):
         coeffs = "all" if r["N"] == str(UNC) else r["coeffs"]
         if r.get("texel_measure") == "1":
             coeffs += " (texel)"
+        if r.get("light_prior"):
+            coeffs += f" ({r['light_prior']} prior)"
         q = {"8": "8-bit", "16": "16-bit", "32": "float"}[r["quant"]]
         out.append("| " + " | ".join([
             r["scene"], r["probe"], " ".join(r["sweeps"]), r["basis"], coeffs, r["K"], q,

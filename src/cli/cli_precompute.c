@@ -117,12 +117,13 @@ static void balance(const prt_shard *sh) {
 }
 
 /* The per-stage timing summary, the ranks' balance and the closing line (stderr). */
-static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t0) {
+static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t_prior, double t0) {
     struct stat st;
     double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_stats *s = &data->stats;
     fprintf(stderr, "\ntiming summary\n");
     fprintf(stderr, "  %-28s %9.2fs\n", "scene load", t_load);
+    if (t_prior > 0) fprintf(stderr, "  %-28s %9.2fs\n", "light prior", t_prior);
     if (s->t_refine > 0) fprintf(stderr, "  %-28s %9.2fs\n", "refinement", s->t_refine);
     fprintf(stderr, "  %-28s %9.2fs\n", "BRDF factorization", s->t_brdf);
     fprintf(stderr, "  %-28s %9.2fs\n", "visibility (ray casting)", s->t_visibility);
@@ -160,7 +161,7 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
 }
 
 static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
-                    bool *stray);
+                    double t0, double t_prior, bool *stray);
 
 /* Loads the probes of the comma-separated list `paths` into ps (at most PRIOR_MAX_PROBES) and their
  * base names, comma-joined, into name[cap]. Returns how many, or -1 having said why (exit 1/2). */
@@ -194,7 +195,8 @@ static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap
 /* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into *w
  * (light_alloc'd: the caller frees it), pd and name[cap] (pd->light_prior_name points there), its
  * time said on stderr. Returns the exit status (1 or 2: said why). */
-static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap) {
+static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap,
+                       double *secs) {
     double t0 = prt_now();
     prt_probe ps[PRIOR_MAX_PROBES];
     memset(ps, 0, sizeof ps);
@@ -213,6 +215,7 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
     if (rc) return rc;
     pd->light_prior = (const float (*)[4]) * w;
     pd->light_prior_name = name;
+    *secs += prt_now() - t0;
     if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", paths, PRIOR_STEPS, prt_now() - t0);
     return 0;
 }
@@ -221,13 +224,14 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
  * --no-light-prior: computed as --light-prior's into *w (the caller frees it), or, where the selection
  * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
  * Returns the exit status. */
-static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap) {
+static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap,
+                       double *secs) {
     if (!s->light_prior[0] || pd->light_prior) return 0;
     if (pd->select != TRANSPORT_SELECT_EXPECTED) {
         if (!quiet) fprintf(stderr, "note: the scene's light_prior is not used (it weighs the expected-error selection)\n");
         return 0;
     }
-    return light_prior(s->light_prior, pd, quiet, w, name, cap);
+    return light_prior(s->light_prior, pd, quiet, w, name, cap, secs);
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
@@ -247,8 +251,9 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
         float (*w)[4] = NULL;   /* every rank computes the same prior (prior.h: deterministic) */
         char name[1024];
-        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, name, sizeof name) : 0;
-        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, !prior_path && !no_prior, &stray);
+        double t0 = prt_now(), t_prior = 0;   /* the timing summary's total counts the prior */
+        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, name, sizeof name, &t_prior) : 0;
+        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, !prior_path && !no_prior, t0, t_prior, &stray);
         else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
         free(w);
     }
@@ -258,16 +263,17 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
 
 /* run's work on one rank; *stray: it failed alone, the others not told (shard.h). Every rank loads
  * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
- * Returns the exit status. */
+ * t0: when the command's work began; t_prior: the seconds --light-prior took (the summary's). Returns
+ * the exit status. */
 static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
-                    bool *stray) {
+                    double t0, double t_prior, bool *stray) {
     prt_error err = { { 0 } };
-    double t0 = prt_now();
+    double t_scene = prt_now();
     char ck[4096] = "";
     prt_scene scene = { 0 };
     bool lead = shard_rank(pd->shard) == 0;
     int st = scene_load(in, sd, &scene, &err) ? 1 : 0;
-    double t_load = prt_now() - t0;
+    double t_load = prt_now() - t_scene;
     if (!st && pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts)
         st = 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
     if (shard_status(pd->shard, st ? -1 : 0, &err)) {
@@ -282,7 +288,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
     float (*w)[4] = NULL;   /* the scene's prior; every rank computes the same (prior.h) */
     char pname[1024];
-    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, pname, sizeof pname))) {
+    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, pname, sizeof pname, &t_prior))) {
         scene_free(&scene);
         *stray = shard_size(pd->shard) > 1;
         return st;
@@ -324,7 +330,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     }
     data.stats.t_write = prt_now() - tw;
     if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
-    if (!quiet) summary(out, &data, pd->shard, t_load, t0);
+    if (!quiet) summary(out, &data, pd->shard, t_load, t_prior, t0);
     prt_data_free(&data);
     return 0;
 }
