@@ -231,6 +231,19 @@ static void prior_flag(void) {
         fputs("{ \"models\": [ { \"obj\": \"prior-squares.obj\" } ], \"light_prior\": [\"prior-sky.exr\", \"prior-sky.exr\"] }\n", f);
         fclose(f);
     }
+    char bad_json[512];   /* a scene naming a probe that is not there: one line, exit 1, no output */
+    snprintf(bad_json, sizeof bad_json, "%s/prior-scene-bad.json", check_tmpdir());
+    f = fopen(bad_json, "w");
+    if (f) {
+        fputs("{ \"models\": [ { \"obj\": \"prior-squares.obj\" } ], \"light_prior\": \"prior-nothere.exr\" }\n", f);
+        fclose(f);
+    }
+    remove(outp);
+    snprintf(cmd, sizeof cmd, "%s precompute %s -o %s --quiet", check_prt_bin(), bad_json, outp);
+    int brc = check_run(cmd, buf, sizeof buf);
+    CHECK(brc == 1 && strstr(buf, "prior-nothere.exr") && strchr(buf, '\n') == buf + strlen(buf) - 1,
+          "a missing scene probe: exit %d, %s", brc, buf);
+    CHECK(access(outp, F_OK) != 0, "no output file");
     static const struct { const char *flags; bool prior; } k[] = { { "", true }, { "--no-light-prior", false },
                                                                    { "--select magnitude", false } };
     for (int q = 0; q < 3; q++) {

@@ -289,6 +289,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     float (*w)[4] = NULL;   /* the scene's prior; every rank computes the same (prior.h) */
     char pname[1024];
     if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, pname, sizeof pname, &t_prior))) {
+        free(w);
         scene_free(&scene);
         *stray = shard_size(pd->shard) > 1;
         return st;
