@@ -9,6 +9,8 @@
 #   SHADOWS_QUICK=1 tools/shadows.sh ...                  the study's reduced case: bunny reduced to
 #                                                         6,000 vertices, 4,096-vertex floor (a minute)
 #   SHADOWS_PROBE=forest                                  another probe (default city)
+# The full case with `--light-prior ../shared/data/probes/city.exr` is data/bunny-shadows.json at its
+# defaults (the same file but for its recorded timings; README "Shadows").
 # The reference (4,096 samples per vertex, 256 per pixel at 400x300) is traced once per case and
 # probe and kept in build/shadows*/; the precompute flags name the variant measured (default: none).
 set -eu
