@@ -422,10 +422,9 @@ static int json_light_prior(json_ctx *c, const cJSON *root, prt_scene *s) {
     if (!lp) return 0;
     c->where[0] = 0;
     const char *want = "a probe path or an array of 1 to 16 probe paths";
-    const cJSON *one[1] = { lp };
     int n = cJSON_IsArray(lp) ? cJSON_GetArraySize(lp) : 1;
     if (n < 1 || n > SCENE_MAX_PRIOR_PROBES) return jfail_type(c, "light_prior", want);
-    const cJSON *it = cJSON_IsArray(lp) ? lp->child : one[0];
+    const cJSON *it = cJSON_IsArray(lp) ? lp->child : lp;   /* one path: the loop's single item */
     for (int i = 0; i < n; i++, it = it->next) {
         if (!cJSON_IsString(it) || !it->valuestring[0] || strchr(it->valuestring, ','))
             return jfail_type(c, "light_prior", want);

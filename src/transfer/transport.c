@@ -330,7 +330,8 @@ static void prior_channel(const float *c, const float (*prior)[4], int ch, int q
  * sum over dropped i of c_i^2 sigma_i^2 (transport.h): scaling each coefficient by its sigma before the
  * magnitude selection picks the set that minimises it. sigma is its level's (transport_level_sigma), or
  * with a prior (prior.h) its own per channel (prior_channel). The copy is only for selecting; the
- * stored values are the input's. Non-finite inputs stay non-finite, so sparse_select skips them. */
+ * stored values are the input's. Non-finite inputs stay non-finite, so sparse_select skips them.
+ * W: 2 x FACE floats of scratch (face_smooth, with a prior); wc: the 3 x CUBE_TEXELS weights. */
 static int select_expected(const float *r, const float *g, const float *b, const prt_transport *t,
                            uint32_t *idx, float *keys, float *W, float *wc) {
     float *wr = wc, *wg = wc + CUBE_TEXELS, *wb = wc + 2 * CUBE_TEXELS;
