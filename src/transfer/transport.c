@@ -273,12 +273,12 @@ static void free_staging(prt_transport *t) {
 
 _Static_assert(CUBE_RES == 1 << (TRANSPORT_LEVELS - 1), "transport_level_sigma has one entry per Haar level of a face");
 
-/* Bytes of scratch transport_store needs: selection keys and indices, for the solid-angle
- * correction the face's solid-angle coefficients and their transform's scratch, and for the
- * expected-error selection the weighted copy of the three channels. */
+/* Bytes of scratch transport_store needs (store_scratch's layout): selection keys and indices, a
+ * face's transform scratch, the expected-error selection's weighted copy of the three channels (then
+ * the corrections' scratch), and the smooth faces' transport coefficients (face_shapes). */
 size_t transport_scratch_size(void) {
     return 2 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(uint32_t) + 2 * FACE * sizeof(float) +
-           3 * CUBE_TEXELS * sizeof(float);
+           3 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(float);
 }
 
 /* The RMS light coefficient per Haar level relative to the finest, sqrt of the geometric mean over
@@ -301,8 +301,6 @@ int transport_level(uint32_t i) {
     PRT_CHECK_LT(l, TRANSPORT_LEVELS);
     return l;
 }
-
-static bool face_smooth(const float *const ch[3], int f, float *img, float *tmp);   /* below, with its why */
 
 /* The prior's weighted copy of one channel: c_i sigma_i, less what quantization would lose anyway on
  * the faces of `smooth` (face_smooth). A kept coefficient still errs by its rounding (step = the
@@ -331,14 +329,11 @@ static void prior_channel(const float *c, const float (*prior)[4], int ch, int q
  * magnitude selection picks the set that minimises it. sigma is its level's (transport_level_sigma), or
  * with a prior (prior.h) its own per channel (prior_channel). The copy is only for selecting; the
  * stored values are the input's. Non-finite inputs stay non-finite, so sparse_select skips them.
- * W: 2 x FACE floats of scratch (face_smooth, with a prior); wc: the 3 x CUBE_TEXELS weights. */
-static int select_expected(const float *r, const float *g, const float *b, const prt_transport *t,
-                           uint32_t *idx, float *keys, float *W, float *wc) {
+ * smooth: the faces face_shapes found smooth (read with a prior); wc: the 3 x CUBE_TEXELS weights. */
+static int select_expected(const float *r, const float *g, const float *b, const prt_transport *t, unsigned smooth,
+                           uint32_t *idx, float *keys, float *wc) {
     float *wr = wc, *wg = wc + CUBE_TEXELS, *wb = wc + 2 * CUBE_TEXELS;
     if (t->prior) {
-        const float *ch[3] = { r, g, b };
-        unsigned smooth = 0;
-        for (int f = 0; f < 6; f++) smooth |= (unsigned)face_smooth(ch, f, W, W + FACE) << f;
         prior_channel(r, t->prior, 0, t->qbits, smooth, wr);
         prior_channel(g, t->prior, 1, t->qbits, smooth, wg);
         prior_channel(b, t->prior, 2, t->qbits, smooth, wb);
@@ -501,16 +496,31 @@ static void face_transport(float *img, const float *w, float *tmp, float *H) {
     haar_face_to_morton(img, CUBE_RES, H);
 }
 
-/* For each smooth face f (face_smooth): S[c * 6 + f] = sum over its m outside `in` of c_m H_m, and
- * H0[f] = H_0, the transport's integral over the face over 64 (orthonormal); H0[f] = 0 elsewhere.
- * w: the solid angle per texel; scratch: 3 x FACE floats. */
-static void smooth_faces(const float *const ch[3], const uint8_t *in, const float *w, float *scratch, float *S, float *H0) {
-    float *img = scratch, *tmp = scratch + FACE, *H = scratch + 2 * FACE;
+/* Which faces of a vector are smooth (face_smooth; bit f), and with want_H each smooth face's H into
+ * Hc + f * FACE (face_transport; w: the solid angle per texel). Neither depends on the selection, so
+ * it is done once per vector, before it: the prior's selection (prior_channel) and the smooth faces'
+ * correction (smooth_faces) read the same result. scratch: 2 x FACE floats. */
+static unsigned face_shapes(const float *const ch[3], const float *w, bool want_H, float *scratch, float *Hc) {
+    float *img = scratch, *tmp = scratch + FACE;
+    unsigned smooth = 0;
+    for (int f = 0; f < 6; f++) {
+        if (!face_smooth(ch, f, img, tmp)) continue;
+        smooth |= 1u << f;
+        if (want_H) face_transport(img, w, tmp, Hc + (size_t)f * FACE);
+    }
+    return smooth;
+}
+
+/* For each smooth face f (bit f of smooth, H at Hc + f * FACE: face_shapes): S[c * 6 + f] = sum over
+ * its m outside `in` of c_m H_m, and H0[f] = H_0, the transport's integral over the face over 64
+ * (orthonormal); H0[f] = 0 elsewhere. */
+static void smooth_faces(const float *const ch[3], const uint8_t *in, unsigned smooth, const float *Hc, float *S,
+                         float *H0) {
     for (int f = 0; f < 6; f++) {
         for (int c = 0; c < 3; c++) S[c * 6 + f] = 0;
         H0[f] = 0;
-        if (!face_smooth(ch, f, img, tmp)) continue;
-        face_transport(img, w, tmp, H);
+        if (!(smooth >> f & 1)) continue;
+        const float *H = Hc + (size_t)f * FACE;
         H0[f] = H[0];
         const uint8_t *out = in + (size_t)f * FACE;
         for (int c = 0; c < 3; c++) {
@@ -551,10 +561,10 @@ static void smooth_adjust(const float *S, const float *H0, unsigned mask, float 
 }
 
 /* With t->solid_angle, the block correction of every channel and face (block_integrals), and with
- * smooth_faces theirs on the smooth faces (smooth_adjust), into adj[3][6][16]; zeros without.
- * scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask, then at 3 x FACE smooth_faces'. */
+ * smooth_faces theirs on the smooth faces (smooth_adjust; shape, Hc: face_shapes'), into adj[3][6][16];
+ * zeros without. scratch: FACE floats for w, then CUBE_TEXELS bytes for the kept mask. */
 static void block_corrections(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n,
-                              float *scratch, float *adj) {
+                              unsigned shape, const float *Hc, float *scratch, float *adj) {
     memset(adj, 0, 3 * 6 * 16 * sizeof *adj);
     if (!t->solid_angle) return;
     int b = t->block_level;
@@ -564,7 +574,7 @@ static void block_corrections(const prt_transport *t, const float *const ch[3], 
     float S[18] = { 0 }, H0[6] = { 0 };
     unsigned kept0 = 0, smooth = 0;
     if (t->smooth_faces) {   /* first: the faces it corrects need no block integrals */
-        smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
+        smooth_faces(ch, kept, shape, Hc, S, H0);
         for (int f = 0; f < 6; f++) kept0 |= (unsigned)kept[(size_t)f * FACE] << f;
         smooth = smooth_mask(H0, kept0);
     }
@@ -579,9 +589,9 @@ static void block_corrections(const prt_transport *t, const float *const ch[3], 
 /* Why (shared budget): which candidates a vector keeps is known only at transport_finish, so its block
  * correction is split: what the coefficients outside its candidates drop is fixed now (blk, per
  * channel, face and block, and the smooth faces' S and H_0 after the norm; finish adds the candidates
- * it drops). scratch as block_corrections'. */
+ * it drops). shape, Hc and scratch as block_corrections'. */
 static void block_stage(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n,
-                        float *scratch, float *blk) {
+                        unsigned shape, const float *Hc, float *scratch, float *blk) {
     int b = t->block_level;
     PRT_CHECK(b >= 0 && b <= TRANSPORT_BLOCK_LEVEL_MAX);
     uint8_t *kept = (uint8_t *)(void *)(scratch + FACE);
@@ -593,7 +603,7 @@ static void block_stage(const prt_transport *t, const float *const ch[3], const 
             for (int B = 0; B < 16; B++) blk[(c * 6 + f) * 16 + B] = (float)E[B];
         }
     float *S = blk + TRANSPORT_BLK + 1, *H0 = S + 18;
-    if (t->smooth_faces) smooth_faces(ch, kept, t->tables->w, scratch + 3 * FACE, S, H0);
+    if (t->smooth_faces) smooth_faces(ch, kept, shape, Hc, S, H0);
     else memset(S, 0, 24 * sizeof *S);
 }
 
@@ -620,19 +630,46 @@ static void keep_minimum(prt_transport *t, int i, int n, uint64_t *order) {
     for (int q = 0; q < m && q < t->budget_min; q++) t->stage_key[o + (UINT32_MAX - (uint32_t)order[q])] = FLT_MAX;
 }
 
+/* transport_store's scratch (transport_scratch_size): the selection's keys (2 x CUBE_TEXELS floats) and
+ * idx (CUBE_TEXELS), W (2 x FACE floats), wc (3 x CUBE_TEXELS: the weights, then the corrections'
+ * scratch) and Hc (CUBE_TEXELS: face_shapes' H). */
+typedef struct store_scratch {
+    float *keys, *W, *wc, *Hc;
+    uint32_t *idx;
+} store_scratch;
+
+static store_scratch scratch_of(void *scratch) {
+    store_scratch sc = { .keys = scratch };
+    sc.idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
+    sc.W = (float *)(void *)(sc.idx + CUBE_TEXELS);
+    sc.wc = sc.W + 2 * FACE;
+    sc.Hc = sc.wc + 3 * CUBE_TEXELS;
+    return sc;
+}
+
+/* The faces' shapes into *shape and sc->Hc (face_shapes, when the prior's selection or the smooth
+ * correction reads them), then the selection of vector ch into sc->idx and sc->keys. Returns how many
+ * candidates. */
+static int select_vector(const prt_transport *t, const float *const ch[3], const store_scratch *sc, unsigned *shape) {
+    bool want_H = t->solid_angle && t->smooth_faces;
+    *shape = t->prior || want_H ? face_shapes(ch, t->tables->w, want_H, sc->W, sc->Hc) : 0;
+    return t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(ch[0], ch[1], ch[2], t, *shape, sc->idx, sc->keys, sc->wc)
+                                                  : sparse_select(ch[0], ch[1], ch[2], CUBE_TEXELS, t->N, sc->idx, sc->keys);
+}
+
 /* Shared budget: stages vector i's t->N best candidates (by the selection weight, unquantized) with
  * their weights (RELATIVE: over the vector's total) for transport_finish. Returns the squared norm of
  * the coefficients outside them. */
 static double store_candidates(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
-    float *keys = scratch;
-    uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
-    float *W = (float *)(void *)(idx + CUBE_TEXELS), *wc = W + 2 * FACE;
-    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, W, wc)
-                                                   : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
+    const float *ch[3] = { r, g, b };
+    store_scratch sc = scratch_of(scratch);
+    float *keys = sc.keys;
+    uint32_t *idx = sc.idx;
+    unsigned shape;
+    int n = select_vector(t, ch, &sc, &shape);
     double total = 0, err = 0;   /* keys[0 .. CUBE_TEXELS) hold the weights' float bits (sparse.h) */
     if (t->budget_kind == TRANSPORT_BUDGET_RELATIVE)
         for (int j = 0; j < CUBE_TEXELS; j++) total += key_at(keys, j);
-    const float *ch[3] = { r, g, b };
     size_t o = (size_t)i * t->N;
     for (int k = 0; k < n; k++) {
         double e = key_at(keys, (int)idx[k]);
@@ -652,7 +689,7 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
         if (!cand) err += e;
     }
     t->stage_blk[(size_t)i * TRANSPORT_STAGE + TRANSPORT_BLK] = (float)norm;
-    if (t->solid_angle) block_stage(t, ch, idx, n, wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
+    if (t->solid_angle) block_stage(t, ch, idx, n, shape, sc.Hc, sc.wc, t->stage_blk + (size_t)i * TRANSPORT_STAGE);
     return err;
 }
 
@@ -660,15 +697,13 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     PRT_CHECK(t->stage_count && i >= 0 && i < t->nvecs);
     if (t->budget) return store_candidates(t, i, r, g, b, scratch);
-    float *keys = scratch;
-    uint32_t *idx = (uint32_t *)(void *)((char *)scratch + 2 * CUBE_TEXELS * sizeof(float));
-    float *W = (float *)(void *)(idx + CUBE_TEXELS);
-    float *wc = W + 2 * FACE;
-    int n = t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(r, g, b, t, idx, keys, W, wc)
-                                                   : sparse_select(r, g, b, CUBE_TEXELS, t->N, idx, keys);
     const float *ch[3] = { r, g, b };
+    store_scratch sc = scratch_of(scratch);
+    uint32_t *idx = sc.idx;
+    unsigned shape;
+    int n = select_vector(t, ch, &sc, &shape);
     float adj[3 * 6 * 16];
-    block_corrections(t, ch, idx, n, wc, adj);   /* wc is free once selected */
+    block_corrections(t, ch, idx, n, shape, sc.Hc, sc.wc, adj);   /* wc is free once selected */
     float *val = t->stage_val + (size_t)i * t->N * 3;
     uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
     int qmax = qmax_of(t->qbits);
