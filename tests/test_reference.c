@@ -24,6 +24,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #define PI 3.14159265358979323846
 
@@ -489,7 +490,7 @@ static void determinism_and_errors(void) {
     snprintf(path, sizeof path, "%s/v.csv", check_tmpdir());
     float rgb[6] = { 1, 2, 3, 4, 5, 6 }, se2[6] = { 0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f };
     uint8_t facing[2] = { 1, 0 };
-    CHECK(ref_write_vertex_csv(path, rgb, se2, facing, 2, &err) == 0, "%s", err.msg);
+    CHECK(ref_write_vertex_csv(path, NULL, rgb, se2, facing, 2, &err) == 0, "%s", err.msg);
     FILE *f = fopen(path, "r");
     char buf[256] = { 0 };
     if (f) { size_t got = fread(buf, 1, sizeof buf - 1, f); buf[got] = 0; fclose(f); }
@@ -511,6 +512,75 @@ static bool parse_metrics(const char *out, double *rel_rmse, double *max_rel) {
     *rel_rmse = atof(p + 9);
     *max_rel = atof(q + 12);
     return true;
+}
+
+/* Line of a per-vertex CSV (text) for vertex id, copied into line (without its newline); false if absent. */
+static bool csv_line(const char *text, int id, char *line, size_t cap) {
+    char key[32];
+    int kn = snprintf(key, sizeof key, "\n%d,", id);
+    const char *p = text ? strstr(text, key) : NULL;
+    if (!p) return false;
+    p++;
+    size_t n = strcspn(p, "\n");
+    snprintf(line, cap, "%.*s", (int)(n < cap ? n : cap - 1), p);
+    return kn > 0;
+}
+
+/* prt reference --vertex-list: the listed vertices only, each the same row as in the full run (its
+ * samples are seeded by the vertex id), 4x the samples halving its standard error; bad lists refused. */
+static void cli_vertex_list(const char *dir, const char *prt) {
+    char path[512], cmd[4096], out[8192];
+    static const int ids[3] = { 3, 5, 17 };
+    snprintf(path, sizeof path, "%s/list.csv", dir);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("vertex,r,g,b\n17,0,0,0\n3,0,0,0\n5,0,0,0\n", f);
+        fclose(f);
+    }
+    for (int pass = 0; pass < 2; pass++) {
+        snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr --no-image --vertices %s/sub%d.csv "
+                 "--vertex-list %s --vertex-spp %d --quiet", prt, dir, dir, dir, pass, path, pass ? 4096 : 1024);
+        int rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "reference --vertex-list (rc %d): %s", rc, out);
+    }
+    char p0[512], p1[512], pr[512], a[256], b[256], c[256];
+    snprintf(p0, sizeof p0, "%s/sub0.csv", dir);
+    snprintf(p1, sizeof p1, "%s/sub1.csv", dir);
+    snprintf(pr, sizeof pr, "%s/ref.csv", dir);
+    size_t len;
+    char *t0 = check_read_file(p0, &len), *t1 = check_read_file(p1, &len), *tr = check_read_file(pr, &len);
+    int lines = 0;
+    for (const char *q = t0; q && *q; q++) lines += *q == '\n';
+    CHECK(lines == 4, "header and 3 rows, got %d lines", lines);
+    double se0 = 0, se1 = 0;
+    for (int i = 0; i < 3; i++) {
+        bool ok = csv_line(t0, ids[i], a, sizeof a) && csv_line(tr, ids[i], b, sizeof b) && csv_line(t1, ids[i], c, sizeof c);
+        CHECK(ok && !strcmp(a, b), "vertex %d: listed row '%s' equals the full run's '%s'", ids[i], a, b);
+        double v[7], w[7];
+        if (ok && sscanf(a, "%*d,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3], &v[4], &v[5], &v[6]) == 7 &&
+            sscanf(c, "%*d,%lf,%lf,%lf,%lf,%lf,%lf,%lf", &w[0], &w[1], &w[2], &w[3], &w[4], &w[5], &w[6]) == 7)
+            for (int k = 3; k < 6; k++) { se0 += v[k]; se1 += w[k]; }
+    }
+    CHECK(se0 > 0 && se1 / se0 > 0.4 && se1 / se0 < 0.62, "4x the samples: standard error x%.3f (1/2 expected)", se0 > 0 ? se1 / se0 : -1);
+    free(t0);
+    free(t1);
+    free(tr);
+    /* A vertex the scene does not have: exit 1, one line naming the list, no output. */
+    f = fopen(path, "w");
+    if (f) {
+        fputs("vertex,r,g,b\n3,0,0,0\n100000,0,0,0\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr --no-image --vertices %s/sub2.csv --vertex-list %s --quiet",
+             prt, dir, dir, dir, path);
+    int rc = check_run(cmd, out, sizeof out);
+    snprintf(p0, sizeof p0, "%s/sub2.csv", dir);
+    const char *nl = strchr(out, '\n');
+    CHECK(rc == 1 && strstr(out, "list.csv") && strstr(out, "out of range") && (!nl || !nl[1]) && access(p0, F_OK) != 0,
+          "out-of-range list (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/x.exr --vertex-list %s", prt, dir, dir, dir, path);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "--vertices"), "--vertex-list without --vertices (rc %d): %s", rc, out);
 }
 
 static void cli(void) {
@@ -569,6 +639,7 @@ static void cli(void) {
     snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/x.exr --spp 0", prt, dir, dir, dir);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 2 && strstr(out, "--spp"), "bad --spp (rc %d): %s", rc, out);
+    cli_vertex_list(dir, prt);
 }
 
 int main(int argc, char **argv) {

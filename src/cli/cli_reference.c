@@ -7,6 +7,7 @@
  * `prt compare` can measure PRT's error against it (reference.h). */
 #include "cli.h"
 #include "cli_args.h"
+#include "compare.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
@@ -35,6 +36,9 @@ static void help(void) {
          "                          errors: vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing (facing 0:\n"
          "                          the normal faces away from the eye, radiance 0, left out by compare)\n"
          "  --vertex-spp N          samples per vertex (default: --spp)\n"
+         "  --vertex-list CSV       trace only the vertices a per-vertex CSV lists (its vertex column, as\n"
+         "                          --vertices here or prt render --vertices write): many samples where\n"
+         "                          the reference is noisy (a contact shadow) at a fraction of the time\n"
          "  --no-image              only the per-vertex CSV (needs --vertices; -o not needed)\n"
          "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
          "  --seed S                random seed (default 1); results are deterministic per seed\n"
@@ -47,7 +51,7 @@ static void help(void) {
 
 /* What the command line asked for. */
 typedef struct reference_args {
-    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out;
+    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *vert_list;
     int w, h, spp, vspp, bounces, nthreads;
     unsigned long long seed;
     bool background, quiet, no_image;
@@ -65,6 +69,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
         CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
+        CLI_S("--vertex-list", &a->vert_list),
         CLI_B("--no-background", &no_background), CLI_B("--no-image", &a->no_image), CLI_B("--quiet", &a->quiet),
         CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24),
         CLI_I("--vertex-spp", &a->vspp, 1, 1 << 24), CLI_I("--bounces", &a->bounces, -1, 1000),
@@ -84,6 +89,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     if (!a->in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (a->no_image && !a->vert_out) { cli_error(k_cmd, "--no-image needs --vertices OUT.csv"); return 2; }
+    if (a->vert_list && !a->vert_out) { cli_error(k_cmd, "--vertex-list needs --vertices OUT.csv"); return 2; }
     if (!a->no_image && !a->out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
     if (cli_check_view_flags(k_cmd, a->layout, a->cam_s) || cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
     if (!a->no_image && cli_check_output(k_cmd, a->out, CLI_OUT_IMAGE)) return 2;
@@ -91,11 +97,32 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     return -1;
 }
 
+/* The vertex ids --vertex-list names, each checked against the mesh's n vertices, into *ids
+ * (malloc'd, ascending) and *count; without --vertex-list all n (ids NULL). -1 with err. */
+static int vertex_list(const reference_args *a, int n, int **ids, int *count, prt_error *err) {
+    *ids = NULL;
+    *count = n;
+    if (!a->vert_list) return 0;
+    cmp_vertices vl;
+    if (cmp_read_vertex_csv(a->vert_list, &vl, err)) return -1;
+    if (vl.ids[vl.n - 1] >= n) {
+        prt_fail(err, "%s: vertex %d out of range: the scene has %d vertices", a->vert_list, vl.ids[vl.n - 1], n);
+        cmp_vertices_free(&vl);
+        return -1;
+    }
+    *ids = vl.ids; /* taken over: the rest is freed */
+    *count = vl.n;
+    vl.ids = NULL;
+    cmp_vertices_free(&vl);
+    return 0;
+}
+
 /* --vertices: per-vertex radiance toward the eye with standard errors, and whether each vertex
- * faces the eye, as CSV. -1 with err. */
+ * faces the eye, as CSV (the --vertex-list ones, else all). -1 with err. */
 static int vertices(ref_ctx *ref, const prt_mesh *m, const float eye[3], const ref_desc *rd, const reference_args *a,
                     prt_bar *bar, prt_error *err) {
-    int n = m->nverts, rc = -1;
+    int n, *ids, rc = -1;
+    if (vertex_list(a, m->nverts, &ids, &n, err)) return -1;
     float *rgb = malloc(sizeof(float) * 3 * (size_t)n), *se = malloc(sizeof(float) * 3 * (size_t)n);
     uint8_t *facing = malloc((size_t)(n > 0 ? n : 1));
     ref_desc vd = *rd;
@@ -103,15 +130,16 @@ static int vertices(ref_ctx *ref, const prt_mesh *m, const float eye[3], const r
     vd.stage = "reference vertices";
     ref_stats st;
     if (!rgb || !se || !facing) prt_fail(err, "out of memory");
-    else if (ref_render_vertices(ref, eye, NULL, n, &vd, rgb, se, &st, err) == 0) {
+    else if (ref_render_vertices(ref, eye, ids, n, &vd, rgb, se, &st, err) == 0) {
         prt_bar_done(bar);
-        for (int v = 0; v < n; v++) facing[v] = ref_vertex_faces(m, v, eye);
-        rc = ref_write_vertex_csv(a->vert_out, rgb, se, facing, n, err);
+        for (int i = 0; i < n; i++) facing[i] = ref_vertex_faces(m, ids ? ids[i] : i, eye);
+        rc = ref_write_vertex_csv(a->vert_out, ids, rgb, se, facing, n, err);
     } else prt_bar_done(bar);
     if (rc == 0)
         fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", a->vert_out,
                 n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
                 st.dropped ? " (non-finite samples dropped)" : "");
+    free(ids);
     free(rgb);
     free(se);
     free(facing);

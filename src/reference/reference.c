@@ -697,7 +697,7 @@ int ref_render_image(const ref_ctx *rc, const prt_camera *cam, int w, int h, con
 }
 
 /* Writes the per-vertex CSV (see header). */
-int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, const uint8_t *facing, int n,
+int ref_write_vertex_csv(const char *path, const int *ids, const float *rgb, const float *se, const uint8_t *facing, int n,
                          prt_error *err) {
     char tmp[4096];
     FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
@@ -707,7 +707,7 @@ int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, co
         const float *c = rgb + 3 * (size_t)v;
         float z[3] = { 0, 0, 0 };
         const float *e = se ? se + 3 * (size_t)v : z;
-        fprintf(f, "%d,%.8g,%.8g,%.8g,%.8g,%.8g,%.8g,%d\n", v, c[0], c[1], c[2], e[0], e[1], e[2],
+        fprintf(f, "%d,%.8g,%.8g,%.8g,%.8g,%.8g,%.8g,%d\n", ids ? ids[v] : v, c[0], c[1], c[2], e[0], e[1], e[2],
                 facing ? facing[v] != 0 : 1);
     }
     return prt_atomic_commit(f, tmp, path, err);

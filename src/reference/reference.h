@@ -101,8 +101,9 @@ void ref_env_radiance(const ref_ctx *rc, const float w[3], float rgb[3]);
  * defined for a one-sided surface; ref_render_vertices gives exactly 0 for the others. */
 bool ref_vertex_faces(const prt_mesh *m, int v, const float eye[3]);
 
-/* Writes "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing" atomically (se NULL: zeros; facing NULL:
- * all 1). The facing column lets prt compare leave out back-facing vertices (compare.h). */
-int ref_write_vertex_csv(const char *path, const float *rgb, const float *se, const uint8_t *facing, int n,
+/* Writes "vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing" atomically, row i for vertex ids[i]
+ * (ids NULL: i; se NULL: zeros; facing NULL: all 1). The facing column lets prt compare leave out
+ * back-facing vertices (compare.h). */
+int ref_write_vertex_csv(const char *path, const int *ids, const float *rgb, const float *se, const uint8_t *facing, int n,
                          prt_error *err);
 #endif
