@@ -21,20 +21,24 @@ static void prior_add(const prt_probe *p, const transfer_config *cfg, double yaw
         for (int ch = 0; ch < 3; ch++) acc[3 * i + ch] += (double)L[i][ch] * L[i][ch];
 }
 
-/* acc (mean squares) -> w: square roots over the largest, plus floor x the channel's RMS weight.
- * Returns false when every weight is zero. */
-static bool prior_finish(const double *acc, float floor, float (*w)[4]) {
-    double mx = 0, ms[3] = { 0 };
+/* The largest of the 3 x CUBE_TEXELS mean squares a, or 0 when none is positive and finite: no light. */
+static double prior_largest(const double *a) {
+    double mx = 0;
     for (int i = 0; i < 3 * CUBE_TEXELS; i++)
-        if (acc[i] > mx) mx = acc[i];
-    if (!(mx > 0) || !isfinite(mx)) return false;
+        if (a[i] > mx) mx = a[i];
+    return mx > 0 && isfinite(mx) ? mx : 0;
+}
+
+/* acc (mean squares, the probes' sum, each over its own largest: prior_orbit, so the largest is at
+ * least 1) -> w: square roots over the largest, plus floor x the channel's RMS weight. */
+static void prior_finish(const double *acc, float floor, float (*w)[4]) {
+    double mx = prior_largest(acc), ms[3] = { 0 };
     for (int i = 0; i < CUBE_TEXELS; i++)
         for (int ch = 0; ch < 3; ch++) ms[ch] += acc[3 * i + ch] / mx / CUBE_TEXELS;
     for (int i = 0; i < CUBE_TEXELS; i++) {
         for (int ch = 0; ch < 3; ch++) w[i][ch] = (float)(sqrt(acc[3 * i + ch] / mx) + floor * sqrt(ms[ch]));
         w[i][3] = 0;
     }
-    return true;
 }
 
 /* Adds probe p's mean squared light vector over its yaw orbit, over its own largest, to acc:
@@ -52,11 +56,8 @@ static int prior_orbit(const prt_probe *p, const transfer_config *cfg, int steps
         if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", f))
             rc = prt_fail(err, "cancelled");
     }
-    double mx = 0;
-    for (int i = 0; rc == 0 && i < 3 * CUBE_TEXELS; i++)
-        if (one[i] > mx) mx = one[i];
-    if (rc == 0 && (!(mx > 0) || !isfinite(mx)))
-        rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
+    double mx = rc == 0 ? prior_largest(one) : 0;
+    if (rc == 0 && mx == 0) rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
     for (int i = 0; rc == 0 && i < 3 * CUBE_TEXELS; i++) acc[i] += one[i] / mx;
     free(one);
     free(cube);
@@ -74,7 +75,7 @@ int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc,
     double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
     int rc = acc ? 0 : -1;
     for (int j = 0; j < n && rc == 0; j++) rc = prior_orbit(ps[j], &cfg, steps, desc, (double)j / n, (j + 1.0) / n, acc, err);
-    if (rc == 0 && !prior_finish(acc, floor, w)) rc = prt_fail(err, "light prior: the probe has no light (every coefficient is zero)");
+    if (rc == 0) prior_finish(acc, floor, w);
     free(acc);
     return rc;
 }

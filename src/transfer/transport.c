@@ -316,7 +316,8 @@ static void prior_channel(const float *c, const float (*prior)[4], int ch, int q
     float mx = 0;
     for (int j = 0; j < CUBE_TEXELS; j++)
         if (isfinite(c[j]) && fabsf(c[j]) > mx) mx = fabsf(c[j]);
-    double step = qbits == 32 ? 0 : mx / (qbits == 16 ? 32767.0 : 127.0), e2 = step * step;
+    int qmax = qmax_of(qbits);   /* 0: float, no rounding */
+    double step = qmax ? (double)mx / qmax : 0, e2 = step * step;
     for (int j = 0; j < CUBE_TEXELS; j++) {
         double d = (double)c[j] * c[j] - (smooth >> (j / FACE) & 1 ? e2 : 0);
         w[j] = !isfinite(c[j]) ? c[j] : d > 0 ? (float)(sqrt(d) * prior[j][ch]) : 0.f;
