@@ -4,6 +4,7 @@
  * over the sun's turn, is well below the level prior's (the exact T.L: the sum over texels). */
 #include "harness.h"
 #include "cubemap.h"
+#include "image.h"
 #include "light.h"
 #include "prior.h"
 #include "probe.h"
@@ -244,17 +245,66 @@ static void prior_flag(void) {
     CHECK(brc == 1 && strstr(buf, "prior-nothere.exr") && strchr(buf, '\n') == buf + strlen(buf) - 1,
           "a missing scene probe: exit %d, %s", brc, buf);
     CHECK(access(outp, F_OK) != 0, "no output file");
-    static const struct { const char *flags; bool prior; } k[] = { { "", true }, { "--no-light-prior", false },
-                                                                   { "--select magnitude", false } };
-    for (int q = 0; q < 3; q++) {
+    static const struct { const char *flags; bool prior, rays; } k[] = {
+        { "", true, true }, { "--no-light-prior", false, false }, { "--select magnitude", false, false },
+        { "--box-texels", true, false } };
+    for (int q = 0; q < 4; q++) {
         snprintf(cmd, sizeof cmd, "%s precompute %s -o %s %s 2>&1 && %s info %s", check_prt_bin(), json, outp, k[q].flags,
                  check_prt_bin(), outp);
         int rc = check_run(cmd, buf, sizeof buf);
         CHECK(rc == 0, "exit status %d: %s", rc, buf);
         bool named = strstr(buf, "light prior: prior-sky.exr,prior-sky.exr turned about +y") != NULL;
         CHECK(named == k[q].prior, "'%s': the plan %s it: %s", k[q].flags, k[q].prior ? "names" : "does not name", buf);
-        CHECK(q < 2 || strstr(buf, "light_prior is not used") != NULL, "a note says why: %s", buf);
+        CHECK(q != 2 || strstr(buf, "light_prior is not used") != NULL, "a note says why: %s", buf);
+        bool rays = strstr(buf, "light-weighted texels: the prior's") != NULL;
+        CHECK(rays == k[q].rays, "'%s': the plan %s light-weighted texels: %s", k[q].flags, k[q].rays ? "names" : "has no", buf);
     }
+}
+
+/* Light-weighted texels (prior.h): two point lights 0.7 degree apart inside one texel of a black
+ * 2048 x 1024 probe, one three times the other. Every ray must lie in that texel, and, the rays
+ * being the light's stratified quantiles, 3/4 of them (48 of 64, +-1 for the quantiles' grid)
+ * nearer the brighter light. A constant probe has no texel over the share: no rays. */
+static void weighted_texels(void) {
+    prt_error err;
+    const int W = 2048, H = 1024, t = 3 * CUBE_RES * CUBE_RES + 40 * CUBE_RES + 21;   /* +y face, (21, 40) */
+    float a[3], b[3];
+    cube_dir(CUBE_RES, t / (CUBE_RES * CUBE_RES), 21.25f, 40.5f, a);
+    cube_dir(CUBE_RES, t / (CUBE_RES * CUBE_RES), 21.75f, 40.5f, b);
+    prt_image img;
+    CHECK(image_alloc(&img, W, H, 3, &err) == 0, "%s", err.msg);
+    memset(img.data, 0, sizeof(float) * 3 * W * H);
+    const float *dir[2] = { a, b };
+    for (int k = 0; k < 2; k++) {   /* latlong: u = 1/2 + atan2(x, -z) / 2 pi, v = acos(y) / pi (probe.c) */
+        const float *d = dir[k];
+        int x = (int)((0.5 + atan2(d[0], -d[2]) / (2 * M_PI)) * W), y = (int)(acos(d[1]) / M_PI * H);
+        for (int c = 0; c < 3; c++) img.data[3 * ((size_t)y * W + x) + c] = k == 0 ? 3e4f : 1e4f;
+    }
+    prt_probe p;
+    CHECK(probe_from_image(&img, PROBE_LATLONG, "two-lights", &p, &err) == 0, "%s", err.msg);
+    prior_rays *r = calloc(1, sizeof *r);
+    const prt_probe *pp = &p;
+    CHECK(prior_rays_from_probes(&pp, 1, r, &err) == 0, "%s", err.msg);
+    CHECK(r->n >= 1 && r->texel[0] == t, "the lights' texel first: %d texels, first %d", r->n, r->texel[0]);
+    int inside = 0, near_a = 0;
+    for (int m = 0; m < PRIOR_RAYS; m++) {
+        const float *d = r->dir[0][m];
+        inside += cube_texel_index(CUBE_RES, d) == t;
+        double da = acos(fmin(1, d[0] * a[0] + d[1] * a[1] + d[2] * a[2])), db = acos(fmin(1, d[0] * b[0] + d[1] * b[1] + d[2] * b[2]));
+        near_a += da < db;
+    }
+    printf("  %d texel(s); %d of %d rays inside the texel, %d nearer the brighter light (3/4: 48)\n", r->n, inside, PRIOR_RAYS, near_a);
+    CHECK(inside == PRIOR_RAYS, "every ray in its texel: %d", inside);
+    CHECK(abs(near_a - 3 * PRIOR_RAYS / 4) <= 1, "rays as the light: %d nearer the brighter", near_a);
+    probe_free(&p);
+    prt_probe c;
+    const float grey[3] = { 1, 1, 1 };
+    CHECK(probe_make_constant(grey, &c, &err) == 0, "%s", err.msg);
+    pp = &c;
+    CHECK(prior_rays_from_probes(&pp, 1, r, &err) == 0 && r->n == 0, "a constant probe: %d texels", r->n);
+    CHECK(prior_rays_from_probes(&pp, 0, r, &err) == -1, "no probe is refused");
+    probe_free(&c);
+    free(r);
 }
 
 int main(int argc, char **argv) {
@@ -264,5 +314,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(black_probe);
     CHECK_CASE(orbit_selection);
     CHECK_CASE(prior_flag);
+    CHECK_CASE(weighted_texels);
     return check_summary();
 }

@@ -47,11 +47,14 @@ static void help(void) {
          "                         list weighs each probe the same. A JSON scene's \"light_prior\"\n"
          "                         key names its own (used unless this flag or the next says otherwise)\n"
          "  --no-light-prior       not the scene's light_prior: the per-level weights\n"
+         "  --box-texels           with a light prior, integrate every lighting texel over its area (default: the\n"
+         "                         prior's brightest texels along rays placed as its light lies inside them)\n"
          "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
          "                         weighted by the transport on faces with no occluder edge, steadier\n"
          "                         on an open floor under a turning sun)\n"
          "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default\n"
-         "                         up to 500,000 vectors, then vector: its staging and time)\n"
+         "                         up to 500,000 vectors, then vector: its staging and time; vector\n"
+         "                         with a light prior)\n"
          "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
          "                         edge's more, smooth ones fewer; at most the same storage); vector:\n"
          "                         each vector its own N (the paper's); relative: shared, weights over\n"
@@ -195,8 +198,8 @@ static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap
 /* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into *w
  * (light_alloc'd: the caller frees it), pd and name[cap] (pd->light_prior_name points there), its
  * time said on stderr. Returns the exit status (1 or 2: said why). */
-static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap,
-                       double *secs) {
+static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,
+                       char *name, size_t cap, double *secs) {
     double t0 = prt_now();
     prt_probe ps[PRIOR_MAX_PROBES];
     memset(ps, 0, sizeof ps);
@@ -210,11 +213,16 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
     *w = n > 0 ? light_alloc() : NULL;
     int rc = n < 0 ? status : !*w ? cli_error(k_cmd, "light prior: out of memory") : 0;
     if (!rc && prior_from_probes(pp, n, &d, *w, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
+    if (!rc && !pd->box_texels) {   /* the light-weighted texels: where its probes, unturned, have their light */
+        *rays = prt_calloc(1, sizeof **rays, &err);
+        if (!*rays || prior_rays_from_probes(pp, n, *rays, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
+    }
     prt_bar_done(&bar);
     for (int j = 0; j < PRIOR_MAX_PROBES; j++) probe_free(&ps[j]);
     if (rc) return rc;
     pd->light_prior = (const float (*)[4]) * w;
     pd->light_prior_name = name;
+    pd->prior_rays = *rays;
     *secs += prt_now() - t0;
     if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", paths, PRIOR_STEPS, prt_now() - t0);
     return 0;
@@ -224,14 +232,14 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
  * --no-light-prior: computed as --light-prior's into *w (the caller frees it), or, where the selection
  * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
  * Returns the exit status. */
-static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], char *name, size_t cap,
-                       double *secs) {
+static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,
+                       char *name, size_t cap, double *secs) {
     if (!s->light_prior[0] || pd->light_prior) return 0;
     if (pd->select != TRANSPORT_SELECT_EXPECTED) {
         if (!quiet) fprintf(stderr, "note: the scene's light_prior is not used (it weighs the expected-error selection)\n");
         return 0;
     }
-    return light_prior(s->light_prior, pd, quiet, w, name, cap, secs);
+    return light_prior(s->light_prior, pd, quiet, w, rays, name, cap, secs);
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
@@ -250,12 +258,14 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         pd->shard = sh;
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
         float (*w)[4] = NULL;   /* every rank computes the same prior (prior.h: deterministic) */
+        prior_rays *rays = NULL;
         char name[1024];
         double t0 = prt_now(), t_prior = 0;   /* the timing summary's total counts the prior */
-        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, name, sizeof name, &t_prior) : 0;
+        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, &rays, name, sizeof name, &t_prior) : 0;
         if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, !prior_path && !no_prior, t0, t_prior, &stray);
         else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
         free(w);
+        free(rays);
     }
     shard_destroy(sh, stray);
     return rc;
@@ -287,9 +297,11 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
     float (*w)[4] = NULL;   /* the scene's prior; every rank computes the same (prior.h) */
+    prior_rays *rays = NULL;
     char pname[1024];
-    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, pname, sizeof pname, &t_prior))) {
+    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, &rays, pname, sizeof pname, &t_prior))) {
         free(w);
+        free(rays);
         scene_free(&scene);
         *stray = shard_size(pd->shard) > 1;
         return st;
@@ -313,7 +325,9 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     memset(&data, 0, sizeof data);
     int prc = precompute_run(&scene, pd, &data, &err);
     free(w);   /* the prior is read by the passes only (precompute.h) */
+    free(rays);
     pd->light_prior = use_scene_prior ? NULL : pd->light_prior;
+    pd->prior_rays = use_scene_prior ? NULL : pd->prior_rays;
     if (prc) {
         prt_bar_done(&bar);
         scene_free(&scene);
@@ -384,6 +398,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
         CLI_B("--no-smooth-faces", &no_smooth),
+        CLI_B("--box-texels", &pd.box_texels),
         CLI_S("--select", &select),
         CLI_S("--budget", &budget),
         CLI_S("--light-prior", &prior),

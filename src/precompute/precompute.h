@@ -103,6 +103,12 @@ typedef struct precompute_desc {
                              * selection's weight per coefficient and channel, [CUBE_TEXELS][4] (prior.h:
                              * a probe's RMS light over its yaw orbit; BORROWED, read during the run) */
     const char *light_prior_name; /* what the plan calls it (the probe's file name); NULL: "given" */
+    const struct prior_rays *prior_rays; /* NULL, or the light-weighted texels (prior.h): the direct pass integrates
+                             * each of these texels along the light inside it rather than over its box
+                             * (BORROWED, read during the run; the direct pass of the projected bases, Haar or
+                             * SH, a vMF material's diffuse part included, not its lobes) */
+    bool box_texels;        /* for the CLI: make no prior_rays from the light prior (--box-texels); the library
+                             * reads prior_rays only */
     bool smooth_faces;      /* Haar with the solid-angle measure: a face of a vector with no occluder edge gets its
                              * dropped part back weighted by the transport, not per block (transport.h
                              * smooth_faces; what `prt precompute` asks for unless --no-smooth-faces) */
@@ -110,7 +116,8 @@ typedef struct precompute_desc {
                              * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
                              * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N
                              * (README "Shadows"); PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for unless
-                             * --budget says): shared up to PRECOMPUTE_SHARED_MAX_VECS vectors, else per vector */
+                             * --budget says): per vector with a light_prior, else shared up to
+                             * PRECOMPUTE_SHARED_MAX_VECS vectors, else per vector */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */

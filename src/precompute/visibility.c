@@ -266,6 +266,31 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
     if (hits) *hits = nh;
 }
 
+/* See visibility.h: packets of 16 from vis_cube's origin, lanes below the horizon left out. */
+long vis_open_many(const vis_scene *vs, const float p[3], const float n[3], const float *dirs, int count, uint8_t *open) {
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTC_ALIGN(64) struct RTCRay16 r;
+    RTC_ALIGN(64) int valid[16];
+    vis_packet_origin(&r, p, n, vs->eps);
+    long nt = 0;
+    for (int b = 0; b < count; b += 16) {
+        int nvalid = 0;
+        for (int l = 0; l < 16; l++) {
+            const float *d = dirs + 3 * (size_t)(b + l);
+            const bool up = b + l < count && d[0] * n[0] + d[1] * n[1] + d[2] * n[2] > 0;
+            valid[l] = up ? -1 : 0;
+            nvalid += up;
+            r.dir_x[l] = up ? d[0] : 0; r.dir_y[l] = up ? d[1] : 0; r.dir_z[l] = up ? d[2] : 1;
+            r.tfar[l] = INFINITY;
+        }
+        if (nvalid) rtcOccluded16(valid, vs->scene, &ctx, &r);
+        nt += nvalid;
+        for (int l = 0; l < 16 && b + l < count; l++) open[b + l] = (uint8_t)(valid[l] && r.tfar[l] >= 0);
+    }
+    return nt;
+}
+
 /* One closest-hit query; false (and hit->tri = -1) on a miss. */
 bool vis_closest(const vis_scene *vs, const float org[3], const float dir[3], float tnear, float tfar, vis_hit *hit) {
     struct RTCIntersectContext ctx;

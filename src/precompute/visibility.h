@@ -54,6 +54,9 @@ float vis_eps(const vis_scene *vs);
 
 /* Occlusion cube map at res (see header). traced/hits (may be NULL) get ray counts. */
 void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, uint8_t *vis, long *traced, long *hits);
+/* open[i] = 1 when ray i of dirs[3 count] (unit) escapes from p as vis_cube's rays do (same
+ * origin offset), 0 when blocked or when n.d <= 0 (not traced). Returns the rays traced. */
+long vis_open_many(const vis_scene *vs, const float p[3], const float n[3], const float *dirs, int count, uint8_t *open);
 /* First hit along org + t dir, t in (tnear, tfar). Returns true on a hit. */
 bool vis_closest(const vis_scene *vs, const float org[3], const float dir[3], float tnear, float tfar, vis_hit *hit);
 /* Closest hits for n rays at once (packets of 16). dirs [3n]; all from one origin. */

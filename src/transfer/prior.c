@@ -8,6 +8,7 @@
 #include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* Adds the squared light vector of p turned by yaw (degrees, about +y) to acc[CUBE_TEXELS * 3].
  * cube: [CUBE_TEXELS][3] scratch; L: a light vector. */
@@ -83,4 +84,76 @@ int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc,
 /* See prior.h. */
 int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], prt_error *err) {
     return prior_from_probes(&p, 1, desc, w, err);
+}
+
+/* Rec. 709 luminance: what "a probe's light" means for choosing where rays go. */
+static double prior_lum(const float *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+
+/* Adds probe p's share of its light per lighting texel (L Omega over its sum) to share[CUBE_TEXELS].
+ * cube: [CUBE_TEXELS][3] scratch; fa: one face's texel solid angles. Returns the sum (0: no light). */
+static double prior_ray_shares(const prt_probe *p, float *cube, const float *fa, double *share) {
+    const int F = CUBE_RES * CUBE_RES;
+    probe_to_cube(p, CUBE_RES, NULL, 0, cube);
+    double tot = 0;
+    for (int i = 0; i < CUBE_TEXELS; i++) tot += prior_lum(cube + 3 * i) * fa[i % F];
+    if (!(tot > 0) || !isfinite(tot)) return 0;
+    for (int i = 0; i < CUBE_TEXELS; i++) share[i] += prior_lum(cube + 3 * i) * fa[i % F] / tot;
+    return tot;
+}
+
+/* Texel t's PRIOR_RAYS directions into out->dir[k]: the probes' light (each over its sum tot[j], 0:
+ * skipped) on a PRIOR_RAY_GRID^2 grid of the texel, times each cell's solid angle (the gnomonic
+ * Jacobian), read at the stratified quantiles (m + 1/2) / PRIOR_RAYS. cw: PRIOR_RAY_GRID^2 scratch. */
+static void prior_ray_texel(const prt_probe *const *ps, int n, const double *tot, int t, double *cw, prior_rays *out,
+                            int k) {
+    const int F = CUBE_RES * CUBE_RES, G = PRIOR_RAY_GRID, f = t / F, i = t % F % CUBE_RES, j = t % F / CUBE_RES;
+    double sum = 0;
+    for (int c = 0; c < G * G; c++) {
+        float d[3], rgb[3];
+        double x = i + (c % G + 0.5) / G, y = j + (c / G + 0.5) / G;
+        double sc = 2 * x / CUBE_RES - 1, tc = 2 * y / CUBE_RES - 1, q = 1 + sc * sc + tc * tc;
+        cube_dir(CUBE_RES, f, (float)x, (float)y, d);
+        double l = 0;
+        for (int p = 0; p < n; p++) {
+            if (tot[p] <= 0) continue;
+            probe_eval(ps[p], d, rgb);
+            l += prior_lum(rgb) / tot[p];
+        }
+        cw[c] = l / (q * sqrt(q));
+        sum += cw[c];
+    }
+    out->texel[k] = t;
+    out->omega[k] = (float)cube_texel_solid_angle(CUBE_RES, i, j);
+    double run = 0;
+    int c = 0;
+    for (int m = 0; m < PRIOR_RAYS; m++) {
+        double u = (m + 0.5) / PRIOR_RAYS * sum;   /* sum > 0: the texel was chosen for its light */
+        while (c < G * G - 1 && run + cw[c] < u) run += cw[c++];
+        cube_dir(CUBE_RES, f, i + (c % G + 0.5f) / G, j + (c / G + 0.5f) / G, out->dir[k][m]);
+    }
+}
+
+/* See prior.h. */
+int prior_rays_from_probes(const prt_probe *const *ps, int n, prior_rays *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    if (n < 1) return prt_fail(err, "light prior: no probe");
+    double *share = prt_calloc((size_t)CUBE_TEXELS, sizeof *share, err);
+    double *tot = share ? prt_calloc((size_t)n, sizeof *tot, err) : NULL;
+    double *cw = tot ? prt_calloc((size_t)PRIOR_RAY_GRID * PRIOR_RAY_GRID, sizeof *cw, err) : NULL;
+    float *cube = cw ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
+    float *fa = cube ? prt_calloc((size_t)CUBE_RES * CUBE_RES, sizeof *fa, err) : NULL;
+    if (!fa) { free(share); free(tot); free(cw); free(cube); return -1; }
+    cube_face_solid_angles(CUBE_RES, fa);
+    for (int p = 0; p < n; p++) tot[p] = prior_ray_shares(ps[p], cube, fa, share);
+    while (out->n < PRIOR_RAY_TEXELS) {   /* the brightest left, while it holds its share */
+        int best = 0;
+        for (int t = 1; t < CUBE_TEXELS; t++)
+            if (share[t] > share[best]) best = t;
+        if (!(share[best] >= PRIOR_RAY_SHARE)) break;
+        share[best] = -1;
+        prior_ray_texel(ps, n, tot, best, cw, out, out->n);
+        out->n++;
+    }
+    free(share); free(tot); free(cw); free(cube); free(fa);
+    return 0;
 }

@@ -58,4 +58,43 @@ int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], 
  * largest (each probe counts the same), summed, then as above. Returns 0, or -1 with err (any
  * probe with no light, n < 1, cancelled, out of memory). */
 int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prt_error *err);
+
+/* Light-weighted texels: the prior's light inside its brightest lighting texels, for the direct pass.
+ *
+ *     prior_rays *pr = prt_calloc(1, sizeof *pr, &err);     // caller owns; plain struct, no pointers
+ *     if (prior_rays_from_probes(pps, n, pr, &err)) puts(err.msg);
+ *     precompute_desc d = { ..., .prior_rays = pr };        // precompute.h: the direct pass reads it
+ *
+ * Why (issue 10, README "Shadows"). The runtime's light is a texel mean L_j and the transport a
+ * texel integral a_j = sum over sub-texels of V (n.w) dw (Eq. 3), so the product L_j a_j is right
+ * only where L or V is flat inside the texel. A 0.53-degree sun inside a 1.4-degree texel, where an
+ * occluder's edge crosses it, is neither: the floor's penumbra vertices came out 20-25% too bright or
+ * too dark whatever the budget, the visibility resolution (--vis-res 256) or the coefficient count
+ * (4,096 in float). If instead a_j = Omega_j E[V (n.w)] with w drawn as the light inside texel j,
+ * then L_j a_j = integral over j of L V (n.w) dw exactly when the light inside j is the prior's, and
+ * stays a convex mix of the texel's visibility (as the box filter is) when it is not. The rays go
+ * where the prior's probes, unturned, have their light: with the light turned, the sun sits in other
+ * texels, which keep the box filter, as without this.
+ *
+ * Which texels: those holding at least PRIOR_RAY_SHARE of a probe's light (its energy sum L Omega,
+ * luminance), at most PRIOR_RAY_TEXELS, brightest first; several probes count each over its own
+ * total. Inside a texel the light is read on a PRIOR_RAY_GRID^2 grid (probe_eval, weighted by the
+ * grid cell's solid angle) and PRIOR_RAYS directions are placed at the stratified quantiles
+ * (m + 1/2) / PRIOR_RAYS of that distribution, so each ray stands for the same share of the light.
+ * Deterministic. A probe whose light is spread out (no texel over the share) gives none. */
+#define PRIOR_RAY_TEXELS 16      /* at most; a sun and its glow take 2-6 at 64^2 */
+#define PRIOR_RAYS 64            /* per texel: 1/64 of the texel's light each */
+#define PRIOR_RAY_SHARE 0.005    /* of a probe's light */
+#define PRIOR_RAY_GRID 128       /* 0.011-degree cells on a 1.4-degree texel */
+
+typedef struct prior_rays {
+    int n;                                   /* texels */
+    int texel[PRIOR_RAY_TEXELS];             /* lighting texel index (CUBE_RES cube) */
+    float omega[PRIOR_RAY_TEXELS];           /* its solid angle */
+    float dir[PRIOR_RAY_TEXELS][PRIOR_RAYS][3]; /* unit directions, distributed as the light inside it */
+} prior_rays;
+
+/* The light-weighted texels of probes ps[0..n-1] (above) into *out. Returns 0, or -1 with err
+ * (n < 1, out of memory). */
+int prior_rays_from_probes(const prt_probe *const *ps, int n, prior_rays *out, prt_error *err);
 #endif
