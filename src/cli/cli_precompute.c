@@ -196,8 +196,9 @@ static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap
 }
 
 /* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into *w
- * (light_alloc'd: the caller frees it), pd and name[cap] (pd->light_prior_name points there), its
- * time said on stderr. Returns the exit status (1 or 2: said why). */
+ * (light_alloc'd: the caller frees it), unless pd->box_texels their light-weighted texels into *rays
+ * (the caller frees it too), pd and name[cap] (pd->light_prior_name points there), its time said on
+ * stderr. Returns the exit status (1 or 2: said why). */
 static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,
                        char *name, size_t cap, double *secs) {
     double t0 = prt_now();
@@ -229,7 +230,7 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
 }
 
 /* The scene's own "light_prior" (scene.h) when the command line named none and did not say
- * --no-light-prior: computed as --light-prior's into *w (the caller frees it), or, where the selection
+ * --no-light-prior: computed as --light-prior's into *w and *rays (the caller frees both), or, where the selection
  * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
  * Returns the exit status. */
 static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,

@@ -414,6 +414,9 @@ static int json_lights(json_ctx *c, const cJSON *root, prt_scene *s) {
     return 0;
 }
 
+#define SCENE_STR_(x) #x
+#define SCENE_STR(x) SCENE_STR_(x)   /* a limit spelt in an error from its one definition */
+
 /* The optional top-level "light_prior": a probe path or an array of them (relative to the JSON's
  * folder), comma-joined into s->light_prior for precompute's --light-prior (prior.h). A path with a
  * comma, an empty one or more than SCENE_MAX_PRIOR_PROBES are refused: the list is comma-joined. */
@@ -421,7 +424,7 @@ static int json_light_prior(json_ctx *c, const cJSON *root, prt_scene *s) {
     const cJSON *lp = cJSON_GetObjectItemCaseSensitive(root, "light_prior");
     if (!lp) return 0;
     c->where[0] = 0;
-    const char *want = "a probe path or an array of 1 to 16 probe paths";
+    const char *want = "a probe path or an array of 1 to " SCENE_STR(SCENE_MAX_PRIOR_PROBES) " probe paths";
     int n = cJSON_IsArray(lp) ? cJSON_GetArraySize(lp) : 1;
     if (n < 1 || n > SCENE_MAX_PRIOR_PROBES) return jfail_type(c, "light_prior", want);
     const cJSON *it = cJSON_IsArray(lp) ? lp->child : lp;   /* one path: the loop's single item */
