@@ -190,7 +190,8 @@ static void orbit_selection(void) {
 /* `prt precompute --light-prior`: with --select magnitude, or a list with an empty name, a usage
  * error (2); a probe that is not an image, alone or in a list, a data error (1); each one line and
  * no output. A JSON scene's "light_prior" of two probes is used and named in the plan, but not with
- * --no-light-prior, nor with --select magnitude (a note says why). */
+ * --no-light-prior, nor with --select magnitude (a note says why). The plan names its light-weighted
+ * texels, but not with --box-texels, which without a prior gets a note. */
 static void prior_flag(void) {
     char probe[512], notimg[512], obj[512], outp[512], cmd[4096], buf[8192];
     snprintf(obj, sizeof obj, "%s/prior-squares.obj", check_tmpdir());
@@ -245,17 +246,18 @@ static void prior_flag(void) {
     CHECK(brc == 1 && strstr(buf, "prior-nothere.exr") && strchr(buf, '\n') == buf + strlen(buf) - 1,
           "a missing scene probe: exit %d, %s", brc, buf);
     CHECK(access(outp, F_OK) != 0, "no output file");
-    static const struct { const char *flags; bool prior, rays; } k[] = {
-        { "", true, true }, { "--no-light-prior", false, false }, { "--select magnitude", false, false },
-        { "--box-texels", true, false } };
-    for (int q = 0; q < 4; q++) {
+    static const struct { const char *flags; bool prior, rays; const char *note; } k[] = {
+        { "", true, true, NULL }, { "--no-light-prior", false, false, NULL },
+        { "--select magnitude", false, false, "light_prior is not used" }, { "--box-texels", true, false, NULL },
+        { "--no-light-prior --box-texels", false, false, "--box-texels changes nothing without a light prior" } };
+    for (int q = 0; q < 5; q++) {
         snprintf(cmd, sizeof cmd, "%s precompute %s -o %s %s 2>&1 && %s info %s", check_prt_bin(), json, outp, k[q].flags,
                  check_prt_bin(), outp);
         int rc = check_run(cmd, buf, sizeof buf);
         CHECK(rc == 0, "exit status %d: %s", rc, buf);
         bool named = strstr(buf, "light prior: prior-sky.exr,prior-sky.exr turned about +y") != NULL;
         CHECK(named == k[q].prior, "'%s': the plan %s it: %s", k[q].flags, k[q].prior ? "names" : "does not name", buf);
-        CHECK(q != 2 || strstr(buf, "light_prior is not used") != NULL, "a note says why: %s", buf);
+        CHECK(!k[q].note || strstr(buf, k[q].note) != NULL, "'%s': a note says why: %s", k[q].flags, buf);
         bool rays = strstr(buf, "light-weighted texels: the prior's") != NULL;
         CHECK(rays == k[q].rays, "'%s': the plan %s light-weighted texels: %s", k[q].flags, k[q].rays ? "names" : "has no", buf);
     }

@@ -308,6 +308,8 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
         return st;
     }
 
+    if (!quiet && pd->box_texels && !pd->light_prior)
+        fprintf(stderr, "note: --box-texels changes nothing without a light prior (every texel is box-filtered)\n");
     int ranks = shard_size(pd->shard);
     if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
     if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
