@@ -9,6 +9,9 @@
 #   SHADOWS_QUICK=1 tools/shadows.sh ...                  the study's reduced case: bunny reduced to
 #                                                         6,000 vertices, 4,096-vertex floor (a minute)
 #   SHADOWS_PROBE=forest                                  another probe (default city)
+#   SHADOWS_DIR=build/shadows-refine                      another folder, so another reference: needed where the
+#                                                         flags change the mesh (--refine), since the reference is
+#                                                         kept per folder and read by vertex id
 # The full case with `--light-prior ../shared/data/probes/city.exr` is data/bunny-shadows.json at its
 # defaults (the same file but for its recorded timings; README "Shadows").
 # The reference (4,096 samples per vertex, 65,536 in the shadow region, 256 per pixel at 400x300) is
@@ -19,12 +22,12 @@ DATA=${PRT_DATA:-../shared/data}
 P=${SHADOWS_PROBE:-city}
 [ -f "$DATA/models/stanford-bunny.obj" ] && [ -f "$DATA/probes/$P.exr" ] || { echo "shadows: $DATA (PRT_DATA) has no bunny or $P.exr" >&2; exit 1; }
 if [ "${SHADOWS_QUICK:-0}" = 1 ]; then
-  W=build/shadows-quick; FLOOR=4096
+  W=${SHADOWS_DIR:-build/shadows-quick}; FLOOR=4096
   mkdir -p $W
   [ -f $W/bunny.obj ] || /usr/bin/python3 "$(dirname "$0")/study_mesh.py" "$DATA/models/stanford-bunny.obj" $W/bunny.obj 6000 >/dev/null
   OBJ=$W/bunny.obj
 else
-  W=build/shadows; FLOOR=31000; OBJ=$DATA/models/stanford-bunny.obj
+  W=${SHADOWS_DIR:-build/shadows}; FLOOR=31000; OBJ=$DATA/models/stanford-bunny.obj
   mkdir -p $W
 fi
 tag=$(echo "default $*" | tr -c 'A-Za-z0-9.\n-' '_' | sed 's/_*$//')
