@@ -104,8 +104,6 @@ static double schlick(double f0, double c) {
     return f0 + (1 - f0) * m2 * m2 * m;
 }
 
-static double luminance(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
-
 /* ---------------------------------------------------------------- evaluation */
 
 /* f_r per channel, no cosine; zero below the horizon. Symmetric in (wi, wo). */
@@ -188,7 +186,7 @@ typedef struct brdf_mix {
 /* Fills the mixture weights (sum 1) for wo (wo.z > 0). */
 static void mix_init(const brdf_params *p, const float wo[3], brdf_mix *m) {
     memset(m, 0, sizeof *m);
-    double wd = luminance(p->kd), total;
+    double wd = prt_luminance(p->kd), total;
     m->n = 1;
     switch (p->type) {
     case BRDF_LAMBERT: break;
@@ -200,7 +198,7 @@ static void mix_init(const brdf_params *p, const float wo[3], brdf_mix *m) {
     case BRDF_GGX:
     case BRDF_BECKMANN:
         m->n = 2;
-        m->w[1] = luminance(p->ks);
+        m->w[1] = prt_luminance(p->ks);
         break;
     case BRDF_LAFORTUNE:
         m->n = 1 + p->nlobes;

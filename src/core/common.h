@@ -79,4 +79,10 @@ void prt_path_ext(const char *path, char ext[16]);
 /* Allocation that reports failure through err: returns NULL and fills err. */
 void *prt_calloc(size_t count, size_t size, prt_error *err);
 
+/* Rec. 709 luminance of linear RGB: what "how much light" means wherever one figure must weigh a
+ * colour (importance, merge weights, lobe order). In double, and in float where a caller's figures are
+ * float (the same expression, so either gives what its caller computed before sharing it). */
+static inline double prt_luminance(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
+static inline float prt_luminancef(const float c[3]) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
+
 #endif

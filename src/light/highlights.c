@@ -36,8 +36,6 @@ static double hl_rand(uint64_t *s)
 /* 1/phi: the Kronecker sequence frac(i / phi) spreads any number of points evenly over [0, 1). */
 #define HL_GOLDEN 0.61803398874989484820
 
-static double hl_lum(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
-
 /* The final gather of a hit's diffuse part: w kd/pi cos I / r^2 V / S for each light, one shadow ray each. */
 static void hl_diffuse(const hl_scene *sc, const prt_light *lights, int nl, const float q[3], const float nq[3],
                        int mq, const float w[3], int S, float out[3], hl_stats *st)
@@ -91,7 +89,7 @@ static int hl_gather(const hl_scene *sc, int S, const float p[3], const float n[
         hl_diffuse(sc, lights, nl, it->q, it->nq, mq, w, S, dout, st);
         if (!lightmat_lobe(sc->lm, mq, it->nq, ms, &it->g, aq)) continue;
         for (int k = 0; k < 3; k++) it->c[k] = w[k] * aq[k];
-        it->w = hl_lum(it->c);
+        it->w = prt_luminance(it->c);
         if (!(it->w > 0)) continue;
         m++;
     }

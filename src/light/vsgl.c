@@ -7,13 +7,11 @@
 #include <math.h>
 #include <string.h>
 
-static double lum(const float c[3]) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
-
 /* Section 2.1-2.2's sums, each VPL weighted by the luminance of Phi_i R_i. */
 void vsgl_accum_add(vsgl_accum *a, const float x[3], const float axis[3], float sharpness, const float phi_r[3],
                     float area)
 {
-    double w = lum(phi_r);
+    double w = prt_luminance(phi_r);
     if (!(w > 0)) return;
     double t = sharpness / (sharpness + 1.0);     /* Toksvig: the mean length of the normalized SG */
     for (int k = 0; k < 3; k++) {

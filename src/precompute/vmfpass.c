@@ -23,8 +23,6 @@
 #define VP_DIFFUSE_RAYS 64
 #define VP_MAX_ITEMS_PER_HIT (VMFT_MAX_LOBES + 1)
 
-static float lum3(const float a[3]) { return 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2]; }
-
 /* One thing to merge: a mean unnormalized direction r (Eq. 2), weight w, colour c. */
 typedef struct vp_item { float r[3]; float w; float c[3]; float kappa; int cluster; } vp_item;
 
@@ -176,13 +174,13 @@ static bool vp_merge(const vp_item *it, int n, int k, vmf_lobe *l, float a[3]) {
     double m[3] = { r[0] / w, r[1] / w, r[2] / w };
     vmf_from_mean(m, l);
     for (int ch = 0; ch < 3; ch++) a[ch] = (float)c[ch];
-    return lum3(a) > 0;
+    return prt_luminancef(a) > 0;
 }
 
 /* Sorts n lobes by decreasing luminance (the runtime's correspondence between views, vmf.h). */
 static void vp_sort(vmf_lobe *l, float (*a)[3], int n) {
     for (int i = 1; i < n; i++)
-        for (int k = i; k > 0 && lum3(a[k]) > lum3(a[k - 1]); k--) {
+        for (int k = i; k > 0 && prt_luminancef(a[k]) > prt_luminancef(a[k - 1]); k--) {
             vmf_lobe tl = l[k];
             l[k] = l[k - 1], l[k - 1] = tl;
             for (int ch = 0; ch < 3; ch++) { float x = a[k][ch]; a[k][ch] = a[k - 1][ch], a[k - 1][ch] = x; }
@@ -223,7 +221,7 @@ static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32
     vmf_lobe L;
     float A[3];
     vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, g, &L, A);
-    *e = lum3(A);
+    *e = prt_luminancef(A);
     int S = c->S, nb = 0;
     vp_samples(&L, (uint32_t)v, (uint32_t)j, S, th->dirs);
     int nr = vp_trace(c, th, p, n, S);
@@ -250,7 +248,7 @@ static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32
     vp_sort(l, a, k);
     vp_pack(l, (const float (*)[3])a, c->I, w);
     *e = 0;
-    for (int q = 0; q < k; q++) *e += lum3(a[q]);
+    for (int q = 0; q < k; q++) *e += prt_luminancef(a[q]);
     return true;
 }
 
@@ -300,7 +298,7 @@ static double vp_open_slice(const vp_ctx *c, int v, int j) {
     vmf_lobe L;
     float A[3];
     vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], c->m->nrm + 3 * (size_t)v, geogrid_dir(c->t->grid, j), &L, A);
-    return lum3(A);
+    return prt_luminancef(A);
 }
 
 /* The checkpoint blob of glossy vertex gi (CKPT_PASS_VMF): energy, active views and its stored
@@ -455,7 +453,7 @@ static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const
         double mu[3] = { 0, 0, 0 }, kap = 0, aw = 0, al[3] = { 0, 0, 0 };
         for (int k = 0; k < 3; k++) {
             const float *d = c->dlobe[tri[k]];
-            double x = b[k] * lum3(d + 4);
+            double x = b[k] * prt_luminancef(d + 4);
             for (int q = 0; q < 3; q++) mu[q] += x * d[q], al[q] += b[k] * d[4 + q];
             kap += x * d[3], aw += x;
         }
@@ -467,11 +465,11 @@ static int vp_hit_items(const vp_ctx *c, const vis_hit *h, const float *s, const
     }
     int ni = 0;
     for (int i = 0; i < nlb; i++) {
-        if (!(lum3(a[i]) > 0)) continue;
+        if (!(prt_luminancef(a[i]) > 0)) continue;
         vp_item *it = &out[ni++];
         double r = vmf_mean_length(l[i].kappa);
         for (int q = 0; q < 3; q++) it->r[q] = (float)(r * l[i].mu[q]), it->c[q] = A[q] * a[i][q] / (float)c->S;
-        it->w = lum3(it->c), it->kappa = l[i].kappa, it->cluster = 0;
+        it->w = prt_luminancef(it->c), it->kappa = l[i].kappa, it->cluster = 0;
     }
     return ni;
 }
@@ -492,7 +490,7 @@ static double vp_gather_merge(const vp_ctx *c, vp_item *it, int ni, uint32_t *w)
     if (broad >= 0) vp_merge(it, ni, broad, &l[broad], a[broad]);
     vp_pack(l, (const float (*)[3])a, I, w);
     double e = 0;
-    for (int q = 0; q < I; q++) e += lum3(a[q]);
+    for (int q = 0; q < I; q++) e += prt_luminancef(a[q]);
     return e;
 }
 
@@ -559,7 +557,7 @@ static void vp_diffuse_vertex(const vp_ctx *c, vp_thread *th, int v) {
     float *out = c->dlobe[v];
     const float *kd = c->in->scene->materials[c->m->mat[v]].kd, *n = c->m->nrm + 3 * (size_t)v;
     memset(out, 0, 7 * sizeof(float));
-    if (!(lum3(kd) > 0)) return;
+    if (!(prt_luminancef(kd) > 0)) return;
     float s[3], t[3];
     brdf_frame(n, s, t);
     uint64_t h = splitmix(~(uint64_t)v);

@@ -93,8 +93,6 @@ static uint64_t mix64(uint64_t z) {
 
 /* ---------- environment ---------- */
 
-static float luminance(const float c[3]) { return 0.2126f * c[0] + 0.7152f * c[1] + 0.0722f * c[2]; }
-
 /* Probe-frame direction of continuous latlong coordinates (u, cos theta) (probe.h's convention:
  * u = 0.5 + atan2(d.x, -d.z) / 2pi, v = acos(d.y) / pi). */
 static void latlong_dir(double u, double cos_t, float d[3]) {
@@ -154,7 +152,7 @@ static void env_luminance(const ref_ctx *rc, bool use_pixels, float *lum) {
                 latlong_dir((x + 0.5) / ew, cos(REF_PI * (y + 0.5) / eh), d);
                 probe_eval(p, d, c);
             }
-            float l = luminance(c);
+            float l = prt_luminancef(c);
             /* Any positive channel must give a positive weight (a pure blue light has tiny luminance). */
             float mx = fmaxf(c[0], fmaxf(c[1], c[2]));
             lum[(size_t)y * ew + x] = isfinite(l) && mx > 0 ? fmaxf(l, 1e-3f * mx) : 0.f;

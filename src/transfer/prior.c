@@ -86,18 +86,15 @@ int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], 
     return prior_from_probes(&p, 1, desc, w, err);
 }
 
-/* Rec. 709 luminance: what "a probe's light" means for choosing where rays go. */
-static double prior_lum(const float *c) { return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]; }
-
 /* Adds probe p's share of its light per lighting texel (L Omega over its sum) to share[CUBE_TEXELS].
  * cube: [CUBE_TEXELS][3] scratch; fa: one face's texel solid angles. Returns the sum (0: no light). */
 static double prior_ray_shares(const prt_probe *p, float *cube, const float *fa, double *share) {
     const int F = CUBE_RES * CUBE_RES;
     probe_to_cube(p, CUBE_RES, NULL, 0, cube);
     double tot = 0;
-    for (int i = 0; i < CUBE_TEXELS; i++) tot += prior_lum(cube + 3 * i) * fa[i % F];
+    for (int i = 0; i < CUBE_TEXELS; i++) tot += prt_luminance(cube + 3 * i) * fa[i % F];
     if (!(tot > 0) || !isfinite(tot)) return 0;
-    for (int i = 0; i < CUBE_TEXELS; i++) share[i] += prior_lum(cube + 3 * i) * fa[i % F] / tot;
+    for (int i = 0; i < CUBE_TEXELS; i++) share[i] += prt_luminance(cube + 3 * i) * fa[i % F] / tot;
     return tot;
 }
 
@@ -117,7 +114,7 @@ static void prior_ray_texel(const prt_probe *const *ps, int n, const double *tot
         for (int p = 0; p < n; p++) {
             if (tot[p] <= 0) continue;
             probe_eval(ps[p], d, rgb);
-            l += prior_lum(rgb) / tot[p];
+            l += prt_luminance(rgb) / tot[p];
         }
         cw[c] = l / (q * sqrt(q));
         sum += cw[c];

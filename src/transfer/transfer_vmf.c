@@ -18,8 +18,6 @@
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 #define VMFT_MAX_SAMPLES 4096
 
-static float lum3(const float a[3]) { return 0.2126f * a[0] + 0.7152f * a[1] + 0.0722f * a[2]; }
-
 /* ---- the data ------------------------------------------------------------------------- */
 
 const vmft_data *vmft_get(const prt_transfer *tr) {
@@ -162,7 +160,7 @@ void vmft_brdf_lobe(const lobefit_table *fit, const float n[3], const float wo[3
 typedef struct interp_acc { double alpha[3], mu[3], kappa, a; } interp_acc;
 
 static void acc_add(interp_acc *acc, const vmf_lobe *l, const float alpha[3], double w) {
-    double a = w * lum3(alpha);
+    double a = w * prt_luminancef(alpha);
     for (int c = 0; c < 3; c++) acc->alpha[c] += w * alpha[c], acc->mu[c] += a * l->mu[c];
     acc->kappa += a * l->kappa;
     acc->a += a;
@@ -243,7 +241,7 @@ void vmft_interp(const vmft_data *t, const prt_mesh *m, int n, const int *vert, 
 /* Adds sum alpha E(mu, kappa) over lobes to rgb. */
 static void add_lobes(const prefilter_env *env, const vmf_lobe *l, const float (*a)[3], int n, float rgb[3]) {
     for (int i = 0; i < n; i++) {
-        if (!(lum3(a[i]) > 0)) continue;
+        if (!(prt_luminancef(a[i]) > 0)) continue;
         float e[3];
         prefilter_lookup(env, l[i].mu, l[i].kappa, e);
         for (int k = 0; k < 3; k++) rgb[k] += a[i][k] * e[k];
