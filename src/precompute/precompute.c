@@ -203,17 +203,16 @@ static void pc_weighted_texels(const pc_ctx *c, pc_scratch *s, const float p[3],
     for (int k = 0; k < c->rays->n; k++) {
         uint8_t open[PRIOR_RAYS];
         const float (*d)[3] = c->rays->dir[k];
-        long nt = vis_open_many(c->vs, p, n, &d[0][0], PRIOR_RAYS, open);
+        long nt = vis_open_many(c->vs, p, n, &d[0][0], PRIOR_RAYS, open), opened = 0;
         double a = 0;
-        long shut = 0;
-        for (int m = 0; m < PRIOR_RAYS; m++) {
-            float nd = n[0] * d[m][0] + n[1] * d[m][1] + n[2] * d[m][2];
-            if (nd > 0 && open[m]) a += nd;
-            shut += nd > 0 && !open[m];
-        }
+        for (int m = 0; m < PRIOR_RAYS; m++)   /* open only where traced, so n.w > 0 there */
+            if (open[m]) {
+                a += n[0] * d[m][0] + n[1] * d[m][1] + n[2] * d[m][2];
+                opened++;
+            }
         s->acc[c->rays->texel[k]] = (float)(a * c->rays->omega[k] / PRIOR_RAYS);
         vs->traced += nt;
-        vs->hits += shut;
+        vs->hits += nt - opened;
     }
 }
 

@@ -99,24 +99,23 @@ static double prior_ray_shares(const prt_probe *p, float *cube, const float *fa,
 }
 
 /* Texel t's PRIOR_RAYS directions into out->dir[k]: the probes' light (each over its sum tot[j], 0:
- * skipped) on a PRIOR_RAY_GRID^2 grid of the texel, times each cell's solid angle (the gnomonic
- * Jacobian), read at the stratified quantiles (m + 1/2) / PRIOR_RAYS. cw: PRIOR_RAY_GRID^2 scratch. */
+ * skipped) on a PRIOR_RAY_GRID^2 grid of the texel, times each cell's exact solid angle (a texel of
+ * the CUBE_RES x PRIOR_RAY_GRID cube), read at the stratified quantiles (m + 1/2) / PRIOR_RAYS.
+ * cw: PRIOR_RAY_GRID^2 scratch. */
 static void prior_ray_texel(const prt_probe *const *ps, int n, const double *tot, int t, double *cw, prior_rays *out,
                             int k) {
     const int F = CUBE_RES * CUBE_RES, G = PRIOR_RAY_GRID, f = t / F, i = t % F % CUBE_RES, j = t % F / CUBE_RES;
     double sum = 0;
     for (int c = 0; c < G * G; c++) {
         float d[3], rgb[3];
-        double x = i + (c % G + 0.5) / G, y = j + (c / G + 0.5) / G;
-        double sc = 2 * x / CUBE_RES - 1, tc = 2 * y / CUBE_RES - 1, q = 1 + sc * sc + tc * tc;
-        cube_dir(CUBE_RES, f, (float)x, (float)y, d);
+        cube_dir(CUBE_RES, f, i + (c % G + 0.5f) / G, j + (c / G + 0.5f) / G, d);
         double l = 0;
         for (int p = 0; p < n; p++) {
             if (tot[p] <= 0) continue;
             probe_eval(ps[p], d, rgb);
             l += prt_luminance(rgb) / tot[p];
         }
-        cw[c] = l / (q * sqrt(q));
+        cw[c] = l * cube_texel_solid_angle(CUBE_RES * G, i * G + c % G, j * G + c / G);
         sum += cw[c];
     }
     out->texel[k] = t;
