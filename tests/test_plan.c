@@ -88,6 +88,7 @@ static void lone_sphere(void) {
     CHECK(out.factors[0].K == 4, "glossy default K = 4, got %d", out.factors[0].K);
     CHECK(strstr(out.plan, "material 0 phong: K=4") != NULL, "plan: %s", out.plan);
     CHECK(strstr(out.plan, "estimate: direct pass") != NULL, "plan has a time estimate");
+    CHECK(strstr(out.plan, "known blocked") == NULL, "no floor, no floor shortcut: %s", out.plan);
     CHECK(sc.mesh.nverts == 0 && sc.mesh.pos == NULL, "scene moved into out");
     printf("--- plan for a lone sphere ---\n%s", out.plan);
     prt_data_free(&out);
@@ -107,6 +108,21 @@ static void forced_bounces(void) {
     CHECK(out.stats.bounces == 2, "forced: %d passes", out.stats.bounces);
     CHECK_LE(out.stats.bounce_energy[0], 1e-4, "a convex sphere reflects nothing onto itself");
     CHECK(strstr(out.plan, "forced") != NULL, "plan: %s", out.plan);
+    prt_data_free(&out);
+}
+
+/* With a floor the plan says its rays down are settled untraced (visibility.h; the maps' equality
+ * with tracing is visibility/floor_culling's). */
+static void floor_shortcut(void) {
+    prt_error err;
+    prt_scene sc;
+    prt_data out;
+    CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
+    CHECK(scene_add_floor(&sc, 256, 3, NULL, &err) == 0, "%s", err.msg);
+    precompute_desc d = base;
+    d.bounces = 0;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "rays down to the floor are known blocked") != NULL, "plan: %s", out.plan);
     prt_data_free(&out);
 }
 
@@ -378,6 +394,7 @@ int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lone_sphere);
     CHECK_CASE(forced_bounces);
+    CHECK_CASE(floor_shortcut);
     CHECK_CASE(lambert_only);
     CHECK_CASE(open_box);
     CHECK_CASE(terms);

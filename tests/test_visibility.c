@@ -280,6 +280,71 @@ static void errors(void) {
     }
 }
 
+/* vis_cull_floor against tracing every ray (the same Embree scene without it), byte for byte:
+ * a sphere on a floor, a second sphere overhanging the floor's edge (rays down from it cross the
+ * plane outside the floor), points below the floor, on its edge, and on it with a tilted normal
+ * (its origin within eps of the plane: rays down cross it before tnear, so Embree finds them
+ * open). With a hole cut in the floor the shortcut must turn itself off (rays through the hole
+ * escape). */
+static void floor_cull_case(prt_mesh *m, int ff, bool want_rect) {
+    prt_error err;
+    vis_scene *all = vis_create(m, &err), *cut = all ? vis_create(m, &err) : NULL;
+    CHECK(cut != NULL, "%s", err.msg);
+    if (!cut) { vis_destroy(all); return; }
+    vis_cull_floor(cut, m, ff);
+    CHECK(vis_culling(cut) == want_rect, "shortcut on: %d (want %d)", vis_culling(cut), want_rect);
+    const int res = 32, nx = 9;
+    uint8_t *a = malloc(6 * res * res), *b = malloc(6 * res * res);
+    const float extra[][6] = { { 0, -1, 0, 0, 1, 0 },        { 0, -1, 0, 0, -1, 0 },   { 4, 0, 4, 0, 1, 0 },
+                               { 3.9f, 0.01f, 0, 0, 1, 0 }, { 2, 0.3f, 1, 0.6f, 0.8f, 0 }, { 1, 2.5f, -1, 0, -1, 0 },
+                               { 0, 0, 0, 0.28f, 0.96f, 0 }, { -2, 0, 2, 0.96f, 0.28f, 0 } };
+    const int nextra = (int)(sizeof extra / sizeof extra[0]);
+    long differ = 0, blocked = 0, tested = 0;
+    for (int v = -nextra; v < m->nverts; v += v < 0 ? 1 : nx) {
+        const float *p = v < 0 ? extra[v + nextra] : m->pos + 3 * (size_t)v;
+        const float *n = v < 0 ? extra[v + nextra] + 3 : m->nrm + 3 * (size_t)v;
+        long ta, ha, tb, hb;
+        vis_cube(all, p, n, res, a, &ta, &ha);
+        vis_cube(cut, p, n, res, b, &tb, &hb);
+        differ += memcmp(a, b, 6 * res * res) != 0 || ta != tb || ha != hb;
+        blocked += ha;
+        tested++;
+    }
+    CHECK(differ == 0, "%ld of %ld vertices see otherwise with the shortcuts", differ, tested);
+    CHECK(blocked > 1000, "the case blocks rays (%ld)", blocked);
+    free(a);
+    free(b);
+    vis_destroy(all);
+    vis_destroy(cut);
+}
+
+static void floor_culling(void) {
+    prt_error err;
+    prt_mesh m = { 0 }, s2 = { 0 }, fl = { 0 };
+    const float c1[3] = { 0.5f, 1.0f, 0 }, c2[3] = { 4.5f, 1.2f, 0.5f };
+    CHECK(mesh_make_sphere(&m, c1, 0.9f, 16, 32, &err) == 0, "%s", err.msg);
+    CHECK(mesh_make_sphere(&s2, c2, 1.0f, 16, 32, &err) == 0, "%s", err.msg);
+    CHECK(mesh_append(&m, &s2, &err) == 0, "%s", err.msg);
+    const int ff = m.nverts;
+    CHECK(mesh_make_plane(&fl, -4, 4, -4, 4, 0, 17, 17, &err) == 0, "%s", err.msg);
+    CHECK(mesh_append(&m, &fl, &err) == 0, "%s", err.msg);
+    floor_cull_case(&m, ff, true);
+    /* a hole: drop the floor's triangles around (0.5, 0, 0) and the origin, under the first sphere */
+    int kept = 0;
+    for (int t = 0; t < m.ntris; t++) {
+        const uint32_t *tv = m.tris + 3 * (size_t)t;
+        const float *x = m.pos + 3 * (size_t)tv[0];
+        const bool hole = tv[0] >= (uint32_t)ff && fabsf(x[0] - 0.25f) < 0.8f && fabsf(x[2]) < 0.8f;
+        if (!hole) memmove(m.tris + 3 * (size_t)kept++, tv, 3 * sizeof *tv);
+    }
+    CHECK(kept < m.ntris, "the hole removed triangles");
+    m.ntris = kept;
+    floor_cull_case(&m, ff, false);
+    mesh_free(&m);
+    mesh_free(&s2);
+    mesh_free(&fl);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(texel_convention);
@@ -287,5 +352,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(closest);
     CHECK_CASE(threads);
     CHECK_CASE(errors);
+    CHECK_CASE(floor_culling);
     return check_summary();
 }

@@ -829,6 +829,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
+    vis_cull_floor(r->vs, m, r->out->scene.floor_first_vertex);
     for (int t = 0; t < r->nthreads; t++)
         if (pc_scratch_init(&r->scratch[t], R, r->kmax, err)) return -1;
     pc_ctx *c = &r->c;   /* lambert_g was filled by pc_factor */
@@ -980,6 +981,8 @@ static int pc_plan(pc_run *r, prt_error *err) {
     double est_direct = r->nsample ? r->t_sample / r->nsample * (m->nverts - r->nsample) : 0;
     plan_add(r->plan, r->pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
              r->d.vis_res, r->c.ss, r->c.ss, r->nsample, 100 * r->hit_sample);
+    if (vis_culling(r->vs))   /* visibility.h: exact, so the maps are those of tracing every ray */
+        plan_add(r->plan, r->pcap, "  visibility: rays down to the floor are known blocked, not traced (a flat floor with no hole)\n");
     plan_bounce_line(r);
     plan_local_lights(r);
     char e1[32], e2[32];

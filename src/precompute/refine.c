@@ -417,6 +417,7 @@ int refine_scene(prt_scene *s, const refine_desc *desc, refine_stats *stats, prt
     /* the input mesh stays untouched (its triangles shared with Embree) until the commit */
     vis_scene *vs = NULL;
     if (rf_init(c, s, &d, err) || !(vs = vis_create(&s->mesh, err))) goto done;
+    vis_cull_floor(vs, &s->mesh, s->floor_first_vertex);
     c->vs = vs;
     for (int level = 0; level < d.max_levels; level++) {
         if (c->m.nverts >= d.budget) { st.budget_hit = true; break; }   /* no room: trace nothing more */
