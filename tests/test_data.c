@@ -168,7 +168,8 @@ static void check_materials_floor(const char *name, const prt_scene *s, const ex
 /* ---------------------------------------------------------------- cases */
 
 static const char *const k_scenes[] = { "demo.json", "sphere-phong.json", "teapot-floor.json", "bunny-floor.json",
-                                        "spot-floor.json", "two-chrome-spheres.json", "bunny-shadows.json" };
+                                        "spot-floor.json", "two-chrome-spheres.json", "bunny-shadows.json",
+                                        "teapot-shadows.json" };
 #define NSCENES (int)(sizeof k_scenes / sizeof k_scenes[0])
 
 /* The scenes the README and later issues name are all there, every data/ JSON file is
@@ -320,7 +321,7 @@ static void shared_models(void) {
         sfmt(label, sizeof label, "%s (via %s)", k_scenes[i], g_shared);
         check_obj_scene(label, copy, &e);
     }
-    CHECK(with_obj == 4, "teapot, bunny (twice) and spot scenes name a shared model (%d)", with_obj);
+    CHECK(with_obj == 5, "teapot (twice), bunny (twice) and spot scenes name a shared model (%d)", with_obj);
     if (!g_shared[0]) printf("  ../shared/data not found (set PRT_DATA): shared models checked by their error only\n");
 }
 

@@ -639,6 +639,24 @@ static void cli(void) {
     snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/x.exr --spp 0", prt, dir, dir, dir);
     rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 2 && strstr(out, "--spp"), "bad --spp (rc %d): %s", rc, out);
+    snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/x.png --exposure dark", prt, dir, dir, dir);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 2 && strstr(out, "--exposure"), "bad --exposure (rc %d): %s", rc, out);
+    /* --exposure scales the radiance before the tone map, as prt render's: 3 stops down is darker */
+    double mean[2] = { 0, 0 };
+    for (int k = 0; k < 2; k++) {
+        snprintf(cmd, sizeof cmd, "%s reference %s/s.prt --probe %s/sky.exr -o %s/e%d.png --size 32x24 --spp 4 --exposure %d --quiet", prt,
+                 dir, dir, dir, k, -3 * k);
+        rc = check_run(cmd, out, sizeof out);
+        CHECK(rc == 0, "reference to PNG (rc %d): %s", rc, out);
+        snprintf(path, sizeof path, "%s/e%d.png", dir, k);
+        prt_image im = { 0 };
+        if (rc == 0 && image_read(path, &im, &err) == 0) {
+            for (int i = 0; i < im.c * im.w * im.h; i++) mean[k] += im.data[i] / ((double)im.c * im.w * im.h);
+            image_free(&im);
+        } else CHECK(0, "%s: %s", path, err.msg);
+    }
+    CHECK(mean[1] > 0.02 && mean[1] < 0.8 * mean[0], "--exposure -3: mean %g against %g at 0", mean[1], mean[0]);
     cli_vertex_list(dir, prt);
 }
 

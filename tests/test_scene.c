@@ -276,6 +276,15 @@ static void json_errors(void) {
     expect_fail("light_prior empty", "lp2.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": [] }", "light_prior: expected");
     expect_fail("light_prior comma", "lp3.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": \"a.exr,b.exr\" }", "light_prior");
     expect_fail("light_prior item", "lp4.json", "{ \"models\": [ { \"sphere\": {} } ], \"light_prior\": [\"a.exr\", 2] }", "light_prior");
+    expect_fail("refine type", "rf1.json", "{ \"models\": [ { \"sphere\": {} } ], \"refine\": 3 }", "refine: expected true/false or an object");
+    expect_fail("refine threshold", "rf2.json", "{ \"models\": [ { \"sphere\": {} } ], \"refine\": { \"threshold\": 1.5 } }",
+                "refine.threshold: expected a share");
+    expect_fail("refine budget", "rf3.json", "{ \"models\": [ { \"sphere\": {} } ], \"refine\": { \"budget\": 2.5 } }",
+                "refine.budget: expected an integer");
+    expect_fail("refine key", "rf4.json", "{ \"models\": [ { \"sphere\": {} } ], \"refine\": { \"levels\": 2 } }",
+                "unknown key 'levels'");
+    expect_fail("refine models", "rf5.json", "{ \"models\": [ { \"sphere\": {} } ], \"refine\": { \"models\": 1 } }",
+                "refine.models: expected true or false");
 }
 
 /* "light_prior" (scene.h): one path or an array, each relative to the JSON's folder (absolute kept),
@@ -296,6 +305,30 @@ static void light_prior_key(void) {
         const char *slash = strrchr(path, '/');
         snprintf(want, sizeof want, "%.*s%s", k[i].want[0] ? (int)(slash - path) : 0, path, k[i].want);   /* the folder, then */
         CHECK(strcmp(s.light_prior, want) == 0, "light_prior '%s', want '%s'", s.light_prior, want);
+        scene_free(&s);
+    }
+}
+
+/* "refine" (scene.h): true/false, or an object whose fields default to zero (refine.h's defaults). */
+static void refine_key(void) {
+    static const struct { const char *text; bool on; float thr; int budget; bool models; } k[] = {
+        { "{ \"models\": [ { \"sphere\": {} } ], \"refine\": true }", true, 0, 0, false },
+        { "{ \"models\": [ { \"sphere\": {} } ], \"refine\": false }", false, 0, 0, false },
+        { "{ \"models\": [ { \"sphere\": {} } ] }", false, 0, 0, false },
+        { "{ \"models\": [ { \"sphere\": {} } ], \"refine\": { \"threshold\": 0.02, \"budget\": 9000, \"models\": true } }", true,
+          0.02f, 9000, true },
+        { "{ \"models\": [ { \"sphere\": {} } ], \"refine\": {} }", true, 0, 0, false },
+    };
+    for (int i = 0; i < (int)(sizeof k / sizeof k[0]); i++) {
+        const char *path = tmp_path("rf-good.json");
+        write_file(path, k[i].text);
+        prt_scene s;
+        prt_error err = { "" };
+        CHECK(scene_load(path, NULL, &s, &err) == 0, "%s", err.msg);
+        CHECK(s.refine.on == k[i].on && s.refine.threshold == k[i].thr && s.refine.budget == k[i].budget &&
+                  s.refine.models == k[i].models,
+              "case %d: on %d threshold %g budget %d models %d", i, s.refine.on, (double)s.refine.threshold, s.refine.budget,
+              s.refine.models);
         scene_free(&s);
     }
 }
@@ -358,6 +391,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(json_scene);
     CHECK_CASE(json_errors);
     CHECK_CASE(light_prior_key);
+    CHECK_CASE(refine_key);
     CHECK_CASE(demo);
     return check_summary();
 }

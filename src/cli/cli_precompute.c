@@ -75,13 +75,15 @@ static void help(void) {
          "  --no-bounces           never do interreflection passes\n"
          "  --keep-direct          also store the direct-only transport (for render --direct-only and\n"
          "                         the viewer's direct/bounces toggle; about doubles the file)\n"
-         "adaptive refinement (Laurijssen et al. 2011, section 6.1; off by default for now):\n"
+         "adaptive refinement (Laurijssen et al. 2011, section 6.1; off unless asked for here or by a\n"
+         "JSON scene's \"refine\"):\n"
          "  --refine               before the transport, split the edges whose vertices' visibility\n"
          "                         masks differ in more than 0.5% of directions, iteratively\n"
          "  --refine-threshold F   that share, 0 < F < 1 (turns refinement on; 0: off)\n"
          "  --refine-budget V      at most V vertices after refinement (default 1.5x the scene's; turns it on)\n"
          "  --refine-models        refine the models' edges too (default: the floor's, where there is one)\n"
-         "  --no-refine            no refinement\n"
+         "  --no-refine            no refinement, not even a JSON scene's \"refine\" (any refine flag\n"
+         "                         replaces the scene's)\n"
          "other:\n"
          "  --resume               continue the run killed while writing OUT.prt from its checkpoint\n"
          "                         OUT.prt.ckpt (written every 2% of the vertices of each pass, removed\n"
@@ -163,7 +165,8 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
         fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
 }
 
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
+enum { USE_SCENE_PRIOR = 1, USE_SCENE_REFINE = 2 };   /* what the command line leaves to the scene */
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
                     double t0, double t_prior, bool *stray);
 
 /* Loads the probes of the comma-separated list `paths` into ps (at most PRIOR_MAX_PROBES) and their
@@ -243,10 +246,19 @@ static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, floa
     return light_prior(s->light_prior, pd, quiet, w, rays, name, cap, secs);
 }
 
+/* The scene's "refine" (scene.h) into pd, when it asks for refinement (the caller checked that no
+ * refine flag was given: those replace it). */
+static void scene_refinement(const prt_scene *s, precompute_desc *pd) {
+    if (!s->refine.on) return;
+    pd->refine_threshold = s->refine.threshold > 0 ? s->refine.threshold : REFINE_THRESHOLD;
+    pd->refine_budget = s->refine.budget;
+    pd->refine_parts = s->refine.models ? REFINE_ALL : 0;
+}
+
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
  * the others run quietly and write nothing). Returns the exit status. */
 static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet,
-               const char *prior_path, bool no_prior) {
+               const char *prior_path, bool no_prior, bool scene_refine) {
     prt_error err = { { 0 } };
     prt_shard *sh = shard_create(&err);
     if (!sh) return cli_error(k_cmd, "%s", err.msg);
@@ -263,7 +275,8 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         char name[1024];
         double t0 = prt_now(), t_prior = 0;   /* the timing summary's total counts the prior */
         rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, &rays, name, sizeof name, &t_prior) : 0;
-        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, !prior_path && !no_prior, t0, t_prior, &stray);
+        const unsigned use = (!prior_path && !no_prior ? USE_SCENE_PRIOR : 0) | (scene_refine ? USE_SCENE_REFINE : 0);
+        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, use, t0, t_prior, &stray);
         else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
         free(w);
         free(rays);
@@ -276,8 +289,9 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
  * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
  * t0: when the command's work began; t_prior: the seconds --light-prior took (the summary's). Returns
  * the exit status. */
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, bool use_scene_prior,
+static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
                     double t0, double t_prior, bool *stray) {
+    const bool use_scene_prior = use_scene & USE_SCENE_PRIOR;
     prt_error err = { { 0 } };
     double t_scene = prt_now();
     char ck[4096] = "";
@@ -285,6 +299,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     bool lead = shard_rank(pd->shard) == 0;
     int st = scene_load(in, sd, &scene, &err) ? 1 : 0;
     double t_load = prt_now() - t_scene;
+    if (!st && (use_scene & USE_SCENE_REFINE)) scene_refinement(&scene, pd);
     if (!st && pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts)
         st = 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
     if (shard_status(pd->shard, st ? -1 : 0, &err)) {
@@ -462,5 +477,7 @@ int cli_precompute(int argc, char **argv) {
         prt_error err = { { 0 } };
         if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
     }
-    return run(in, out, &sd, &pd, quiet, prior, no_prior);
+    /* any refine flag replaces the scene's "refine" (scene.h), --no-refine included */
+    const bool scene_refine = refine == 0 && refine_thr < 0 && pd.refine_budget == 0 && !pd.refine_parts;
+    return run(in, out, &sd, &pd, quiet, prior, no_prior, scene_refine);
 }

@@ -27,6 +27,7 @@ static void help(void) {
          "  --probe PROBE           HDR light probe (as for prt render)\n"
          "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
          "  -o OUT.exr              linear radiance image (.exr; .png etc. are tone-mapped 8-bit)\n"
+         "  --exposure E            exposure in stops for a tone-mapped output, as prt render's (default 0)\n"
          "  --spp N                 samples per pixel and per vertex (default 64)\n"
          "  --bounces B             0 direct only (default; a .prt with no bounce passes), B > 0 at most\n"
          "                          B interreflection bounces, -1 to convergence (Russian roulette)\n"
@@ -55,7 +56,7 @@ typedef struct reference_args {
     int w, h, spp, vspp, bounces, nthreads;
     unsigned long long seed;
     bool background, quiet, no_image;
-    float R[9];
+    float R[9], exposure;   /* exposure: stops, for a tone-mapped (.png) output, as prt render's */
 } reference_args;
 
 /* Parses argv into a; returns -1 to go on, else the exit status (0 after --help, 1 or 2 after printing). */
@@ -71,7 +72,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
         CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
         CLI_S("--vertex-list", &a->vert_list),
         CLI_B("--no-background", &no_background), CLI_B("--no-image", &a->no_image), CLI_B("--quiet", &a->quiet),
-        CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24),
+        CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24), CLI_F("--exposure", &a->exposure, -64, 64),
         CLI_I("--vertex-spp", &a->vspp, 1, 1 << 24), CLI_I("--bounces", &a->bounces, -1, 1000),
         CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--seed", &seed_s), CLI_END,
     };
@@ -156,7 +157,7 @@ static int image(ref_ctx *ref, const prt_camera *cam, ref_desc rd, const referen
     if (!ise) prt_fail(err, "out of memory");
     else if (ref_render_image(ref, cam, a->w, a->h, &rd, &img, ise, &st, err) == 0) {
         prt_bar_done(bar);
-        image_desc idesc = { 0 };
+        image_desc idesc = { .exposure = a->exposure };
         rc = image_write(a->out, &img, &idesc, err);
     } else prt_bar_done(bar);
     if (rc == 0)

@@ -440,6 +440,29 @@ static int json_light_prior(json_ctx *c, const cJSON *root, prt_scene *s) {
     return 0;
 }
 
+/* The optional top-level "refine": true/false or {"threshold", "budget", "models"} into s->refine. */
+static int json_refine(json_ctx *c, const cJSON *root, prt_scene *s) {
+    const cJSON *r = cJSON_GetObjectItemCaseSensitive(root, "refine");
+    if (!r) return 0;
+    c->where[0] = 0;
+    if (cJSON_IsBool(r)) {
+        s->refine.on = cJSON_IsTrue(r);
+        return 0;
+    }
+    if (!cJSON_IsObject(r)) return jfail_type(c, "refine", "true/false or an object");
+    static const char *const rk[] = { "threshold", "budget", "models", NULL };
+    snprintf(c->where, sizeof c->where, "refine");
+    int budget = 4;   /* jint reads an absent key as its initial value */
+    if (jkeys(c, r, rk) || jfloat(c, r, "threshold", &s->refine.threshold) || jint(c, r, "budget", 4, 1 << 28, &budget) ||
+        jbool(c, r, "models", &s->refine.models))
+        return -1;
+    s->refine.budget = cJSON_GetObjectItemCaseSensitive(r, "budget") ? budget : 0;
+    if (cJSON_GetObjectItemCaseSensitive(r, "threshold") && !(s->refine.threshold > 0 && s->refine.threshold < 1))
+        return jfail_type(c, "threshold", "a share of directions, above 0 and below 1");
+    s->refine.on = true;
+    return 0;
+}
+
 /* Parses JSON text (path names it in errors and anchors its relative OBJ paths). */
 static int json_scene(const char *path, const char *text, size_t len, const scene_desc *desc, prt_scene *s,
                       prt_error *err) {
@@ -457,7 +480,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
     }
     json_ctx c = { .path = path, .err = err };
     int rc = -1;
-    static const char *const top[] = { "models", "floor", "lights", "light_prior", "comment", NULL };
+    static const char *const top[] = { "models", "floor", "lights", "light_prior", "refine", "comment", NULL };
     const cJSON *models = NULL, *fl = NULL;
     if (!cJSON_IsObject(root)) { prt_fail(err, "%s: expected a JSON object at the top level", path); goto done; }
     if (jkeys(&c, root, top)) goto done;
@@ -496,7 +519,7 @@ static int json_scene(const char *path, const char *text, size_t len, const scen
         prt_error e2;
         if (scene_add_floor(s, verts, size, fmat, &e2)) { prt_fail(err, "%s: %s", path, e2.msg); goto done; }
     }
-    if (json_lights(&c, root, s) || json_light_prior(&c, root, s)) goto done;
+    if (json_lights(&c, root, s) || json_light_prior(&c, root, s) || json_refine(&c, root, s)) goto done;
     rc = 0;
 done:
     cJSON_Delete(root);

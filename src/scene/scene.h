@@ -25,7 +25,10 @@
  *  "intensity":W_PER_SR, "colour":[r,g,b]} with light_parse's defaults; at most
  * PRT_MAX_LIGHTS. "light_prior" (issue 10, prior.h) names the probe, or an array of up to 16 probes,
  * the scene will be lit by (relative to the JSON file): precompute weighs its coefficient selection
- * by their light, as --light-prior does, unless told otherwise. Any other key is
+ * by their light, as --light-prior does, unless told otherwise. "refine" (issue 10, refine.h) is
+ * true/false or {"threshold": F, "budget": V, "models": true/false}: precompute refines the mesh
+ * where visibility changes first, as --refine does, unless its command line has a refine flag
+ * (those replace the scene's). Any other key is
  * an error. Example scenes: data/ (data/README.md). The floor is a tessellated plane just below the models
  * (at the lowest y minus 0.1% of the scene size so that a touching model does not
  * z-fight), centred under them, `size` times the models' largest horizontal extent
@@ -45,6 +48,16 @@
 
 #define PRT_MAX_MATERIALS 64
 
+/* The JSON's "refine" (issue 10, refine.h): how the scene asks to be refined where visibility
+ * changes before its transport; precompute applies it unless its command line says otherwise.
+ * Zero fields take refine.h's defaults. */
+typedef struct scene_refine {
+    bool on;            /* "refine": true, or an object */
+    float threshold;    /* "threshold": share of directions, 0 < t < 1 (0: REFINE_THRESHOLD) */
+    int budget;         /* "budget": most vertices after refinement (0: 1.5x the scene's) */
+    bool models;        /* "models": the models' edges too, not only the floor's */
+} scene_refine;
+
 typedef struct prt_scene {
     prt_mesh mesh;
     int nmaterials;
@@ -55,6 +68,7 @@ typedef struct prt_scene {
     mesh_load_stats load_stats; /* summed over OBJ models */
     prt_lights lights;         /* local lights (issue 11): the JSON's "lights", plus --light flags */
     char light_prior[8192];    /* the JSON's "light_prior" probes, resolved and comma-joined ("": none) */
+    scene_refine refine;       /* the JSON's "refine" (all zero: not asked for) */
 } prt_scene;
 #define SCENE_MAX_PRIOR_PROBES 16   /* prior.h's PRIOR_MAX_PROBES */
 
