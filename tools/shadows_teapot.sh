@@ -2,7 +2,8 @@
 # tools/shadows_teapot.sh - README "Shadows"' teapot figure (docs/shadows_teapot.png): the handle's
 # shadow of data/teapot-floor.json at its defaults, of data/teapot-shadows.json (its light prior and
 # "refine": true) and of prt reference, under city.exr, direct light (--no-bounces), seen from behind
-# the handle, cropped and enlarged 1.5x; prints each image's error against the reference. Not a test.
+# the handle, cropped and enlarged 1.5x, and below, the whole default view with the light turned 90 degrees;
+# prints each image's error against the reference. Not a test.
 #   tools/shadows_teapot.sh [build/prt]     (needs ../shared/data, or PRT_DATA, and python3-pil; ~5 min)
 set -eu
 PRT=${1:-build/prt}
@@ -23,7 +24,16 @@ for o in exr png; do
   [ -f $W/ref.$o ] || "$PRT" reference $W/teapot-floor.prt --probe "$DATA/probes/city.exr" --spp $SPP --size 800x600 --camera $CAM \
     --no-background --exposure -2 -o $W/ref.$o --quiet 2>> $W/ref.log
 done
-for s in teapot-floor teapot-shadows; do echo "$s, image against the reference ($SPP spp): $("$PRT" compare $W/$s.exr $W/ref.exr)"; done
+# The second row: the whole default view with the light turned 90 degrees (the issue's sawtoothed edge),
+# away from the prior's own orientation, where the light-weighted texels do not apply.
+for o in exr png; do
+  for s in teapot-floor teapot-shadows; do
+    "$PRT" render $W/$s.prt --probe "$DATA/probes/city.exr" --light-rotation 90 --size 400x300 --no-background --exposure -2 -o $W/$s-90.$o 2>/dev/null
+  done
+  [ -f $W/ref-90.$o ] || "$PRT" reference $W/teapot-floor.prt --probe "$DATA/probes/city.exr" --light-rotation 90 --spp $SPP --size 400x300 \
+    --no-background --exposure -2 -o $W/ref-90.$o --quiet 2>> $W/ref.log
+done
+for s in teapot-floor teapot-shadows; do echo "$s, image against the reference ($SPP spp): $("$PRT" compare $W/$s.exr $W/ref.exr); turned 90: $("$PRT" compare $W/$s-90.exr $W/ref-90.exr)"; done
 # Per vertex (4,096 samples each): the floor's shadow region as tools/shadows.sh takes it (floor vertices
 # below 60% of the floor's median reference radiance), so the image's error can be told from the vertices'.
 for s in teapot-floor teapot-shadows; do
@@ -45,13 +55,16 @@ box, z = (440, 250, 720, 460), 1.5
 names = [("teapot-floor", "teapot-floor.json (defaults)"), ("teapot-shadows", "teapot-shadows.json (prior, refined 3x)"),
          ("ref", "prt reference, %s spp" % spp)]
 pw, ph = int((box[2] - box[0]) * z), int((box[3] - box[1]) * z)
-out = Image.new("RGB", (3 * pw + 40, ph + 50), "white")
+out = Image.new("RGB", (3 * pw + 40, 2 * ph + 90), "white")
 d = ImageDraw.Draw(out)
 d.text((10, 6), "Teapot (paper-phong) over its floor under city.exr, direct light, N = 128, 8-bit: the handle's shadow", fill="black")
 for i, (f, label) in enumerate(names):
     im = Image.open("%s/%s.png" % (w, f)).convert("RGB").crop(box).resize((pw, ph), Image.LANCZOS)
     out.paste(im, (10 + i * (pw + 10), 40))
     d.text((10 + i * (pw + 10), 26), label, fill="black")
+    im = Image.open("%s/%s-90.png" % (w, f)).convert("RGB").resize((pw, ph), Image.LANCZOS)   # 400x300 -> the panel's size
+    out.paste(im, (10 + i * (pw + 10), ph + 80))
+    d.text((10 + i * (pw + 10), ph + 66), label + ", light turned 90 degrees", fill="black")
 out.save("docs/shadows_teapot.png")
 print("wrote docs/shadows_teapot.png")
 P
