@@ -409,6 +409,17 @@ static void cli_flags(void) {
         CHECK(rrc == 0, "%s: exit %d: %s\n%s", runs[i][0], rrc, cmd, buf);
         CHECK(runs[i][1] ? strstr(buf, runs[i][1]) != NULL : strstr(buf, "refinement:") == NULL, "'%s': %s", runs[i][0], buf);
     }
+    /* a scene's budget below its vertices is the scene's error (exit 1, naming the file and the key), no output */
+    f = fopen(json, "w");
+    CHECK(f != NULL);
+    if (!f) return;
+    fputs("{ \"models\": [ { \"obj\": \"sq.obj\" } ], \"refine\": { \"budget\": 5 } }\n", f);
+    fclose(f);
+    remove(out);
+    snprintf(cmd, sizeof cmd, "%s precompute %s -o %s --quiet", check_prt_bin(), json, out);
+    int rc = check_run(cmd, buf, sizeof buf);
+    struct stat stt;
+    CHECK(rc == 1 && strstr(buf, "sq.json: refine.budget 5 is below its 9 vertices") && stat(out, &stt) != 0, "exit %d: %s", rc, buf);
 }
 
 int main(int argc, char **argv) {

@@ -247,12 +247,13 @@ static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, floa
 }
 
 /* The scene's "refine" (scene.h) into pd, when it asks for refinement (the caller checked that no
- * refine flag was given: those replace it). */
-static void scene_refinement(const prt_scene *s, precompute_desc *pd) {
-    if (!s->refine.on) return;
+ * refine flag was given: those replace it). Returns whether it did. */
+static bool scene_refinement(const prt_scene *s, precompute_desc *pd) {
+    if (!s->refine.on) return false;
     pd->refine_threshold = s->refine.threshold > 0 ? s->refine.threshold : REFINE_THRESHOLD;
     pd->refine_budget = s->refine.budget;
     pd->refine_parts = s->refine.models ? REFINE_ALL : 0;
+    return true;
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
@@ -299,9 +300,10 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     bool lead = shard_rank(pd->shard) == 0;
     int st = scene_load(in, sd, &scene, &err) ? 1 : 0;
     double t_load = prt_now() - t_scene;
-    if (!st && (use_scene & USE_SCENE_REFINE)) scene_refinement(&scene, pd);
+    const bool by_scene = !st && (use_scene & USE_SCENE_REFINE) && scene_refinement(&scene, pd);
     if (!st && pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts)
-        st = 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
+        st = by_scene ? 1 + 0 * prt_fail(&err, "%s: refine.budget %d is below its %d vertices", in, pd->refine_budget, scene.mesh.nverts)
+                      : 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
     if (shard_status(pd->shard, st ? -1 : 0, &err)) {
         if (lead) cli_error(k_cmd, "%s", err.msg);
         scene_free(&scene);
