@@ -323,7 +323,10 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
     RTC_ALIGN(64) int valid[16];
     vis_packet_origin(&r, p, n, vs->eps);
     const float org[3] = { r.org_x[0], r.org_y[0], r.org_z[0] };
-    const bool cull = vs->cull && org[0] * vs->up[0] + org[1] * vs->up[1] + org[2] * vs->up[2] > vs->floor_top;
+    /* A normal within 2.6 degrees of the floor's up (every floor vertex) has next to no rays down: the
+     * per-lane test would find none to settle, so it is left out (tracing is always exact). */
+    const bool cull = vs->cull && n[0] * vs->up[0] + n[1] * vs->up[1] + n[2] * vs->up[2] < 0.999f &&
+                      org[0] * vs->up[0] + org[1] * vs->up[1] + org[2] * vs->up[2] > vs->floor_top;
     int got[16];
     for (int face = 0; face < 6; face++) {
         uint8_t *fv = vis + (size_t)face * res * res;
