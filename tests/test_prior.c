@@ -10,6 +10,7 @@
 #include "probe.h"
 #include "transfer.h"
 #include "transport.h"
+#include "transport_fixture.h"
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -129,25 +130,13 @@ static void walled_vertex(float *tex) {
  * without the prior w. Returns the RMS over 72 yaw steps of (T.L stored - sum_j T_j L_j) over the
  * RMS exact value. */
 static double orbit_error(const prt_probe *p, const float (*w)[4], int N) {
-    static float tex[T], coef[3][T], cube[3 * T], scr[TRANSFER_SCRATCH_FLOATS];
+    static float tex[T], cube[3 * T];
     walled_vertex(tex);
     transfer_config cfg = { .N = N, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
-    memcpy(coef[1], coef[0], sizeof coef[0]);
-    memcpy(coef[2], coef[0], sizeof coef[0]);
+    const prt_transport like = { .solid_angle = true, .select = TRANSPORT_SELECT_EXPECTED, .prior = w,
+                                 .block_level = TRANSPORT_BLOCK_LEVEL, .smooth_faces = true };
     prt_transport t;
-    int one = 1;
-    void *tscr = malloc(transport_scratch_size());
-    CHECK(transport_init(&t, 1, &one, N, 32, &err) == 0, "%s", err.msg);
-    t.solid_angle = true;
-    t.select = TRANSPORT_SELECT_EXPECTED;
-    t.prior = w;
-    t.block_level = TRANSPORT_BLOCK_LEVEL;
-    t.smooth_faces = true;
-    transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
-    CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+    tfx_store(tex, cfg, &like, &t);
     float (*L)[4] = light_alloc();
     double se = 0, s2 = 0;
     for (int k = 0; k < 72; k++) {
@@ -162,7 +151,6 @@ static double orbit_error(const prt_probe *p, const float (*w)[4], int N) {
         s2 += exact * exact;
     }
     free(L);
-    free(tscr);
     transport_free(&t);
     return sqrt(se / s2);
 }
@@ -191,7 +179,8 @@ static void orbit_selection(void) {
  * error (2); a probe that is not an image, alone or in a list, a data error (1); each one line and
  * no output. A JSON scene's "light_prior" of two probes is used and named in the plan, but not with
  * --no-light-prior, nor with --select magnitude (a note says why). The plan names its light-weighted
- * texels, but not with --box-texels, which without a prior gets a note. */
+ * texels, but not with --box-texels, which without a prior gets a note; and the refit of the kept values
+ * (refit.h), but not with --no-refit or a shared budget, where it names the put-back instead. */
 static void prior_flag(void) {
     char probe[512], notimg[512], obj[512], outp[512], cmd[4096], buf[8192];
     snprintf(obj, sizeof obj, "%s/prior-squares.obj", check_tmpdir());
@@ -246,11 +235,13 @@ static void prior_flag(void) {
     CHECK(brc == 1 && strstr(buf, "prior-nothere.exr") && strchr(buf, '\n') == buf + strlen(buf) - 1,
           "a missing scene probe: exit %d, %s", brc, buf);
     CHECK(access(outp, F_OK) != 0, "no output file");
-    static const struct { const char *flags; bool prior, rays; const char *note; } k[] = {
-        { "", true, true, NULL }, { "--no-light-prior", false, false, NULL },
-        { "--select magnitude", false, false, "light_prior is not used" }, { "--box-texels", true, false, NULL },
-        { "--no-light-prior --box-texels", false, false, "--box-texels changes nothing without a light prior" } };
-    for (int q = 0; q < 5; q++) {
+    static const struct { const char *flags; bool prior, rays, refit; const char *note; } k[] = {
+        { "", true, true, true, NULL }, { "--no-light-prior", false, false, false, NULL },
+        { "--select magnitude", false, false, false, "light_prior is not used" }, { "--box-texels", true, false, true, NULL },
+        { "--no-light-prior --box-texels", false, false, false, "--box-texels changes nothing without a light prior" },
+        { "--no-refit", true, true, false, NULL }, { "--budget shared", true, true, false, NULL },
+        { "--no-light-prior --no-refit", false, false, false, "--no-refit changes nothing without a light prior" } };
+    for (int q = 0; q < 8; q++) {
         snprintf(cmd, sizeof cmd, "%s precompute %s -o %s %s 2>&1 && %s info %s", check_prt_bin(), json, outp, k[q].flags,
                  check_prt_bin(), outp);
         int rc = check_run(cmd, buf, sizeof buf);
@@ -260,6 +251,9 @@ static void prior_flag(void) {
         CHECK(!k[q].note || strstr(buf, k[q].note) != NULL, "'%s': a note says why: %s", k[q].flags, buf);
         bool rays = strstr(buf, "light-weighted texels: the prior's") != NULL;
         CHECK(rays == k[q].rays, "'%s': the plan %s light-weighted texels: %s", k[q].flags, k[q].rays ? "names" : "has no", buf);
+        bool refit = strstr(buf, "kept values: refit to the light prior's texels") != NULL;   /* refit.h: per vector only */
+        CHECK(refit == k[q].refit, "'%s': the plan %s the refit: %s", k[q].flags, k[q].refit ? "names" : "has no", buf);
+        CHECK(refit != (strstr(buf, "what truncation drops: put back") != NULL), "'%s': refit or put back, one of them", k[q].flags);
     }
 }
 

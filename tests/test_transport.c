@@ -5,6 +5,7 @@
  * benchmark of the runtime kernel on a synthetic set of the paper's size. */
 #include "harness.h"
 #include "transport.h"
+#include "transport_fixture.h"
 #include "haar.h"
 #include "transfer.h"
 #include "precompute.h"
@@ -487,23 +488,16 @@ static void up_vertex_texels(float *tex) {
 }
 
 static void sun_turning(void) {
-    static float tex[T], coef[3][T], cube[3 * T], scr[TRANSFER_SCRATCH_FLOATS];
+    static float tex[T], cube[3 * T];
     static _Alignas(64) float Lv[T][4];
     up_vertex_texels(tex);
-    void *tscr = malloc(transport_scratch_size());
     double worst_texel = 0, step_texel = 0;
     for (int m = 0; m < 2; m++) {
         transfer_config cfg = { .N = 128, .qbits = 8, .measure = m ? TRANSFER_MEASURE_SOLID_ANGLE : 0 };
-        prt_error err;
-        CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-        transfer_haar.project_transport(&cfg, tex, coef[0], scr);
-        memcpy(coef[1], coef[0], sizeof coef[0]);
-        memcpy(coef[2], coef[0], sizeof coef[0]);
         prt_transport t;
-        int one = 1;
-        CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
-        transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
-        CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+        tfx_store(tex, cfg, NULL, &t);
+        prt_error err;
+        CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);   /* for project_light */
         double worst = 0, step = 0, prev = 0;
         for (int deg = 0; deg <= 90; deg++) {
             double az = deg * M_PI / 180, el = M_PI / 3;
@@ -533,7 +527,6 @@ static void sun_turning(void) {
         }
         transport_free(&t);
     }
-    free(tscr);
 }
 
 /* The solid-angle measure's Haar coefficients of the texels tex (N = 128, float), the same in the three

@@ -49,6 +49,9 @@ static void help(void) {
          "  --no-light-prior       not the scene's light_prior: the per-level weights\n"
          "  --box-texels           with a light prior, integrate every lighting texel over its area (default: the\n"
          "                         prior's brightest texels along rays placed as its light lies inside them)\n"
+         "  --no-refit             with a light prior, keep the kept coefficients' own values, put back as\n"
+         "                         below (default: refit to the prior's light per texel, the least expected\n"
+         "                         error of T.L as its probes turn; a per-vector budget only; README \"Shadows\")\n"
          "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
          "                         weighted by the transport on faces with no occluder edge, steadier\n"
          "                         on an open floor under a turning sun)\n"
@@ -198,12 +201,27 @@ static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap
     return n;
 }
 
-/* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into *w
- * (light_alloc'd: the caller frees it), unless pd->box_texels their light-weighted texels into *rays
- * (the caller frees it too), pd and name[cap] (pd->light_prior_name points there), its time said on
- * stderr. Returns the exit status (1 or 2: said why). */
-static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,
-                       char *name, size_t cap, double *secs) {
+/* What a light prior allocates (prior.h; the caller frees it with prior_free): the coefficient weights,
+ * the light-weighted texels and the refit's texel statistics. */
+typedef struct cli_prior {
+    float (*w)[4];
+    prior_rays *rays;
+    prior_texels *texels;
+} cli_prior;
+
+static void prior_free(cli_prior *cp) {
+    free(cp->w);
+    free(cp->rays);
+    free(cp->texels);
+    memset(cp, 0, sizeof *cp);
+}
+
+/* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into cp->w
+ * (light_alloc'd), unless pd->box_texels their light-weighted texels into cp->rays, their light per
+ * texel into cp->texels (the caller frees all: prior_free), pd and name[cap] (pd->light_prior_name
+ * points there), its time said on stderr. Returns the exit status (1 or 2: said why). */
+static int light_prior(const char *paths, precompute_desc *pd, bool quiet, cli_prior *cp, char *name, size_t cap,
+                       double *secs) {
     double t0 = prt_now();
     prt_probe ps[PRIOR_MAX_PROBES];
     memset(ps, 0, sizeof ps);
@@ -214,19 +232,21 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     prior_desc d = { .progress = prt_bar_report, .progress_user = &bar };
-    *w = n > 0 ? light_alloc() : NULL;
-    int rc = n < 0 ? status : !*w ? cli_error(k_cmd, "light prior: out of memory") : 0;
-    if (!rc && prior_from_probes(pp, n, &d, *w, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
+    cp->w = n > 0 ? light_alloc() : NULL;
+    cp->texels = n > 0 ? prt_calloc(1, sizeof *cp->texels, &err) : NULL;   /* the refit's light per texel (refit.h) */
+    int rc = n < 0 ? status : !cp->w || !cp->texels ? cli_error(k_cmd, "light prior: out of memory") : 0;
+    if (!rc && prior_build(pp, n, &d, cp->w, cp->texels, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
     if (!rc && !pd->box_texels) {   /* the light-weighted texels: where its probes, unturned, have their light */
-        *rays = prt_calloc(1, sizeof **rays, &err);
-        if (!*rays || prior_rays_from_probes(pp, n, *rays, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
+        cp->rays = prt_calloc(1, sizeof *cp->rays, &err);
+        if (!cp->rays || prior_rays_from_probes(pp, n, cp->rays, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
     }
     prt_bar_done(&bar);
     for (int j = 0; j < PRIOR_MAX_PROBES; j++) probe_free(&ps[j]);
     if (rc) return rc;
-    pd->light_prior = (const float (*)[4]) * w;
+    pd->light_prior = (const float (*)[4])cp->w;
     pd->light_prior_name = name;
-    pd->prior_rays = *rays;
+    pd->prior_rays = cp->rays;
+    pd->prior_texels = cp->texels;
     *secs += prt_now() - t0;
     if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", paths, PRIOR_STEPS, prt_now() - t0);
     return 0;
@@ -236,14 +256,14 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, float
  * --no-light-prior: computed as --light-prior's into *w and *rays (the caller frees both), or, where the selection
  * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
  * Returns the exit status. */
-static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, float (**w)[4], prior_rays **rays,
-                       char *name, size_t cap, double *secs) {
+static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, cli_prior *cp, char *name, size_t cap,
+                       double *secs) {
     if (!s->light_prior[0] || pd->light_prior) return 0;
     if (pd->select != TRANSPORT_SELECT_EXPECTED) {
         if (!quiet) fprintf(stderr, "note: the scene's light_prior is not used (it weighs the expected-error selection)\n");
         return 0;
     }
-    return light_prior(s->light_prior, pd, quiet, w, rays, name, cap, secs);
+    return light_prior(s->light_prior, pd, quiet, cp, name, cap, secs);
 }
 
 /* The scene's "refine" (scene.h) into pd, when it asks for refinement (the caller checked that no
@@ -271,16 +291,14 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         const char *fail = getenv("PRT_SHARD_FAIL");   /* test hook: that rank fails (precompute.h) */
         pd->shard = sh;
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
-        float (*w)[4] = NULL;   /* every rank computes the same prior (prior.h: deterministic) */
-        prior_rays *rays = NULL;
+        cli_prior cp = { 0 };   /* every rank computes the same prior (prior.h: deterministic) */
         char name[1024];
         double t0 = prt_now(), t_prior = 0;   /* the timing summary's total counts the prior */
-        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &w, &rays, name, sizeof name, &t_prior) : 0;
+        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &cp, name, sizeof name, &t_prior) : 0;
         const unsigned use = (!prior_path && !no_prior ? USE_SCENE_PRIOR : 0) | (scene_refine ? USE_SCENE_REFINE : 0);
         if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, use, t0, t_prior, &stray);
         else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
-        free(w);
-        free(rays);
+        prior_free(&cp);
     }
     shard_destroy(sh, stray);
     return rc;
@@ -314,12 +332,10 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
                 scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
-    float (*w)[4] = NULL;   /* the scene's prior; every rank computes the same (prior.h) */
-    prior_rays *rays = NULL;
+    cli_prior cp = { 0 };   /* the scene's prior; every rank computes the same (prior.h) */
     char pname[1024];
-    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &w, &rays, pname, sizeof pname, &t_prior))) {
-        free(w);
-        free(rays);
+    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &cp, pname, sizeof pname, &t_prior))) {
+        prior_free(&cp);
         scene_free(&scene);
         *stray = shard_size(pd->shard) > 1;
         return st;
@@ -327,6 +343,8 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
 
     if (!quiet && pd->box_texels && !pd->light_prior)
         fprintf(stderr, "note: --box-texels changes nothing without a light prior (every texel is box-filtered)\n");
+    if (!quiet && pd->no_refit && !pd->light_prior)
+        fprintf(stderr, "note: --no-refit changes nothing without a light prior (nothing is refit)\n");
     int ranks = shard_size(pd->shard);
     if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
     if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
@@ -344,10 +362,10 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     prt_data data;
     memset(&data, 0, sizeof data);
     int prc = precompute_run(&scene, pd, &data, &err);
-    free(w);   /* the prior is read by the passes only (precompute.h) */
-    free(rays);
+    prior_free(&cp);   /* the prior is read by the passes only (precompute.h) */
     pd->light_prior = use_scene_prior ? NULL : pd->light_prior;
     pd->prior_rays = use_scene_prior ? NULL : pd->prior_rays;
+    pd->prior_texels = use_scene_prior ? NULL : pd->prior_texels;
     if (prc) {
         prt_bar_done(&bar);
         scene_free(&scene);
@@ -418,6 +436,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--sh", &sh_bands, 3, 10),
         CLI_B("--texel-measure", &texel),
         CLI_B("--no-smooth-faces", &no_smooth),
+        CLI_B("--no-refit", &pd.no_refit),
         CLI_B("--box-texels", &pd.box_texels),
         CLI_S("--select", &select),
         CLI_S("--budget", &budget),

@@ -53,6 +53,7 @@
 #include "lobefit.h"
 #include "prior.h"
 #include "refine.h"
+#include "refit.h"
 #include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
@@ -579,6 +580,7 @@ typedef struct pc_run {
     double t_sample, hit_sample;
     bool plan_bounces;
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
+    refit_tables *refit;        /* the prior's refit (pc_refit), or NULL */
 } pc_run;
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
@@ -702,6 +704,21 @@ static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
 /* The coefficient budget the direct pass uses: the asked one for Haar, per vector for the others. */
 static int pc_budget(const pc_run *r) { return r->tr->ops == &transfer_haar ? r->d.budget : TRANSPORT_BUDGET_VECTOR; }
 
+/* Whether the kept values are refit (refit.h): a light prior with its texels, not --no-refit, per vector. */
+static bool pc_refits(const pc_run *r) {
+    return r->d.prior_texels && r->d.light_prior && !r->d.no_refit && pc_budget(r) == TRANSPORT_BUDGET_VECTOR;
+}
+
+/* With a light prior's texels and a budget per vector, the tables that refit every vector's kept values
+ * to the prior's light (refit.h) for the direct pass and, through transport_init_like, the gathering
+ * passes. Returns 0 or -1. */
+static int pc_refit(pc_run *r, prt_error *err) {
+    if (!pc_refits(r) || !r->direct.solid_angle) return 0;
+    if (!(r->refit = refit_create(r->d.prior_texels, err))) return -1;
+    r->direct.refit = r->refit;
+    return 0;
+}
+
 /* PRECOMPUTE_BUDGET_AUTO resolved from the mesh and the prior (the same on every rank): per vector
  * with a light prior (README "Shadows": its weights already put each vector's N where the light will
  * be, and a shared pool takes from the darkest contact-shadow vertices, 29% too dark on the full
@@ -769,7 +786,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
     if (r->d.prior_rays && r->d.prior_rays->n)   /* prior.h */
         plan_add(r->plan, r->pcap, "  light-weighted texels: the prior's %d brightest lighting texels integrated along %d rays each, placed as its light lies inside them\n",
                  r->d.prior_rays->n, PRIOR_RAYS);
-    if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE)   /* transport.h: block_level, smooth_faces */
+    if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE && pc_refits(r))
+        plan_add(r->plan, r->pcap, "  kept values: refit to the light prior's texels (least expected error under its turning light; refit.h)\n");
+    else if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE)   /* transport.h: block_level, smooth_faces */
         plan_add(r->plan, r->pcap, "  what truncation drops: put back per 16x16-texel block%s\n",
                  r->d.smooth_faces ? "; on faces with no occluder edge weighted by the transport" : "");
     return vmask ? pc_add_vmf(r, vmask, err) : 0;
@@ -825,6 +844,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->direct.prior = r->d.light_prior;   /* pc_check_prior: only with EXPECTED; the gathering passes inherit it */
     r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
     r->direct.smooth_faces = r->direct.solid_angle && r->d.smooth_faces;
+    if (pc_refit(r, err)) return -1;
     if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
@@ -886,13 +906,15 @@ static uint64_t pc_key(const pc_run *r) {
         ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces };
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces,
+                 d->no_refit };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */
     if (budget != TRANSPORT_BUDGET_VECTOR) ckpt_key_add(&k, &budget, sizeof budget);
     if (d->light_prior) ckpt_key_add(&k, d->light_prior, sizeof(float) * 4 * CUBE_TEXELS);   /* likewise */
     if (d->prior_rays && d->prior_rays->n) ckpt_key_add(&k, d->prior_rays, sizeof *d->prior_rays);
+    if (d->prior_texels) ckpt_key_add(&k, d->prior_texels, sizeof *d->prior_texels);
     return ckpt_key_value(&k);
 }
 
@@ -1172,6 +1194,7 @@ static void pc_cleanup(pc_run *r) {
     transport_free(&r->direct);
     transport_free(&r->total);
     transport_free(&r->last);
+    refit_destroy(r->refit);
 }
 
 /* Runs the whole pipeline (see precompute.h and the file comment). */

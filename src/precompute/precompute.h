@@ -107,6 +107,10 @@ typedef struct precompute_desc {
                              * each of these texels along the light inside it rather than over its box
                              * (BORROWED, read during the run; the direct pass of the projected bases, Haar or
                              * SH, a vMF material's diffuse part included, not its lobes) */
+    const struct prior_texels *prior_texels; /* NULL, or with light_prior and a per-vector budget: its probes' light per
+                             * texel (prior.h), to which each vector's kept values are refit (refit.h; BORROWED,
+                             * read while the run sets up) */
+    bool no_refit;          /* keep the kept values (and the corrections) even with prior_texels (--no-refit) */
     bool box_texels;        /* for the CLI: make no prior_rays from the light prior (--box-texels); the library
                              * reads prior_rays only */
     bool smooth_faces;      /* Haar with the solid-angle measure: a face of a vector with no occluder edge gets its

@@ -4,19 +4,33 @@
  * the index space and measure of the transport they select. */
 #include "prior.h"
 #include "cubemap.h"
+#include "haar.h"
 #include "light.h"
 #include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+/* Adds l_j (prior.h: the channels' sum of L_j w_j, w: haar_face_solid_angle's, the measure
+ * project_light weighs with) of the cube's texels to tex[j] and its square to tex[CUBE_TEXELS + j]. */
+static void texel_add(const float *cube, const float *w, double *tex) {
+    const int F = CUBE_RES * CUBE_RES;
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        double l = ((double)cube[3 * j] + cube[3 * j + 1] + cube[3 * j + 2]) * w[j % F];
+        l = isfinite(l) ? l : 0;
+        tex[j] += l;
+        tex[CUBE_TEXELS + j] += l * l;
+    }
+}
+
 /* Adds the squared light vector of p turned by yaw (degrees, about +y) to acc[CUBE_TEXELS * 3].
- * cube: [CUBE_TEXELS][3] scratch; L: a light vector. */
+ * cube: [CUBE_TEXELS][3] scratch; L: a light vector; tex: NULL, or texel_add's sums (w its weights). */
 static void prior_add(const prt_probe *p, const transfer_config *cfg, double yaw, float *cube, float (*L)[4],
-                      double *acc) {
+                      double *acc, const float *w, double *tex) {
     float R[9];
     probe_rotation(yaw, 0, R);
     probe_to_cube(p, CUBE_RES, R, 0, cube);
+    if (tex) texel_add(cube, w, tex);
     transfer_haar.project_light(cfg, cube, L);
     for (int i = 0; i < CUBE_TEXELS; i++)
         for (int ch = 0; ch < 3; ch++) acc[3 * i + ch] += (double)L[i][ch] * L[i][ch];
@@ -43,16 +57,19 @@ static void prior_finish(const double *acc, float floor, float (*w)[4]) {
 }
 
 /* Adds probe p's mean squared light vector over its yaw orbit, over its own largest, to acc:
- * each probe of a prior counts the same, whatever its brightness. Returns 0, or -1 with err. */
+ * each probe of a prior counts the same, whatever its brightness; with tex, its texel sums as well
+ * (texel_add). Returns 0, or -1 with err. */
 static int prior_orbit(const prt_probe *p, const transfer_config *cfg, int steps, const prior_desc *desc,
-                       double frac0, double frac1, double *acc, prt_error *err) {
+                       double frac0, double frac1, double *acc, double *tex, prt_error *err) {
+    float w[CUBE_RES * CUBE_RES];
+    haar_face_solid_angle(w, CUBE_RES, false);
     double *one = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *one, err);
     float *cube = one ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
     float (*L)[4] = cube ? light_alloc() : NULL;
     if (cube && !L) prt_fail(err, "light prior: out of memory");
     int rc = L ? 0 : -1;
     for (int k = 0; k < steps && rc == 0; k++) {
-        prior_add(p, cfg, 360.0 * k / steps, cube, L, one);
+        prior_add(p, cfg, 360.0 * k / steps, cube, L, one, w, tex);
         double f = frac0 + (frac1 - frac0) * (k + 1.0) / steps;
         if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", f))
             rc = prt_fail(err, "cancelled");
@@ -66,19 +83,56 @@ static int prior_orbit(const prt_probe *p, const transfer_config *cfg, int steps
     return rc;
 }
 
+/* Probe pi's texel sums tex (texel_add's, over `steps` yaws) into out->mean[pi] and var (prior.h: each
+ * over the probe's largest mean square). Returns 0, or -1 with err when it has no light. */
+static int texel_probe(const double *tex, int steps, int pi, int n, double *var, prior_texels *out, prt_error *err) {
+    double mx = 0;
+    for (int j = 0; j < CUBE_TEXELS; j++) mx = tex[CUBE_TEXELS + j] / steps > mx ? tex[CUBE_TEXELS + j] / steps : mx;
+    if (!(mx > 0) || !isfinite(mx)) return prt_fail(err, "light prior: the probe has no light (every texel is zero)");
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        double m = tex[j] / steps, v = tex[CUBE_TEXELS + j] / steps - m * m;
+        out->mean[pi][j] = (float)(m / sqrt(mx * n));
+        var[j] += (v > 0 ? v : 0) / mx / n;
+    }
+    return 0;
+}
+
+/* var (the probes' average variance per texel) plus its floor into out->var. */
+static void texel_finish(const double *var, int n, prior_texels *out) {
+    double mean = 0;
+    for (int j = 0; j < CUBE_TEXELS; j++) mean += var[j] / CUBE_TEXELS;
+    for (int j = 0; j < CUBE_TEXELS; j++) out->var[j] = (float)(var[j] + PRIOR_TEXEL_FLOOR * mean);
+    out->n = n;
+}
+
 /* See prior.h. */
-int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prt_error *err) {
+int prior_build(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prior_texels *texels,
+                prt_error *err) {
     int steps = desc && desc->steps > 0 ? desc->steps : PRIOR_STEPS;
     float floor = !desc || desc->floor == 0 ? PRIOR_FLOOR : desc->floor < 0 ? 0 : desc->floor;
-    if (n < 1) return prt_fail(err, "light prior: no probe");
+    if (texels) memset(texels, 0, sizeof *texels);
+    if (n < 1 || n > PRIOR_MAX_PROBES) return prt_fail(err, "light prior: %d probes (1..%d)", n, PRIOR_MAX_PROBES);
     transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
     if (transfer_haar.configure(&cfg, err)) return -1;
     double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
-    int rc = acc ? 0 : -1;
-    for (int j = 0; j < n && rc == 0; j++) rc = prior_orbit(ps[j], &cfg, steps, desc, (double)j / n, (j + 1.0) / n, acc, err);
+    double *tex = acc && texels ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *tex, err) : NULL;
+    int rc = acc && (tex || !texels) ? 0 : -1;
+    for (int j = 0; j < n && rc == 0; j++) {
+        if (tex) memset(tex, 0, 2 * sizeof(double) * CUBE_TEXELS);
+        rc = prior_orbit(ps[j], &cfg, steps, desc, (double)j / n, (j + 1.0) / n, acc, tex, err);
+        if (rc == 0 && tex) rc = texel_probe(tex, steps, j, n, tex + 2 * CUBE_TEXELS, texels, err);
+    }
     if (rc == 0) prior_finish(acc, floor, w);
+    if (rc == 0 && tex) texel_finish(tex + 2 * CUBE_TEXELS, n, texels);
+    if (rc && texels) memset(texels, 0, sizeof *texels);
     free(acc);
+    free(tex);
     return rc;
+}
+
+/* See prior.h. */
+int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prt_error *err) {
+    return prior_build(ps, n, desc, w, NULL, err);
 }
 
 /* See prior.h. */
@@ -153,3 +207,4 @@ int prior_rays_from_probes(const prt_probe *const *ps, int n, prior_rays *out, p
     free(share); free(tot); free(cw); free(cube); free(fa);
     return 0;
 }
+

@@ -34,6 +34,7 @@
 #ifndef PRT_PRIOR_H
 #define PRT_PRIOR_H
 #include "common.h"
+#include "cubemap.h"
 #include "probe.h"
 
 /* The yaw steps and the floor by default (README "Shadows": 360 steps, the sun's ring without
@@ -56,7 +57,7 @@ int prior_from_probe(const prt_probe *p, const prior_desc *desc, float (*w)[4], 
 
 /* The prior of several probes ps[0..n-1]: each probe's mean squares over its orbit, over its own
  * largest (each probe counts the same), summed, then as above. Returns 0, or -1 with err (any
- * probe with no light, n < 1, cancelled, out of memory). */
+ * probe with no light, n < 1 or over PRIOR_MAX_PROBES, cancelled, out of memory). */
 int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prt_error *err);
 
 /* Light-weighted texels: the prior's light inside its brightest lighting texels, for the direct pass.
@@ -97,4 +98,28 @@ typedef struct prior_rays {
 /* The light-weighted texels of probes ps[0..n-1] (above) into *out. Returns 0, or -1 with err
  * (n < 1, out of memory). */
 int prior_rays_from_probes(const prt_probe *const *ps, int n, prior_rays *out, prt_error *err);
+/* The prior's light per texel, for refitting the kept coefficients (refit.h).
+ *
+ *     prior_texels *pt = prt_calloc(1, sizeof *pt, &err);   // caller owns; plain struct, no pointers
+ *     if (prior_build(pps, n, &pd, w, pt, &err)) puts(err.msg);   // w: prior_from_probes' weights
+ *     precompute_desc d = { ..., .prior_texels = pt };      // precompute.h: the Haar sets read it
+ *
+ * What it holds: l_j = the channels' sum of L_j w_j (the light the runtime's vector carries, per
+ * texel j of the solid-angle measure) for each probe p turned through `steps` yaw angles. mean[p][j]
+ * is its mean over the orbit, var[j] the variance about it averaged over the probes, each probe's
+ * figures over its own largest mean square (each counts the same, as in the coefficient prior), with
+ * mean[p] over sqrt(n) so that sum_p mean[p] mean[p]^T is the probes' average. Then var[j] gains
+ * PRIOR_TEXEL_FLOOR times var's mean, so every texel weighs something (a pitched light, another
+ * probe). E[l_j l_k] = var_j delta_jk + sum_p mean[p][j] mean[p][k] is refit.h's model of the light. */
+#define PRIOR_TEXEL_FLOOR 0.01f
+typedef struct prior_texels {
+    int n;                                        /* probes */
+    float var[CUBE_TEXELS];                       /* texel layout (cubemap.h indexing) */
+    float mean[PRIOR_MAX_PROBES][CUBE_TEXELS];
+} prior_texels;
+
+/* prior_from_probes' weights into w and, from the same turns of the probes, their texel statistics
+ * (above) into *texels (NULL: not asked for). Returns 0, or -1 with err as prior_from_probes. */
+int prior_build(const prt_probe *const *ps, int n, const prior_desc *desc, float (*w)[4], prior_texels *texels,
+                prt_error *err);
 #endif

@@ -33,6 +33,7 @@
  * cores in chunks of a few thousand. */
 #include "transport.h"
 #include "haar.h"
+#include "refit.h"
 #include <errno.h>
 #include <float.h>
 #include <fcntl.h>
@@ -140,6 +141,7 @@ int transport_init_like(prt_transport *t, const prt_transport *like, const int *
     t->solid_angle = like->solid_angle;
     t->select = like->select;
     t->prior = like->prior;
+    t->refit = like->refit;
     t->block_level = like->block_level;
     t->smooth_faces = like->smooth_faces;
     if (like->budget && transport_share_budget(t, like->budget_kind, like->N, err)) {
@@ -278,7 +280,7 @@ _Static_assert(CUBE_RES == 1 << (TRANSPORT_LEVELS - 1), "transport_level_sigma h
  * the corrections' scratch), and the smooth faces' transport coefficients (face_shapes). */
 size_t transport_scratch_size(void) {
     return 2 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(uint32_t) + 2 * FACE * sizeof(float) +
-           3 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(float);
+           3 * CUBE_TEXELS * sizeof(float) + CUBE_TEXELS * sizeof(float) + refit_scratch_size(REFIT_MAX_N);
 }
 
 /* The RMS light coefficient per Haar level relative to the finest, sqrt of the geometric mean over
@@ -637,6 +639,7 @@ static void keep_minimum(prt_transport *t, int i, int n, uint64_t *order) {
 typedef struct store_scratch {
     float *keys, *W, *wc, *Hc;
     uint32_t *idx;
+    void *refit;            /* refit_scratch_size(REFIT_MAX_N) bytes */
 } store_scratch;
 
 static store_scratch scratch_of(void *scratch) {
@@ -645,6 +648,7 @@ static store_scratch scratch_of(void *scratch) {
     sc.W = (float *)(void *)(sc.idx + CUBE_TEXELS);
     sc.wc = sc.W + 2 * FACE;
     sc.Hc = sc.wc + 3 * CUBE_TEXELS;
+    sc.refit = sc.Hc + CUBE_TEXELS;
     return sc;
 }
 
@@ -694,6 +698,38 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
     return err;
 }
 
+/* Each face's kept values val[3 k + c] (the n kept idx, increasing) refit to the prior's light (refit.h), face
+ * by face; a face refit_face declines keeps what it had. */
+static unsigned refit_vector(const refit_tables *rt, const float *const ch[3], const uint32_t *idx, int n, float *val,
+                             void *scratch) {
+    float out[3 * REFIT_MAX_N];
+    unsigned done = 0;
+    for (int k0 = 0, k1; k0 < n; k0 = k1) {
+        uint32_t f = idx[k0] / FACE;
+        for (k1 = k0; k1 < n && idx[k1] / FACE == f; k1++) {}
+        if (!refit_face(rt, (int)f, ch[0], ch[1], ch[2], idx + k0, k1 - k0, out, scratch)) continue;
+        memcpy(val + 3 * (size_t)k0, out, 3 * (size_t)(k1 - k0) * sizeof *out);
+        done |= 1u << f;
+    }
+    return done;
+}
+
+/* The kept values val[3 k + c] quantized in place to multiples of step[c] (qmax > 0): the faces of `refit`
+ * by refit_quantize, the others to the nearest. */
+static void quantize_vector(const refit_tables *rt, unsigned refit, const uint32_t *idx, int n, const float step[3],
+                            int qmax, float *val, void *scratch) {
+    for (int k0 = 0, k1; k0 < n; k0 = k1) {
+        uint32_t f = idx[k0] / FACE;
+        for (k1 = k0; k1 < n && idx[k1] / FACE == f; k1++) {}
+        if (refit >> f & 1) {
+            refit_quantize(rt, (int)f, idx + k0, k1 - k0, step, qmax, val + 3 * (size_t)k0, scratch);
+            continue;
+        }
+        for (int k = k0; k < k1; k++)
+            for (int c = 0; c < 3; c++) val[3 * k + c] = (float)sparse_quantize(val[3 * k + c], step[c], qmax) * step[c];
+    }
+}
+
 /* Selects, quantizes and stages vector i; returns the squared L2 error of what is kept. */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     PRT_CHECK(t->stage_count && i >= 0 && i < t->nvecs);
@@ -707,23 +743,23 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
     block_corrections(t, ch, idx, n, shape, sc.Hc, sc.wc, adj);   /* wc is free once selected */
     float *val = t->stage_val + (size_t)i * t->N * 3;
     uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
+    for (int k = 0; k < n; k++)   /* unquantized first, then quantized in place */
+        for (int c = 0; c < 3; c++) val[3 * k + c] = kept_value(ch[c], idx[k], adj, c);
+    unsigned refit = t->refit && t->solid_angle ? refit_vector(t->refit, ch, idx, n, val, sc.refit) : 0;
     int qmax = qmax_of(t->qbits);
-    for (int c = 0; c < 3; c++) {
-        float step = 1.f;
-        if (qmax) {
-            float m = 0;
-            for (int k = 0; k < n; k++) {
-                float a = fabsf(kept_value(ch[c], idx[k], adj, c));
-                if (a > m && isfinite(a)) m = a;
-            }
-            step = sparse_step(m, qmax);
-        }
-        t->scale[3 * i + c] = step;
+    float step[3] = { 1.f, 1.f, 1.f };
+    for (int c = 0; c < 3 && qmax; c++) {
+        float m = 0;
         for (int k = 0; k < n; k++) {
-            float x = kept_value(ch[c], idx[k], adj, c);
-            val[3 * k + c] = qmax ? (float)sparse_quantize(x, step, qmax) * step : (isfinite(x) ? x : 0.f);
+            float a = fabsf(val[3 * k + c]);
+            if (a > m && isfinite(a)) m = a;
         }
+        step[c] = sparse_step(m, qmax);
     }
+    for (int c = 0; c < 3; c++) t->scale[3 * i + c] = step[c];
+    if (qmax) quantize_vector(t->refit, refit, idx, n, step, qmax, val, sc.refit);
+    else
+        for (int k = 0; k < 3 * n; k++) val[k] = isfinite(val[k]) ? val[k] : 0.f;
     memcpy(sidx, idx, sizeof(uint32_t) * (size_t)n);
     t->stage_count[i] = (uint32_t)n;
     /* Error: dropped coefficients' energy plus the kept ones' quantization error

@@ -25,7 +25,9 @@
  * vector keeps. N is always the most any vector holds, which is what a file states.
  * With the solid-angle measure what truncation drops is put back into the kept coarse
  * coefficients: per 16x16-texel block (block_level), or on a face with no occluder edge
- * weighted by the transport (smooth_faces); README "Shadows".
+ * weighted by the transport (smooth_faces); README "Shadows". With a light prior's refit tables
+ * (refit, per-vector budget) each face's kept values are instead refit to the least expected
+ * error of T.L under the prior's light and rounded by the same measure (refit.h).
  *
  * Runtime: transport_light (Eq. 5's T x L for every vector) computes the
  * light-dependent K-vectors: g[3*i+ch] = sum_c value(c, ch) * L[index(c)][ch].
@@ -121,6 +123,10 @@ typedef struct prt_transport {
     const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_level_sigma of its level; else
                              * by prior[i][ch], [CUBE_TEXELS] per channel (prior.h: a probe's RMS light
                              * over its yaw orbit; BORROWED: the caller keeps it alive until finish) */
+    const struct refit_tables *refit; /* NULL, or with a per-vector budget (budget 0) and solid_angle: each face's kept
+                             * values refit to a light prior's texels (refit.h) instead of the corrections
+                             * above; faces of more than REFIT_MAX_N kept keep them (BORROWED: the caller keeps
+                             * it alive until finish; set after init, transport_init_like copies it) */
     uint32_t *vec_first;    /* [nverts+1] */
     uint32_t *coef_first;   /* [nvecs+1] */
     uint32_t *run_first;    /* [nvecs+1] */
