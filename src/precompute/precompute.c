@@ -906,15 +906,18 @@ static uint64_t pc_key(const pc_run *r) {
         ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces,
-                 d->no_refit };
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */
     if (budget != TRANSPORT_BUDGET_VECTOR) ckpt_key_add(&k, &budget, sizeof budget);
     if (d->light_prior) ckpt_key_add(&k, d->light_prior, sizeof(float) * 4 * CUBE_TEXELS);   /* likewise */
     if (d->prior_rays && d->prior_rays->n) ckpt_key_add(&k, d->prior_rays, sizeof *d->prior_rays);
-    if (d->prior_texels) ckpt_key_add(&k, d->prior_texels, sizeof *d->prior_texels);
+    if (d->prior_texels) {   /* likewise */
+        ckpt_key_add(&k, d->prior_texels, sizeof *d->prior_texels);
+        int no_refit = d->no_refit;
+        ckpt_key_add(&k, &no_refit, sizeof no_refit);
+    }
     return ckpt_key_value(&k);
 }
 

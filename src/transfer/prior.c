@@ -207,4 +207,3 @@ int prior_rays_from_probes(const prt_probe *const *ps, int n, prior_rays *out, p
     free(share); free(tot); free(cw); free(cube); free(fa);
     return 0;
 }
-

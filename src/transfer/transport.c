@@ -652,11 +652,15 @@ static store_scratch scratch_of(void *scratch) {
     return sc;
 }
 
+/* Whether transport_store refits the kept values (refit.h) rather than correcting them: the refit's
+ * tables with the solid-angle measure and a per-vector budget. */
+static bool refits(const prt_transport *t) { return t->refit && t->solid_angle && !t->budget; }
+
 /* The faces' shapes into *shape and sc->Hc (face_shapes, when the prior's selection or the smooth
  * correction reads them), then the selection of vector ch into sc->idx and sc->keys. Returns how many
  * candidates. */
 static int select_vector(const prt_transport *t, const float *const ch[3], const store_scratch *sc, unsigned *shape) {
-    bool want_H = t->solid_angle && t->smooth_faces;
+    bool want_H = t->solid_angle && t->smooth_faces && !refits(t);   /* a refit face needs no correction */
     *shape = t->prior || want_H ? face_shapes(ch, t->tables->w, want_H, sc->W, sc->Hc) : 0;
     return t->select == TRANSPORT_SELECT_EXPECTED ? select_expected(ch[0], ch[1], ch[2], t, *shape, sc->idx, sc->keys, sc->wc)
                                                   : sparse_select(ch[0], ch[1], ch[2], CUBE_TEXELS, t->N, sc->idx, sc->keys);
@@ -714,6 +718,26 @@ static unsigned refit_vector(const refit_tables *rt, const float *const ch[3], c
     return done;
 }
 
+/* The faces of the n kept indices idx (bit f: face f holds one). */
+static unsigned kept_faces(const uint32_t *idx, int n) {
+    unsigned faces = 0;
+    for (int k = 0; k < n; k++) faces |= 1u << (idx[k] / FACE);
+    return faces;
+}
+
+/* The kept values val[3 k + c] of the faces not in `refit` (refit_vector's): the input plus the block or
+ * smooth-face correction (block_corrections), unquantized. With a refit select_vector left the smooth
+ * faces' transport out (no refit face needs it), so it is made here for the faces the refit declined. */
+static void corrected_values(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, unsigned shape,
+                             unsigned refit, const store_scratch *sc, float *val) {
+    if (refits(t) && t->smooth_faces) shape = face_shapes(ch, t->tables->w, true, sc->W, sc->Hc);
+    float adj[3 * 6 * 16];
+    block_corrections(t, ch, idx, n, shape, sc->Hc, sc->wc, adj);   /* wc is free once selected */
+    for (int k = 0; k < n; k++)
+        if (!(refit >> (idx[k] / FACE) & 1))
+            for (int c = 0; c < 3; c++) val[3 * k + c] = kept_value(ch[c], idx[k], adj, c);
+}
+
 /* The kept values val[3 k + c] quantized in place to multiples of step[c] (qmax > 0): the faces of `refit`
  * by refit_quantize, the others to the nearest. */
 static void quantize_vector(const refit_tables *rt, unsigned refit, const uint32_t *idx, int n, const float step[3],
@@ -739,13 +763,10 @@ double transport_store(prt_transport *t, int i, const float *r, const float *g, 
     uint32_t *idx = sc.idx;
     unsigned shape;
     int n = select_vector(t, ch, &sc, &shape);
-    float adj[3 * 6 * 16];
-    block_corrections(t, ch, idx, n, shape, sc.Hc, sc.wc, adj);   /* wc is free once selected */
     float *val = t->stage_val + (size_t)i * t->N * 3;
     uint32_t *sidx = t->stage_idx + (size_t)i * t->N;
-    for (int k = 0; k < n; k++)   /* unquantized first, then quantized in place */
-        for (int c = 0; c < 3; c++) val[3 * k + c] = kept_value(ch[c], idx[k], adj, c);
-    unsigned refit = t->refit && t->solid_angle ? refit_vector(t->refit, ch, idx, n, val, sc.refit) : 0;
+    unsigned refit = refits(t) ? refit_vector(t->refit, ch, idx, n, val, sc.refit) : 0;   /* unquantized values */
+    if (kept_faces(idx, n) & ~refit) corrected_values(t, ch, idx, n, shape, refit, &sc, val);
     int qmax = qmax_of(t->qbits);
     float step[3] = { 1.f, 1.f, 1.f };
     for (int c = 0; c < 3 && qmax; c++) {
