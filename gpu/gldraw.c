@@ -116,6 +116,32 @@ int gldraw_set_probe(gldraw *d, const prt_probe *p, prt_error *err) {
     return 0;
 }
 
+/* Copies m's positions and triangles for gldraw_clip, with the bounding box of each run of
+ * GLDRAW_CHUNK triangles; -1 with err (OOM). */
+static int gldraw_keep_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
+    free(d->pos);
+    free(d->tris);
+    free(d->chunk_box);
+    const size_t nchunks = ((size_t)m->ntris + GLDRAW_CHUNK - 1) / GLDRAW_CHUNK;
+    d->pos = prt_calloc((size_t)(m->nverts > 0 ? m->nverts : 1) * 3, sizeof(float), err);
+    d->tris = d->pos ? prt_calloc((size_t)(m->ntris > 0 ? m->ntris : 1) * 3, sizeof(uint32_t), err) : NULL;
+    d->chunk_box = d->tris ? prt_calloc((nchunks > 0 ? nchunks : 1) * 6, sizeof(float), err) : NULL;
+    if (!d->chunk_box) return -1;
+    if (m->nverts > 0) memcpy(d->pos, m->pos, (size_t)m->nverts * 3 * sizeof(float));
+    if (m->ntris > 0) memcpy(d->tris, m->tris, (size_t)m->ntris * 3 * sizeof(uint32_t));
+    for (size_t c = 0; c < nchunks; c++) {
+        float *b = d->chunk_box + 6 * c;
+        for (int k = 0; k < 3; k++) { b[k] = INFINITY; b[3 + k] = -INFINITY; }
+        for (size_t i = 3 * c * GLDRAW_CHUNK; i < 3 * (size_t)m->ntris && i < 3 * (c + 1) * GLDRAW_CHUNK; i++)
+            for (int k = 0; k < 3; k++) {
+                const float x = m->pos[3 * (size_t)m->tris[i] + k];
+                b[k] = x < b[k] ? x : b[k];
+                b[3 + k] = x > b[3 + k] ? x : b[3 + k];
+            }
+    }
+    return 0;
+}
+
 /* Uploads positions and triangles; -1 with err (OOM, GL out of memory). */
 int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
     const gl_api *gl = d->gl;
@@ -125,6 +151,7 @@ int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
     d->nverts = m->nverts;
     d->ntris = m->ntris;
     if (m->nverts > 0) mesh_bounds(m, d->bmin, d->bmax);
+    if (gldraw_keep_mesh(d, m, err)) return -1;
     if (!d->mesh_vao) {
         gl->GenVertexArrays(1, &d->mesh_vao);
         gl->GenBuffers(1, &d->mesh_pos);
@@ -225,8 +252,144 @@ void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const flo
     gl->BindTexture(GL_TEXTURE_2D, 0);
 }
 
-/* Near/far planes bracketing the mesh bounds along the view direction. */
-void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar) {
+/* The mesh bounds give the clip planes while their nearest corner lies at least this share of the
+ * far plane ahead of the camera (a perspective depth buffer's step at distance z is about
+ * z^2 / znear * 2^-24, so at most 100 * 2^-24 of the far distance then). */
+#define GLDRAW_BOX_NEAR 0.01f
+
+/* The camera's frame and view frustum: forward f, right r, up u, and the side planes as world
+ * vectors a_k with a_k . (p - eye) >= 0 inside (x <= sx z, -x <= sx z, y <= sy z, -y <= sy z). */
+typedef struct gldraw_frustum {
+    float eye[3], f[3], a[4][3];
+} gldraw_frustum;
+
+/* cam's frustum on an image of aspect w/h, as camera_matrices projects it. */
+static void gldraw_frustum_of(const prt_camera *cam, float aspect, gldraw_frustum *fr) {
+    float r[3], u[3];
+    camera_basis(cam, fr->f, r, u);
+    const float fov = cam->fov_deg > 0 ? cam->fov_deg : 40.0f;
+    const float sy = tanf(fov * (float)M_PI / 360.0f), sx = sy * aspect;
+    for (int c = 0; c < 3; c++) {
+        fr->eye[c] = cam->eye[c];
+        fr->a[0][c] = sx * fr->f[c] - r[c];
+        fr->a[1][c] = sx * fr->f[c] + r[c];
+        fr->a[2][c] = sy * fr->f[c] - u[c];
+        fr->a[3][c] = sy * fr->f[c] + u[c];
+    }
+}
+
+/* A point relative to the eye: its depth z and plane values s[k] (inside all when every s[k] >= 0). */
+typedef struct gldraw_pt {
+    float z, s[4];
+} gldraw_pt;
+
+static gldraw_pt gldraw_point(const gldraw_frustum *fr, const float *p) {
+    const float e[3] = { p[0] - fr->eye[0], p[1] - fr->eye[1], p[2] - fr->eye[2] };
+    gldraw_pt q;
+    q.z = e[0] * fr->f[0] + e[1] * fr->f[1] + e[2] * fr->f[2];
+    for (int k = 0; k < 4; k++) q.s[k] = e[0] * fr->a[k][0] + e[1] * fr->a[k][1] + e[2] * fr->a[k][2];
+    return q;
+}
+
+/* Clips polygon q[n] to s[k] >= 0 (Sutherland-Hodgman: every field is linear along an edge) into o;
+ * returns its count (<= n + 1). */
+static int gldraw_clip_poly(const gldraw_pt *q, int n, int k, gldraw_pt *o) {
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        const gldraw_pt *a = &q[i], *b = &q[(i + 1) % n];
+        if (a->s[k] >= 0) o[m++] = *a;
+        if ((a->s[k] >= 0) != (b->s[k] >= 0)) {
+            const float t = a->s[k] / (a->s[k] - b->s[k]);
+            o[m].z = a->z + t * (b->z - a->z);
+            for (int j = 0; j < 4; j++) o[m].s[j] = a->s[j] + t * (b->s[j] - a->s[j]);
+            m++;
+        }
+    }
+    return m;
+}
+
+/* Widens [*lo, *hi] by the depths of what of triangle t lies inside the frustum: all of it, none
+ * of it (all three corners outside one plane), or the polygon left by clipping it to the planes. */
+static void gldraw_tri_depths(const gldraw *d, const gldraw_frustum *fr, size_t t, float *lo, float *hi) {
+    gldraw_pt q[2][7];
+    unsigned all = 15, any = 0;
+    for (int i = 0; i < 3; i++) {
+        q[0][i] = gldraw_point(fr, d->pos + 3 * (size_t)d->tris[3 * t + i]);
+        unsigned out = 0;
+        for (int k = 0; k < 4; k++) out |= (unsigned)(q[0][i].s[k] < 0) << k;
+        all &= out;
+        any |= out;
+    }
+    if (all) return;
+    int n = 3, cur = 0;
+    for (int k = 0; k < 4 && n > 0; k++)
+        if ((any >> k) & 1) { n = gldraw_clip_poly(q[cur], n, k, q[cur ^ 1]); cur ^= 1; }
+    for (int i = 0; i < n; i++) {
+        *lo = q[cur][i].z < *lo ? q[cur][i].z : *lo;
+        *hi = q[cur][i].z > *hi ? q[cur][i].z : *hi;
+    }
+}
+
+/* [lo, hi] of the linear function a . (p - eye) over box b (min, max). */
+static void gldraw_box_range(const float *b, const float eye[3], const float a[3], float *lo, float *hi) {
+    float c = 0, h = 0;
+    for (int k = 0; k < 3; k++) {
+        c += a[k] * (0.5f * (b[k] + b[3 + k]) - eye[k]);
+        h += fabsf(a[k]) * 0.5f * (b[3 + k] - b[k]);
+    }
+    *lo = c - h;
+    *hi = c + h;
+}
+
+/* Chunk c's box against the frustum: -1 outside one side plane, 1 inside all four, 0 across;
+ * [*zmin, *zmax] its depths. */
+static int gldraw_chunk_side(const gldraw *d, const gldraw_frustum *fr, size_t c, float *zmin, float *zmax) {
+    const float *b = d->chunk_box + 6 * c;
+    int side = 1;
+    for (int k = 0; k < 4; k++) {
+        float smin, smax;
+        gldraw_box_range(b, fr->eye, fr->a[k], &smin, &smax);
+        if (smax < 0) return -1;
+        if (smin < 0) side = 0;
+    }
+    gldraw_box_range(b, fr->eye, fr->f, zmin, zmax);
+    return side;
+}
+
+/* A depth range [*lo, *hi] holding every point of the mesh inside cam's view frustum (aspect w/h),
+ * with the nearest and farthest to within a chunk's box: the chunks whose boxes are inside all
+ * four side planes add their boxes' depths, then those across a plane their triangles clipped to
+ * the frustum, unless their boxes' depths are inside the range already. False when nothing is in
+ * view. */
+static bool gldraw_view_depths(const gldraw *d, const prt_camera *cam, float aspect, float *lo, float *hi) {
+    if (!d->chunk_box || d->ntris <= 0) return false;
+    gldraw_frustum fr;
+    gldraw_frustum_of(cam, aspect, &fr);
+    const size_t nchunks = ((size_t)d->ntris + GLDRAW_CHUNK - 1) / GLDRAW_CHUNK;
+    float zmin, zmax;
+    *lo = INFINITY;
+    *hi = -INFINITY;
+    for (size_t c = 0; c < nchunks; c++)
+        if (gldraw_chunk_side(d, &fr, c, &zmin, &zmax) == 1) {
+            *lo = zmin < *lo ? zmin : *lo;
+            *hi = zmax > *hi ? zmax : *hi;
+        }
+    for (size_t c = 0; c < nchunks; c++)
+        if (gldraw_chunk_side(d, &fr, c, &zmin, &zmax) == 0 && (zmin < *lo || zmax > *hi))
+            for (size_t t = c * GLDRAW_CHUNK; t < (size_t)d->ntris && t < (c + 1) * GLDRAW_CHUNK; t++)
+                gldraw_tri_depths(d, &fr, t, lo, hi);
+    return *hi > 0;
+}
+
+/* Near/far planes bracketing the mesh along the view direction. The bounds' corners bracket it
+ * cheaply while the box lies ahead of the camera. A floor several times the model's size reaches
+ * under and behind a camera that frames the model: the nearest corner is then behind the eye and
+ * says nothing about the nearest visible point, and a near plane at the 1e-5 of the far one that
+ * guards against geometry at the eye leaves a depth step of about 2 cm at the model (z^2 / znear *
+ * 2^-24), so surfaces a few millimetres behind others (a tail's inner shell, an eyeball behind
+ * its lids) show through as dark speckles. There the planes come from the triangles clipped to the
+ * view frustum: the nearest and farthest points that can reach a pixel. */
+void gldraw_clip(const gldraw *d, const prt_camera *cam, float aspect, float *znear, float *zfar) {
     float f[3], r[3], u[3];
     camera_basis(cam, f, r, u);
     float dmin = INFINITY, dmax = -INFINITY;
@@ -238,7 +401,11 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zf
     }
     if (!(dmax > 0) || !isfinite(dmax)) { *znear = 0.01f; *zfar = 100.0f; return; }
     float fa = dmax * 1.05f + 1e-6f;
-    float ne = dmin * 0.95f;
+    float ne = dmin * 0.95f, lo, hi;
+    if (ne < GLDRAW_BOX_NEAR * fa && gldraw_view_depths(d, cam, aspect, &lo, &hi)) {
+        fa = hi * 1.05f + 1e-6f;
+        ne = lo * 0.95f;
+    }
     if (ne < fa * 1e-5f) ne = fa * 1e-5f;
     *znear = ne;
     *zfar = fa;
@@ -247,7 +414,7 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zf
 /* proj * view (column-major). */
 void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]) {
     float zn, zf, view[16], proj[16];
-    gldraw_clip(d, cam, &zn, &zf);
+    gldraw_clip(d, cam, (float)w / (float)h, &zn, &zf);
     camera_matrices(cam, (float)w / (float)h, zn, zf, view, proj);
     for (int c = 0; c < 4; c++)
         for (int r = 0; r < 4; r++) {
@@ -344,6 +511,9 @@ void gldraw_free(gldraw *d) {
         gl->DeleteBuffers(1, &d->mesh_ebo);
     }
     free(d->scratch);
+    free(d->pos);
+    free(d->tris);
+    free(d->chunk_box);
     memset(d, 0, sizeof *d);
 }
 

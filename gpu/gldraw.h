@@ -27,6 +27,10 @@
 #include "glctx.h"
 #include "render.h"
 
+/* Triangles per box of gldraw_clip's view test: a box wholly inside or outside the view settles its
+ * run without touching the triangles. */
+#define GLDRAW_CHUNK 32
+
 typedef struct gldraw {
     const gl_api *gl;
     GLuint prog_bg, prog_vc, prog_present, vao_empty;
@@ -37,6 +41,9 @@ typedef struct gldraw {
     GLuint mesh_vao, mesh_pos, mesh_col, mesh_ebo;
     int nverts, ntris;
     float bmin[3], bmax[3];      /* mesh bounds, for the clip planes */
+    float *pos;                  /* [3*nverts] positions, [3*ntris] triangles and the boxes of each run of */
+    uint32_t *tris;              /* GLDRAW_CHUNK triangles ([6] each: min, max) kept on the CPU: the clip */
+    float *chunk_box;            /* planes of a view the bounds do not bracket (gldraw_clip) */
     float *scratch;              /* [3*nverts] sanitized colours */
 } gldraw;
 
@@ -49,8 +56,9 @@ int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err);
 int gldraw_target(gldraw *d, int w, int h, prt_error *err);
 /* Draws the probe (or nothing when none is set) behind everything; R row-major 3x3 or NULL. */
 void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]);
-/* Near and far clip distances that hold the mesh bounds for cam. */
-void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zfar);
+/* Near and far clip distances for cam on an image of aspect w/h: those of the mesh bounds when
+ * they lie well ahead of the camera, else those of the triangles in view (gldraw.c says why). */
+void gldraw_clip(const gldraw *d, const prt_camera *cam, float aspect, float *znear, float *zfar);
 /* proj * view (column-major) for cam on a w x h target, clip planes from gldraw_clip. */
 void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]);
 /* Uploads rgb[3*nverts] (non-finite -> 0) and draws the mesh with Gouraud colours. */

@@ -229,6 +229,78 @@ static void raster(void) {
     image_free(&ref);
 }
 
+/* Two vertical unit squares facing +z, centred at (0, 1), the back one (green) a gap g behind the front
+ * one (red) and listed first, on a grey floor y = 0 tessellated over [-50, 50]^2. */
+static void make_gap_scene(prt_mesh *m, float **rgb, float g) {
+    prt_error err;
+    memset(m, 0, sizeof *m);
+    CHECK(mesh_make_plane(m, -50, 50, -50, 50, 0, 24, 24, &err) == 0, "%s", err.msg);
+    const int nf = m->nverts;
+    for (int q = 0; q < 2; q++) {
+        prt_mesh sq = { 0 };
+        CHECK(mesh_make_plane(&sq, -0.5f, 0.5f, -0.5f, 0.5f, 0, 2, 2, &err) == 0, "%s", err.msg);
+        const float R[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 }, t[3] = { 0, 1, q ? 0 : -g };   /* +y -> +z */
+        mesh_transform(&sq, R, 1, t);
+        CHECK(mesh_append(m, &sq, &err) == 0, "%s", err.msg);
+        mesh_free(&sq);
+    }
+    *rgb = calloc((size_t)m->nverts * 3, sizeof(float));
+    for (int v = 0; v < m->nverts; v++) {
+        const bool back = v >= nf && v < nf + 4, front = v >= nf + 4;
+        (*rgb)[3 * v] = front ? 1.0f : back ? 0.0f : 0.2f;
+        (*rgb)[3 * v + 1] = back ? 1.0f : front ? 0.0f : 0.2f;
+        (*rgb)[3 * v + 2] = back || front ? 0.0f : 0.2f;
+    }
+}
+
+/* A floor much wider than the camera's distance reaches behind the camera, so the mesh bounds say
+ * nothing about where the visible geometry starts. The near plane must still hold every visible
+ * point and keep the depth steps at the squares far below their 0.2 mm gap: each pixel shows the
+ * surface a CPU ray cast finds first (the back square, drawn first, must never win, nor the floor
+ * at the image's bottom edge be cut). A near plane at 1e-5 of the far one (~6e-4 here) would step
+ * the depth by ~3 mm at the squares (z^2 / znear * 2^-24) and let green through. A high camera
+ * (above the bounds) and a low one (inside them). */
+static void clip_planes(void) {
+    const float g = 2e-4f;
+    prt_mesh m;
+    float *rgb;
+    make_gap_scene(&m, &rgb, g);
+    const prt_camera cams[2] = { { .eye = { 0.4f, 2.0f, 5 }, .target = { 0, 1, 0 }, .up = { 0, 1, 0 }, .fov_deg = 40 },
+                                 { .eye = { -0.3f, 0.6f, 4 }, .target = { 0, 1, 0 }, .up = { 0, 1, 0 }, .fov_deg = 40 } };
+    const int w = 160, h = 120;
+    for (int k = 0; k < 2; k++) {
+        render_desc d = { .width = w, .height = h, .camera = cams[k] };
+        prt_image img;
+        prt_error err = { { 0 } };
+        int rc = render_vertex_colors(&m, rgb, &d, &img, &err);
+        CHECK(rc == 0, "%s", err.msg);
+        if (rc) continue;
+        int front = 0, floor = 0, wrong = 0;
+        double maxerr = 0;
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                float e[3];
+                if (expected_pixel(&m, rgb, &cams[k], w, h, x, y, e) != 1) continue;
+                const float *p = img.data + 3 * ((size_t)y * w + x);
+                double err1 = 0;
+                for (int c = 0; c < 3; c++) err1 = fmax(err1, fabs(p[c] - e[c]));
+                maxerr = fmax(maxerr, err1);
+                wrong += err1 > 0.1;   /* another surface (the colours differ by 0.2 or more) */
+                front += e[0] == 1.0f;
+                floor += e[0] == 0.2f && y >= h - 3;
+            }
+        printf("camera %d: %d wrong pixels (%d on the front square, %d on the floor's bottom rows), max error %.2g\n", k,
+               wrong, front, floor, maxerr);
+        CHECK(front > w * h / 40, "camera %d: the front square covers only %d pixels", k, front);
+        CHECK(floor > w, "camera %d: the floor fills only %d pixels of the bottom rows", k, floor);
+        CHECK(wrong == 0, "camera %d: %d pixels show another surface than the first hit", k, wrong);
+        CHECK_LE(maxerr, 2e-3, "camera %d: colour mismatch", k);
+        image_free(&img);
+    }
+    mesh_free(&m);
+    free(rgb);
+}
+
 static void background(void) {
     prt_probe probe;
     make_probe(&probe, 512);
@@ -352,6 +424,7 @@ int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(camera);
     CHECK_CASE(raster);
+    CHECK_CASE(clip_planes);
     CHECK_CASE(background);
     CHECK_CASE(background_angular);
     CHECK_CASE(errors_and_backends);
