@@ -10,6 +10,7 @@
  * (checked through --vertices, uncompressed float transport). */
 #include "harness.h"
 #include "image.h"
+#include "common.h"
 #include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
@@ -370,6 +371,253 @@ static void damaged_prt(void) {
     expect_error(args, "missing.prt", NULL);
 }
 
+/* ---- no command destroys what it reads: outputs against inputs, output kinds, messages ---- */
+
+/* Runs `cd SCRATCH && prt ARGS` into out[cap] (so that the arguments name the scratch files as a user
+ * in that folder would); its exit status. */
+static int run_here(const char *args, char *out, size_t cap) {
+    char cmd[8192], bin[4096];
+    if (!realpath(check_prt_bin(), bin)) snprintf(bin, sizeof bin, "%s", check_prt_bin());   /* a name on PATH */
+    snprintf(cmd, sizeof cmd, "cd '%s' && '%s' %s", g_dir, bin, args);
+    return check_run(cmd, out, cap);
+}
+
+/* Occurrences of needle in s. */
+static int count(const char *s, const char *needle) {
+    int n = 0;
+    for (const char *p = s; (p = strstr(p, needle)); p += strlen(needle)) n++;
+    return n;
+}
+
+/* Runs ARGS in the scratch folder expecting a usage error: exit 2, one line holding each of words[]
+ * (NULL-ended; a word listed twice must appear twice), no temporary left, and every file of keep[]
+ * (NULL-ended, scratch-relative) the same bytes after the run as before it. */
+static void refuse(const char *args, const char *const *words, const char *const *keep) {
+    char buf[8192], p[1024];
+    char *before[8] = { 0 };
+    size_t len[8] = { 0 };
+    for (int k = 0; keep[k] && k < 8; k++) {
+        snprintf(p, sizeof p, "%s/%s", g_dir, keep[k]);
+        before[k] = check_read_file(p, &len[k]);
+        CHECK(before[k] != NULL, "%s: cannot read %s before the run", args, keep[k]);
+    }
+    int rc = run_here(args, buf, sizeof buf);
+    CHECK(rc == 2, "%s: exit status %d (want 2): %s", args, rc, buf);
+    CHECK(lines(buf) == 1, "%s: want one line, got:\n%s", args, buf);
+    for (int w = 0; words[w]; w++) {
+        int want = 0;
+        for (int v = 0; words[v]; v++) want += !strcmp(words[v], words[w]);
+        CHECK(count(buf, words[w]) >= want, "%s: message does not name '%s' %d time(s): %s", args, words[w], want, buf);
+    }
+    CHECK(temporaries() == 0, "%s: a temporary file was left behind", args);
+    for (int k = 0; keep[k] && k < 8; k++) {
+        size_t n = 0;
+        snprintf(p, sizeof p, "%s/%s", g_dir, keep[k]);
+        char *after = check_read_file(p, &n);
+        CHECK(after && before[k] && n == len[k] && memcmp(after, before[k], n) == 0, "%s: %s changed", args, keep[k]);
+        free(after);
+        free(before[k]);
+    }
+}
+
+#define WORDS(...) ((const char *const[]){ __VA_ARGS__, NULL })
+
+/* Copies scratch file a to b (fresh bytes, not a link). */
+static void copy_file(const char *a, const char *b) {
+    char p[1024];
+    size_t n = 0;
+    snprintf(p, sizeof p, "%s/%s", g_dir, a);
+    char *bytes = check_read_file(p, &n);
+    snprintf(p, sizeof p, "%s/%s", g_dir, b);
+    FILE *f = fopen(p, "wb");
+    if (f && bytes) fwrite(bytes, 1, n, f);
+    if (f) fclose(f);
+    free(bytes);
+    CHECK(bytes && f, "copy %s to %s", a, b);
+}
+
+/* Runs a shell line in the scratch folder (links, folders); checks it succeeds. */
+static void shell(const char *line) {
+    char cmd[4096], buf[1024];
+    snprintf(cmd, sizeof cmd, "cd '%s' && %s", g_dir, line);
+    CHECK(check_run(cmd, buf, sizeof buf) == 0, "%s: %s", line, buf);
+}
+
+/* Every command that writes refuses, before any work, an output that is one of its inputs: the same
+ * name, a hard link, a symbolic link or "./x" of it, a file a JSON scene names, --light-prior's
+ * probe, a --probes folder's probe, a --vertex-list; and two outputs that are one file. The inputs
+ * are left byte for byte as they were. */
+static void output_is_input(void) {
+    good_prt();
+    copy_file("good.obj", "spider.obj");
+    copy_file("const.exr", "city.exr");
+    copy_file("const.exr", "b.exr");
+    shell("ln -f spider.obj hard.prt && ln -sf spider.obj sym.prt && ln -sf spider.obj named.prt && "
+          "ln -f city.exr prior.prt && ln -sf good.prt prtlink.exr && mkdir -p pdir && cp city.exr pdir/p.exr && "
+          "printf 'vertex,r,g,b\\n0,1,1,1\\n' > list.csv");
+    write_file("scene.json", "{ \"models\": [ { \"obj\": \"spider.obj\" } ] }");
+    /* precompute: the same name (the collision said before the extension), its hard link, its symbolic
+     * link, "./" and a folder round trip, a file the JSON scene names, the light prior */
+    refuse("precompute spider.obj -o spider.obj", WORDS("same file", "spider.obj", "spider.obj"), WORDS("spider.obj"));
+    refuse("precompute spider.obj -o hard.prt", WORDS("same file", "hard.prt", "spider.obj"), WORDS("spider.obj", "hard.prt"));
+    refuse("precompute spider.obj -o sym.prt", WORDS("same file", "sym.prt", "spider.obj"), WORDS("spider.obj"));
+    refuse("precompute ./spider.obj -o ../$(basename $PWD)/spider.obj", WORDS("same file", "./spider.obj", "/spider.obj"),
+           WORDS("spider.obj"));
+    refuse("precompute scene.json -o named.prt", WORDS("same file", "named.prt", "spider.obj", "named by scene.json"),
+           WORDS("spider.obj", "scene.json"));
+    refuse("precompute spider.obj --light-prior b.exr,city.exr -o prior.prt", WORDS("same file", "prior.prt", "city.exr", "--light-prior"),
+           WORDS("city.exr", "spider.obj"));
+    /* render, reference, compare, view */
+    refuse("render good.prt --probe city.exr -o city.exr", WORDS("same file", "city.exr", "city.exr", "--probe"), WORDS("city.exr", "good.prt"));
+    refuse("render good.prt --probe city.exr -o prtlink.exr", WORDS("same file", "prtlink.exr", "good.prt"), WORDS("city.exr", "good.prt"));
+    refuse("reference good.prt --probe city.exr -o ./city.exr --spp 1", WORDS("same file", "./city.exr", "city.exr"), WORDS("city.exr"));
+    refuse("reference good.prt --probe city.exr --no-image --vertices list.csv --vertex-list list.csv",
+           WORDS("same file", "list.csv", "list.csv", "--vertex-list"), WORDS("list.csv"));
+    refuse("compare city.exr b.exr --error-image city.exr", WORDS("same file", "city.exr", "city.exr"), WORDS("city.exr", "b.exr"));
+    refuse("compare city.exr b.exr --error-image b.exr", WORDS("same file", "b.exr", "b.exr"), WORDS("city.exr", "b.exr"));
+    refuse("view good.prt --probe city.exr --frames 1 --screenshot city.exr", WORDS("same file", "city.exr", "city.exr"),
+           WORDS("city.exr", "good.prt"));
+    refuse("view good.prt --probes pdir --frames 1 --screenshot pdir/p.exr", WORDS("same file", "pdir/p.exr", "pdir/p.exr", "--probes"),
+           WORDS("pdir/p.exr"));
+    /* two outputs of one run that are one file */
+    refuse("view good.prt --probe city.exr --frames 1 --screenshot shot.png --window-shot ./shot.png",
+           WORDS("same file", "shot.png", "./shot.png"), WORDS("city.exr"));
+    CHECK(!exists("shot.png"), "shot.png written");
+}
+
+/* precompute writes only .prt names, --prt too, --vertices only .csv, images only what image_write
+ * writes; nothing is created. */
+static void output_kinds(void) {
+    good_prt();
+    char p[1024];
+    refuse("precompute good.obj -o t.png --quiet", WORDS("t.png", ".prt"), WORDS("good.obj"));
+    refuse("precompute good.obj -o noext --quiet", WORDS("noext", ".prt"), WORDS("good.obj"));
+    refuse("demo --prt d.png -o d2.png", WORDS("d.png", ".prt"), WORDS("good.obj"));
+    refuse("render good.prt --probe const.exr -o r.exr --vertices v.png", WORDS("v.png", ".csv"), WORDS("good.prt"));
+    refuse("render good.prt --probe const.exr -o r.bmp", WORDS("r.bmp", ".png", ".exr"), WORDS("good.prt"));
+    refuse("compare const.exr const.exr --error-image e.txt", WORDS("e.txt", ".png"), WORDS("const.exr"));
+    const char *none[] = { "t.png", "noext", "d.png", "d2.png", "r.exr", "v.png", "r.bmp", "e.txt" };
+    for (size_t i = 0; i < sizeof none / sizeof none[0]; i++) {
+        snprintf(p, sizeof p, "%s/%s", g_dir, none[i]);
+        CHECK(!exists(p), "%s was written", none[i]);
+    }
+}
+
+/* A directory given as a file is said to be one, by every command that reads a file. */
+static void directory_inputs(void) {
+    good_prt();
+    shell("mkdir -p folder folder.obj folder.prt folder.exr");
+    refuse("precompute folder -o x.prt --quiet", WORDS("folder", "is a directory"), WORDS("good.obj"));
+    refuse("precompute folder.obj -o x.prt --quiet", WORDS("folder.obj", "is a directory"), WORDS("good.obj"));
+    refuse("precompute good.obj --light-prior folder.exr -o x.prt --quiet", WORDS("folder.exr", "is a directory", "--light-prior"),
+           WORDS("good.obj"));
+    refuse("info folder.prt", WORDS("folder.prt", "is a directory"), WORDS("good.prt"));
+    refuse("render folder --probe const.exr -o x.png", WORDS("folder", "is a directory"), WORDS("const.exr"));
+    refuse("render good.prt --probe folder.exr -o x.png", WORDS("folder.exr", "is a directory", "--probe"), WORDS("good.prt"));
+    refuse("reference folder.prt --probe const.exr -o x.exr", WORDS("folder.prt", "is a directory"), WORDS("const.exr"));
+    refuse("bench good.prt --probe folder", WORDS("folder", "is a directory", "--probe"), WORDS("good.prt"));
+    refuse("compare const.exr folder", WORDS("folder", "is a directory"), WORDS("const.exr"));
+    refuse("view folder.prt --probe const.exr --frames 1", WORDS("folder.prt", "is a directory"), WORDS("const.exr"));
+}
+
+/* --camera: an eye on the target is said to be that (given, or the framing's target with an eye
+ * alone: good.obj's box [-1,1] x [0,0.5] x [-1,1] frames its centre (0, 0.25, 0)), not a format error. */
+static void camera_messages(void) {
+    good_prt();
+    refuse("render good.prt --probe const.exr -o x.png --camera 1,2,3,1,2,3", WORDS("eye and the target coincide", "1,2,3,1,2,3"),
+           WORDS("good.prt"));
+    refuse("render good.prt --probe const.exr -o x.png --camera 0,0.25,0", WORDS("eye and the target coincide", "0, 0.25, 0"),
+           WORDS("good.prt"));
+    refuse("reference good.prt --probe const.exr -o x.exr --camera 0,0.25,0 --spp 1", WORDS("eye and the target coincide"),
+           WORDS("good.prt"));
+    refuse("render good.prt --probe const.exr -o x.png --camera 1,2", WORDS("bad --camera", "EX,EY,EZ"), WORDS("good.prt"));
+    refuse("render good.prt --probe const.exr -o x.png --camera 0,1,5,0,0,0,190", WORDS("field of view"), WORDS("good.prt"));
+}
+
+/* --help states the defaults (precompute's vMF options, demo's, view's) and --budget reads in order. */
+static void help_defaults(void) {
+    static char buf[65536];
+    CHECK(run_here("precompute --help", buf, sizeof buf) == 0, "precompute --help");
+    const char *want[][2] = { { "--view-level L", "(default 2" }, { "--lobe-samples S", "(default 64)" },
+                              { "--term-error E", "default: off" }, { "--refine-threshold F", "default 0.005" },
+                              { "--lobes I", "(default 2)" }, { "--coeffs N", "(default 128)" } };
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++) {
+        const char *l = strstr(buf, want[i][0]), *next = l ? strstr(l + 3, "\n  -") : NULL;
+        const char *d = l ? strstr(l, want[i][1]) : NULL;
+        CHECK(l && d && (!next || d < next), "precompute --help: %s does not say %s", want[i][0], want[i][1]);
+    }
+    /* --budget: its three values explained in turn, then its default */
+    const char *b = strstr(buf, "--budget"), *sh = b ? strstr(b, "shared:") : NULL, *ve = sh ? strstr(sh, "vector:") : NULL;
+    const char *re = ve ? strstr(ve, "relative:") : NULL, *de = re ? strstr(re, "Default: shared up to 500,000") : NULL;
+    CHECK(de && de < strstr(b, "\n  --glossy"), "precompute --help: --budget does not read in order");
+    CHECK(run_here("demo --help", buf, sizeof buf) == 0, "demo --help");
+    const char *demo[] = { "(default demo.png", "(default 960x600)", "(default 12000)", "(default 1;", "(default -1)" };
+    for (size_t i = 0; i < sizeof demo / sizeof demo[0]; i++) CHECK(strstr(buf, demo[i]), "demo --help lacks %s: %s", demo[i], buf);
+    CHECK(run_here("view --help", buf, sizeof buf) == 0 && strstr(buf, "pitch; default 0)") && strstr(buf, "default: interactive"),
+          "view --help: %s", buf);
+}
+
+/* Times read as a person reads them: never an exponent (1.7e+03 ms), a unit after every figure. */
+static void durations(void) {
+    struct { double s; const char *want; } cases[] = {
+        { 4.21e-5, "0.0421 ms" }, { 0.0123, "12.3 ms" }, { 0.85, "850 ms" }, { 0.99996, "1.0 s" }, { 1.7, "1.7 s" },
+        { 59.97, "1 min 00 s" }, { 125.4, "2 min 05 s" }, { 3720, "1 h 02 min" }, { -1, "0 ms" }, { NAN, "0 ms" },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char got[48];
+        prt_format_duration(got, sizeof got, cases[i].s);
+        CHECK(!strcmp(got, cases[i].want), "%g s printed as '%s' (want '%s')", cases[i].s, got, cases[i].want);
+    }
+    /* through the commands: a precompute's progress and timing summary, a render's line, info's timings */
+    static char buf[65536];
+    int rc = run_here("precompute good.obj -o t.prt --vis-res 64", buf, sizeof buf);
+    const char *sum = strstr(buf, "timing summary"), *tot = sum ? strstr(sum, "\n  total ") : NULL;
+    CHECK(rc == 0 && tot && !strstr(buf, "e+0") && !strstr(buf, "e-0"), "precompute: %s", buf);
+    double v = -1;
+    char unit[8] = "";
+    CHECK(tot && sscanf(tot, "\n  total %lf %7s", &v, unit) == 2 && v > 0 && (!strcmp(unit, "ms") || !strcmp(unit, "s")),
+          "summary total: %s", tot ? tot : buf);
+    rc = run_here("render t.prt --probe const.exr -o t.png --size 16x12", buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "light change ") && !strstr(buf, "e+0") && !strstr(buf, "e-0"), "render: %s", buf);
+    rc = run_here("info t.prt", buf, sizeof buf);
+    const char *tm = strstr(buf, "timings ");
+    CHECK(rc == 0 && tm && strstr(tm, " ms") && !strstr(buf, "e+0"), "info: %s", buf);
+}
+
+/* Writes a 64x32 latlong EXR: radiance 2, the top `rows` rows -neg in every channel, and `dots` single
+ * texels of -1e-4 (lossy compression's kind). */
+static void write_probe(const char *name, int rows, float neg, int dots) {
+    prt_image im = { 0 };
+    prt_error err;
+    char p[1024];
+    CHECK(image_alloc(&im, 64, 32, 3, &err) == 0, "%s", err.msg);
+    for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = i < rows * 64 * 3 ? -neg : 2.f;
+    for (int k = 0; k < dots; k++) im.data[3 * (64 * (8 + 5 * k) + 7 * k)] = -1e-4f;
+    snprintf(p, sizeof p, "%s/%s", g_dir, name);
+    CHECK(image_write(p, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+}
+
+/* Negative probe texels: a few tiny ones (far below 1e-4 of the light) are not mentioned; a band
+ * holding a few percent of the light is, with that share: latlong rows 0..3 of 32 at -1 against 2
+ * elsewhere hold 3 x 1 x 2 pi (1 - cos(pi/8)) of 3 x (that + 2 x (4 pi - 2 pi (1 - cos(pi/8)))). */
+static void probe_negatives(void) {
+    good_prt();
+    static char buf[16384];
+    write_probe("tiny.exr", 0, 0, 3);
+    int rc = run_here("render good.prt --probe tiny.exr -o tiny.png --size 16x12", buf, sizeof buf);
+    CHECK(rc == 0 && !strstr(buf, "negative"), "tiny negatives reported: %s", buf);
+    write_probe("band.exr", 4, 1.f, 0);
+    rc = run_here("render good.prt --probe band.exr -o band.png --size 16x12", buf, sizeof buf);
+    double cap = 2 * M_PI * (1 - cos(M_PI / 8)), share = cap / (cap + 2 * (4 * M_PI - cap));
+    const char *w = strstr(buf, "256 texel(s) with negative values clamped to 0: ");
+    double pc = -1;
+    CHECK(rc == 0 && w && sscanf(w, "256 texel(s) with negative values clamped to 0: %lf%%", &pc) == 1, "band: %s", buf);
+    CHECK(count(buf, "negative values") == 1 && strstr(buf, "band.exr"), "one line naming the probe: %s", buf);
+    /* printed to one decimal of a percent (1 <= pc < 10) */
+    CHECK_NEAR(pc, 100 * share, 0.05 + 1e-9, "the negative share of the light, percent");
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -379,5 +627,12 @@ int main(int argc, char **argv) {
     CHECK_CASE(interreflections);
     CHECK_CASE(bad_probes);
     CHECK_CASE(damaged_prt);
+    CHECK_CASE(output_is_input);
+    CHECK_CASE(output_kinds);
+    CHECK_CASE(directory_inputs);
+    CHECK_CASE(camera_messages);
+    CHECK_CASE(help_defaults);
+    CHECK_CASE(durations);
+    CHECK_CASE(probe_negatives);
     return check_summary();
 }

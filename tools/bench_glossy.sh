@@ -35,7 +35,9 @@ verdict() { awk -v a="$1" -v b="$2" -v dir="$3" 'BEGIN{ if (a == "") { print "no
   ok = (dir=="le") ? (a<=b) : (a>=b); print ok ? "met" : "MISSED" }'; }
 kv() { echo "$1" | tr ' ' '\n' | awk -F= -v k="$2" '$1==k{print $2}'; }
 # total seconds of a precompute from its timing summary ("total" line), else wall clock of the run
-total_s() { awk '/^  total/{print $(NF)+0; f=1} END{if(!f) print ""}' "$1" | tail -1; }
+# awk: the seconds a timing-summary line ends with ("850 ms", "1.7 s", "2 min 05 s", "1 h 02 min")
+SECS='function secs(  i, s) { for (i = 2; i <= NF; i++) s += ($i == "ms" ? 1e-3 : $i == "s" ? 1 : $i == "min" ? 60 : $i == "h" ? 3600 : 0) * $(i - 1); return s }'
+total_s() { awk "$SECS"' /^  total/{print secs(); f=1} END{if(!f) print ""}' "$1" | tail -1; }
 precompute() {  # name scene-args... : precompute into $OUT/name.prt, log in $OUT/name.log, prints seconds
   local name=$1; shift
   local t0; t0=$(date +%s.%N)
@@ -43,7 +45,7 @@ precompute() {  # name scene-args... : precompute into $OUT/name.prt, log in $OU
   awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN{printf "%.1f", b-a}'
 }
 # seconds of the timing-summary lines matching a pattern (summed)
-stage_s() { tr '\r' '\n' < "$1" | awk -v pat="$2" '$0 ~ pat {s += $(NF)+0} END {printf "%.1f", s}'; }
+stage_s() { tr '\r' '\n' < "$1" | awk -v pat="$2" "$SECS"' $0 ~ pat {s += secs()} END {printf "%.1f", s}'; }
 plan_paths() { tr '\r' '\n' < "$1" | grep -E '^    material [0-9]+ ' | sed 's/^ */   plan: /'; }
 mb() { stat -c %s "$1" | awk '{printf "%.1f", $1/1e6}'; }
 

@@ -225,7 +225,7 @@ reference() { # scene probe bounces base-id [image-from]
   awk -F, -v f="${ff:-999999999}" -v m="$med" 'NR == 1 || ($1 >= f && $2 + $3 + $4 < 0.6 * m)' "$r.front.csv" > "$r.shadow.csv"
   REF_NOISE_V[$s-$p-$b]=$(awk '/\.csv:/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
   REF_NOISE_I[$s-$p-$b]=$(awk '/\.exr/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' "$r.log" | tr -d ',')
-  say "  $(( $(wc -l < "$r.front.csv") - 1 )) of $(( $(wc -l < "$r.csv") - 1 )) vertices face the camera, $(( $(wc -l < "$r.shadow.csv") - 1 )) in the floor's shadow region; reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]*s' "$r.log" | tr '\n' ' '))"
+  say "  $(( $(wc -l < "$r.front.csv") - 1 )) of $(( $(wc -l < "$r.csv") - 1 )) vertices face the camera, $(( $(wc -l < "$r.shadow.csv") - 1 )) in the floor's shadow region; reference noise (relative): vertices ${REF_NOISE_V[$s-$p-$b]}, image ${REF_NOISE_I[$s-$p-$b]}  ($(grep -o 'in [0-9.]* \(ms\|s\|min [0-9]* s\|h [0-9]* min\)' "$r.log" | tr '\n' ' '))"
 }
 
 # --- measure one point -----------------------------------------------------------------

@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <cjson/cJSON.h>
 
 int cli_error(const char *cmd, const char *fmt, ...) {
     va_list ap;
@@ -125,8 +127,12 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
         return probe_make_constant(black, out, &err) ? cli_error(cmd, "%s", err.msg) : 0;
     }
     if (probe_load(path, lay, out, &err)) return cli_error(cmd, "%s", err.msg);
-    if (out->clamped_negative)
-        fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0\n", path, out->clamped_negative);
+    /* a few tiny negatives (lossy compression) change nothing visible: said only when they hold light */
+    if (out->clamped_negative && out->clamped_negative_share > PROBE_NEGATIVE_NOTE) {
+        double pc = 100 * out->clamped_negative_share;
+        fprintf(stderr, "warning: %s: %ld texel(s) with negative values clamped to 0: %.*f%% of the probe's light "
+                        "(by solid angle) was negative\n", path, out->clamped_negative, pc >= 10 ? 0 : pc >= 1 ? 1 : 2, pc);
+    }
     if (out->clamped_nonfinite)
         fprintf(stderr, "warning: %s: %ld texel(s) with NaN or Inf clamped to 0\n", path, out->clamped_nonfinite);
     /* Accepted (a quick look is a fair use), but said: an integer probe clips at 1, so the sun is no
@@ -137,14 +143,137 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
     return 0;
 }
 
-int cli_check_output(const char *cmd, const char *path, int kind) {
-    static const char *const k_image[] = { "png", "exr", "hdr", "tif", "tiff", "jpg", "jpeg", "ppm", NULL };
-    prt_error err = { { 0 } };
-    if (prt_output_check(path, kind == CLI_OUT_IMAGE ? k_image : NULL, &err)) return cli_error(cmd, "%s", err.msg) + 1;
-    char first[4200];
-    int n = prt_atomic_clean(path, first, sizeof first);
-    if (n) fprintf(stderr, "prt %s: removed %d stale temporary file(s) of killed runs (%s)\n", cmd, n, first);
+void cli_inputs_add(cli_inputs *ins, const char *role, const char *path) {
+    if (!path || !*path || !strcmp(path, "none")) return;   /* "none": --probe none reads no file */
+    if (ins->n == ins->cap) {
+        int cap = ins->cap ? 2 * ins->cap : 8;
+        char **p = realloc(ins->path, sizeof *p * (size_t)cap);
+        if (p) ins->path = p;
+        char **r = realloc(ins->role, sizeof *r * (size_t)cap);
+        if (r) ins->role = r;
+        if (!p || !r) { ins->oom = true; return; }
+        ins->cap = cap;
+    }
+    char *pc = strdup(path), *rc = role ? strdup(role) : NULL;
+    if (!pc || (role && !rc)) {
+        free(pc);
+        free(rc);
+        ins->oom = true;
+        return;
+    }
+    ins->path[ins->n] = pc;
+    ins->role[ins->n++] = rc;
+}
+
+void cli_inputs_add_list(cli_inputs *ins, const char *role, const char *list) {
+    for (const char *s = list; s && *s;) {
+        size_t len = strcspn(s, ",");
+        char path[4096];
+        if (len > 0 && len < sizeof path) {
+            memcpy(path, s, len);
+            path[len] = 0;
+            cli_inputs_add(ins, role, path);
+        }
+        s += len + (s[len] == ',');
+    }
+}
+
+/* A path the JSON file json names (rel), as scene_load resolves it: relative to json's folder. */
+static void json_add(cli_inputs *ins, const char *json, const char *what, const cJSON *rel) {
+    if (!cJSON_IsString(rel) || !rel->valuestring[0]) return;
+    const char *slash = strrchr(json, '/'), *base = slash ? slash + 1 : json;
+    char path[8192], role[4200];
+    if (rel->valuestring[0] == '/' || !slash) snprintf(path, sizeof path, "%s", rel->valuestring);
+    else snprintf(path, sizeof path, "%.*s/%s", (int)(slash - json), json, rel->valuestring);
+    snprintf(role, sizeof role, "%s named by %s", what, base);
+    cli_inputs_add(ins, role, path);
+}
+
+void cli_inputs_add_scene(cli_inputs *ins, const char *path) {
+    cli_inputs_add(ins, NULL, path);
+    char ext[16];
+    prt_path_ext(path, ext);
+    struct stat st;
+    if (strcmp(ext, "json") || stat(path, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size > (64 << 20)) return;
+    FILE *f = fopen(path, "rb");
+    char *text = f ? malloc((size_t)st.st_size + 1) : NULL;
+    size_t len = text ? fread(text, 1, (size_t)st.st_size, f) : 0;
+    if (f) fclose(f);
+    cJSON *root = text ? cJSON_ParseWithLength(text, len) : NULL;
+    free(text);
+    const cJSON *m, *lp = cJSON_GetObjectItemCaseSensitive(root, "light_prior"), *it;
+    cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "models"))
+        json_add(ins, path, "an OBJ", cJSON_GetObjectItemCaseSensitive(m, "obj"));
+    if (cJSON_IsArray(lp)) cJSON_ArrayForEach(it, lp) json_add(ins, path, "a light_prior probe", it);
+    else json_add(ins, path, "the light_prior probe", lp);
+    cJSON_Delete(root);
+}
+
+void cli_inputs_free(cli_inputs *ins) {
+    for (int i = 0; i < ins->n; i++) {
+        free(ins->path[i]);
+        free(ins->role[i]);
+    }
+    free(ins->path);
+    free(ins->role);
+    memset(ins, 0, sizeof *ins);
+}
+
+/* " (ROLE)" of a role, "" of none, into buf[cap]. */
+static const char *role_note(const char *role, char *buf, size_t cap) {
+    if (role) snprintf(buf, cap, " (%s)", role);
+    else buf[0] = 0;
+    return buf;
+}
+
+/* cli_check_files's checks (not the cleaning): 0, or the exit status after printing one line. */
+static int check_files(const char *cmd, const cli_output *outs, int nout, const cli_inputs *ins) {
+    static const char *const k_exts[][9] = {
+        [CLI_OUT_IMAGE] = { "png", "exr", "hdr", "tif", "tiff", "jpg", "jpeg", "ppm", NULL },   /* image_write's */
+        [CLI_OUT_PRT] = { "prt", NULL },
+        [CLI_OUT_CSV] = { "csv", NULL },
+    };
+    char r1[4300], r2[4300];
+    if (ins->oom) return cli_error(cmd, "out of memory listing the input files");
+    for (int o = 0; o < nout; o++) {
+        const char *out = outs[o].path;
+        prt_error err = { { 0 } };
+        if (!out) continue;
+        for (int i = 0; i < ins->n; i++)
+            if (prt_same_file(out, ins->path[i]))
+                return cli_error(cmd, "output %s%s is the same file as the input %s%s; refusing to overwrite an input "
+                                      "(choose another output name)", out, role_note(outs[o].role, r1, sizeof r1),
+                                 ins->path[i], role_note(ins->role[i], r2, sizeof r2)) + 1;
+        for (int p = 0; p < o; p++)
+            if (outs[p].path && prt_same_file(out, outs[p].path))
+                return cli_error(cmd, "outputs %s%s and %s%s are the same file (give each its own name)", outs[p].path,
+                                 role_note(outs[p].role, r1, sizeof r1), out, role_note(outs[o].role, r2, sizeof r2)) + 1;
+        /* after the collisions: `-o spider.obj` over its input is that, before it is a wrong extension */
+        if (prt_output_check(out, outs[o].kind == CLI_OUT_ANY ? NULL : k_exts[outs[o].kind], &err))
+            return cli_error(cmd, "%s", err.msg) + 1;
+    }
+    struct stat st;
+    for (int i = 0; i < ins->n; i++)
+        if (stat(ins->path[i], &st) == 0 && S_ISDIR(st.st_mode))
+            return cli_error(cmd, "%s%s is a directory, not a file", ins->path[i], role_note(ins->role[i], r1, sizeof r1)) + 1;
     return 0;
+}
+
+int cli_check_files(const char *cmd, const cli_output *outs, int nout, cli_inputs *ins) {
+    int rc = check_files(cmd, outs, nout, ins);
+    cli_inputs_free(ins);
+    for (int o = 0; o < nout && !rc; o++) {
+        char first[4200];
+        int n = outs[o].path ? prt_atomic_clean(outs[o].path, first, sizeof first) : 0;
+        if (n) fprintf(stderr, "prt %s: removed %d stale temporary file(s) of killed runs (%s)\n", cmd, n, first);
+    }
+    return rc;
+}
+
+int cli_check_output(const char *cmd, const char *path, int kind) {
+    const cli_output out = { NULL, path ? path : "", kind };
+    cli_inputs none = { 0 };
+    return cli_check_files(cmd, &out, 1, &none);
 }
 
 int cli_rotation(const char *cmd, const char *s, float R[9]) {
@@ -161,10 +290,10 @@ int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s)
     probe_layout lay;
     if (layout && probe_parse_layout(layout, &lay) != 0)
         return cli_error(cmd, "unknown probe layout '%s' (latlong, angular, vcross, hcross, auto)", layout) + 1;
-    /* a NaN target: only the syntax is checked here (eye == target needs the scene's framing) */
+    /* a NaN target: an eye alone is not checked against the target here (that needs the scene's framing) */
     prt_camera c = { .target = { NAN, NAN, NAN }, .up = { 0, 1, 0 }, .fov_deg = 40 };
-    if (cam_s && camera_parse(cam_s, &c) != 0)
-        return cli_error(cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s) + 1;
+    const char *why = cam_s ? camera_parse_error(cam_s, &c) : NULL;
+    if (why) return cli_error(cmd, "bad --camera '%s': %s", cam_s, why) + 1;
     return 0;
 }
 
@@ -172,8 +301,13 @@ int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *ca
     float b0[3], b1[3];
     scene_focus_bounds(s, b0, b1);
     camera_default(b0, b1, aspect, out);
-    if (cam_s && camera_parse(cam_s, out) != 0)
-        return cli_error(cmd, "bad --camera '%s' (expected EX,EY,EZ[,TX,TY,TZ[,FOV]])", cam_s);
+    const char *why = cam_s ? camera_parse_error(cam_s, out) : NULL;
+    /* fine against a NaN target: an eye alone, on the target the framing picked */
+    if (why && camera_parse_error(cam_s, &(prt_camera){ .target = { NAN, NAN, NAN }, .up = { 0, 1, 0 } }) == NULL)
+        return cli_error(cmd, "--camera '%s': the eye and the target coincide: the eye is on the target the framing "
+                              "picked (%g, %g, %g); move the eye or give a target (EX,EY,EZ,TX,TY,TZ)", cam_s,
+                         out->target[0], out->target[1], out->target[2]) + 1;
+    if (why) return cli_error(cmd, "bad --camera '%s': %s", cam_s, why) + 1;
     return 0;
 }
 

@@ -57,19 +57,51 @@ bool cli_is_help(const char *a);
 #include "probe.h"
 /* Loads a probe (layout name or NULL for auto), printing one warning line per clamped kind. Returns 0 or 1 (error printed). */
 int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out);
-/* Every output a command writes is checked before any loading or computing (issue 12, item 3):
- * the name is not empty, its folder exists and is writable, and for images (CLI_OUT_IMAGE) the
- * extension is one the image writer supports. Also removes the output's temporaries left by
- * killed runs (prt_atomic_clean), saying so in one line. Returns 0, or 2 (a usage error) after
- * printing one line that names the user's path. */
-#define CLI_OUT_IMAGE 1
+/* Every output a command writes is checked before any loading or computing: the name is not
+ * empty, its folder exists and is writable, its extension is one the writer makes (kind:
+ * CLI_OUT_IMAGE an image format image_write supports, CLI_OUT_PRT ".prt", CLI_OUT_CSV ".csv"),
+ * and it is not the same file (prt_same_file) as any input the command reads nor as another of
+ * its outputs, so that no command overwrites what it reads. Also removes the outputs' temporaries
+ * left by killed runs (prt_atomic_clean), saying so in one line. */
 #define CLI_OUT_ANY 0
+#define CLI_OUT_IMAGE 1
+#define CLI_OUT_PRT 2
+#define CLI_OUT_CSV 3
+typedef struct cli_output {
+    const char *role;   /* how the user named it: "-o", "--vertices" */
+    const char *path;   /* NULL: not asked for (skipped) */
+    int kind;           /* CLI_OUT_* */
+} cli_output;
+/* The files a command reads, gathered before any work (each path copied). */
+typedef struct cli_inputs {
+    int n, cap;
+    bool oom;           /* a path could not be kept: cli_check_files says so */
+    char **path;
+    char **role;        /* "--probe", "an OBJ named by scene.json"; NULL: the command's own input */
+} cli_inputs;
+/* Adds path (NULL, "" and "none" add nothing: no file). */
+void cli_inputs_add(cli_inputs *ins, const char *role, const char *path);
+/* Adds each path of a comma-separated list (--light-prior P1,P2). */
+void cli_inputs_add_list(cli_inputs *ins, const char *role, const char *list);
+/* Adds a scene (OBJ or JSON) and, for a JSON scene, every file it names: its models' "obj" files
+ * and its "light_prior" probes, relative to its folder as scene_load reads them (a JSON that does
+ * not parse adds only itself: the loader reports it). */
+void cli_inputs_add_scene(cli_inputs *ins, const char *path);
+/* Frees what ins holds and empties it. */
+void cli_inputs_free(cli_inputs *ins);
+/* Checks the nout outputs as above and then the inputs (none may be a directory); frees ins.
+ * Returns 0, or 2 (a usage error; 1 when ins ran out of memory) after printing one line that
+ * names the path(s). */
+int cli_check_files(const char *cmd, const cli_output *outs, int nout, cli_inputs *ins);
+/* One output of a command that reads no file (cli_check_files with no inputs; NULL is an empty name). */
 int cli_check_output(const char *cmd, const char *path, int kind);
 /* --light-rotation: fills R from "YAW[,PITCH]" (NULL s: identity). Returns 0, or 1 after printing the error. */
 int cli_rotation(const char *cmd, const char *s, float R[9]);
 /* The camera every command uses (render, reference, view, bench): the models framed
  * (scene_focus_bounds + camera_default), overridden by --camera cam_s when given, so a
- * reference and a PRT render of one file see the same view. Returns 0, or 1 after printing. */
+ * reference and a PRT render of one file see the same view. Returns 0, or 2 (a usage error) after
+ * printing one line: bad syntax, or an eye on the target (the given one, or with an eye alone the
+ * one the framing picked: "the eye and the target coincide"). */
 #include "render.h"
 #include "scene.h"
 /* --layout and --camera checked before any loading (usage errors, exit 2; issue 12 item 7):

@@ -75,7 +75,10 @@ static int parse_args(int argc, char **argv, bench_args *a) {
     if (!a->in || !a->probe_path) { cli_error(k_cmd, "usage: prt bench FILE.prt --probe PROBE"); return 2; }
     if (strcmp(a->backend, "cpu") && strcmp(a->backend, "gl"))
         return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", a->backend) + 1;
-    return -1;
+    cli_inputs ins = { 0 };   /* bench writes nothing: only a directory among the inputs is refused */
+    cli_inputs_add(&ins, NULL, a->in);
+    cli_inputs_add(&ins, "--probe", a->probe_path);
+    return cli_check_files(k_cmd, NULL, 0, &ins) ? 2 : -1;
 }
 
 /* Light changes under the probe yawed by 0, 90, 180, 270 degrees in turn: medians into ms[0] (light

@@ -101,8 +101,10 @@ int cli_brdf(int argc, char **argv) {
         for (int k = 1; k <= f.nsigma; k++)
             printf("%d,%.6g,%.6g,%.6g,%.6g\n", k, f.sigma[0][k - 1], f.sigma[1][k - 1], f.sigma[2][k - 1], f.rel_rms[k]);
     } else {
-        printf("%s\nfactored on a %dx%d %s grid in %.2fs; kept K = %d%s\n", canon, f.res, f.res,
-               f.param == BRDF_PARAM_POLAR ? "polar (Eq. 11)" : "projected-disk (Eq. 10)", f.seconds, f.K,
+        char secs[48];
+        prt_format_duration(secs, sizeof secs, f.seconds);
+        printf("%s\nfactored on a %dx%d %s grid in %s; kept K = %d%s\n", canon, f.res, f.res,
+               f.param == BRDF_PARAM_POLAR ? "polar (Eq. 11)" : "projected-disk (Eq. 10)", secs, f.K,
                f.lambertian ? " (Lambertian: rank 1)" : "");
         if (f.lambertian) {   /* every singular value after the first is 0: one line, not rows of zeros */
             printf("rank 1: sigma = %.5g, %.5g, %.5g (R, G, B) and 0 after; K = 1 is exact (0%% error)\n",

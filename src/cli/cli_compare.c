@@ -45,7 +45,11 @@ int cli_compare(int argc, char **argv) {
         files[nfiles++] = argv[i];
     }
     if (nfiles < 2) { cli_error(k_cmd, "needs two files: A (result) and B (reference) (see --help)"); return 2; }
-    if (errimg && cli_check_output(k_cmd, errimg, CLI_OUT_IMAGE)) return 2;
+    const cli_output out = { "--error-image", errimg, CLI_OUT_IMAGE };
+    cli_inputs ins = { 0 };
+    cli_inputs_add(&ins, "A", files[0]);
+    cli_inputs_add(&ins, "B", files[1]);
+    if (cli_check_files(k_cmd, &out, 1, &ins)) return 2;
     cmp_result r;
     prt_error err = { { 0 } };
     desc.error_image = errimg;

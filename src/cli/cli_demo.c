@@ -34,13 +34,24 @@ int cli_demo(int argc, char **argv) {
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, NULL, 0, &npos);
     if (pr == 1) {
-        puts("usage: prt demo [-o OUT.png] [--size WxH] [--floor VERTS] [--bounces B] [--exposure E (default -1)] [--prt OUT.prt] [--quiet]\n"
-             "\nPrecomputes a built-in scene (glossy sphere, diffuse torus, glossy box over a floor) and\n"
-             "renders it under a built-in HDR sky with a small sun (sharp and soft shadows). Default demo.png.");
+        puts("usage: prt demo [options]\n"
+             "\n"
+             "Precomputes a built-in scene (glossy sphere, diffuse torus, glossy box over a floor) and\n"
+             "renders it under a built-in HDR sky with a small sun (sharp and soft shadows).\n"
+             "\n"
+             "  -o OUT.png      the image (default demo.png; .exr .hdr .tif .jpg .ppm too)\n"
+             "  --size WxH      image size (default 960x600)\n"
+             "  --floor VERTS   floor vertices, 16..1000000 (default 12000)\n"
+             "  --bounces B     at most B interreflection passes (default 1; 0: none)\n"
+             "  --exposure E    exposure in stops (default -1)\n"
+             "  --prt OUT.prt   also keep the precomputed file (default: not kept)\n"
+             "  --quiet         no progress output");
         return 0;
     }
     if (pr) return 2;
-    if (cli_check_output(k_cmd, out, CLI_OUT_IMAGE) || (prt_out && cli_check_output(k_cmd, prt_out, CLI_OUT_ANY))) return 2;
+    const cli_output outs[] = { { "-o", out, CLI_OUT_IMAGE }, { "--prt", prt_out, CLI_OUT_PRT } };
+    cli_inputs none = { 0 };   /* the demo reads no file */
+    if (cli_check_files(k_cmd, outs, 2, &none)) return 2;
     int w = size[0], h = size[1];
     prt_error err = { { 0 } };
     double t0 = prt_now();
@@ -81,7 +92,9 @@ int cli_demo(int argc, char **argv) {
     }
     image_desc idesc = { .exposure = exposure, .tonemap = 2 };
     if (image_write(out, &img, &idesc, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
-    if (!quiet) fprintf(stderr, "wrote %s (%dx%d) in %.1fs\n", out, w, h, prt_now() - t0);
+    char secs[48];
+    prt_format_duration(secs, sizeof secs, prt_now() - t0);
+    if (!quiet) fprintf(stderr, "wrote %s (%dx%d) in %s\n", out, w, h, secs);
     rc = 0;
 done:
     runtime_destroy(rt);

@@ -35,6 +35,9 @@ int cli_info(int argc, char **argv) {
         in = argv[i];
     }
     if (!in) { cli_error(k_cmd, "no input .prt file"); return 2; }
+    cli_inputs ins = { 0 };
+    cli_inputs_add(&ins, NULL, in);
+    if (cli_check_files(k_cmd, NULL, 0, &ins)) return 2;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
@@ -103,15 +106,18 @@ int cli_info(int argc, char **argv) {
     }
     printf("interreflect  %d pass(es), gather cube %dx%dx6%s\n", ps->bounces, d.gather_res, d.gather_res,
            tr && tr->direct.nvecs ? "; direct-only transport kept too" : "");
-    for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++)
-        printf("              pass %d: %.3f%% of the direct energy, %.1fs\n", b + 1, 100 * ps->bounce_energy[b],
-               ps->t_bounce[b]);
-    printf("timings       BRDF %.2fs, visibility %.2fs, wavelet+quantization %.2fs", ps->t_brdf, ps->t_visibility,
-           ps->t_transport);
+    char t[6][48];   /* the times as a person reads them (prt_format_duration) */
+    for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++) {
+        prt_format_duration(t[0], sizeof t[0], ps->t_bounce[b]);
+        printf("              pass %d: %.3f%% of the direct energy, %s\n", b + 1, 100 * ps->bounce_energy[b], t[0]);
+    }
     double tb = 0;
     for (int b = 0; b < ps->bounces && b < PRT_MAX_BOUNCES; b++) tb += ps->t_bounce[b];
-    if (ps->bounces) printf(", bounces %.2fs", tb);
-    printf(", total %.2fs\n", ps->t_total);
+    const double secs[5] = { ps->t_brdf, ps->t_visibility, ps->t_transport, tb, ps->t_total };
+    for (int i = 0; i < 5; i++) prt_format_duration(t[i], sizeof t[i], secs[i]);
+    printf("timings       BRDF %s, visibility %s, wavelet+quantization %s", t[0], t[1], t[2]);
+    if (ps->bounces) printf(", bounces %s", t[3]);
+    printf(", total %s\n", t[4]);
     if (ps->peak_rss_bytes) printf("peak memory   %.2f GB\n", ps->peak_rss_bytes / 1e9);
     /* issue 13: how the file sits in memory once loaded (prtfile.h, mapped loading) */
     long anon, file;

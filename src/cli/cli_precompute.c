@@ -27,7 +27,8 @@ static void help(void) {
          "  --floor-material SPEC  floor BRDF (default lambert:kd=0.7)\n"
          "BRDF factorization (section 3.3):\n"
          "  --terms K              BRDF terms for glossy materials, the cap (default 4; Lambert always 1)\n"
-         "  --term-error E         smallest K whose relative BRDF error is <= E (capped by --terms)\n"
+         "  --term-error E         smallest K whose relative BRDF error is <= E (capped by --terms;\n"
+         "                         default: off, K = --terms)\n"
          "  --polar                polar parameterization (Eq. 11) instead of the uniform grid (Eq. 10)\n"
          "transport (section 4.1):\n"
          "  --coeffs N             wavelet coefficients kept per transport vector (default 128)\n"
@@ -40,12 +41,13 @@ static void help(void) {
          "                         N largest weighted by the light's typical energy per Haar level\n"
          "                         (the least expected error under probes with a sun); magnitude\n"
          "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
-         "  --light-prior PROBE[,PROBE...]  weigh the expected-error selection by PROBE's light: each coefficient\n"
-         "                         by its RMS as PROBE turns about +y (the viewer's yaw), so a shadow\n"
-         "                         edge keeps its detail where the probe's sun can be (README\n"
+         "  --light-prior PROBE[,PROBE...]  weigh the expected-error selection by PROBE's light: each\n"
+         "                         coefficient by its RMS as PROBE turns about +y (the viewer's yaw), so\n"
+         "                         a shadow edge keeps its detail where the probe's sun can be (README\n"
          "                         \"Shadows\"; the file serves any probe, best the ones named); a\n"
-         "                         list weighs each probe the same. A JSON scene's \"light_prior\"\n"
-         "                         key names its own (used unless this flag or the next says otherwise)\n"
+         "                         list weighs each probe the same. Default: none, or the probes a JSON\n"
+         "                         scene's \"light_prior\" key names (unless this flag or the next says\n"
+         "                         otherwise)\n"
          "  --no-light-prior       not the scene's light_prior: the per-level weights\n"
          "  --box-texels           with a light prior, integrate every lighting texel over its area (default: the\n"
          "                         prior's brightest texels along rays placed as its light lies inside them)\n"
@@ -55,20 +57,22 @@ static void help(void) {
          "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
          "                         weighted by the transport on faces with no occluder edge, steadier\n"
          "                         on an open floor under a turning sun)\n"
-         "  --budget shared|vector|relative  who shares the N x vectors coefficients: shared (default\n"
-         "                         up to 500,000 vectors, then vector: its staging and time; vector\n"
-         "                         with a light prior)\n"
-         "                         the best weights of all vectors, each keeping N/2 to 2N (a shadow\n"
-         "                         edge's more, smooth ones fewer; at most the same storage); vector:\n"
-         "                         each vector its own N (the paper's); relative: shared, weights over\n"
-         "                         each vector's own total (Haar only)\n"
+         "  --budget shared|vector|relative  how the N x vectors coefficients are shared out:\n"
+         "                         shared: the best weights over all vectors win, each vector keeping\n"
+         "                         N/2 to 2N (a shadow edge more, a smooth one fewer; the same storage\n"
+         "                         at most); vector: each vector its own N (the paper's); relative:\n"
+         "                         shared, each weight taken over its vector's own total. shared and\n"
+         "                         relative are for Haar wavelets only. Default: shared up to 500,000\n"
+         "                         vectors, vector beyond (a shared budget's staging costs memory and\n"
+         "                         time) and vector with a light prior\n"
          "glossy materials (the effects plan prints each material's path and why):\n"
          "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
          "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
          "                         vmf: vMF lobes wherever a lobe fit exists (phong, blinn, ggx, beckmann)\n"
-         "  --lobes I              vMF lobes per view and reflection pass (default 2)\n"
-         "  --view-level L         geodesic view grid: icosahedron subdivided L times\n"
-         "  --lobe-samples S       rays per (vertex, view) in the vMF passes\n"
+         "  --lobes I              vMF lobes per view and reflection pass, 1..4 (default 2)\n"
+         "  --view-level L         geodesic view grid: icosahedron subdivided L times, 0..6 (default 2:\n"
+         "                         162 views)\n"
+         "  --lobe-samples S       rays per (vertex, view) in the vMF passes, 4..4096 (default 64)\n"
          "interreflections (section 3.2, 4.2):\n"
          "  --bounces B            at most B interreflection passes (default 3, stopped by the energy\n"
          "                         threshold; 0: none)\n"
@@ -82,7 +86,7 @@ static void help(void) {
          "JSON scene's \"refine\"):\n"
          "  --refine               before the transport, split the edges whose vertices' visibility\n"
          "                         masks differ in more than 0.5% of directions, iteratively\n"
-         "  --refine-threshold F   that share, 0 < F < 1 (turns refinement on; 0: off)\n"
+         "  --refine-threshold F   that share, 0 < F < 1 (default 0.005; turns refinement on; 0: off)\n"
          "  --refine-budget V      at most V vertices after refinement (default 1.5x the scene's; turns it on)\n"
          "  --refine-models        refine the models' edges too (default: the floor's, where there is one)\n"
          "  --no-refine            no refinement, not even a JSON scene's \"refine\" (any refine flag\n"
@@ -124,26 +128,34 @@ static void balance(const prt_shard *sh) {
     }
 }
 
+/* One line of the timing summary: the stage and its time as a person reads it (tools/bench.sh
+ * reads the figure back: "850 ms", "1.7 s", "2 min 05 s", "1 h 02 min"). */
+static void stage_line(const char *name, double seconds) {
+    char t[48];
+    prt_format_duration(t, sizeof t, seconds);
+    fprintf(stderr, "  %-28s %12s\n", name, t);
+}
+
 /* The per-stage timing summary, the ranks' balance and the closing line (stderr). */
 static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t_prior, double t0) {
     struct stat st;
     double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_stats *s = &data->stats;
     fprintf(stderr, "\ntiming summary\n");
-    fprintf(stderr, "  %-28s %9.2fs\n", "scene load", t_load);
-    if (t_prior > 0) fprintf(stderr, "  %-28s %9.2fs\n", "light prior", t_prior);
-    if (s->t_refine > 0) fprintf(stderr, "  %-28s %9.2fs\n", "refinement", s->t_refine);
-    fprintf(stderr, "  %-28s %9.2fs\n", "BRDF factorization", s->t_brdf);
-    fprintf(stderr, "  %-28s %9.2fs\n", "visibility (ray casting)", s->t_visibility);
-    fprintf(stderr, "  %-28s %9.2fs\n", "transport+wavelet+quant.", s->t_transport);
+    stage_line("scene load", t_load);
+    if (t_prior > 0) stage_line("light prior", t_prior);
+    if (s->t_refine > 0) stage_line("refinement", s->t_refine);
+    stage_line("BRDF factorization", s->t_brdf);
+    stage_line("visibility (ray casting)", s->t_visibility);
+    stage_line("transport+wavelet+quant.", s->t_transport);
     for (int b = 0; b < s->bounces && b < PRT_MAX_BOUNCES; b++) {
         char name[64];
         snprintf(name, sizeof name, "bounce %d (%.2f%% energy)", b + 1, 100 * s->bounce_energy[b]);
-        fprintf(stderr, "  %-28s %9.2fs\n", name, s->t_bounce[b]);
+        stage_line(name, s->t_bounce[b]);
     }
-    if (s->t_vmf > 0) fprintf(stderr, "  %-28s %9.2fs\n", "vMF lobes (all passes)", s->t_vmf);
-    fprintf(stderr, "  %-28s %9.2fs\n", "writing", s->t_write);
-    fprintf(stderr, "  %-28s %9.2fs\n", "total", prt_now() - t0);
+    if (s->t_vmf > 0) stage_line("vMF lobes (all passes)", s->t_vmf);
+    stage_line("writing", s->t_write);
+    stage_line("total", prt_now() - t0);
     balance(sh);
     const prt_transport *t = &prt_data_transfer(data)->transport;
     fprintf(stderr, "wrote %s: %.1f MB, %d vertices, %d transport vectors, N = %d, %d-bit", out, mb, t->nverts,
@@ -157,7 +169,7 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
 
 /* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out); an
  * earlier run's checkpoint replaced without --resume is said on stderr. (The temporaries killed
- * runs left are removed before the work by cli_check_output.) */
+ * runs left are removed before the work by cli_check_files.) */
 static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
     if (!*out) return;   /* -o "": the write fails as before (issue 12 item 3), and leaves no ".ckpt" */
     snprintf(ck, 4096, "%s.ckpt", out);
@@ -248,7 +260,9 @@ static int light_prior(const char *paths, precompute_desc *pd, bool quiet, cli_p
     pd->prior_rays = cp->rays;
     pd->prior_texels = cp->texels;
     *secs += prt_now() - t0;
-    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %.2fs\n", paths, PRIOR_STEPS, prt_now() - t0);
+    char took[48];
+    prt_format_duration(took, sizeof took, prt_now() - t0);
+    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %s\n", paths, PRIOR_STEPS, took);
     return 0;
 }
 
@@ -444,9 +458,9 @@ int cli_precompute(int argc, char **argv) {
         CLI_B("--no-light-prior", &no_prior),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
-        CLI_I("--lobes", &pd.vmf.lobes, 1, 16),
+        CLI_I("--lobes", &pd.vmf.lobes, 1, 4),   /* vmf.h VMFT_MAX_LOBES */
         CLI_I("--view-level", &pd.vmf.level, 0, 6),
-        CLI_I("--lobe-samples", &pd.vmf.samples, 1, 1 << 20),
+        CLI_I("--lobe-samples", &pd.vmf.samples, 4, 4096),   /* transfer_vmf.c's range */
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
@@ -490,7 +504,14 @@ int cli_precompute(int argc, char **argv) {
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
-    if (cli_check_output(k_cmd, out, CLI_OUT_ANY)) return 2;
+    /* the file, its checkpoint (written during the run) and every file the run reads, before any work */
+    char ck[4200];
+    snprintf(ck, sizeof ck, "%s.ckpt", out);
+    const cli_output outs[] = { { "-o", out, CLI_OUT_PRT }, { "its checkpoint", ck, CLI_OUT_ANY } };
+    cli_inputs ins = { 0 };
+    cli_inputs_add_scene(&ins, in);
+    cli_inputs_add_list(&ins, "--light-prior", prior);
+    if (cli_check_files(k_cmd, outs, 2, &ins)) return 2;
     /* --material / --floor-material are flags: a bad spec is a usage error, found before loading */
     const char *specs[2] = { sd.material, sd.floor_material };
     for (int i = 0; i < 2; i++) {

@@ -26,6 +26,7 @@ static void help(void) {
          "\n"
          "  --probe PROBE           HDR light probe (as for prt render)\n"
          "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
+         "                          (default: from the aspect ratio, as prt render)\n"
          "  -o OUT.exr              linear radiance image (.exr; .png etc. are tone-mapped 8-bit)\n"
          "  --exposure E            exposure in stops for a tone-mapped output, as prt render's (default 0)\n"
          "  --spp N                 samples per pixel and per vertex (default 64)\n"
@@ -41,7 +42,7 @@ static void help(void) {
          "                          --vertices here or prt render --vertices write): many samples where\n"
          "                          the reference is noisy (a contact shadow) at a fraction of the time\n"
          "  --no-image              only the per-vertex CSV (needs --vertices; -o not needed)\n"
-         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
+         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees (default 0)\n"
          "  --seed S                random seed (default 1); results are deterministic per seed\n"
          "  --no-background         black background instead of the probe\n"
          "  --threads T             worker threads (default: all cores)\n"
@@ -93,9 +94,13 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     if (a->vert_list && !a->vert_out) { cli_error(k_cmd, "--vertex-list needs --vertices OUT.csv"); return 2; }
     if (!a->no_image && !a->out) { cli_error(k_cmd, "no output image (-o OUT.exr)"); return 2; }
     if (cli_check_view_flags(k_cmd, a->layout, a->cam_s) || cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
-    if (!a->no_image && cli_check_output(k_cmd, a->out, CLI_OUT_IMAGE)) return 2;
-    if (a->vert_out && cli_check_output(k_cmd, a->vert_out, CLI_OUT_ANY)) return 2;
-    return -1;
+    /* --no-image: -o is neither written nor checked */
+    const cli_output outs[] = { { "-o", a->no_image ? NULL : a->out, CLI_OUT_IMAGE }, { "--vertices", a->vert_out, CLI_OUT_CSV } };
+    cli_inputs ins = { 0 };
+    cli_inputs_add(&ins, NULL, a->in);
+    cli_inputs_add(&ins, "--probe", a->probe_path);
+    cli_inputs_add(&ins, "--vertex-list", a->vert_list);
+    return cli_check_files(k_cmd, outs, 2, &ins) ? 2 : -1;
 }
 
 /* The vertex ids --vertex-list names, each checked against the mesh's n vertices, into *ids
@@ -136,9 +141,11 @@ static int vertices(ref_ctx *ref, const prt_mesh *m, const float eye[3], const r
         for (int i = 0; i < n; i++) facing[i] = ref_vertex_faces(m, ids ? ids[i] : i, eye);
         rc = ref_write_vertex_csv(a->vert_out, ids, rgb, se, facing, n, err);
     } else prt_bar_done(bar);
+    char secs[48];
+    prt_format_duration(secs, sizeof secs, st.seconds);
     if (rc == 0)
-        fprintf(stderr, "wrote %s: %d vertices x %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", a->vert_out,
-                n, vd.spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+        fprintf(stderr, "wrote %s: %d vertices x %d spp in %s (%.2f Mrays/s), relative noise %.3g%s\n", a->vert_out,
+                n, vd.spp, secs, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
                 st.dropped ? " (non-finite samples dropped)" : "");
     free(ids);
     free(rgb);
@@ -160,9 +167,11 @@ static int image(ref_ctx *ref, const prt_camera *cam, ref_desc rd, const referen
         image_desc idesc = { .exposure = a->exposure };
         rc = image_write(a->out, &img, &idesc, err);
     } else prt_bar_done(bar);
+    char secs[48];
+    prt_format_duration(secs, sizeof secs, st.seconds);
     if (rc == 0)
-        fprintf(stderr, "wrote %s (%dx%d): %d spp in %.2fs (%.2f Mrays/s), relative noise %.3g%s\n", a->out, a->w, a->h,
-                a->spp, st.seconds, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
+        fprintf(stderr, "wrote %s (%dx%d): %d spp in %s (%.2f Mrays/s), relative noise %.3g%s\n", a->out, a->w, a->h,
+                a->spp, secs, st.seconds > 0 ? 1e-6 * st.rays / st.seconds : 0, st.rel_noise,
                 st.dropped ? " (non-finite samples dropped)" : "");
     free(ise);
     image_free(&img);
@@ -210,9 +219,8 @@ int cli_reference(int argc, char **argv) {
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     int rc = 1;
-    if (cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam) == 0 &&
-        cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) == 0)
-        rc = trace(&a, &d, &probe, &cam);
+    if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
+        rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : trace(&a, &d, &probe, &cam);
     probe_free(&probe);
     prt_data_free(&d);
     return rc;

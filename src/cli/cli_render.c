@@ -22,10 +22,12 @@ static void help(void) {
          "\n"
          "  --probe PROBE           HDR light probe (EXR, HDR, PFM...; latlong, angular or cross)\n"
          "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
-         "  -o OUT                  .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance)\n"
+         "                          (default: from the aspect ratio, 2:1 latlong, 1:1 angular, 3:4 / 4:3 cross)\n"
+         "  -o OUT                  .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance); also .hdr,\n"
+         "                          .tif, .jpg, .ppm\n"
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera position, target and vertical FOV (default: framed)\n"
          "  --size WxH              image size (default 800x600)\n"
-         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees\n"
+         "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees (default 0)\n"
          "  --exposure E            exposure in stops for PNG output (default 0)\n"
          "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
          "  --terms K               use only the first K BRDF terms (default: all)\n"
@@ -89,9 +91,11 @@ static int parse_args(int argc, char **argv, render_args *a) {
     if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
     if (!a->out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
     if (cli_check_view_flags(k_cmd, a->layout, a->cam_s) || cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
-    if (cli_check_output(k_cmd, a->out, CLI_OUT_IMAGE)) return 2;
-    if (a->vert_out && cli_check_output(k_cmd, a->vert_out, CLI_OUT_ANY)) return 2;
-    return -1;
+    const cli_output outs[] = { { "-o", a->out, CLI_OUT_IMAGE }, { "--vertices", a->vert_out, CLI_OUT_CSV } };
+    cli_inputs ins = { 0 };
+    cli_inputs_add(&ins, NULL, a->in);
+    cli_inputs_add(&ins, "--probe", a->probe_path);
+    return cli_check_files(k_cmd, outs, 2, &ins) ? 2 : -1;
 }
 
 /* Relights d under the probe through the runtime: the image into img, the vertex colours into
@@ -124,14 +128,19 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
     image_desc idesc = { .exposure = a->exposure, .tonemap = a->tonemap };
     double t5 = prt_now();
     if (image_write(a->out, &img, &idesc, &err)) goto fail;
-    /* the light change's parts add up to it; %.3g keeps a sub-0.05 ms GPU kernel from printing as 0.0 */
-    char gpu[48] = "";
-    if (t.light_gpu_ms > 0 && t.light_gpu_ms <= t.light_ms)   /* a software GL's timer query can be garbage */
-        snprintf(gpu, sizeof gpu, ", GPU timer %.3g ms", t.light_gpu_ms);
-    fprintf(stderr, "wrote %s (%dx%d): read %.2fs, light change %.3g ms (light vector %.3g ms + T x L %.3g ms%s), "
-                    "view change %.3g ms, raster %.3fs, write %.3fs\n",
-            a->out, a->w, a->h, t_read, t.light_vector_ms + t.light_ms, t.light_vector_ms, t.light_ms, gpu, t.view_ms,
-            1e-3 * t.raster_ms, prt_now() - t5);
+    /* the light change's parts add up to it, each to 3 significant digits (prt_format_duration), so a
+     * sub-0.05 ms GPU kernel does not print as 0.0 */
+    char gpu[64] = "", tm[7][48];
+    const double secs[7] = { t_read, 1e-3 * (t.light_vector_ms + t.light_ms), 1e-3 * t.light_vector_ms, 1e-3 * t.light_ms,
+                             1e-3 * t.view_ms, 1e-3 * t.raster_ms, prt_now() - t5 };
+    for (int i = 0; i < 7; i++) prt_format_duration(tm[i], sizeof tm[i], secs[i]);
+    if (t.light_gpu_ms > 0 && t.light_gpu_ms <= t.light_ms) {   /* a software GL's timer query can be garbage */
+        char g[48];
+        prt_format_duration(g, sizeof g, 1e-3 * t.light_gpu_ms);
+        snprintf(gpu, sizeof gpu, ", GPU timer %s", g);
+    }
+    fprintf(stderr, "wrote %s (%dx%d): read %s, light change %s (light vector %s + T x L %s%s), view change %s, raster %s, "
+                    "write %s\n", a->out, a->w, a->h, tm[0], tm[1], tm[2], tm[3], gpu, tm[4], tm[5], tm[6]);
     rc = 0;
     goto done;
 fail:
@@ -173,9 +182,8 @@ int cli_render(int argc, char **argv) {
     prt_camera cam;
     if (a.direct_only && d.stats.bounces > 0 && prt_data_transfer(&d) && prt_data_transfer(&d)->direct.nvecs == 0)
         cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", a.in);
-    else if (cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam) == 0 &&
-             cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) == 0)
-        rc = relight(&a, &d, &probe, &cam, t_read);
+    else if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
+        rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : relight(&a, &d, &probe, &cam, t_read);
     probe_free(&probe);
     prt_data_free(&d);
     return rc;

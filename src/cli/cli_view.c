@@ -79,16 +79,18 @@ static void view_help(void) {
            "  --layout L             probe layout: latlong, angular, vcross, hcross (default: auto)\n"
            "  --size WxH             window size (default 1024x768)\n"
            "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: framed as prt render)\n"
-           "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch)\n"
+           "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
            "  --exposure E           exposure in stops (default 0)\n"
            "  --terms K              BRDF terms used (default: all)\n"
            "  --backend gl|cpu       runtime at start (default gl)\n"
            "  --view-model pixel|vertex  GL view model (default pixel)\n"
            "  --threads T            CPU runtime threads (default: all cores)\n"
-           "  --frames N             render N frames, then exit (no interaction)\n"
+           "  --frames N             render N frames, then exit (no interaction; default: interactive)\n"
            "  --screenshot OUT.png   with --frames: save the last frame; otherwise the S key's file\n"
+           "                         (default: the next free prt-view-NNN.png)\n"
            "  --window-shot OUT.png  with --frames: also save the window as displayed, text included\n"
            "  --keys CHARS           with --frames: press these keys, one before each frame from the second\n"
+           "                         (default: none)\n"
            "  --light SPEC           add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n"
            "                         spot:pos=..;dir=..;inner=DEG;outer=DEG;... (repeatable; GL takes at most 4)\n"
            "  --no-file-lights       ignore the lights stored in the file\n"
@@ -682,14 +684,36 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
     return 0;
 }
 
+/* The outputs (--screenshot, --window-shot) against each other and against every file the viewer
+ * reads: the .prt, the --probe files and the probes in each --probes folder (as add_probe_dir picks
+ * them). 0 or -1 (printed). */
+static int check_files(const viewer *v, const view_args *a) {
+    const cli_output outs[] = { { "--screenshot", v->shot_path, CLI_OUT_IMAGE }, { "--window-shot", v->window_shot, CLI_OUT_IMAGE } };
+    cli_inputs ins = { 0 };
+    cli_inputs_add(&ins, NULL, v->file);
+    for (int i = 0; i < a->npaths; i++) cli_inputs_add(&ins, "--probe", a->paths[i]);
+    for (int i = 0; i < a->ndirs; i++) {
+        DIR *dp = opendir(a->dirs[i]);
+        struct dirent *e;
+        char path[8192], ext[16];
+        while (dp && (e = readdir(dp))) {
+            prt_path_ext(e->d_name, ext);
+            if (strcmp(ext, "exr") && strcmp(ext, "hdr") && strcmp(ext, "pfm")) continue;
+            snprintf(path, sizeof path, "%s/%s", a->dirs[i], e->d_name);
+            cli_inputs_add(&ins, "--probes", path);
+        }
+        if (dp) closedir(dp);
+    }
+    return cli_check_files(k_view, outs, 2, &ins) ? -1 : 0;
+}
+
 /* Checks what the options say together (and the initial light rotation). 0 or -1 (printed). */
 static int check_args(viewer *v, const view_args *a) {
     if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
     if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
     if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
     if (cli_check_view_flags(k_view, a->layout, a->cam_s)) return -1;
-    if (v->shot_path && cli_check_output(k_view, v->shot_path, CLI_OUT_IMAGE)) return -1;
-    if (v->window_shot && cli_check_output(k_view, v->window_shot, CLI_OUT_IMAGE)) return -1;
+    if (check_files(v, a)) return -1;
     if (a->rot_s) {
         float R[9];
         if (probe_parse_rotation(a->rot_s, R) != 0 || sscanf(a->rot_s, "%f", &v->lyaw) != 1)

@@ -68,9 +68,10 @@ void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg)
     cam->fov_deg = fov_deg;
 }
 
-/* Parses 3, 6 or 7 comma-separated finite numbers into cam; -1 leaves cam unchanged. */
-int camera_parse(const char *s, prt_camera *cam) {
-    if (!s) return -1;
+/* Parses 3, 6 or 7 comma-separated finite numbers into cam; NULL (cam set) or why not (cam unchanged). */
+const char *camera_parse_error(const char *s, prt_camera *cam) {
+    static const char *const k_syntax = "expected EX,EY,EZ[,TX,TY,TZ[,FOV]] (3, 6 or 7 numbers)";
+    if (!s) return k_syntax;
     float v[7];
     int n = 0;
     const char *p = s;
@@ -78,29 +79,31 @@ int camera_parse(const char *s, prt_camera *cam) {
         char *end;
         while (*p == ' ' || *p == '\t') p++;
         float x = strtof(p, &end);
-        if (end == p || !isfinite(x) || n == 7) return -1;
+        if (end == p || !isfinite(x) || n == 7) return k_syntax;
         v[n++] = x;
         p = end;
         while (*p == ' ' || *p == '\t') p++;
         if (*p == 0) break;
-        if (*p != ',') return -1;
+        if (*p != ',') return k_syntax;
         p++;
     }
-    if (n != 3 && n != 6 && n != 7) return -1;
+    if (n != 3 && n != 6 && n != 7) return k_syntax;
     prt_camera c = *cam;
     v3_set(c.eye, v[0], v[1], v[2]);
     if (n >= 6) v3_set(c.target, v[3], v[4], v[5]);
     if (n == 7) {
-        if (!(v[6] > 0 && v[6] < 180)) return -1;
+        if (!(v[6] > 0 && v[6] < 180)) return "the field of view must be between 0 and 180 degrees";
         c.fov_deg = v[6];
     }
     float d[3];
     v3_sub(d, c.target, c.eye);
-    if (v3_len(d) == 0.0f) return -1;
+    if (v3_len(d) == 0.0f) return "the eye and the target coincide (the camera would look nowhere)";
     if (v3_len(c.up) == 0.0f) v3_set(c.up, 0, 1, 0);
     *cam = c;
-    return 0;
+    return NULL;
 }
+
+int camera_parse(const char *s, prt_camera *cam) { return camera_parse_error(s, cam) ? -1 : 0; }
 
 /* gluLookAt / gluPerspective equivalents, column-major. */
 void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfar, float view[16], float proj[16]) {

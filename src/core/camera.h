@@ -27,6 +27,9 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
 void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg);
 /* Parses "ex,ey,ez[,tx,ty,tz[,fov]]" into cam (target and fov keep cam's values when absent). Returns 0 or -1. */
 int camera_parse(const char *s, prt_camera *cam);
+/* camera_parse saying why: NULL (parsed into cam), else a static phrase (cam unchanged): the syntax,
+ * a field of view outside (0, 180), or an eye on the target. */
+const char *camera_parse_error(const char *s, prt_camera *cam);
 /* Column-major 4x4 view and projection matrices (OpenGL conventions). */
 void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfar, float view[16], float proj[16]);
 /* World-space unit direction of the ray through image point (px, py) of a w x h image, in

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <pthread.h>
 #include <stdarg.h>
+#include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -107,11 +108,23 @@ void prt_bar_init(prt_bar *bar, FILE *out, bool quiet) {
     bar->last_decile = -1;
 }
 
-static void fmt_secs(char *buf, size_t cap, double s) {
-    if (s < 0 || s != s) s = 0;
-    if (s < 60) snprintf(buf, cap, "%.1fs", s);
-    else if (s < 3600) snprintf(buf, cap, "%dm%02ds", (int)s / 60, (int)s % 60);
-    else snprintf(buf, cap, "%dh%02dm", (int)s / 3600, ((int)s % 3600) / 60);
+void prt_format_duration(char *buf, size_t cap, double s) {
+    double ms = 1e3 * s;
+    if (!(s > 0)) snprintf(buf, cap, "0 ms");
+    else if (ms < 0.9995) {   /* three significant digits, never an exponent: "0.0421 ms" */
+        int decimals = 2 - (int)floor(log10(ms));
+        snprintf(buf, cap, "%.*f ms", decimals < 3 ? 3 : decimals > 6 ? 6 : decimals, ms);
+    } else if (ms < 9.995) snprintf(buf, cap, "%.2f ms", ms);
+    else if (ms < 99.95) snprintf(buf, cap, "%.1f ms", ms);
+    else if (ms < 999.5) snprintf(buf, cap, "%.0f ms", ms);
+    else if (s < 59.95) snprintf(buf, cap, "%.1f s", s);
+    else if (s < 3599.5) {
+        long t = lround(s);
+        snprintf(buf, cap, "%ld min %02ld s", t / 60, t % 60);
+    } else {
+        long m = lround(fmin(s, 1e15) / 60);   /* capped: an absurd figure stays a number, not an overflow */
+        snprintf(buf, cap, "%ld h %02ld min", m / 60, m % 60);
+    }
 }
 
 bool prt_bar_report(void *user, const char *stage, double fraction) {
@@ -130,8 +143,8 @@ bool prt_bar_report(void *user, const char *stage, double fraction) {
     double el = now - bar->t_start;
     double eta = fraction > 1e-6 ? el * (1 - fraction) / fraction : 0;
     char e1[32], e2[32];
-    fmt_secs(e1, sizeof e1, el);
-    fmt_secs(e2, sizeof e2, eta);
+    prt_format_duration(e1, sizeof e1, el);
+    prt_format_duration(e2, sizeof e2, eta);
     if (bar->tty) {
         if (now - bar->t_last < 0.1 && fraction < 1) return true;
         bar->t_last = now;
@@ -139,7 +152,7 @@ bool prt_bar_report(void *user, const char *stage, double fraction) {
         int w = 40, fill = (int)(fraction * w + 0.5);
         for (int i = 0; i < w; i++) cells[i] = i < fill ? '#' : '.';
         cells[w] = 0;
-        fprintf(bar->out, "\r%-22s [%s] %5.1f%%  %s elapsed, ETA %s   ", stage, cells, 100 * fraction, e1, e2);
+        fprintf(bar->out, "\r%-22s [%s] %5.1f%%  %s elapsed, ETA %s\033[K", stage, cells, 100 * fraction, e1, e2);
         fflush(bar->out);
     } else {
         int d = (int)(fraction * 10);
@@ -155,7 +168,7 @@ bool prt_bar_report(void *user, const char *stage, double fraction) {
 void prt_bar_done(prt_bar *bar) {
     if (!bar || bar->quiet || !bar->stage[0]) return;
     char e1[32];
-    fmt_secs(e1, sizeof e1, prt_now() - bar->t_start);
+    prt_format_duration(e1, sizeof e1, prt_now() - bar->t_start);
     if (bar->tty) fprintf(bar->out, "\r\033[K%-22s done in %s\n", bar->stage, e1);
     else fprintf(bar->out, "%s: done in %s\n", bar->stage, e1);
     fflush(bar->out);
@@ -256,6 +269,17 @@ int prt_output_check(const char *path, const char *const *exts, prt_error *err) 
     }
     if (!*ext) return prt_fail(err, "%s: no file extension (use %s)", path, list);
     return prt_fail(err, "%s: unsupported output format '.%s' (use %s)", path, ext, list);
+}
+
+bool prt_same_file(const char *a, const char *b) {
+    struct stat sa, sb;
+    bool ea = stat(a, &sa) == 0, eb = stat(b, &sb) == 0;
+    if (ea || eb) return ea && eb && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    /* neither exists yet: one name if the folders are one folder and the base names match */
+    char da[4096], db[4096];
+    const char *ba, *bb;
+    if (!split_path(a, da, sizeof da, &ba) || !split_path(b, db, sizeof db, &bb) || !*ba || strcmp(ba, bb)) return false;
+    return stat(da, &sa) == 0 && stat(db, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
 }
 
 void prt_path_ext(const char *path, char ext[16]) {

@@ -73,6 +73,17 @@ int prt_atomic_clean(const char *path, char *first, size_t firstcap);
  * its extension is one of exts. Else -1 with one line naming path and the problem. */
 int prt_output_check(const char *path, const char *const *exts, prt_error *err);
 
+/* Do a and b name the same file? Both existing: the same device and inode (so a hard link, a
+ * symbolic link or "./a" is a's file); neither existing: the same folder and base name; one
+ * existing and not the other: false. What lets a command refuse an output that is one of its
+ * inputs before it writes over it. */
+bool prt_same_file(const char *a, const char *b);
+
+/* A duration as a person reads it, into buf[cap] (at least 32 bytes), never with an exponent: three
+ * significant digits below a second, tenths below a minute, then whole seconds or minutes:
+ * "0.0421 ms", "12.5 ms", "850 ms", "1.7 s", "2 min 05 s", "3 h 07 min" (negative or NaN: "0 ms"). */
+void prt_format_duration(char *buf, size_t cap, double seconds);
+
 /* Lowercase extension of path without the dot ("" if none), into ext[16]. */
 void prt_path_ext(const char *path, char ext[16]);
 

@@ -184,6 +184,29 @@ static void clamp_texels(prt_probe *p) {
     p->max_value = mx;
 }
 
+/* The share of the probe's light its negative channels hold, by solid angle: the sum of -v omega
+ * over the negative channels over the sum of |v| omega over all finite ones (probe.h); 0 when no
+ * channel is negative. Pixels outside the layout's valid area light nothing and count for neither. */
+static double negative_share(const prt_probe *p) {
+    size_t n = 3 * (size_t)p->img.w * p->img.h, i = 0;
+    const float *d = p->img.data;
+    while (i < n && !(d[i] < 0.f && isfinite(d[i]))) i++;
+    if (i == n) return 0;   /* the common case: one cheap scan, no solid angles */
+    double neg = 0, all = 0;
+    for (int y = 0; y < p->img.h; y++)
+        for (int x = 0; x < p->img.w; x++) {
+            float dir[3], om;
+            if (!probe_pixel_dir(p, x, y, dir, &om)) continue;
+            const float *t = d + 3 * ((size_t)y * p->img.w + x);
+            for (int ch = 0; ch < 3; ch++) {
+                if (!isfinite(t[ch])) continue;
+                if (t[ch] < 0.f) neg -= (double)t[ch] * om;
+                all += fabs((double)t[ch]) * om;
+            }
+        }
+    return all > 0 ? neg / all : 0;
+}
+
 /* Takes ownership of *img (zeroed on return, freed on failure). Returns 0 or -1. */
 int probe_from_image(prt_image *img, probe_layout layout, const char *name, prt_probe *out, prt_error *err) {
     memset(out, 0, sizeof *out);
@@ -210,6 +233,7 @@ int probe_from_image(prt_image *img, probe_layout layout, const char *name, prt_
         out->img.c = 3;
     }
     out->layout = l;
+    out->clamped_negative_share = negative_share(out);
     clamp_texels(out);
     return 0;
 }

@@ -11,7 +11,11 @@
  * cross; a flag overrides it.
  *
  * Negative and non-finite texels are clamped to 0 on load and counted
- * (clamped_negative, clamped_nonfinite) so the caller can warn.
+ * (clamped_negative, clamped_nonfinite) so the caller can warn. How much light the
+ * negative ones held is clamped_negative_share: their |value| times solid angle over
+ * the whole probe's. Lossy compression leaves a few tiny negatives in many HDR
+ * probes (1e-11 to 1e-6 of the light in common ones), whose clamping changes nothing
+ * visible, so a caller says so only above PROBE_NEGATIVE_NOTE.
  *
  * Resampling (probe_to_cube): each cube texel is the solid-angle-weighted mean
  * of the probe over the texel, estimated with ss x ss stratified sub-samples
@@ -35,8 +39,12 @@ typedef struct prt_probe {
     probe_layout layout;
     long clamped_negative;  /* texels that had a negative channel */
     long clamped_nonfinite; /* texels that had a NaN or Inf channel */
+    double clamped_negative_share;   /* the negative channels' share of the light (see above) */
     float max_value;        /* largest channel value after clamping */
 } prt_probe;
+
+/* The negative share worth a word: clamping then changes the light by more than 0.01%. */
+#define PROBE_NEGATIVE_NOTE 1e-4
 
 /* Parses "latlong", "angular", "vcross", "hcross", "cross" (auto cross), "auto". Returns -1 if unknown. */
 int probe_parse_layout(const char *s, probe_layout *out);
