@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # make accuracy: how far PRT's relighting is from the path tracer, the same way every time, over
 # scenes x probes x light yaws x effect settings. Not a test: it measures, prints the matrix and
-# writes it with a contact sheet per scene and setting; a failed step stops it with its log rather
+# writes it with contact sheets per scene, setting and yaw; a failed step stops it with its log rather
 # than writing a made-up number.
 #
 #   tools/accuracy.sh [build/prt]     the whole matrix (needs ../shared/data; hours on 2 cores:
 #                                     the bunny's defaults are the longest; knobs below to narrow it)
 #   ACCURACY_QUICK=1                  one scene, two probes, one yaw, 16 spp at 200x150 (a few
 #                                     minutes on a shared machine), into build/accuracy-quick/
+#   docs/accuracy/ holds ACCURACY_SCENES="teapot-floor teapot-lambert" ACCURACY_EFFECTS=direct
+#                                     (32 images at the defaults: 37 min on 2 shared cores)
 # Knobs (environment):
 #   ACCURACY_SCENES   data/ scene names (data/NAME.json) and teapot-lambert (the Utah teapot in
 #                     lambert:kd=0.8 over teapot-floor.json's 2,500-vertex floor, as precompute
@@ -146,26 +148,22 @@ measure() {
     $done_n $total "$s" "$e" "$p" "$y" "$ri" "$rn" "$sh" "$sn" "$spx"
 }
 
-# sheet SCENE EFFECT: the contact sheet, its tiles shrunk until the PNG is within SHEET_KB.
+# sheet SCENE EFFECT YAW: the contact sheet (a row per probe), its tiles from half the image's width
+# shrunk in 10% steps until the PNG is within SHEET_KB.
 sheet() {
-  local s=$1 e=$2 list=$W/$1-$2.sheet.txt out=$OUT/$1-$2.png tw=$(( ${SIZE%x*} / 2 ))
+  local s=$1 e=$2 y=$3 list=$W/$1-$2-$3.sheet.txt out=$OUT/$1-$2-yaw$3.png tw=$(( ${SIZE%x*} / 2 )) p b lab
   : > $list
   for p in $PROBES; do
-    local row=""
-    for y in $YAWS; do
-      local b=$W/$s-$e-$p-$y
-      local lab
-      lab=$(awk -F, -v s="$s" -v e="$e" -v p="$p" -v y="$y" '$1 == s && $2 == e && $4 == p && $5 == y {
-        printf "%s yaw %s: image %s (noise %s), shadow %s", p, y, $6, $7, $10 }' "$CSV")
-      row="$row${row:+	}$lab	$b.exr	$b.ref.exr	$b.err.png"
-    done
-    echo "$row" >> $list
+    b=$W/$s-$e-$p-$y
+    lab=$(awk -F, -v s="$s" -v e="$e" -v p="$p" -v y="$y" '$1 == s && $2 == e && $4 == p && $5 == y {
+      printf "%s: image %s (noise %s), shadow %s (%s)", p, $6, $7, $10, $11 }' "$CSV")
+    printf "%s\t%s\t%s\t%s\n" "$lab" $b.exr $b.ref.exr $b.err.png >> $list
   done
-  local title="$s, $e ($([ "$e" = direct ] && echo "--no-bounces / --bounces 0" || echo "defaults / --bounces $NB")), $SIZE, reference $SPP spp"
+  local title="$s, $e ($([ "$e" = direct ] && echo "--no-bounces / --bounces 0" || echo "defaults / --bounces $NB")), yaw $y, $SIZE, ref. $SPP spp"
   while :; do
     $IMG sheet $out $tw "$title" $list || die "contact sheet $out failed"
     [ $(( $(stat -c %s $out) / 1024 )) -le $SHEET_KB ] || [ $tw -le 64 ] && break
-    tw=$(( tw * 4 / 5 ))
+    tw=$(( tw * 9 / 10 ))
   done
   echo "wrote $out ($(( $(stat -c %s $out) / 1024 )) KB, tiles ${tw}px wide)"
 }
@@ -197,7 +195,7 @@ for s in $SCENES; do
     for p in $PROBES; do
       for y in $YAWS; do measure "$s" "$e" "$f" "$NB" "$p" "$y"; done
     done
-    sheet "$s" "$e"
+    for y in $YAWS; do sheet "$s" "$e" "$y"; done
   done
 done
 
@@ -243,13 +241,17 @@ md=$OUT/matrix.md
   echo
   table
   echo
-  echo "Timing (wall, $(nproc) cores, shared machine; load average at the end $(cut -d' ' -f1-3 /proc/loadavg)): precompute ${T[precompute]} s,"
-  echo "render ${T[render]} s, reference ${T[reference]} s, compare ${T[compare]} s; total $wall s."
+  echo "Timing (wall, $(nproc) cores, shared machine, summed over the runs that made these files (ACCURACY_RESUME=1 adds"
+  echo "its own); load average at the end $(cut -d' ' -f1-3 /proc/loadavg)): precompute ${T[precompute]} s, render ${T[render]} s,"
+  echo "reference ${T[reference]} s, compare ${T[compare]} s; total $wall s."
   echo
-  echo "Contact sheets (one row per probe, one cell per yaw: PRT | reference | \`prt compare --error-image\`; PRT and"
-  echo "reference at one exposure per cell, the reference's 97th percentile at 0.85):"
+  echo "Contact sheets, one per scene, setting and yaw (a row per probe: PRT | reference | \`prt compare --error-image\`,"
+  echo "shrunk to stay within $SHEET_KB KB; PRT and reference at one exposure per row, the reference's 97th percentile at 0.85;"
+  echo "the label: image rel_rmse (reference noise), floor shadow rel_rmse (its reference noise)):"
   echo
-  for s in $SCENES; do for e in $EFFECTS; do echo "* [$s, $e]($s-$e.png)"; done; done
+  for s in $SCENES; do for e in $EFFECTS; do
+    echo "* $s, $e:$(for y in $YAWS; do printf " [yaw %s](%s-%s-yaw%s.png)" "$y" "$s" "$e" "$y"; done)"
+  done; done
   echo
   echo "Every number per image, with the reference's own estimate of its noise from its per-pixel standard errors"
   echo "(ref_noise_stderr) and its seconds: [matrix.csv](matrix.csv)."

@@ -63,7 +63,7 @@ static int read_same(char **paths, int n, prt_image *ims, prt_error *err) {
     for (int i = 0; i < n; i++) {
         int bad = image_read(paths[i], &ims[i], err);
         if (!bad && (ims[i].w != ims[0].w || ims[i].h != ims[0].h)) {
-            prt_fail(err, "%s: %dx%d, %s is %dx%d", paths[i], ims[i].w, ims[i].h, paths[0], ims[0].w, ims[0].h);
+            prt_fail(err, "%s is %dx%d but %s is %dx%d", paths[i], ims[i].w, ims[i].h, paths[0], ims[0].w, ims[0].h);
             image_free(&ims[i]);
             bad = 1;
         }
