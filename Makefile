@@ -6,6 +6,8 @@
 #   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
+#   make accuracy   PRT against the path tracer: scenes x probes x yaws x effects (docs/accuracy/;
+#                   ACCURACY_QUICK=1 for a few minutes; tools/accuracy.sh says the knobs)
 #   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60),
 #                   FUZZ_JOBS processes of each at once (default 1)
 SHELL := /bin/bash
@@ -54,7 +56,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench bench-scale study study-glossy fuzz fuzz-build clean
+.PHONY: all deps test demo bench bench-scale study study-glossy accuracy fuzz fuzz-build clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -142,6 +144,11 @@ study: all
 # issue 9: vMF against SVD K = 1..16 (about 35 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
 study-glossy: all
 	@tools/study_glossy.sh $(BUILD)/prt
+
+# the image error of every shared-asset scene under the eight probes at two yaws, direct only and with
+# bounces, beside the reference's own noise and over the floor's shadow (hours on 2 cores at the defaults)
+accuracy: all
+	@tools/accuracy.sh $(BUILD)/prt
 
 clean:
 	rm -rf build
