@@ -8,8 +8,8 @@
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 #   make accuracy   PRT against the path tracer: scenes x probes x yaws x effects (docs/accuracy/;
 #                   ACCURACY_QUICK=1 for a few minutes; tools/accuracy.sh says the knobs)
-#   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each (default 60),
-#                   FUZZ_JOBS processes of each at once (default 1)
+#   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each and/or to
+#                   FUZZ_RUNS executions each (default 60 s), FUZZ_JOBS processes of each at once (default 1)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++
@@ -98,13 +98,15 @@ test: all $(TESTS)
 	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) tools/fuzz.sh
 
 # libFuzzer harnesses (tests/fuzz/fuzz_NAME.c, seeds in tests/fuzz/corpus/NAME/): built with clang,
-# ASan and UBSan into build/fuzz/, then each run for FUZZ_SECONDS (tools/fuzz.sh).
-FUZZ_SECONDS ?= 60
+# ASan and UBSan into build/fuzz/, then each run for FUZZ_SECONDS and/or to FUZZ_RUNS executions
+# (all FUZZ_JOBS processes together; tools/fuzz.sh). Neither given: 60 s each.
+FUZZ_SECONDS ?=
+FUZZ_RUNS ?=
 FUZZ_PKGS := clang libclang-rt-dev
 FUZZERS := $(patsubst tests/fuzz/%.c,build/fuzz/%,$(wildcard tests/fuzz/fuzz_*.c))
 FUZZ_CLI_OBJ := $(BUILD)/obj/src/cli/cli_args.o
 fuzz: all
-	@tools/fuzz.sh --seconds $(FUZZ_SECONDS)
+	@tools/fuzz.sh $(if $(FUZZ_RUNS),--runs $(FUZZ_RUNS)) $(if $(FUZZ_SECONDS),--seconds $(FUZZ_SECONDS),$(if $(FUZZ_RUNS),,--seconds 60))
 # Installs clang and its runtime libraries (libFuzzer) when missing, then builds the harnesses.
 fuzz-build: $(BUILD)/.deps
 	@if ! command -v clang >/dev/null || ! ls /usr/lib/llvm-*/lib/clang/*/lib/linux/libclang_rt.fuzzer-x86_64.a >/dev/null 2>&1; then \
@@ -114,13 +116,19 @@ fuzz-build: $(BUILD)/.deps
 	fi
 	@$(MAKE) --no-print-directory FUZZ=1 $(FUZZERS)
 ifeq ($(FUZZ),1)
-# Linked by clang++ (UBSan's C++ runtime for image_oiio.cpp); clang 14's half-float conversions
-# (transfer_vmf.c) are in compiler-rt's builtins, not libgcc.
-build/fuzz/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/libprt.a $(FUZZ_CLI_OBJ)
+# Linked by clang++ (libFuzzer and UBSan's C++ runtimes); clang 14's half-float conversions
+# (transfer_vmf.c) are in compiler-rt's builtins, not libgcc. tests/fuzz/absent.o, linked before
+# the library, stands in for the libraries no harness calls (OpenImageIO, OSMesa, EGL, GLFW,
+# Embree, LAPACKE, OpenBLAS, OpenMPI): the binaries need only FUZZ_LDLIBS (tools/fuzz_pack.sh).
+FUZZ_LDLIBS := -lcjson -lz -lm -lpthread
+build/fuzz/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/absent.o $(BUILD)/libprt.a $(FUZZ_CLI_OBJ)
 	@mkdir -p $(dir $@)
-	$(CXX) -fsanitize=fuzzer,address,undefined $< $(FUZZ_CLI_OBJ) $(BUILD)/libprt.a $(LDLIBS) \
-	    $$($(CC) -print-libgcc-file-name --rtlib=compiler-rt) -o $@
+	$(CXX) -fsanitize=fuzzer,address,undefined $< $(BUILD)/obj/tests/fuzz/absent.o $(FUZZ_CLI_OBJ) $(BUILD)/libprt.a \
+	    $(FUZZ_LDLIBS) $$($(CC) -print-libgcc-file-name --rtlib=compiler-rt) -o $@
 $(BUILD)/obj/tests/fuzz/%.o: CFLAGS += -Itests/fuzz
+# A bright pixel's refined cube texels take at most 4 x 4 sub-samples instead of 64 x 64
+# (PROBE_MAX_SS, probe.c): the same code, at a cost that lets fuzz_probe resample every input.
+$(BUILD)/obj/src/image/probe.o: CFLAGS += -DPROBE_MAX_SS=4
 endif
 
 demo: all

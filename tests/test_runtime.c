@@ -32,8 +32,9 @@
  *   - the light rotated by R is the rotated sky on both backends (the prefiltered probe only
  *     rotated; 2e-2, see the case), and rotating the kept prefiltered probe equals a fresh one;
  *   - a Lambert-only file shades exactly as the formula before several transfers existed;
- *   - a light change from probe_to_cube's cube (runtime_set_light_cube) equals the probe's, bit for
- *     bit, on both backends, and a vmf file, which needs the probe, refuses it (light_cube). */
+ *   - a light change from probe_to_cube's cube (runtime_set_light_cube), and from that cube's light
+ *     vectors (runtime_set_light_vectors), equals the probe's, bit for bit, on both backends, and a
+ *     vmf file, which needs the probe, refuses both (light_cube). */
 #include "harness.h"
 #include "light.h"
 #include "prefilter.h"
@@ -848,38 +849,58 @@ static void vmf_pixel_point(void) {
     free(sp);
 }
 
-/* runtime_set_light_cube with probe_to_cube's cube of the rotated sky shades exactly as
- * runtime_set_light on both backends (the same light vectors); a file with a vmf transfer, which
- * needs the probe itself, is refused with one line. */
+/* runtime_set_light_cube with probe_to_cube's cube of the rotated sky, and runtime_set_light_vectors
+ * with that cube's light vectors (each transfer's project_light), shade exactly as runtime_set_light
+ * on both backends (the same light vectors); a file with a vmf transfer, which needs the probe
+ * itself, refuses both with one line. */
 static void light_cube(void) {
     if (!g_ok) return;
     const char *backends[2] = { "cpu", "gl" };
     int n = g_d.scene.mesh.nverts;
-    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n);
+    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n), *c = malloc(sizeof(float) * 3 * n);
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     probe_to_cube(&g_sky, CUBE_RES, g_R, 0, cube);
+    const float (*L[PRT_MAX_TRANSFERS])[4] = { 0 };
+    for (int i = 0; i < g_d.ntransfers; i++) {
+        if (!g_d.transfers[i].ops->project_light) continue;
+        float (*v)[4] = light_alloc();
+        g_d.transfers[i].ops->project_light(&g_d.transfers[i].cfg, cube, v);
+        L[i] = (const float (*)[4])v;
+    }
     for (int k = 0; k < 2; k++) {
         prt_error err = { { 0 } };
         const char *kern = k ? "fragment" : NULL;   /* one gl kernel: compared bit for bit below */
         prt_runtime *pr = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky, g_R, kern);
         prt_runtime *cr = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL, kern);
+        prt_runtime *vr = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL, kern);
         int rc = pr && cr ? runtime_set_light_cube(cr, cube, &err) : -1;
         CHECK(rc == 0, "%s: %s", backends[k], err.msg);
+        int rv = vr ? runtime_set_light_vectors(vr, L, &err) : -1;
+        CHECK(rv == 0, "%s: vectors: %s", backends[k], err.msg);
         if (rc == 0 && runtime_shade_vertices(pr, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cr, g_cam.eye, b, &err) == 0)
             CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: the cube's light differs from the probe's", backends[k]);
+        if (rc == 0 && rv == 0 && runtime_shade_vertices(vr, g_cam.eye, c, &err) == 0)
+            CHECK(memcmp(a, c, sizeof(float) * 3 * n) == 0, "%s: the light vectors' light differs from the probe's", backends[k]);
         runtime_destroy(pr);
         runtime_destroy(cr);
+        runtime_destroy(vr);
     }
     if (g_vok) {
         prt_error err = { { 0 } };
         prt_runtime *rt = runtime_create(&g_v, &(runtime_desc){ .backend = "cpu" }, &err);
         CHECK(rt && runtime_set_light_cube(rt, cube, &err) == -1, "vmf file lit from a cube");
         check_one_line(&err, "vmf");
+        const float (*Lv[PRT_MAX_TRANSFERS])[4] = { L[0], L[0], L[0], L[0] };
+        memset(&err, 0, sizeof err);
+        CHECK(rt && runtime_set_light_vectors(rt, Lv, &err) == -1, "vmf file lit from light vectors");
+        check_one_line(&err, "vmf");
         runtime_destroy(rt);
     }
+    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free((void *)L[i]);
     free(cube);
     free(a);
     free(b);
+    free(c);
 }
 
 /* A shared coefficient budget (transport.h, README "Shadows"): a Lambert box over a floor under the

@@ -1,7 +1,9 @@
 /* image.h - float RGB(A) images read and written through OpenImageIO.
  *
  * OpenImageIO speaks C++ only; src/image/image_oiio.cpp wraps it behind this C
- * header and is the only C++ in prt.
+ * header (image_read, image_write) and is the only C++ in prt. The pixel buffers
+ * (image_alloc, image_free) are plain C in image.c, so code that only makes images
+ * in memory (the fuzz harnesses, linked without OpenImageIO) needs none of it.
  *
  * Usage:
  *     prt_image im; prt_error err;
@@ -45,6 +47,10 @@ typedef struct image_desc {
     int tonemap;     /* 0 clamp, 1 Reinhard, 2 ACES */
     bool half;       /* EXR: half floats */
 } image_desc;
+
+/* Largest image accepted (pixels): keeps a crafted header from asking for terabytes; 2^28 RGB
+ * float pixels is 3 GiB. */
+#define IMAGE_MAX_PIXELS (1LL << 28)
 
 int image_alloc(prt_image *im, int w, int h, int c, prt_error *err);
 int image_read(const char *path, prt_image *out, prt_error *err);

@@ -43,10 +43,6 @@ extern "C" {
 
 using namespace OIIO;
 
-/* Largest image we accept (pixels): keeps a crafted header from asking for
- * terabytes; 2^28 RGB float pixels is 3 GiB. */
-static const long long IMAGE_MAX_PIXELS = 1LL << 28;
-
 /* First line of an OIIO error string, trimmed (OIIO errors may span lines). */
 static std::string first_line(const std::string &s) {
     size_t e = s.find_first_of("\r\n");
@@ -81,26 +77,6 @@ static float tonemap(float x, int op) {
     }
     default: return x > 1.f ? 1.f : x;
     }
-}
-
-/* Zeroed w x h x c image (c 3 or 4); 0, or -1 with err (bad size, OOM). image_free frees it. */
-extern "C" int image_alloc(prt_image *im, int w, int h, int c, prt_error *err) {
-    std::memset(im, 0, sizeof *im);
-    if (w <= 0 || h <= 0 || (c != 3 && c != 4)) return prt_fail(err, "bad image size %dx%dx%d", w, h, c);
-    if ((long long)w * h > IMAGE_MAX_PIXELS) return prt_fail(err, "image %dx%d too large", w, h);
-    im->data = (float *)prt_calloc((size_t)w * (size_t)h * (size_t)c, sizeof(float), err);
-    if (!im->data) return -1;
-    im->w = w;
-    im->h = h;
-    im->c = c;
-    return 0;
-}
-
-/* Frees the pixels and zeroes the image (NULL is fine). */
-extern "C" void image_free(prt_image *im) {
-    if (!im) return;
-    std::free(im->data);
-    std::memset(im, 0, sizeof *im);
 }
 
 /* Does the file store display-referred (sRGB) integer values? */

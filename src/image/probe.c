@@ -449,7 +449,11 @@ bool probe_pixel_dir(const prt_probe *p, int x, int y, float d[3], float *solid_
 
 /* ---- resampling to the cube map ---------------------------------------------------------- */
 
-#define PROBE_MAX_SS 64   /* the most sub-samples per texel side (refined texels) */
+/* The most sub-samples per texel side (refined texels). The fuzz build (Makefile, FUZZ=1) sets
+ * a smaller one: the same code paths at a fraction of a sun's 64 x 64 lookups per texel. */
+#ifndef PROBE_MAX_SS
+#define PROBE_MAX_SS 64
+#endif
 #define REFINE_K 4        /* refined sub-samples per probe pixel (a quarter pixel apart) */
 
 /* Direction at continuous image position (fx, fy) (pixel x spans [x, x+1)); false outside the

@@ -135,6 +135,22 @@ int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err) {
     return rt_set_light(rt, cube, NULL, NULL, prt_now(), err);
 }
 
+/* The light change of light vectors already projected; -1 with err when a transfer needs the probe. */
+int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRANSFERS])[4], prt_error *err) {
+    PRT_CHECK(rt != NULL && L != NULL);
+    runtime_light light;
+    memset(&light, 0, sizeof light);
+    for (int i = 0; i < rt->d->ntransfers; i++) {
+        const transfer_ops *ops = rt->d->transfers[i].ops;
+        if (ops->shade_vertices) return prt_fail(err, "a %s transfer needs the probe itself, not a light vector", ops->name);
+        if (!ops->project_light) continue;
+        PRT_CHECK(L[i] != NULL);
+        light.L[i] = L[i];
+    }
+    rt->light_vector_ms = 0;   /* made by the caller */
+    return rt->be->set_light(rt->self, &light, err);
+}
+
 /* Vertex colours toward eye with the current term count; -1 with err when the backend has none. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err) {
     PRT_CHECK(rt != NULL && eye != NULL);

@@ -146,6 +146,11 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
  * the same as runtime_set_light(rt, p, R) without resampling, for many files under one light (the
  * fuzz harness relights every input). -1 with err when a transfer shades with the probe itself (vmf). */
 int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err);
+/* Light change from light vectors already projected: L[i] = transfers[i].ops->project_light(cfg, cube)
+ * for every transfer with a projection (the others' entries are not read); runtime_set_light_cube
+ * without the projection, for many files whose transfers share configurations (the fuzz harness
+ * keeps one vector per configuration). Only read during the call. -1 with err as runtime_set_light_cube. */
+int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRANSFERS])[4], prt_error *err);
 /* View change as vertex colours: rgb[3*nverts] = radiance of every vertex toward eye, clamped >= 0. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err);
 /* View change as a frame rd->width x rd->height (0 x 0: 800 x 600) into the target; out non-NULL:

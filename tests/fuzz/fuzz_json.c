@@ -2,8 +2,9 @@
  * puts relative OBJ paths in the OBJ seeds' folder (run from the repository root), so a JSON
  * input can name "cube.obj". An accepted scene: a valid mesh (fuzz.h) whose materials are
  * below nmaterials, bounds that hold every vertex; a refused one: one line naming the file.
- * Inputs asking for more than a few thousand of something (an integer above 2000: vertices,
- * rings) are left out: legal, but slow, and what they test is the allocator's patience. */
+ * Inputs asking for more than a few hundred of something (a number above FUZZ_JSON_MAX_COUNT,
+ * 256: vertices, rings) are left out: legal, but slow, and what they test is the allocator's
+ * patience. */
 #include "fuzz.h"
 #include "scene.h"
 #include <ctype.h>
@@ -13,7 +14,7 @@
 #define FUZZ_JSON_MAX_COUNT 256
 #endif
 
-/* True when the text holds a number whose magnitude is above 2000 (a big count). */
+/* True when the text holds a number whose magnitude is above FUZZ_JSON_MAX_COUNT (a big count). */
 static bool big_number(const char *s) {
     for (const char *p = s; *p; p++) {
         if (!isdigit((unsigned char)*p) || (p > s && (isalnum((unsigned char)p[-1]) || p[-1] == '.'))) continue;

@@ -4,14 +4,22 @@
  * checks: magic, version, length, CRC); fuzz_prt_crc (FUZZ_FIX_CRC) first rewrites the
  * header's payload length and the trailing CRC-32 to match, so the mutations reach the
  * sections' own checks. An accepted file is relit on the CPU runtime (one thread) under a small
- * probe with a bright texel, resampled to the cube once per process (runtime_set_light_cube: the
- * resampling, 6 x 64 x 64 x 16 probe lookups, was 90% of an input's time), and shaded from two eyes: every colour finite and >= 0 (a file with a vmf
- * transfer is read, not relit: its light change takes seconds under ASan). A refused file: one
- * line naming it. */
+ * probe with a bright texel, and shaded from two eyes: every colour finite and >= 0 (a file with
+ * a vmf transfer is read, not relit: its light change takes seconds under ASan). A refused file:
+ * one line naming it.
+ * What an input costs is the reader and the runtime on its data, not the light: the probe is
+ * resampled to the cube once per process, and each transfer configuration's light vector
+ * (project_light: a Haar transform or an SH integration of 24,576 texels, milliseconds under
+ * ASan, twice what the rest of an input costs) is projected the first time the configuration is
+ * seen and handed over as it is afterwards (runtime_set_light_vectors). The
+ * seeds are the 4 x 4 BRDF-map files (5-7 KB) and inputs stop at 8 KB (fuzz_prt.options), which
+ * also caps the vertex count a file can hold. */
 #include "fuzz.h"
 #include "prtfile.h"
 #include "cubemap.h"
 #include "runtime.h"
+#include "light.h"
+#include "transfer.h"
 #include <zlib.h>
 
 #ifdef FUZZ_FIX_CRC
@@ -49,6 +57,26 @@ static const float *light(void) {
     return cube;
 }
 
+/* light()'s light vector for transfer tr, projected the first time its configuration (ops and
+ * cfg, all of it) is seen; the last LIGHT_VECTORS configurations are kept. Harness state, per process. */
+#define LIGHT_VECTORS 32
+static const float (*light_vector(const prt_transfer *tr))[4] {
+    static struct { const transfer_ops *ops; transfer_config cfg; float (*L)[4]; } kept[LIGHT_VECTORS];
+    static int next;
+    for (int i = 0; i < LIGHT_VECTORS; i++)
+        if (kept[i].L && kept[i].ops == tr->ops && !memcmp(&kept[i].cfg, &tr->cfg, sizeof tr->cfg))
+            return (const float (*)[4])kept[i].L;
+    int i = next;
+    next = (next + 1) % LIGHT_VECTORS;
+    free(kept[i].L);
+    kept[i].L = light_alloc();
+    if (!kept[i].L) abort();
+    kept[i].ops = tr->ops;
+    kept[i].cfg = tr->cfg;
+    tr->ops->project_light(&tr->cfg, light(), kept[i].L);
+    return (const float (*)[4])kept[i].L;
+}
+
 static void relight(const prt_data *d) {
     /* a vmf transfer's light change prefilters the probe over 12 cube levels (seconds under ASan,
      * for every input): such a file is read and checked, not relit */
@@ -61,7 +89,10 @@ static void relight(const prt_data *d) {
     int nv = d->scene.mesh.nverts;
     float *rgb = malloc(3 * (size_t)(nv > 0 ? nv : 1) * sizeof(float));
     if (!rgb) abort();
-    if (runtime_set_light_cube(rt, light(), &err) == 0) {
+    const float (*L[PRT_MAX_TRANSFERS])[4] = { 0 };
+    for (int i = 0; i < d->ntransfers; i++)
+        if (d->transfers[i].ops->project_light) L[i] = light_vector(&d->transfers[i]);
+    if (runtime_set_light_vectors(rt, L, &err) == 0) {
         static const float eyes[2][3] = { { 0, 1, 5 }, { -3, 4, -2 } };
         for (int e = 0; e < 2; e++) {
             if (runtime_shade_vertices(rt, eyes[e], rgb, &err)) { fuzz_check_error(&err, NULL); break; }
