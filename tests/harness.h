@@ -17,8 +17,8 @@
  *
  * The counters live in one struct owned by the test binary (check_state), not
  * in the library: the library has no mutable globals. */
-#ifndef PRT_CHECK_H
-#define PRT_CHECK_H
+#ifndef PRT_TEST_HARNESS_H
+#define PRT_TEST_HARNESS_H
 #include <math.h>
 #include <stdio.h>
 
