@@ -28,7 +28,7 @@ runs=("OPENBLAS_CORETYPE=Nehalem"
 closing=(); failed=0
 for i in "${!runs[@]}"; do
   read -r -a vars <<< "${runs[$i]}"
-  echo "=== test-portable run $((i + 1))/${#runs[@]}: ${runs[$i]}"
+  echo "=== test-portable run $((i + 1))/${#runs[@]}: ${runs[$i]/-u OPENBLAS_CORETYPE/OPENBLAS_CORETYPE unset}"
   # what the libraries say they picked under these settings
   env "${vars[@]}" OPENBLAS_VERBOSE=2 "$prt" --help 2>&1 | grep -m1 '^Core:' | sed 's/^/    OpenBLAS /'
   cfg=$(env "${vars[@]}" printenv PRT_EMBREE_CONFIG)
@@ -37,7 +37,7 @@ for i in "${!runs[@]}"; do
   env "${vars[@]}" PRT_BIN="$prt" tools/run_tests.sh "$@" | tee "$tmp/run$i.log"
   rc=${PIPESTATUS[0]}
   [ "$rc" -ne 0 ] && failed=$((failed + 1))
-  closing+=("run $((i + 1)) (${runs[$i]}): $(grep -E '^[0-9]+ passed, [0-9]+ failed' "$tmp/run$i.log" | tail -n 1)")
+  closing+=("run $((i + 1)) (${runs[$i]/-u OPENBLAS_CORETYPE/OPENBLAS_CORETYPE unset}): $(grep -E '^[0-9]+ passed, [0-9]+ failed' "$tmp/run$i.log" | tail -n 1)")
 done
 echo "=== test-portable:"
 printf '%s\n' "${closing[@]}"
