@@ -1,6 +1,8 @@
 # prt: all-frequency precomputed radiance transfer.
 #   make            build build/prt (installs missing Debian packages first)
 #   make test       build and run the test suite (SAN=1 for ASan + UBSan; T=haar: only matching cases)
+#   make test-portable  the suite three times on other CPUs' code paths (OpenBLAS kernels, Embree
+#                   at SSE4.2, libm without FMA; tools/test_portable.sh), about 3x `make test`
 #   make demo       build and run `prt demo` (writes demo.png)
 #   make bench      benchmarks on ../shared/data (not tests; tools/bench_lights.sh: issue 11's local lights)
 #   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
@@ -56,7 +58,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test demo bench bench-scale study study-glossy accuracy fuzz fuzz-build clean
+.PHONY: all deps test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt
@@ -96,6 +98,10 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 # suite's last binary; it prints a skip reason when clang's libFuzzer is missing.
 test: all $(TESTS)
 	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) tools/fuzz.sh
+
+# The same suite under three sets of CPU-dependent code paths (tools/test_portable.sh says which).
+test-portable: all $(TESTS)
+	@T="$(T)" tools/test_portable.sh $(BUILD)/prt $(TESTS) tools/fuzz.sh
 
 # libFuzzer harnesses (tests/fuzz/fuzz_NAME.c, seeds in tests/fuzz/corpus/NAME/): built with clang,
 # ASan and UBSan into build/fuzz/, then each run for FUZZ_SECONDS and/or to FUZZ_RUNS executions

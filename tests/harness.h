@@ -16,9 +16,21 @@
  * up into the suite's "N passed, N failed" line.
  *
  * The counters live in one struct owned by the test binary (check_state), not
- * in the library: the library has no mutable globals. */
-#ifndef PRT_CHECK_H
-#define PRT_CHECK_H
+ * in the library: the library has no mutable globals.
+ *
+ * Tolerances and portability: the suite must pass on any x86-64 CPU. The library's own
+ * arithmetic is compiled for x86-64-v2 (no FMA, no dispatch by CPU), so it gives the same bits
+ * on every machine; what differs by CPU is what passes through glibc's libm (FMA variants of
+ * exp, log, pow, sin... on AVX2 + FMA CPUs), OpenBLAS (kernels by CPU model: the BRDF
+ * factorization), Embree (SIMD width by CPU: every ray) and llvmpipe (GL). So a tolerance is
+ * derived from the arithmetic it checks (n float terms: ~n FLT_EPSILON of their magnitude; a
+ * quantized value: half a step), never from the few ulps one machine shows, and an exact
+ * comparison is kept only where the result is exact by construction: the same code on the
+ * same inputs in one process (thread counts, resume, a copy, a file round trip), integers, or
+ * the library's own arithmetic on both sides. Each such check says which in a comment.
+ * `make test-portable` runs the suite on other CPUs' code paths (tools/test_portable.sh). */
+#ifndef PRT_TEST_HARNESS_H
+#define PRT_TEST_HARNESS_H
 #include <math.h>
 #include <stdio.h>
 

@@ -254,6 +254,8 @@ static void sphere_phong(void) {
         worst = fmax(worst, fabs(l - 1));
         for (int c = 0; c < 3; c++) worst_n = fmax(worst_n, fabs(n[c] - d[c] / l));
     }
+    /* float vertices from double sin/cos: each coordinate rounded once (<= 6e-8 in [1, 2)), so
+     * | |p - c| - 1 | <= ~2e-7 on any libm; 1e-6 is five times that (normals: 1e-5, looser still) */
     CHECK_NEAR(worst, 0, 1e-6, "distance from the centre");
     CHECK_NEAR(worst_n, 0, 1e-5, "normal = radial direction");
     CHECK_NEAR(s.bmin[1], 0, 1e-6, "south pole");
@@ -325,6 +327,9 @@ static void shared_models(void) {
     if (!g_shared[0]) printf("  ../shared/data not found (set PRT_DATA): shared models checked by their error only\n");
 }
 
+/* Bit for bit, exact by construction: both sides run the same generators and loaders, the same
+ * double cos/sin of the same angles (deg * pi / 180) rounded to float and the same float matrix
+ * products, in one process, so any CPU's libm gives both the same bits. */
 static int same_scene(const char *what, const prt_scene *a, const prt_scene *b) {
     int ok = a->mesh.nverts == b->mesh.nverts && a->mesh.ntris == b->mesh.ntris && a->nmaterials == b->nmaterials &&
              a->floor_first_vertex == b->floor_first_vertex;
@@ -499,7 +504,8 @@ static void rotate_x(void) {
     prt_error err = { "" };
     if (scene_load(path, NULL, &s, &err) != 0) { CHECK(0, "%s", err.msg); return; }
     CHECK(s.mesh.nverts == 12);
-    /* Rx(90): (x, y, z) -> (x, -z, y) exactly; the normal +y -> +z. */
+    /* Rx(90): (x, y, z) -> (x, -z, y) exactly (scene.c takes a multiple of 90 degrees' cos and
+     * sin as 0 and +-1, no libm); the normal +y -> +z. */
     int exact = 1;
     for (int v = 0; v < 4; v++) {
         const float *q = s.mesh.pos + 3 * v, *n = s.mesh.nrm + 3 * v;

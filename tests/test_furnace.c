@@ -312,6 +312,7 @@ static void energy(void) {
            rmax * cmax, albedo);
     CHECK(rmax < albedo, "escaping rays: every row sum below the albedo");
     CHECK_NEAR(rmax, albedo / 2, 0.01, "row sums = albedo x view factor of the bowl (1/2)");
+    /* ||A||^2 <= R_max C_max holds exactly; the double power iteration and sums round by ~1e-15 */
     CHECK_LE(s2, rmax * cmax * (1 + 1e-9), "Schur bound");
     CHECK_LE(rmax * cmax, albedo, "Schur bound below the albedo");
 

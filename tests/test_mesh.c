@@ -88,6 +88,8 @@ static bool all_finite_unit(const prt_mesh *m) {
     return true;
 }
 
+/* Bit for bit: exact by construction, the same decimals parsed by the same code (strtof rounds
+ * correctly, on any CPU) into the same order. */
 static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
     if (a->nverts != b->nverts || a->ntris != b->ntris) return false;
     return memcmp(a->pos, b->pos, 3 * (size_t)a->nverts * sizeof(float)) == 0 &&

@@ -335,6 +335,8 @@ static void budget_auto(void) {
     if (ok < 3) return;
     const prt_transport *a = &out[0].transfers[0].transport, *s = &out[1].transfers[0].transport, *v = &out[2].transfers[0].transport;
     size_t n = transport_ncoefs(a);
+    /* exact by construction: auto resolves to the shared budget, the same code on the same inputs
+     * in one process (and below, with a prior, to the per-vector one) */
     CHECK(a->nvecs < PRECOMPUTE_SHARED_MAX_VECS && n == transport_ncoefs(s) && a->N == s->N &&
               !memcmp(a->coef_first, s->coef_first, sizeof(uint32_t) * (a->nvecs + 1)) &&
               !memcmp(a->packed, s->packed, sizeof(uint32_t) * n), "auto differs from shared (%zu coefficients)", n);

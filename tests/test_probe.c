@@ -160,7 +160,7 @@ static void detect_and_clamp(void) {
     CHECK(p.img.c == 3 && p.layout == PROBE_LATLONG);
     CHECK(p.clamped_negative == 2, "negatives %ld", p.clamped_negative);
     CHECK(p.clamped_nonfinite == 3, "non-finite %ld", p.clamped_nonfinite);
-    CHECK_NEAR(p.max_value, 7.5, 0);
+    CHECK_NEAR(p.max_value, 7.5, 0);   /* exact: the largest input texel, copied */
     int ok = 1;
     for (int i = 0; i < 32 * 3; i++) ok &= isfinite(p.img.data[i]) && p.img.data[i] >= 0;
     CHECK(ok, "all texels finite and >= 0");

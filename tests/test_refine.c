@@ -297,6 +297,8 @@ static void parts(void) {
     scene_free(&s);
 }
 
+/* Byte for byte: exact by construction for runs of the same code on the same machine (refine's
+ * choices do not depend on the thread count), which is all it compares. */
 static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
     return a->nverts == b->nverts && a->ntris == b->ntris && !memcmp(a->pos, b->pos, 12 * (size_t)a->nverts) &&
            !memcmp(a->nrm, b->nrm, 12 * (size_t)a->nverts) && !memcmp(a->mat, b->mat, 2 * (size_t)a->nverts) &&

@@ -127,6 +127,7 @@ static void brute_force(void) {
     float bad[3 * REFIT_MAX_N];
     memcpy(bad, out, sizeof bad);
     c[1][f * F + 5] = NAN;
+    /* exact: a declined face leaves out as it was (a copy of the last result) */
     CHECK(!refit_face(rt, f, c[0], c[1], c[2], K, n, bad, scr) && memcmp(bad, out, sizeof bad) == 0,
           "a non-finite channel is declined, out untouched");
     pt.var[4] = -1;

@@ -171,6 +171,7 @@ static void vertex_colours(void) {
             relight_view(rc, g_cam.eye, k, ref);
             CHECK(runtime_shade_vertices(cpu, g_cam.eye, a, &err) == 0, "%s", err.msg);
             CHECK(runtime_shade_vertices(gl, g_cam.eye, b, &err) == 0, "%s", err.msg);
+            /* exact by construction: the cpu backend is relight.h's code on the same light vector */
             CHECK(memcmp(a, ref, sizeof(float) * 3 * n) == 0, "terms %d: cpu runtime differs from relight_view", k);
             double bmax, e = max_rel(b, a, 3 * (size_t)n, 1e-3, &bmax);
             CHECK_LE(e, 1e-4, "terms %d: gl vertex colours differ from cpu", k);
@@ -219,6 +220,7 @@ static void images(void) {
         runtime_render(glp, &rd, &ip, &err) == 0 && runtime_shade_vertices(cpu, g_cam.eye, rgb, &err) == 0 &&
         render_vertex_colors(&g_d.scene.mesh, rgb, &rd, &ref, &err) == 0) {
         CHECK(ic.w == W && ic.h == H && iv.w == W && ip.h == H, "sizes");
+        /* exact by construction: the cpu backend rasterizes with render_vertex_colors, same colours */
         CHECK(memcmp(ic.data, ref.data, sizeof(float) * W * H * 3) == 0, "cpu runtime image differs from render_vertex_colors");
         double cmax = 0;
         for (size_t i = 0; i < (size_t)W * H * 3; i++) cmax = fmax(cmax, ic.data[i]);
@@ -233,6 +235,7 @@ static void images(void) {
         /* The same runtime switched to per vertex gives the per-vertex runtime's image. */
         prt_image sw = { 0 };
         CHECK(runtime_set_view(glp, RUNTIME_VIEW_VERTEX, &err) == 0 && runtime_render(glp, &rd, &sw, &err) == 0, "%s", err.msg);
+        /* exact by construction: the same GL kernels and inputs in one process */
         CHECK(sw.data && memcmp(sw.data, iv.data, sizeof(float) * W * H * 3) == 0, "set_view(vertex) differs");
         image_free(&sw);
     } else CHECK(false, "%s", err.msg);
@@ -420,6 +423,7 @@ static void vmf_sum(void) {
         relight_view(rc, eye, 0, ref);
         g_v.transfers[1].ops->shade_vertices(&g_v, &g_v.transfers[1], env, eye, ref, 0);
         for (size_t k = 0; k < n3; k++) ref[k] = ref[k] > 0 && isfinite(ref[k]) ? ref[k] : 0;
+        /* exact by construction: the cpu backend is these calls, in this order, on the same inputs */
         CHECK(memcmp(a, ref, sizeof(float) * n3) == 0, "cpu runtime differs from relight + vmf shade_vertices");
         /* Truth: L_o = int L(w) f(w, wo) cos dw by quadrature (probe_eval, brdf_eval) at the sphere's
          * top vertices (normal within 15 degrees of +y: the floor is below their horizon) seen
@@ -508,7 +512,7 @@ static void vmf_file(void) {
     float *a = calloc(n3, sizeof(float)), *b = calloc(n3, sizeof(float));
     prt_runtime *x = lit_on(&g_v, "cpu", 0, &g_smooth, NULL), *y = lit_on(&back, "cpu", 0, &g_smooth, NULL);
     if (x && y && runtime_shade_vertices(x, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(y, g_cam.eye, b, &err) == 0)
-        CHECK(memcmp(a, b, sizeof(float) * n3) == 0, "the file read back shades differently");
+        CHECK(memcmp(a, b, sizeof(float) * n3) == 0, "the file read back shades differently");   /* a round trip of the bytes */
     else CHECK(false, "%s", err.msg);
     runtime_destroy(x);
     runtime_destroy(y);
@@ -540,6 +544,7 @@ static void vmf_rotation(void) {
             CHECK(far > 0.2, "%s: rotation had no effect (%g)", backends[k], far);
             if (k == 0) {
                 prt_runtime *fresh = lit_on(&g_v, backends[k], 0, &g_smooth, g_R);
+                /* exact by construction: both rotate the same prefiltered probe with the same code */
                 CHECK(fresh && runtime_shade_vertices(fresh, g_cam.eye, c, &err) == 0 && memcmp(a, c, sizeof(float) * n3) == 0,
                       "rotating the kept prefiltered probe differs from a fresh one");
                 runtime_destroy(fresh);
@@ -878,6 +883,7 @@ static void light_cube(void) {
         int rv = vr ? runtime_set_light_vectors(vr, L, &err) : -1;
         CHECK(rv == 0, "%s: vectors: %s", backends[k], err.msg);
         if (rc == 0 && runtime_shade_vertices(pr, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cr, g_cam.eye, b, &err) == 0)
+            /* exact by construction: set_light resamples the probe with probe_to_cube, then the same path */
             CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: the cube's light differs from the probe's", backends[k]);
         if (rc == 0 && rv == 0 && runtime_shade_vertices(vr, g_cam.eye, c, &err) == 0)
             CHECK(memcmp(a, c, sizeof(float) * 3 * n) == 0, "%s: the light vectors' light differs from the probe's", backends[k]);
@@ -947,7 +953,7 @@ static void shared_budget(void) {
     float *a = calloc(n3, sizeof(float)), *b = calloc(n3, sizeof(float));
     prt_runtime *cpu = lit_on(&d, "cpu", 0, &g_sky, NULL), *cb = back.ntransfers ? lit_on(&back, "cpu", 0, &g_sky, NULL) : NULL;
     if (cpu && cb && runtime_shade_vertices(cpu, g_cam.eye, a, &err) == 0 && runtime_shade_vertices(cb, g_cam.eye, b, &err) == 0)
-        CHECK(memcmp(a, b, sizeof(float) * n3) == 0, "the file read back shades differently");
+        CHECK(memcmp(a, b, sizeof(float) * n3) == 0, "the file read back shades differently");   /* a round trip of the bytes */
     static const char *kernels[3] = { "fragment", "thread", "warp" };
     for (int k = 0; k < 3 && cpu; k++) {
         prt_runtime *gl = lit_kernel(&d, "gl", RUNTIME_VIEW_VERTEX, &g_sky, NULL, kernels[k]);

@@ -136,7 +136,7 @@ static void materials(void) {
     int c = scene_material(&s, "lambert:kd=0.5", &err);
     CHECK(a == 0 && b == 1 && c == 0 && s.nmaterials == 2, "%d %d %d", a, b, c);
     CHECK(s.materials[0].type == BRDF_LAMBERT && s.materials[1].type == BRDF_PHONG);
-    CHECK_NEAR(s.materials[1].n, 20.0, 0);
+    CHECK_NEAR(s.materials[1].n, 20.0, 0);   /* exact: parsed from "20" */
     /* The same material spelled differently is shared (canonical form). */
     int d = scene_material(&s, "lambert:kd=0.5,0.5,0.5", &err);
     CHECK(d == 0, "%d: %s", d, err.msg);

@@ -159,7 +159,8 @@ static void threaded_build(void) {
         prt_transport t = qs->t, t1 = qs->t1;
         const double *errs = qs->errs, *errs1 = qs->errs1;
         size_t nc = transport_ncoefs(&t), nr = transport_nruns(&t);
-        /* 2. Two threads store exactly what one thread stores. */
+        /* 2. Two threads store exactly what one thread stores (exact by construction: each
+         * vector is stored by one thread with the same code, whatever the count). */
         int same = nc == transport_ncoefs(&t1) && nr == transport_nruns(&t1) &&
                    memcmp(t.coef_first, t1.coef_first, sizeof(uint32_t) * (t.nvecs + 1)) == 0 &&
                    memcmp(t.runs, t1.runs, 2 * nr) == 0 && memcmp(t.scale, t1.scale, sizeof(float) * 3 * t.nvecs) == 0 &&
@@ -225,7 +226,9 @@ static void special_vectors(void) {
     for (int q = 0; q < 3; q++) {
         prt_transport t = qset_get(q)->t;
         /* 4. Special vectors: all-zero stores 0 coefficients; the single scaling coefficient
-         * round-trips exactly; the dominant coefficient survives without NaN. */
+         * round-trips exactly (exact by construction: constant inputs through the library's own
+         * float arithmetic, and its largest value is the quantizer's full code times its step,
+         * which rounds back to it); the dominant coefficient survives without NaN. */
         CHECK(t.coef_first[1] - t.coef_first[0] == 0 && t.run_first[1] == t.run_first[0], "q%d: zero vector stores nothing", qb[q]);
         transport_decode(&t, 1, dr, dg, db);
         CHECK(t.coef_first[2] - t.coef_first[1] == 1 && dr[0] == 2.f && dg[0] == 1.f && db[0] == 0.5f, "q%d: scaling coefficient %g %g %g", qb[q], dr[0], dg[0], db[0]);
@@ -258,6 +261,7 @@ static void light_product(void) {
                 if (i % 6 == 2 && c == 0) rel = fabs(gv[3 * i + c] - ref) / fabs(ref);  /* 1e30-scale: finite and relative */
                 worst = fmax(worst, rel);
                 if (!(rel <= 1e-5)) bad_tl++;
+                /* exact: one vector's product is one thread's loop, whatever the count or range */
                 if (gv[3 * i + c] != gv1[3 * i + c]) bad_thr++;
                 if (i >= 10 && i < 37 && gr[3 * i + c] != gv[3 * i + c]) bad_thr++;
             }
@@ -292,6 +296,7 @@ static void mapped_file(void) {
         else same = same && memcmp(a.offs, m.offs, nc) == 0;
         if (qb[q] == 16) same = same && memcmp(a.q16, m.q16, 6 * nc) == 0;
         if (qb[q] == 32) same = same && memcmp(a.f32, m.f32, 12 * nc) == 0;
+        /* exact by construction: the same build in one process, then a copy of its bytes */
         CHECK(same, "q%d: the mapped set's arrays differ from the heap set's", qb[q]);
         float *ga = malloc(sizeof(float) * 3 * a.nvecs), *gm = malloc(sizeof(float) * 3 * a.nvecs);
         transport_light(&a, (const float (*)[4])L, ga, 2);
@@ -893,6 +898,10 @@ static void expected_selection(void) {
         formula[sel] = 0;
         for (int k = 0; k < NZ; k++)
             if (r[pos[k]] == 0) formula[sel] += (double)val[k] * val[k] * w2[k];
+        /* The library's own arithmetic on constants (the same bits on any CPU). When it keeps the
+         * best subset, formula and best_exp are the same double sums in the same order: equal; 1e-9
+         * of the total is slack far below the next subset's (the values differ by 1e-2 or more).
+         * The magnitude selection's l2 is the library's float sum: 1e-6. */
         if (sel) CHECK_NEAR(formula[sel], best_exp, 1e-9 * best_exp, "expected selection: the least expected error of any subset");
         else CHECK_NEAR(l2, best_l2, 1e-6 * best_l2, "magnitude selection: the least L2 error of any subset");
         uint32_t s = 4242u;
@@ -1055,6 +1064,8 @@ static void shared_threads(void) {
             CHECK(transport_finish(&t[q], &err) == 0, "%s", err.msg);
         }
         size_t nc = transport_ncoefs(&t[0]);
+        /* exact by construction: the same per-vector code on the same inputs in one process; the
+         * budget's threshold is chosen by weight, ties by vector then index, not by thread */
         for (int q = 1; q < 3; q++)
             CHECK(nc == transport_ncoefs(&t[q]) && memcmp(t[0].coef_first, t[q].coef_first, 4 * (NV + 1)) == 0 &&
                   memcmp(t[0].packed, t[q].packed, 4 * nc) == 0 && memcmp(t[0].scale, t[q].scale, 12 * NV) == 0 &&

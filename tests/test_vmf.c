@@ -328,7 +328,8 @@ static void corner_bounce(void) {
     prt_data_free(&d);
 }
 
-/* The same on 1 and 2 threads: identical hash and lobes, byte for byte. */
+/* The same on 1 and 2 threads: identical hash and lobes, byte for byte (exact by construction:
+ * the same code on the same machine; each vertex's lobes are one thread's, whatever the count). */
 static void determinism(void) {
     prt_data d1, d2;
     vis_scene *v1, *v2;

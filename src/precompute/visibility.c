@@ -31,6 +31,13 @@
  * visibility.h), so it neither re-hits the triangles around p nor loses the
  * float precision of a model far from the origin.
  *
+ * Device configuration: $PRT_EMBREE_CONFIG, when set, is passed as rtcNewDevice's config
+ * string (Embree's "key=value,..." syntax), e.g. PRT_EMBREE_CONFIG=isa=sse4.2 caps the SIMD
+ * width that Embree otherwise picks by CPU, and "verbose=1" prints the ISA it chose. Unset or
+ * empty: Embree's defaults. `make test-portable` runs the suite once capped this way, so the
+ * tests' tolerances are checked against a traversal that another CPU would run
+ * (tools/test_portable.sh). It is read where the device is created, not kept in any global.
+ *
  * Thread safety: the Embree scene is immutable after rtcCommitScene, and every
  * call builds its own RTCIntersectContext on the stack. */
 #include "visibility.h"
@@ -110,9 +117,13 @@ vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
     vs->eps = (float)(1e-4 * diag + 1e-6 * maxabs);
     if (!(vs->eps > 0)) vs->eps = 1e-6f;
 
-    vs->device = rtcNewDevice(NULL);
+    /* $PRT_EMBREE_CONFIG: Embree's device config (see the file comment); NULL for its defaults. */
+    const char *cfg = getenv("PRT_EMBREE_CONFIG");
+    if (cfg && !*cfg) cfg = NULL;
+    vs->device = rtcNewDevice(cfg);
     if (!vs->device) {
-        prt_fail(err, "visibility: cannot create the Embree device: %s", vis_rtc_error_name(rtcGetDeviceError(NULL)));
+        prt_fail(err, "visibility: cannot create the Embree device%s%s: %s", cfg ? " with PRT_EMBREE_CONFIG=" : "",
+                 cfg ? cfg : "", vis_rtc_error_name(rtcGetDeviceError(NULL)));
         vis_destroy(vs);
         return NULL;
     }
