@@ -163,6 +163,13 @@ static int time_local(prt_runtime *rt, const prt_data *d, int frames, double *t,
     return runtime_set_local_lights(rt, &d->scene.lights, err);
 }
 
+/* "12.3 fps" of a median of ms into buf (32 bytes), or "no time" (a backend that draws nothing). */
+static const char *fps(char *buf, double ms) {
+    if (ms > 0) snprintf(buf, 32, "%.1f fps", 1e3 / ms);
+    else snprintf(buf, 32, "no time");
+    return buf;
+}
+
 /* Prints the results: the same lines for every backend (tools/bench.sh parses "light change" and
  * "view change"; tools/bench_gl.sh the "bench:" line). */
 static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4],
@@ -182,11 +189,12 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
            tm->detail, tm->detail[0] ? ")" : "");
     printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);
-    printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", lm[0], 1e3 / lm[0], lm[2]);
-    printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", vm[0], 1e3 / vm[0], vm[2]);
+    char f[3][32];
+    printf("light change: %.2f ms median (%s), min %.2f ms\n", lm[0], fps(f[0], lm[0]), lm[2]);
+    printf("view change:  %.2f ms median (%s), min %.2f ms\n", vm[0], fps(f[1], vm[0]), vm[2]);
     if (d->scene.lights.count > 0)
-        printf("local light move (%d light%s, shadows): %.2f ms median (%.1f fps), min %.2f ms; CPU time %.2f ms a move\n",
-               d->scene.lights.count, d->scene.lights.count == 1 ? "" : "s", km[0], 1e3 / km[0], km[2], km[3]);
+        printf("local light move (%d light%s, shadows): %.2f ms median (%s), min %.2f ms; CPU time %.2f ms a move\n",
+               d->scene.lights.count, d->scene.lights.count == 1 ? "" : "s", km[0], fps(f[2], km[0]), km[2], km[3]);
     if (km[1] > 0 || vm[1] > 0)   /* issue 11 items 3-4 (cpu: indirect.h) */
         printf("local indirect: one bounce (RSM + 2 VSGLs per light) %.2f ms of the move, %s %.2f ms of the view change "
                "(means)\n", km[1], runtime_backend_find(tm->backend)->indirect_view, vm[1]);
