@@ -56,7 +56,7 @@ DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopene
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
 SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
-INCS    := $(addprefix -I,$(SRC_DIRS) $(GL_DIRS)) -Isrc/cli -Ibrdf
+INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf $(addprefix -I,$(GL_DIRS))
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
@@ -67,7 +67,7 @@ LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas $(GL_
            -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
-# Library: every source of the stage folders, brdf/ and gpu/; the command-line front end is src/cli/.
+# Library: every source of the stage folders, brdf/ and gpu/ (not with NO_GL=1); the command-line front end is src/cli/.
 LIB_C   := $(wildcard $(addsuffix /*.c,$(SRC_DIRS) $(GL_DIRS)) brdf/*.c)
 LIB_CXX := $(wildcard $(addsuffix /*.cpp,$(SRC_DIRS)))
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
