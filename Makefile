@@ -12,6 +12,8 @@
 #                   ACCURACY_QUICK=1 for a few minutes; tools/accuracy.sh says the knobs)
 #   make fuzz       libFuzzer harnesses of every loader and parser (tests/fuzz/), FUZZ_SECONDS each and/or to
 #                   FUZZ_RUNS executions each (default 60 s), FUZZ_JOBS processes of each at once (default 1)
+#   make NO_GL=1 [test]  without OSMesa, GLFW or EGL, into build/nogl: the library, the CPU runtime and the
+#                   CLI's non-GL commands (runtime.h: no gl backend, the cpu one draws no images)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++
@@ -32,30 +34,49 @@ BUILD := build
 SANFLAGS :=
 endif
 
+# GL: the gpu/ folder, its packages and libraries, and the viewer. NO_GL=1 leaves all of it out (PRT_NO_GL:
+# runtime.c's table has no gl backend), and the test binaries that need GL; cases that need it inside
+# the others are skipped with their reason (tests/harness.h: CHECK_CASE_GL). The fuzz smoke run is
+# not part of it (its harnesses are the clang build of build/fuzz).
+GL_PKGS := libosmesa6-dev libglfw3-dev libgl-dev libegl-dev xvfb xauth
+GL_LIBS := -lOSMesa -lglfw -lGL -lEGL
+GL_DIRS := gpu
+FUZZ_SMOKE := tools/fuzz.sh
+ifeq ($(NO_GL),1)
+BUILD := $(BUILD)/nogl
+GL_PKGS :=
+GL_LIBS :=
+GL_DIRS :=
+GL_ONLY := src/cli/cli_view.c tests/test_glrt.c tests/test_render.c tests/test_view.c
+FUZZ_SMOKE :=
+CFLAGS += -DPRT_NO_GL
+CXXFLAGS += -DPRT_NO_GL
+endif
+
 # Debian packages the project needs; `make deps` installs the missing ones.
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
-            liblapacke-dev libopenblas-dev libosmesa6-dev libglfw3-dev libgl-dev libegl-dev \
-            zlib1g-dev libcjson-dev xvfb xauth libopenmpi-dev openmpi-bin
+            liblapacke-dev libopenblas-dev $(GL_PKGS) \
+            zlib1g-dev libcjson-dev libopenmpi-dev openmpi-bin
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
 SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
-INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf -Igpu
+INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf $(addprefix -I,$(GL_DIRS))
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
 CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLAGS)
 # OpenMPI (src/precompute/shard.c): asked of pkg-config when used, after `deps` has installed it.
 MPI_CFLAGS = $(shell pkg-config --cflags ompi-c)
 MPI_LIBS   = $(shell pkg-config --libs ompi-c)
-LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL \
+LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas $(GL_LIBS) \
            -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
-# Library: every source of the stage folders, brdf/ and gpu/; the command-line front end is src/cli/.
-LIB_C   := $(wildcard $(addsuffix /*.c,$(SRC_DIRS)) brdf/*.c gpu/*.c)
+# Library: every source of the stage folders, brdf/ and gpu/ (not with NO_GL=1); the command-line front end is src/cli/.
+LIB_C   := $(wildcard $(addsuffix /*.c,$(SRC_DIRS) $(GL_DIRS)) brdf/*.c)
 LIB_CXX := $(wildcard $(addsuffix /*.cpp,$(SRC_DIRS)))
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
-CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard src/cli/*.c))
-TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(wildcard tests/test_*.c))
+CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out $(GL_ONLY),$(wildcard src/cli/*.c)))
+TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(filter-out $(GL_ONLY),$(wildcard tests/test_*.c)))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
 .PHONY: all deps test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build clean
@@ -97,7 +118,7 @@ $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 # The fuzz harnesses' smoke run (tools/fuzz.sh --smoke: the seeds and a few seconds each) is the
 # suite's last binary; it prints a skip reason when clang's libFuzzer is missing.
 test: all $(TESTS)
-	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) tools/fuzz.sh
+	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) $(FUZZ_SMOKE)
 
 # The same suite under three sets of CPU-dependent code paths (tools/test_portable.sh says which).
 test-portable: all $(TESTS)

@@ -4,9 +4,11 @@
  * render_vertex_colors makes a headless GL context for the call (OSMesa, or
  * EGL when $PRT_GL=egl; glctx.h), draws into a 32-bit float framebuffer through gldraw.c (background from the
  * probe per pixel, then the mesh with Gouraud colours and a depth test), and
- * reads the linear radiance back. */
+ * reads the linear radiance back. runtime_raster_gl (runtime.h) is the cpu
+ * runtime's raster over it, headless or into the caller's context. */
 #include "render.h"
 #include "gldraw.h"
+#include "runtime.h"
 #include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
@@ -37,3 +39,89 @@ int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc 
     glctx_destroy(ctx);
     return rc;
 }
+
+/* ---------------------------------------------------------------- the runtime's vertex raster
+ * runtime_raster_gl (runtime.h), what the cpu backend draws its colours with: headless, the frame
+ * is kept and rasterized by render_vertex_colors when the image is read (so `prt render` makes
+ * exactly what render_vertex_colors makes, and `prt bench` times the view change alone); with the
+ * caller's context, a gldraw of its own whose float target present blits. */
+typedef struct vc_raster {
+    const prt_mesh *m;
+    glctx *ctx;                 /* the caller's, or NULL: headless */
+    gldraw draw;                /* with ctx: the float target */
+    bool draw_ready;
+    const prt_probe *bg;        /* with ctx: the probe uploaded as background (and its pixels) */
+    const float *bg_pixels;
+    render_desc frame;          /* headless: the last frame asked for, rasterized at read */
+    float frame_R[9];
+} vc_raster;
+
+/* Frees the GL objects made in the caller's context, then the state. */
+static void vc_destroy(void *self) {
+    vc_raster *r = self;
+    if (!r) return;
+    if (r->draw_ready && glctx_make_current(r->ctx, NULL) == 0) gldraw_free(&r->draw);
+    free(r);
+}
+
+/* With a context: a gldraw with the mesh, made in it. NULL with err. */
+static void *vc_create(const prt_mesh *m, glctx *ctx, prt_error *err) {
+    vc_raster *r = prt_calloc(1, sizeof *r, err);
+    if (!r) return NULL;
+    r->m = m;
+    r->ctx = ctx;
+    if (ctx) {
+        if (glctx_make_current(ctx, err) || gldraw_init(&r->draw, &ctx->gl, err)) { vc_destroy(r); return NULL; }
+        r->draw_ready = true;
+        if (gldraw_set_mesh(&r->draw, m, err)) { vc_destroy(r); return NULL; }
+    }
+    return r;
+}
+
+/* Into the caller's context: background (uploaded again only for another probe), then the colours,
+ * finished. Headless: the frame kept (its rotation copied) for read. */
+static int vc_draw(void *self, const render_desc *rd, const float *rgb, prt_error *err) {
+    vc_raster *r = self;
+    if (!r->ctx) {
+        r->frame = *rd;
+        if (rd->background_rotation) {
+            memcpy(r->frame_R, rd->background_rotation, sizeof r->frame_R);
+            r->frame.background_rotation = r->frame_R;
+        }
+        return 0;
+    }
+    if (glctx_make_current(r->ctx, err)) return -1;
+    const prt_probe *p = rd->background;
+    if (p != r->bg || (p && p->img.data != r->bg_pixels)) {
+        if (gldraw_set_probe(&r->draw, p, err)) return -1;
+        r->bg = p;
+        r->bg_pixels = p ? p->img.data : NULL;
+    }
+    int w = rd->width, h = rd->height;
+    if (gldraw_target(&r->draw, w, h, err)) return -1;
+    gldraw_background(&r->draw, &rd->camera, w, h, rd->background_rotation);
+    if (gldraw_vertex_colors(&r->draw, &rd->camera, w, h, rgb, err)) return -1;
+    r->ctx->gl.Finish();
+    return glctx_check(&r->ctx->gl, "cpu runtime: drawing", err);
+}
+
+/* The context's target, or the kept frame rasterized now of rgb (headless). */
+static int vc_read(void *self, const float *rgb, prt_image *out, prt_error *err) {
+    vc_raster *r = self;
+    if (r->ctx) return glctx_make_current(r->ctx, err) ? -1 : gldraw_read(&r->draw, out, err);
+    return render_vertex_colors(r->m, rgb, &r->frame, out, err);
+}
+
+/* Tone-mapped blit of the target to the window (nothing headless). */
+static void vc_present(void *self, int win_w, int win_h, float exposure_stops) {
+    vc_raster *r = self;
+    if (r->ctx && glctx_make_current(r->ctx, NULL) == 0) gldraw_present(&r->draw, win_w, win_h, exposure_stops);
+}
+
+const runtime_raster runtime_raster_gl = {
+    .create = vc_create,
+    .destroy = vc_destroy,
+    .draw = vc_draw,
+    .read = vc_read,
+    .present = vc_present,
+};

@@ -6,6 +6,7 @@
  *     prt_image img;
  *     if (render_vertex_colors(&mesh, rgb, &d, &img, &err)) puts(err.msg);
  *
+ * render_desc (the frame: size, camera, background) is frame.h's, GL-free.
  * Rendering is headless through OSMesa (no window or display needed; the
  * "dummy backend" that lets GL-facing code run in CI); $PRT_GL=egl selects an
  * EGL device context instead (gpu/glctx.h). The framebuffer is
@@ -17,19 +18,10 @@
  * Ownership: the returned image belongs to the caller (image_free). */
 #ifndef PRT_RENDER_H
 #define PRT_RENDER_H
-#include "camera.h"
 #include "common.h"
+#include "frame.h"
 #include "mesh.h"
 #include "image.h"
-#include "probe.h"
-
-typedef struct render_desc {
-    int width, height;           /* 0: 800 x 600 */
-    prt_camera camera;
-    const prt_probe *background; /* may be NULL */
-    const float *background_rotation; /* 3x3 applied to the probe (as in probe_to_cube), may be NULL */
-    bool direct_only;            /* GL runtime (glrt_render_image): light with the file's direct-only set */
-} render_desc;
 
 /* Rasterizes m with per-vertex colours rgb[3*nverts] into a linear RGB float image. */
 int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc *d, prt_image *out, prt_error *err);

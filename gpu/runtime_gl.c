@@ -318,7 +318,14 @@ static void gl_get_timing(const void *self, runtime_timing *t) {
 }
 
 const runtime_backend runtime_gl = {
-    .name = "gl",
+    .info = { .name = "gl", .title = "GL",
+              .caps = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_WINDOW | RUNTIME_CAP_GL |
+                      RUNTIME_CAP_LOCAL_LIGHTS | RUNTIME_CAP_GPU_TIMERS,
+              .summary = "the same sums in GLSL, per pixel (default) or per vertex; headless: OSMesa or EGL",
+              /* one light change: fragment runs on every GL 3.3+ context, and timing each kernel
+               * first (auto) would cost more than it saves */
+              .kernels = "auto, fragment, thread, warp", .quick_kernel = "fragment",
+              .indirect_view = "indirect highlights (per vertex on the CPU)" },
     .create = gl_create,
     .destroy = gl_destroy,
     .set_light = gl_set_light,

@@ -39,6 +39,13 @@ void check_case(const char *name, void (*fn)(void)) {
     fflush(stdout);
 }
 
+void check_skip(const char *name, const char *why) {
+    check_g.cases_skipped++;
+    if (!check_wants(name)) return;
+    printf("  case %s/%-*s skipped: %s\n", check_g.domain, (int)(39 - strlen(check_g.domain)), name, why);
+    fflush(stdout);
+}
+
 int check_summary(void) {
     printf("CHECKS %d %d %d\n", check_g.pass, check_g.fail, check_g.cases_skipped);
     return check_g.fail ? 1 : 0;

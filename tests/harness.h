@@ -10,7 +10,9 @@
  * A case is "DOMAIN/NAME" (DOMAIN: the binary's name without "test_"). A filter
  * (argv[1], else $T: `make test T=haar`, `make test T=prtfile/truncated`) runs
  * only the cases whose full name contains it; the others are counted as skipped
- * and named in the summary line, so a filter never hides a check silently.
+ * and named in the summary line, so a filter never hides a check silently. A case
+ * that needs GL (CHECK_CASE_GL) is skipped the same way in a build without GL,
+ * its name and reason printed.
  * A failing check prints file:line, the case and both values; the summary
  * prints "CHECKS <pass> <fail> <skipped cases>", which tools/run_tests.sh adds
  * up into the suite's "N passed, N failed" line.
@@ -73,6 +75,15 @@ void check_begin(int argc, char **argv);
 /* Runs fn as case "DOMAIN/name" unless the filter excludes it; prints its time and counts. */
 void check_case(const char *name, void (*fn)(void));
 #define CHECK_CASE(fn) check_case(#fn, fn)
+/* Counts case "DOMAIN/name" as skipped (when the filter wants it) and prints why. */
+void check_skip(const char *name, const char *why);
+/* A case that needs GL (OSMesa, EGL, a window, or an image from the cpu runtime's raster): skipped
+ * with its reason in a build without GL (make NO_GL=1 defines PRT_NO_GL). */
+#ifdef PRT_NO_GL
+#define CHECK_CASE_GL(fn) ((void)(fn), check_skip(#fn, "this build has no GL (NO_GL=1)"))
+#else
+#define CHECK_CASE_GL(fn) check_case(#fn, fn)
+#endif
 /* True when case "DOMAIN/name" would run (for cases that need set-up shared by several). */
 int check_wants(const char *name);
 

@@ -7,10 +7,12 @@
  * A good run (precompute, info, render to PNG and EXR) must succeed and write finite
  * radiance; a Lambert square under a smaller square, lit by a constant probe, renders
  * a*L*(1 - F) per vertex, F the blocker's form factor from brute-force integration
- * (checked through --vertices, uncompressed float transport). */
+ * (checked through --vertices, uncompressed float transport). The backends from the table: null's
+ * black image, and in a build without GL the refusals and --vertices alone (backends). */
 #include "harness.h"
 #include "image.h"
 #include "common.h"
+#include "runtime.h"
 #include <dirent.h>
 #include <math.h>
 #include <stdlib.h>
@@ -119,6 +121,35 @@ static const char *good_prt(void) {
     return q;
 }
 
+/* good.prt's vertex radiance in csv (vertex,r,g,b): a*L*(1 - F), F the blocker's form factor by
+ * brute force; zeros (the null backend) when zero is set. */
+static void check_vertices(const char *csv, bool zero) {
+    FILE *f = fopen(csv, "r");
+    int nrows = 0;
+    if (f) {
+        char line[256];
+        if (!fgets(line, sizeof line, f)) line[0] = 0;
+        int v;
+        float r, g, b;
+        while (fscanf(f, "%d,%f,%f,%f", &v, &r, &g, &b) == 4) {
+            nrows++;
+            if (zero) {
+                CHECK(r == 0 && g == 0 && b == 0, "vertex %d: %g %g %g, not zero", v, r, g, b);
+                continue;
+            }
+            /* a*L*(1 - F): the upper square (5..8) is unoccluded (F = 0); the lower square's
+             * vertices (0..4, file order) lose the blocker's form factor. Tolerance: the 16-bit
+             * light vector and the 128-res visibility of the blocker's edges (2% of F plus 0.3%). */
+            float px[5] = { -1, 1, 1, -1, 0 }, pz[5] = { -1, -1, 1, 1, 0 };
+            double F = v < 5 ? form_factor(px[v], pz[v]) : 0;
+            CHECK_NEAR(r, 1.0 - F, 0.003 + 0.02 * F, "vertex %d (F = %.4f)", v, F);
+            CHECK_NEAR(g, r, 1e-3 * r + 1e-6, "grey");
+        }
+        fclose(f);
+    }
+    CHECK(nrows == 9, "%s: csv rows %d", csv, nrows);
+}
+
 /* Bad OBJ inputs to precompute. */
 static void bad_obj(void) {
     char q[1024], args[8192];
@@ -186,27 +217,58 @@ static void good_render(void) {
         CHECK(bad == 0 && im.w == 64 && im.h == 48, "%d non-finite or negative pixels", bad);
         image_free(&im);
     } else CHECK(false, "%s", err.msg);
-    FILE *f = fopen(csv, "r");
-    int nrows = 0;
-    if (f) {
-        char line[256];
-        if (!fgets(line, sizeof line, f)) line[0] = 0;
-        int v;
-        float r, g, b;
-        while (fscanf(f, "%d,%f,%f,%f", &v, &r, &g, &b) == 4) {
-            nrows++;
-            /* a*L*(1 - F): the upper square (5..8) is unoccluded (F = 0); the lower square's
-             * vertices (0..4, file order) lose the blocker's form factor. Tolerance: the 16-bit
-             * light vector and the 128-res visibility of the blocker's edges (2% of F plus 0.3%). */
-            float px[5] = { -1, 1, 1, -1, 0 }, pz[5] = { -1, -1, 1, 1, 0 };
-            double F = v < 5 ? form_factor(px[v], pz[v]) : 0;
-            CHECK_NEAR(r, 1.0 - F, 0.003 + 0.02 * F, "vertex %d (F = %.4f)", v, F);
-            CHECK_NEAR(g, r, 1e-3 * r + 1e-6, "grey");
-        }
-        fclose(f);
-    }
-    CHECK(nrows == 9, "csv rows %d", nrows);
+    check_vertices(csv, false);
+}
 
+/* `render --backend null`: a black image of the asked size and zero vertex radiance; the cpu backend
+ * as the table says: with images, -o is needed; without (a build without GL), -o and the GL-only
+ * commands (view, demo) are refused with one line and exit 2, nothing written, while --vertices
+ * alone writes the same radiance as good_render checks. An unknown backend lists the table's. */
+static void backends(void) {
+    char q[1024], p[1024], out[1024], csv[1024], args[8192], buf[8192];
+    const char *D = g_dir, *B = check_prt_bin();
+    snprintf(q, sizeof q, "%s", good_prt());
+    snprintf(p, sizeof p, "%s/const.exr", D);
+    snprintf(args, sizeof args, "render %s --probe %s --backend vulkan -o %s/v.png", q, p, D);
+    snprintf(out, sizeof out, "%s/v.png", D);
+    expect_error(args, "vulkan", out);
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        snprintf(args, sizeof args, "%s render %s --probe %s --backend vulkan -o %s", B, q, p, out);
+        check_run(args, buf, sizeof buf);
+        CHECK(strstr(buf, runtime_backend_at(i)->name) != NULL, "%s not listed: %s", runtime_backend_at(i)->name, buf);
+    }
+    snprintf(out, sizeof out, "%s/null.exr", D);
+    snprintf(csv, sizeof csv, "%s/null.csv", D);
+    snprintf(args, sizeof args, "%s render %s --probe %s --backend null -o %s --vertices %s --size 16x12", B, q, p, out, csv);
+    CHECK(check_run(args, buf, sizeof buf) == 0, "null render: %s", buf);
+    prt_image im = { 0 };
+    prt_error err;
+    if (image_read(out, &im, &err) == 0) {
+        double sum = 0;
+        for (int i = 0; i < im.w * im.h * im.c; i++) sum += fabs(im.data[i]);
+        CHECK(im.w == 16 && im.h == 12 && sum == 0, "null image %dx%d, sum %g", im.w, im.h, sum);
+        image_free(&im);
+    } else CHECK(false, "%s", err.msg);
+    check_vertices(csv, true);
+    snprintf(csv, sizeof csv, "%s/cpu.csv", D);
+    snprintf(out, sizeof out, "%s/cpu.png", D);
+    if (runtime_backend_find("cpu")->caps & RUNTIME_CAP_IMAGES) {
+        snprintf(args, sizeof args, "render %s --probe %s --vertices %s", q, p, csv);
+        expect_error(args, "no output image", csv);
+        return;
+    }
+    snprintf(args, sizeof args, "render %s --probe %s --camera 0,3,0.01,0,0,0 -o %s --vertices %s", q, p, out, csv);
+    expect_error(args, "no GL", out);
+    CHECK(!exists(csv), "--vertices written by a refused render");
+    snprintf(args, sizeof args, "%s render %s --probe %s --camera 0,3,0.01,0,0,0 --vertices %s", B, q, p, csv);
+    CHECK(check_run(args, buf, sizeof buf) == 0 && strstr(buf, "wrote ") && strstr(buf, "(9 vertices)"), "--vertices alone: %s", buf);
+    check_vertices(csv, false);
+    snprintf(args, sizeof args, "view %s --probe %s --frames 1", q, p);
+    expect_error(args, "no GL", NULL);
+    snprintf(args, sizeof args, "demo -o %s --quiet", out);
+    expect_error(args, "no GL", out);
+    snprintf(args, sizeof args, "%s bench %s --probe %s --frames 2", B, q, p);
+    CHECK(check_run(args, buf, sizeof buf) == 0 && strstr(buf, "bench: backend=cpu"), "bench on the cpu backend: %s", buf);
 }
 
 static void interreflections(void) {
@@ -623,16 +685,17 @@ int main(int argc, char **argv) {
     setup();
     CHECK_CASE(bad_obj);
     CHECK_CASE(usage_errors);
-    CHECK_CASE(good_render);
-    CHECK_CASE(interreflections);
+    CHECK_CASE_GL(good_render);
+    CHECK_CASE(backends);
+    CHECK_CASE_GL(interreflections);
     CHECK_CASE(bad_probes);
     CHECK_CASE(damaged_prt);
-    CHECK_CASE(output_is_input);
+    CHECK_CASE_GL(output_is_input);
     CHECK_CASE(output_kinds);
-    CHECK_CASE(directory_inputs);
+    CHECK_CASE_GL(directory_inputs);
     CHECK_CASE(camera_messages);
-    CHECK_CASE(help_defaults);
-    CHECK_CASE(durations);
-    CHECK_CASE(probe_negatives);
+    CHECK_CASE_GL(help_defaults);
+    CHECK_CASE_GL(durations);
+    CHECK_CASE_GL(probe_negatives);
     return check_summary();
 }

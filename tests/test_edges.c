@@ -413,15 +413,15 @@ static void camera_views(void) {
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
-    CHECK_CASE(full_disk);
+    CHECK_CASE_GL(full_disk);
     CHECK_CASE(outputs_first);
-    CHECK_CASE(stale_temporaries);
-    CHECK_CASE(bright_sun);
+    CHECK_CASE_GL(stale_temporaries);
+    CHECK_CASE_GL(bright_sun);
     CHECK_CASE(obj_encodings);
-    CHECK_CASE(exit_codes);
+    CHECK_CASE_GL(exit_codes);
     CHECK_CASE(canonical_specs);
-    CHECK_CASE(messages);
-    CHECK_CASE(ldr_probe);
+    CHECK_CASE_GL(messages);
+    CHECK_CASE_GL(ldr_probe);
     CHECK_CASE(camera_views);
     return check_summary();
 }

@@ -26,8 +26,10 @@
 #include "camera.h"
 #include "image.h"
 #include "direct.h"
+#ifndef PRT_NO_GL
 #include "glctx.h"
 #include "gllights.h"
+#endif
 #include "lights.h"
 #include "mesh.h"
 #include "precompute.h"
@@ -352,6 +354,7 @@ static void furnace(void) {
 /* brdf_glsl at 2,000 random direction pairs per model equals brdf_eval (float vs double): 1e-3
  * relative, or 1e-4 of the largest value (grazing pow() near its clamp). */
 static void glsl_brdf(void) {
+#ifndef PRT_NO_GL   /* a build without GL skips the case (CHECK_CASE_GL) and has no gllights */
     static const char *specs[] = { "lambert:kd=0.3,0.5,0.7", "phong:kd=0.2;ks=0.6;n=40", "blinn:kd=0.1;ks=0.5;n=80",
                                    "as:kd=0.4;ks=0.2;nu=10;nv=200", "lafortune:kd=0.2;lobe=-0.8,-0.8,0.9,20;lobe=0.5,0.5,0.7,5",
                                    "ggx:kd=0.1;ks=0.04,0.5,0.9;alpha=0.15", "beckmann:kd=0.2;ks=0.3;alpha=0.4" };
@@ -397,6 +400,7 @@ static void glsl_brdf(void) {
     gllights_destroy(L);
     scene_free(&s);
     glctx_destroy(ctx);
+#endif
 }
 
 /* Whether the camera ray from eye along d reaches the floor (y = 0, |x|,|z| < 0.95) before the
@@ -616,8 +620,8 @@ int main(int argc, char **argv) {
     CHECK_CASE(spot_falloff);
     CHECK_CASE(phong_plane);
     CHECK_CASE(furnace);
-    CHECK_CASE(glsl_brdf);
-    CHECK_CASE(runtimes_plane);
-    CHECK_CASE(cli);
+    CHECK_CASE_GL(glsl_brdf);
+    CHECK_CASE_GL(runtimes_plane);
+    CHECK_CASE_GL(cli);
     return check_summary();
 }

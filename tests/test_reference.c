@@ -13,11 +13,11 @@
  *   - clean errors (empty scene, vertex out of range, cancellation). */
 #include "harness.h"
 #include "brdf.h"
+#include "camera.h"
 #include "image.h"
 #include "mesh.h"
 #include "probe.h"
 #include "reference.h"
-#include "render.h"
 #include "scene.h"
 #include "vec3.h"
 #include "visibility.h"
@@ -670,6 +670,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(glossy_brute_force);
     CHECK_CASE(mis);
     CHECK_CASE(determinism_and_errors);
-    CHECK_CASE(cli);
+    CHECK_CASE_GL(cli);
     return check_summary();
 }

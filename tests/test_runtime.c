@@ -34,7 +34,12 @@
  *   - a Lambert-only file shades exactly as the formula before several transfers existed;
  *   - a light change from probe_to_cube's cube (runtime_set_light_cube), and from that cube's light
  *     vectors (runtime_set_light_vectors), equals the probe's, bit for bit, on both backends, and a
- *     vmf file, which needs the probe, refuses both (light_cube). */
+ *     vmf file, which needs the probe, refuses both (light_cube).
+ * The backend table: it lists cpu, gl (when built with GL) and null, in that order, with their
+ * capabilities, names and kernels; an unknown name lists every known one (table). The null backend
+ * takes and refuses every runtime call exactly as the cpu backend does, computes the light vector,
+ * and gives zero colours, black images of the asked size and zero times (null_backend, null_vmf).
+ * A build without GL (PRT_NO_GL) skips the cases that need GL, each with its reason. */
 #include "harness.h"
 #include "light.h"
 #include "prefilter.h"
@@ -46,6 +51,10 @@
 #include "relight.h"
 #include "runtime.h"
 #include "scene.h"
+#include "lights.h"
+#ifndef PRT_NO_GL
+#include "render.h"
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -122,18 +131,28 @@ static void check_one_line(const prt_error *err, const char *needle) {
     CHECK(strstr(err->msg, needle) != NULL && !strchr(err->msg, '\n'), "'%s' not named in: %s", needle, err->msg);
 }
 
+/* Unknown names are refused with one line: a backend (listing every one of the table), a light kernel
+ * of any backend; a backend without the per-pixel view model refuses it. */
 static void unknown_backend(void) {
     prt_error err = { { 0 } };
     runtime_desc desc = { .backend = "vulkan" };
     CHECK(runtime_create(&g_d, &desc, &err) == NULL, "unknown backend accepted");
     check_one_line(&err, "vulkan");
-    CHECK(strstr(err.msg, "cpu") && strstr(err.msg, "gl"), "known backends not listed: %s", err.msg);
-    runtime_desc k = { .backend = "gl", .kernel = "magic" };
-    CHECK(runtime_create(&g_d, &k, &err) == NULL, "unknown gl kernel accepted");
-    check_one_line(&err, "magic");
-    runtime_desc v = { .backend = "cpu", .view = RUNTIME_VIEW_PIXEL };
-    CHECK(runtime_create(&g_d, &v, &err) == NULL, "cpu accepted the per-pixel view model");
-    check_one_line(&err, "per vertex");
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        CHECK(strstr(err.msg, b->name) != NULL, "known backend %s not listed: %s", b->name, err.msg);
+    }
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        prt_error e = { { 0 } };
+        runtime_desc k = { .backend = b->name, .kernel = "magic" };
+        CHECK(runtime_create(&g_d, &k, &e) == NULL, "%s accepted an unknown kernel", b->name);
+        check_one_line(&e, "magic");
+        if (b->caps & RUNTIME_CAP_VIEW_PIXEL) continue;
+        runtime_desc v = { .backend = b->name, .view = RUNTIME_VIEW_PIXEL };
+        CHECK(runtime_create(&g_d, &v, &e) == NULL, "%s accepted the per-pixel view model", b->name);
+        check_one_line(&e, "per vertex");
+    }
     prt_runtime *rt = runtime_create(&g_d, NULL, &err);   /* NULL desc: the default, cpu */
     CHECK(rt && !strcmp(runtime_backend_name(rt), "cpu"), "default backend %s", rt ? runtime_backend_name(rt) : err.msg);
     prt_image img;
@@ -208,6 +227,7 @@ static size_t rel_diffs(const prt_image *a, const prt_image *b, double floor_, d
 /* Images: cpu = render_vertex_colors of its colours exactly; gl per vertex = cpu within test_glrt's
  * tolerances; gl per pixel near it. */
 static void images(void) {
+#ifndef PRT_NO_GL   /* a build without GL skips the case (CHECK_CASE_GL) and has no render_vertex_colors */
     if (!g_ok) return;
     prt_error err = { { 0 } };
     render_desc rd = { .width = W, .height = H, .camera = g_cam, .background = &g_sky };
@@ -248,6 +268,7 @@ static void images(void) {
     runtime_destroy(cpu);
     runtime_destroy(glv);
     runtime_destroy(glp);
+#endif
 }
 
 /* set_light(sky, R) = set_light(sky with its sun at R s), on both backends; far from set_light(sky). */
@@ -339,6 +360,171 @@ static void timings(void) {
         runtime_destroy(rt);
     }
     free(rgb);
+}
+
+/* ---- the backend table and the null backend ---- */
+
+/* The table: cpu, gl when built with GL, null, in that order; each entry whole, found by its name and
+ * position; the names for messages, filtered by capability and cut to fit; each backend's
+ * capabilities as its module states them (cpu draws images and into a window only with GL). */
+static void table(void) {
+#ifdef PRT_NO_GL
+    const char *want = "cpu, null", *want_window = "";
+    const int want_n = 2;
+#else
+    const char *want = "cpu, gl, null", *want_window = "cpu, gl";
+    const int want_n = 3;
+#endif
+    char names[256], cut[5];
+    CHECK(!strcmp(runtime_backend_names(names, sizeof names, 0), want), "table lists '%s', not '%s'", names, want);
+    CHECK(!strcmp(runtime_backend_names(names, sizeof names, RUNTIME_CAP_WINDOW), want_window), "window backends '%s'", names);
+    CHECK(!strcmp(runtime_backend_names(cut, sizeof cut, 0), "cpu,"), "cut to 5 bytes: '%s'", cut);
+    CHECK(runtime_backend_count() == want_n, "count %d", runtime_backend_count());
+    CHECK(runtime_backend_find(NULL) == runtime_backend_at(0) && !strcmp(runtime_backend_at(0)->name, "cpu"), "default");
+    CHECK(runtime_backend_find("vulkan") == NULL && runtime_backend_index("vulkan") == -1, "unknown name found");
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        CHECK(runtime_backend_find(b->name) == b && runtime_backend_index(b->name) == i, "%s: not found at %d", b->name, i);
+        CHECK(b->title && b->title[0] && b->summary && b->summary[0] && b->kernels && b->kernels[0] && b->indirect_view &&
+                  b->indirect_view[0], "%s: an empty field", b->name);
+        CHECK(!(b->caps & RUNTIME_CAP_WINDOW) || (b->caps & RUNTIME_CAP_IMAGES), "%s: draws into a window but no images", b->name);
+    }
+    const runtime_backend_info *cpu = runtime_backend_find("cpu"), *gl = runtime_backend_find("gl");
+    const runtime_backend_info *null = runtime_backend_find("null");
+    CHECK(null && (null->caps & RUNTIME_CAP_IMAGES) && !(null->caps & (RUNTIME_CAP_WINDOW | RUNTIME_CAP_GL)), "null caps");
+    CHECK(cpu && !(cpu->caps & (RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_GL | RUNTIME_CAP_GPU_TIMERS)) &&
+              (cpu->caps & RUNTIME_CAP_LOCAL_LIGHTS), "cpu caps");
+#ifdef PRT_NO_GL
+    CHECK(!gl && cpu && !(cpu->caps & (RUNTIME_CAP_IMAGES | RUNTIME_CAP_WINDOW)), "a build without GL: gl listed or cpu draws");
+#else
+    const unsigned all = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_WINDOW | RUNTIME_CAP_GL | RUNTIME_CAP_LOCAL_LIGHTS |
+                         RUNTIME_CAP_GPU_TIMERS;
+    CHECK(gl && gl->caps == all && !strcmp(gl->quick_kernel, "fragment"), "gl caps 0x%x", gl ? gl->caps : 0);
+    CHECK(cpu && (cpu->caps & RUNTIME_CAP_IMAGES) && (cpu->caps & RUNTIME_CAP_WINDOW), "cpu draws with GL");
+#endif
+    /* A runtime knows its entry; each default kernel (the first of the list) is taken by name. */
+    for (int i = 0; i < runtime_backend_count() && g_ok; i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        char kernel[64];
+        snprintf(kernel, sizeof kernel, "%.*s", (int)strcspn(b->kernels, ","), b->kernels);
+        prt_error err = { { 0 } };
+        prt_runtime *rt = runtime_create(&g_d, &(runtime_desc){ .backend = b->name, .kernel = kernel }, &err);
+        CHECK(rt && runtime_info(rt) == b && !strcmp(runtime_backend_name(rt), b->name), "%s kernel %s: %s", b->name, kernel, err.msg);
+        runtime_destroy(rt);
+    }
+}
+
+/* Calls a and b's result (0 or -1) into ra, rb and checks they agree; err_b keeps b's message. */
+#define BOTH(ra, rb, call_a, call_b, what) do { ra = (call_a); rb = (call_b); \
+    CHECK(ra == rb, "%s: cpu %d, null %d (%s / %s)", what, ra, rb, ea.msg, en.msg); } while (0)
+
+/* Every runtime call on the null backend succeeds or fails as on the cpu backend (bad sizes, kernels,
+ * view models, lights, a file without a direct set, a read before any frame); null computes the
+ * light vector as every backend and gives zero colours, black images of the asked (or default) size,
+ * zero times. The cpu images: drawn when the table says it draws, else refused with one line. */
+static void null_backend(void) {
+    if (!g_ok) return;
+    prt_error ea = { { 0 } }, en = { { 0 } };
+    int ra, rn, nv = g_d.scene.mesh.nverts;
+    runtime_desc dc = { .backend = "cpu" }, dn = { .backend = "null" };
+    const char *bad_kernel = "magic";
+    for (int k = 0; k < 3; k++) {   /* bad terms, view model, kernel: both refuse at create */
+        runtime_desc a = dc, n = dn;
+        if (k == 0) a.terms = n.terms = -1;
+        if (k == 1) a.view = n.view = (runtime_view)7;
+        if (k == 2) a.kernel = n.kernel = bad_kernel;
+        prt_runtime *x = runtime_create(&g_d, &a, &ea), *y = runtime_create(&g_d, &n, &en);
+        CHECK(!x && !y && !strchr(ea.msg, '\n') && !strchr(en.msg, '\n'), "bad desc %d: %s / %s", k, ea.msg, en.msg);
+        runtime_destroy(x);
+        runtime_destroy(y);
+    }
+    prt_runtime *c = runtime_create(&g_d, &dc, &ea), *n = runtime_create(&g_d, &dn, &en);
+    CHECK(c && n, "%s / %s", ea.msg, en.msg);
+    if (!c || !n) { runtime_destroy(c); runtime_destroy(n); return; }
+    prt_image ic = { 0 }, in = { 0 };
+    BOTH(ra, rn, runtime_read(c, &ic, &ea), runtime_read(n, &in, &en), "read before any frame");
+    CHECK(rn == -1 && strstr(en.msg, "no frame"), "%s", en.msg);
+    BOTH(ra, rn, runtime_set_light(c, &g_sky, g_R, &ea), runtime_set_light(n, &g_sky, g_R, &en), "set_light");
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (cube) probe_to_cube(&g_sky, CUBE_RES, NULL, 0, cube);
+    BOTH(ra, rn, cube ? runtime_set_light_cube(c, cube, &ea) : -1, cube ? runtime_set_light_cube(n, cube, &en) : -1, "set_light_cube");
+    free(cube);
+    runtime_timing tn;
+    runtime_get_timing(n, &tn);
+    CHECK(!strcmp(tn.backend, "null") && !strcmp(tn.kernel, "none") && tn.device[0] && tn.light_vector_ms > 0, "null timing names");
+    float *a = calloc(3 * (size_t)nv, sizeof(float)), *b = malloc(sizeof(float) * 3 * (size_t)nv);
+    double sa = 0, sb = 0;
+    BOTH(ra, rn, runtime_shade_vertices(c, g_cam.eye, a, &ea), runtime_shade_vertices(n, g_cam.eye, b, &en), "shade_vertices");
+    for (int i = 0; i < 3 * nv; i++) { sa += a[i]; sb += fabs(b[i]); }
+    CHECK(sa > 0 && sb == 0, "cpu colours sum %g, null %g (zeros)", sa, sb);
+    const int sizes[3][2] = { { 0, -1 }, { 20000, 10 }, { -5, -5 } };
+    for (int k = 0; k < 3; k++) {
+        render_desc rd = { .width = sizes[k][0], .height = sizes[k][1], .camera = g_cam };
+        BOTH(ra, rn, runtime_render(c, &rd, &ic, &ea), runtime_render(n, &rd, &in, &en), "bad size");
+        CHECK(ra == -1 && strstr(en.msg, "out of range"), "size %dx%d: %s", sizes[k][0], sizes[k][1], en.msg);
+    }
+    render_desc rd = { .width = 64, .height = 48, .camera = g_cam, .background = &g_sky };
+    rn = runtime_render(n, &rd, &in, &en);
+    double black = 0;
+    for (size_t i = 0; in.data && i < (size_t)in.w * in.h * in.c; i++) black += fabs(in.data[i]);
+    CHECK(rn == 0 && in.w == 64 && in.h == 48 && in.c == 3 && black == 0, "null image %dx%dx%d, sum %g: %s", in.w, in.h, in.c, black,
+          en.msg);
+    ra = runtime_render(c, &rd, &ic, &ea);
+    if (runtime_backend_find("cpu")->caps & RUNTIME_CAP_IMAGES) CHECK(ra == 0 && ic.w == 64 && ic.h == 48, "cpu image: %s", ea.msg);
+    else CHECK(ra == -1 && strstr(ea.msg, "no GL") && !strchr(ea.msg, '\n'), "cpu image without GL: %s", ea.msg);
+    image_free(&ic);
+    image_free(&in);
+    render_desc rd0 = { .camera = g_cam };   /* 0 x 0: the default size, read later */
+    BOTH(ra, rn, runtime_render(c, &rd0, NULL, &ea), runtime_render(n, &rd0, NULL, &en), "render, no read");
+    rn = runtime_read(n, &in, &en);
+    CHECK(rn == 0 && in.w == 800 && in.h == 600, "null read after a default-size frame: %dx%d %s", in.w, in.h, en.msg);
+    image_free(&in);
+    runtime_present(c, 64, 48, 0);   /* headless: nothing, on both */
+    runtime_present(n, 64, 48, 0);
+    BOTH(ra, rn, runtime_set_view(c, RUNTIME_VIEW_VERTEX, &ea), runtime_set_view(n, RUNTIME_VIEW_VERTEX, &en), "per vertex");
+    BOTH(ra, rn, runtime_set_view(c, (runtime_view)9, &ea), runtime_set_view(n, (runtime_view)9, &en), "bad view model");
+    CHECK(ra == -1, "view model 9 accepted");
+    ra = runtime_set_view(c, RUNTIME_VIEW_PIXEL, &ea);
+    rn = runtime_set_view(n, RUNTIME_VIEW_PIXEL, &en);
+    CHECK(ra == -1 && rn == 0, "per pixel: cpu %d, null %d (as their capabilities say)", ra, rn);
+    BOTH(ra, rn, runtime_use_direct(c, true, &ea), runtime_use_direct(n, true, &en), "direct on");
+    BOTH(ra, rn, runtime_use_direct(c, false, &ea), runtime_use_direct(n, false, &en), "direct off");
+    prt_transport keep = g_d.transfers[0].direct;
+    memset(&g_d.transfers[0].direct, 0, sizeof g_d.transfers[0].direct);
+    BOTH(ra, rn, runtime_use_direct(c, true, &ea), runtime_use_direct(n, true, &en), "direct without a direct set");
+    CHECK(rn == -1 && strstr(en.msg, "direct"), "%s", en.msg);
+    g_d.transfers[0].direct = keep;
+    prt_lights ls = { 0 };
+    prt_light l;
+    CHECK(light_parse("point:pos=0.3,1.5,0.2;intensity=4;colour=1,1,1", "test", &l, &en) == 0, "%s", en.msg);
+    ls.count = -1;
+    BOTH(ra, rn, runtime_set_local_lights(c, &ls, &ea), runtime_set_local_lights(n, &ls, &en), "light count -1");
+    CHECK(rn == -1 && strstr(en.msg, "count"), "%s", en.msg);
+    ls.count = 1;
+    ls.light[0] = l;
+    ls.light[0].intensity = -1;
+    BOTH(ra, rn, runtime_set_local_lights(c, &ls, &ea), runtime_set_local_lights(n, &ls, &en), "negative intensity");
+    CHECK(rn == -1 && strstr(en.msg, "intensity") && !strcmp(ea.msg, en.msg), "%s / %s", ea.msg, en.msg);
+    ls.light[0] = l;
+    BOTH(ra, rn, runtime_set_local_lights(c, &ls, &ea), runtime_set_local_lights(n, &ls, &en), "a point light");
+    BOTH(ra, rn, runtime_set_local_effects(c, true, 4, &ea), runtime_set_local_effects(n, true, 4, &en), "effects on");
+    BOTH(ra, rn, runtime_set_local_effects(c, false, 0, &ea), runtime_set_local_effects(n, false, 0, &en), "effects off");
+    runtime_set_terms(c, 1);
+    runtime_set_terms(n, 1);
+    BOTH(ra, rn, runtime_shade_vertices(c, g_cam.eye, a, &ea), runtime_shade_vertices(n, g_cam.eye, b, &en), "lit shade");
+    sb = 0;
+    for (int i = 0; i < 3 * nv; i++) sb += fabs(b[i]);
+    CHECK(ra == 0 && sb == 0, "null colours with a local light: sum %g", sb);
+    ls.count = 0;
+    BOTH(ra, rn, runtime_set_local_lights(c, &ls, &ea), runtime_set_local_lights(n, &ls, &en), "no lights");
+    CHECK(ra == 0, "%s", ea.msg);
+    runtime_get_timing(n, &tn);
+    CHECK(tn.light_ms == 0 && tn.view_ms == 0 && tn.raster_ms == 0 && tn.local_ms == 0 && tn.bounce_ms == 0 &&
+              tn.indirect_view_ms == 0 && tn.light_gpu_ms == 0 && tn.view_gpu_ms == 0 && tn.bytes == 0, "null times not zero");
+    free(a);
+    free(b);
+    runtime_destroy(c);
+    runtime_destroy(n);
 }
 
 
@@ -854,6 +1040,36 @@ static void vmf_pixel_point(void) {
     free(sp);
 }
 
+/* A vmf file: before any light change both backends refuse to shade or render (the transfer needs the
+ * prefiltered probe); after one, both shade (null: zeros); both refuse a light change from a cube. */
+static void null_vmf(void) {
+    if (!g_vok) return;
+    prt_error ea = { { 0 } }, en = { { 0 } };
+    int ra, rn, nv = g_v.scene.mesh.nverts;
+    prt_runtime *c = runtime_create(&g_v, &(runtime_desc){ .backend = "cpu" }, &ea);
+    prt_runtime *n = runtime_create(&g_v, &(runtime_desc){ .backend = "null" }, &en);
+    float *rgb = calloc(3 * (size_t)nv, sizeof(float)), *cube = calloc(3 * CUBE_TEXELS, sizeof(float));
+    render_desc rd = { .width = 32, .height = 24, .camera = g_cam };
+    if (c && n && rgb && cube) {
+        BOTH(ra, rn, runtime_shade_vertices(c, g_cam.eye, rgb, &ea), runtime_shade_vertices(n, g_cam.eye, rgb, &en), "unlit shade");
+        CHECK(rn == -1 && strstr(en.msg, "light change first"), "%s", en.msg);
+        BOTH(ra, rn, runtime_render(c, &rd, NULL, &ea), runtime_render(n, &rd, NULL, &en), "unlit render");
+        CHECK(rn == -1, "null rendered a vmf file before a light change");
+        BOTH(ra, rn, runtime_set_light_cube(c, cube, &ea), runtime_set_light_cube(n, cube, &en), "cube of a vmf file");
+        CHECK(rn == -1 && !strcmp(ea.msg, en.msg), "%s / %s", ea.msg, en.msg);
+        BOTH(ra, rn, runtime_set_light(c, &g_smooth, NULL, &ea), runtime_set_light(n, &g_smooth, NULL, &en), "set_light");
+        BOTH(ra, rn, runtime_shade_vertices(c, g_cam.eye, rgb, &ea), runtime_shade_vertices(n, g_cam.eye, rgb, &en), "lit shade");
+        CHECK(rn == 0, "%s", en.msg);
+        runtime_timing t;
+        runtime_get_timing(n, &t);
+        CHECK(t.light_vector_ms > 0, "null: the light vector and prefiltered probe were not made (%g ms)", t.light_vector_ms);
+    } else CHECK(false, "%s / %s", ea.msg, en.msg);
+    free(rgb);
+    free(cube);
+    runtime_destroy(c);
+    runtime_destroy(n);
+}
+
 /* runtime_set_light_cube with probe_to_cube's cube of the rotated sky, and runtime_set_light_vectors
  * with that cube's light vectors (each transfer's project_light), shade exactly as runtime_set_light
  * on both backends (the same light vectors); a file with a vmf transfer, which needs the probe
@@ -988,26 +1204,29 @@ int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
     CHECK_CASE(unknown_backend);
-    CHECK_CASE(vertex_colours);
-    CHECK_CASE(images);
-    CHECK_CASE(rotation);
-    CHECK_CASE(direct);
-    CHECK_CASE(timings);
+    CHECK_CASE(table);
+    CHECK_CASE(null_backend);
+    CHECK_CASE_GL(vertex_colours);
+    CHECK_CASE_GL(images);
+    CHECK_CASE_GL(rotation);
+    CHECK_CASE_GL(direct);
+    CHECK_CASE_GL(timings);
     CHECK_CASE(lambert_unchanged);
-    CHECK_CASE(shared_budget);
+    CHECK_CASE_GL(shared_budget);
     if (check_wants("vmf_sum") || check_wants("vmf_backends") || check_wants("vmf_file") || check_wants("vmf_rotation") ||
         check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout") ||
-        check_wants("light_cube"))
+        check_wants("light_cube") || check_wants("null_vmf"))
         setup_vmf();
     CHECK_CASE(vmf_sum);
-    CHECK_CASE(vmf_backends);
+    CHECK_CASE_GL(vmf_backends);
     CHECK_CASE(vmf_file);
-    CHECK_CASE(vmf_rotation);
-    CHECK_CASE(vmf_pixel);
+    CHECK_CASE_GL(vmf_rotation);
+    CHECK_CASE_GL(vmf_pixel);
     CHECK_CASE(vmf_point_vertex);
     CHECK_CASE(vmf_layout);
-    CHECK_CASE(vmf_pixel_point);
-    CHECK_CASE(light_cube);
+    CHECK_CASE_GL(vmf_pixel_point);
+    CHECK_CASE(null_vmf);
+    CHECK_CASE_GL(light_cube);
     prt_data_free(&g_v);
     probe_free(&g_smooth);
     probe_free(&g_smooth_rot);

@@ -686,9 +686,9 @@ int main(int argc, char **argv) {
     CHECK_CASE(rsm_point_power);
     CHECK_CASE(rsm_spot);
     CHECK_CASE(indirect_vertices);
-    CHECK_CASE(runtimes_bounce);
-    CHECK_CASE(gl_glossy);
-    CHECK_CASE(gl_highlights);
+    CHECK_CASE_GL(runtimes_bounce);
+    CHECK_CASE_GL(gl_glossy);
+    CHECK_CASE_GL(gl_highlights);
     CHECK_CASE(bad_flags);
     gg_free();
     return check_summary();

@@ -2,7 +2,8 @@
 # Runs each test binary, prints its output, and closes with one line
 # "N passed, N failed" summed over every check of every binary (", N skipped"
 # follows when a filter left cases out: `make test T=haar` sets $T, which each
-# binary reads as its case filter; see tests/harness.h).
+# binary reads as its case filter, or a build without GL skipped the cases that need
+# it, each named with its reason; see tests/harness.h).
 # A binary that crashes or exits non-zero without counting counts as one failure.
 #
 # Binaries run $TEST_JOBS at a time (default 2): many of them spend their time starting
@@ -57,7 +58,8 @@ wait
 flush
 echo "test suite took $(( $(date +%s) - t0 ))s"
 if [ "$total_skip" -gt 0 ]; then
-  echo "filter '${T:-}': $total_skip cases left out"
+  if [ -n "${T:-}" ]; then echo "filter '${T:-}': $total_skip cases left out"
+  else echo "$total_skip cases skipped (each named above with its reason)"; fi
   echo "$total_pass passed, $total_fail failed, $total_skip skipped"
 else
   echo "$total_pass passed, $total_fail failed"

@@ -1,5 +1,6 @@
 /* cli_args.c - argument helpers for the prt subcommands (see cli_args.h). */
 #include "cli_args.h"
+#include "runtime.h"
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -358,4 +359,25 @@ int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, boo
     for (int i = 0; i < extra->count; i++)
         if (lights_add(&s->lights, &extra->light[i], "--light", &err)) return cli_error(cmd, "%s", err.msg) + 1;
     return 0;
+}
+
+const runtime_backend_info *cli_backend(const char *cmd, const char *name, unsigned need, const char *what) {
+    const runtime_backend_info *b = runtime_backend_find(name);
+    char names[256];
+    runtime_backend_names(names, sizeof names, need);
+    if (!b) cli_error(cmd, "unknown --backend '%s' (%s)", name, names);
+    else if ((b->caps & need) != need) cli_error(cmd, "--backend %s: the %s backend cannot %s (%s can)", name, name, what, names);
+    else return b;
+    return NULL;
+}
+
+void cli_backend_help(int col, unsigned need, const char *dflt) {
+    char names[256];
+    printf("  %-*s%s (default %s)\n", col - 2, "--backend B", runtime_backend_names(names, sizeof names, need), dflt);
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        if ((b->caps & need) == need)
+            printf("%*s%-5s %s%s\n", col + 2, "", b->name, b->summary,
+                   b->caps & RUNTIME_CAP_IMAGES ? "" : " (no images in this build: no GL)");
+    }
 }

@@ -51,6 +51,14 @@ int cli_parse(const char *cmd, int argc, char **argv, const cli_option *opts, co
 int cli_error(const char *cmd, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* True for -h / --help. */
 bool cli_is_help(const char *a);
+/* --backend NAME (render, bench, view): its entry of the runtime's table (runtime.h) when it has every
+ * capability in need (0: any; what: those in words, "draw into a window"), else NULL after printing one
+ * line naming the backends that fit (a usage error, exit 2). */
+struct runtime_backend_info;
+const struct runtime_backend_info *cli_backend(const char *cmd, const char *name, unsigned need, const char *what);
+/* Prints --backend's help, its words from column col: the names of the backends with every capability
+ * in need and the default dflt, then one line per backend, its summary (in this build). */
+void cli_backend_help(int col, unsigned need, const char *dflt);
 #endif
 
 /* Shared by render / view / reference: loading a probe with warnings, and the light vector. */
@@ -102,7 +110,7 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
  * reference and a PRT render of one file see the same view. Returns 0, or 2 (a usage error) after
  * printing one line: bad syntax, or an eye on the target (the given one, or with an eye alone the
  * one the framing picked: "the eye and the target coincide"). */
-#include "render.h"
+#include "camera.h"
 #include "scene.h"
 /* --layout and --camera checked before any loading (usage errors, exit 2; issue 12 item 7):
  * layout a probe layout name, cam_s numbers as camera_parse takes them (NULL: not given).

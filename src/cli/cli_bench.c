@@ -1,19 +1,19 @@
 /* cli_bench.c - `prt bench`: light-change and view-change times of a .prt file on
- * one runtime backend (--backend cpu|gl), the quantities of the paper's Table II.
+ * one runtime backend (--backend, a name of runtime.h's table), the quantities of
+ * the paper's Table II.
  *
  * Light change = the sparse inner products T x L for every transport vector
  * (Eq. 5's light-dependent K-vectors); view change = the backend's own view
  * change: the cpu backend's h(view) . g per vertex (vertex colours, no raster:
  * what Table II's CPU rows measure), the gl backend's frame of --size pixels
  * (view maps per pixel, finished). Both go through the runtime interface
- * (runtime.h) and are read from runtime_timing, so the two backends report the
+ * (runtime.h) and are read from runtime_timing, so every backend reports the
  * same lines. Each is timed over many frames (rotating the light / orbiting the
  * eye so no call is a repeat) after one warm-up, and the median is reported. */
 #include "cli.h"
 #include "cli_args.h"
 #include "prtfile.h"
 #include "runtime.h"
-#include "render.h"
 #include <math.h>
 #include <stdlib.h>
 #include <time.h>
@@ -29,22 +29,26 @@ typedef struct bench_args {
 } bench_args;
 
 static void help(void) {
-    puts("usage: prt bench FILE.prt --probe PROBE [--backend cpu|gl] [--frames N] [--size WxH] [--terms K]\n"
-         "                 [--threads T] [--kernel K]\n"
-         "\n"
-         "Times light changes (sparse T x L for every vector) and view changes, median over N frames\n"
-         "(default 40), and prints frame rates (the paper's Table II: GeForce 6800 / Pentium 4, Bunny).\n"
-         "The view change is the backend's own: cpu, vertex colours h(view) . g (no raster); gl, one\n"
-         "frame of --size pixels (default 800x600) with per-pixel view maps, finished.\n"
-         "GL runs headless (OSMesa, or EGL on an NVIDIA machine; PRT_GL=osmesa|egl overrides).\n"
-         "\n"
-         "  --probe PROBE    light probe\n"
-         "  --backend B      cpu (default) or gl\n"
-         "  --frames N       timed repetitions of each measurement (default 40)\n"
-         "  --size WxH       frame size of gl view changes and the camera's aspect (default 800x600)\n"
-         "  --terms K        BRDF terms used in view changes (default: all)\n"
-         "  --threads T      CPU threads (default: all cores)\n"
-         "  --kernel K       gl light kernel: auto (default), fragment, thread, warp\n"
+    fputs("usage: prt bench FILE.prt --probe PROBE [--backend B] [--frames N] [--size WxH] [--terms K]\n"
+          "                 [--threads T] [--kernel K]\n"
+          "\n"
+          "Times light changes (sparse T x L for every vector) and view changes, median over N frames\n"
+          "(default 40), and prints frame rates (the paper's Table II: GeForce 6800 / Pentium 4, Bunny).\n"
+          "The view change is the backend's own frame of --size pixels (default 800x600), finished: the\n"
+          "vertex colours h(view) . g of a backend that shades per vertex (no raster), the per-pixel view\n"
+          "maps of one that shades per pixel.\n"
+          "GL runs headless (OSMesa, or EGL on an NVIDIA machine; PRT_GL=osmesa|egl overrides).\n"
+          "\n"
+          "  --probe PROBE    light probe\n", stdout);
+    cli_backend_help(19, 0, runtime_backend_at(0)->name);
+    fputs("  --frames N       timed repetitions of each measurement (default 40)\n"
+          "  --size WxH       frame size of per-pixel view changes and the camera's aspect (default 800x600)\n"
+          "  --terms K        BRDF terms used in view changes (default: all)\n"
+          "  --threads T      CPU threads (default: all cores)\n"
+          "  --kernel K       the backend's light kernel, its default first:", stdout);
+    for (int i = 0; i < runtime_backend_count(); i++)
+        printf("%s %s: %s", i ? ";" : "", runtime_backend_at(i)->name, runtime_backend_at(i)->kernels);
+    puts("\n"
          "  --light SPEC     add a local light (as prt render; repeatable); with local lights, also times\n"
          "                   light moves (the first light on a small circle: shadows again) and the view\n"
          "                   change includes their direct light, one bounce (VSGLs) and indirect highlights\n"
@@ -63,7 +67,7 @@ static int parse_args(int argc, char **argv, bench_args *a) {
     a->frames = 40;
     a->size[0] = 800;
     a->size[1] = 600;
-    a->backend = "cpu";
+    a->backend = runtime_backend_at(0)->name;
     const cli_option opts[] = {
         CLI_S("--probe", &a->probe_path), CLI_S("--backend", &a->backend), CLI_S("--kernel", &a->kernel),
         CLI_I("--frames", &a->frames, 1, 100000), CLI_WH("--size", a->size), CLI_I("--terms", &a->kmax, 1, 64),
@@ -73,8 +77,7 @@ static int parse_args(int argc, char **argv, bench_args *a) {
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
     if (!a->in || !a->probe_path) { cli_error(k_cmd, "usage: prt bench FILE.prt --probe PROBE"); return 2; }
-    if (strcmp(a->backend, "cpu") && strcmp(a->backend, "gl"))
-        return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", a->backend) + 1;
+    if (!cli_backend(k_cmd, a->backend, 0, NULL)) return 2;
     cli_inputs ins = { 0 };   /* bench writes nothing: only a directory among the inputs is refused */
     cli_inputs_add(&ins, NULL, a->in);
     cli_inputs_add(&ins, "--probe", a->probe_path);
@@ -160,6 +163,13 @@ static int time_local(prt_runtime *rt, const prt_data *d, int frames, double *t,
     return runtime_set_local_lights(rt, &d->scene.lights, err);
 }
 
+/* "12.3 fps" of a median of ms into buf (32 bytes), or "no time" (a backend that draws nothing). */
+static const char *fps(char *buf, double ms) {
+    if (ms > 0) snprintf(buf, 32, "%.1f fps", 1e3 / ms);
+    else snprintf(buf, 32, "no time");
+    return buf;
+}
+
 /* Prints the results: the same lines for every backend (tools/bench.sh parses "light change" and
  * "view change"; tools/bench_gl.sh the "bench:" line). */
 static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4],
@@ -179,15 +189,15 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
            tm->detail, tm->detail[0] ? ")" : "");
     printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);
-    printf("light change: %.2f ms median (%.1f fps), min %.2f ms\n", lm[0], 1e3 / lm[0], lm[2]);
-    printf("view change:  %.2f ms median (%.1f fps), min %.2f ms\n", vm[0], 1e3 / vm[0], vm[2]);
+    char f[3][32];
+    printf("light change: %.2f ms median (%s), min %.2f ms\n", lm[0], fps(f[0], lm[0]), lm[2]);
+    printf("view change:  %.2f ms median (%s), min %.2f ms\n", vm[0], fps(f[1], vm[0]), vm[2]);
     if (d->scene.lights.count > 0)
-        printf("local light move (%d light%s, shadows): %.2f ms median (%.1f fps), min %.2f ms; CPU time %.2f ms a move\n",
-               d->scene.lights.count, d->scene.lights.count == 1 ? "" : "s", km[0], 1e3 / km[0], km[2], km[3]);
+        printf("local light move (%d light%s, shadows): %.2f ms median (%s), min %.2f ms; CPU time %.2f ms a move\n",
+               d->scene.lights.count, d->scene.lights.count == 1 ? "" : "s", km[0], fps(f[2], km[0]), km[2], km[3]);
     if (km[1] > 0 || vm[1] > 0)   /* issue 11 items 3-4 (cpu: indirect.h) */
         printf("local indirect: one bounce (RSM + 2 VSGLs per light) %.2f ms of the move, %s %.2f ms of the view change "
-               "(means)\n", km[1], strcmp(tm->backend, "gl") ? "VSGL glossy + indirect highlights"
-                                                             : "indirect highlights (per vertex on the CPU)", vm[1]);
+               "(means)\n", km[1], runtime_backend_find(tm->backend)->indirect_view, vm[1]);
     if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);
     printf("bench: backend=%s K=%d light_ms=%.3f view_ms=%.3f kernel=%s\n", tm->backend, kuse, lm[0], vm[0], tm->kernel);
     printf("paper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"

@@ -11,7 +11,6 @@
 #include "probe.h"
 #include "prtfile.h"
 #include "runtime.h"
-#include "render.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -52,6 +51,10 @@ int cli_demo(int argc, char **argv) {
     const cli_output outs[] = { { "-o", out, CLI_OUT_IMAGE }, { "--prt", prt_out, CLI_OUT_PRT } };
     cli_inputs none = { 0 };   /* the demo reads no file */
     if (cli_check_files(k_cmd, outs, 2, &none)) return 2;
+    const runtime_backend_info *be = runtime_backend_at(0);   /* runtime_create's default */
+    if (!(be->caps & RUNTIME_CAP_IMAGES))
+        return cli_error(k_cmd, "this build has no GL (NO_GL=1): the demo's image needs the %s backend's raster (OSMesa)",
+                         be->name) + 1;
     int w = size[0], h = size[1];
     prt_error err = { { 0 } };
     double t0 = prt_now();

@@ -7,12 +7,12 @@
  * `prt compare` can measure PRT's error against it (reference.h). */
 #include "cli.h"
 #include "cli_args.h"
+#include "camera.h"
 #include "compare.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
 #include "reference.h"
-#include "render.h"
 #include <stdlib.h>
 #include <string.h>
 

@@ -2,15 +2,16 @@
  *
  * Pipeline (section 4.3): probe -> filtered 6x64x64 cube (rotated) -> Haar light
  * vector (16-bit) -> light-dependent K-vectors (sparse T x L) -> per-vertex colour
- * h(view) . g (Eq. 5) -> rasterized with OSMesa (CPU backend) or the GLSL runtime
- * (--backend gl), all through the runtime interface (runtime.h). PNG is
- * tone-mapped with --exposure; EXR is linear radiance. */
+ * h(view) . g (Eq. 5) -> an image drawn by the backend --backend names (runtime.h's
+ * table: cpu rasterizes those colours with OSMesa, gl runs the GLSL runtime), all
+ * through the runtime interface. PNG is tone-mapped with --exposure; EXR is linear
+ * radiance. A backend that draws no images in this build (cpu without GL) still
+ * writes the vertex radiance (--vertices) and refuses -o. */
 #include "cli.h"
 #include "cli_args.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
-#include "render.h"
 #include "runtime.h"
 #include <stdlib.h>
 #include <string.h>
@@ -18,7 +19,7 @@
 static const char *k_cmd = "render";
 
 static void help(void) {
-    puts("usage: prt render FILE.prt --probe PROBE -o OUT.png|OUT.exr [options]\n"
+    fputs("usage: prt render FILE.prt --probe PROBE -o OUT.png|OUT.exr [options]\n"
          "\n"
          "  --probe PROBE           HDR light probe (EXR, HDR, PFM...; latlong, angular or cross)\n"
          "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
@@ -30,9 +31,9 @@ static void help(void) {
          "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees (default 0)\n"
          "  --exposure E            exposure in stops for PNG output (default 0)\n"
          "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
-         "  --terms K               use only the first K BRDF terms (default: all)\n"
-         "  --backend cpu|gl        CPU relighting + OSMesa raster (default) or the GLSL runtime\n"
-         "  --no-background         black background instead of the probe\n"
+         "  --terms K               use only the first K BRDF terms (default: all)\n", stdout);
+    cli_backend_help(26, 0, runtime_backend_at(0)->name);
+    puts("  --no-background         black background instead of the probe\n"
          "  --direct-only           direct lighting only (files with bounces need precompute --keep-direct)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
          "  --threads T             worker threads (default: all cores)\n"
@@ -54,6 +55,7 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
 /* What the command line asked for. */
 typedef struct render_args {
     const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *backend;
+    const runtime_backend_info *be;   /* --backend's table entry */
     int w, h, kmax, nthreads, tonemap;
     float exposure, R[9];
     bool background, direct_only;
@@ -67,7 +69,7 @@ static int parse_args(int argc, char **argv, render_args *a) {
     int size[2] = { 800, 600 };
     bool no_background = false;
     memset(a, 0, sizeof *a);
-    a->backend = "cpu";
+    a->backend = runtime_backend_at(0)->name;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
         CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
@@ -85,11 +87,13 @@ static int parse_args(int argc, char **argv, render_args *a) {
     else if (!strcmp(tonemap_s, "reinhard")) a->tonemap = 1;
     else if (!strcmp(tonemap_s, "aces")) a->tonemap = 2;
     else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", tonemap_s) + 1;
-    if (strcmp(a->backend, "gl") && strcmp(a->backend, "cpu"))
-        return cli_error(k_cmd, "unknown --backend '%s' (cpu or gl)", a->backend) + 1;
+    if (!(a->be = cli_backend(k_cmd, a->backend, 0, NULL))) return 2;
+    bool images = a->be->caps & RUNTIME_CAP_IMAGES;
     if (!a->in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
-    if (!a->out) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
+    if (!a->out && images) { cli_error(k_cmd, "no output image (-o OUT.png or OUT.exr)"); return 2; }
+    if (!a->out && !a->vert_out)
+        return cli_error(k_cmd, "no output (--vertices OUT.csv; the %s backend draws no images in this build)", a->be->name) + 1;
     if (cli_check_view_flags(k_cmd, a->layout, a->cam_s) || cli_rotation(k_cmd, a->rot_s, a->R)) return 2;
     const cli_output outs[] = { { "-o", a->out, CLI_OUT_IMAGE }, { "--vertices", a->vert_out, CLI_OUT_CSV } };
     cli_inputs ins = { 0 };
@@ -98,15 +102,33 @@ static int parse_args(int argc, char **argv, render_args *a) {
     return cli_check_files(k_cmd, outs, 2, &ins) ? 2 : -1;
 }
 
-/* Relights d under the probe through the runtime: the image into img, the vertex colours into
- * --vertices when asked; prints the timing line after writing the image. 0 or 1 (error printed). */
+/* The timing line after the outputs: the light change's parts add up to it, each to 3 significant
+ * digits (prt_format_duration), so a sub-0.05 ms GPU kernel does not print as 0.0. what: the output. */
+static void print_timing(const char *what, const runtime_timing *t, double t_read, double t_write) {
+    char gpu[64] = "", tm[7][48];
+    const double secs[7] = { t_read, 1e-3 * (t->light_vector_ms + t->light_ms), 1e-3 * t->light_vector_ms, 1e-3 * t->light_ms,
+                             1e-3 * t->view_ms, 1e-3 * t->raster_ms, t_write };
+    for (int i = 0; i < 7; i++) prt_format_duration(tm[i], sizeof tm[i], secs[i]);
+    if (t->light_gpu_ms > 0 && t->light_gpu_ms <= t->light_ms) {   /* a software GL's timer query can be garbage */
+        char g[48];
+        prt_format_duration(g, sizeof g, 1e-3 * t->light_gpu_ms);
+        snprintf(gpu, sizeof gpu, ", GPU timer %s", g);
+    }
+    fprintf(stderr, "wrote %s: read %s, light change %s (light vector %s + T x L %s%s), view change %s, raster %s, write %s\n",
+            what, tm[0], tm[1], tm[2], tm[3], gpu, tm[4], tm[5], tm[6]);
+}
+
+/* Relights d under the probe through the runtime: the image into -o, the vertex colours into
+ * --vertices when asked; prints the timing line after writing. 0, 1 (error printed), or 2 when -o asks
+ * an image of a backend that draws none in this build (refused after every check and load, so a
+ * build without GL gives the same messages first, and before any light is computed). */
 static int relight(const render_args *a, const prt_data *d, const prt_probe *probe, const prt_camera *cam, double t_read) {
+    if (a->out && !(a->be->caps & RUNTIME_CAP_IMAGES))
+        return cli_error(k_cmd, "-o %s: the %s backend draws no images in this build (no GL); --vertices OUT.csv writes the "
+                         "vertex radiance", a->out, a->be->name) + 1;
     prt_error err = { { 0 } };
-    /* One light change only: gl's fragment kernel runs on every GL 3.3+ context, and timing every
-     * kernel first ("auto") would cost more than it saves. */
     runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .direct_only = a->direct_only,
-                          .kernel = strcmp(a->backend, "gl") ? NULL : "fragment", .highlight_samples = a->hl_samples,
-                          .local_bounce = a->bounce };
+                          .kernel = a->be->quick_kernel, .highlight_samples = a->hl_samples, .local_bounce = a->bounce };
     const float *R = a->rot_s ? a->R : NULL;
     render_desc rd = { .width = a->w, .height = a->h, .camera = *cam, .background = a->background ? probe : NULL,
                        .background_rotation = R };
@@ -116,31 +138,27 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
     prt_runtime *rt = runtime_create(d, &desc, &err);
     if (!rt || runtime_set_light(rt, probe, R, &err)) goto fail;
     if (d->scene.lights.count > 0 && runtime_set_local_lights(rt, &d->scene.lights, &err)) goto fail;
-    if (runtime_render(rt, &rd, &img, &err)) goto fail;
+    if (a->out && runtime_render(rt, &rd, &img, &err)) goto fail;
     runtime_timing t;
-    runtime_get_timing(rt, &t);
+    runtime_get_timing(rt, &t);   /* the image's view change */
+    double t_write = 0;   /* of the image, or without one of the vertex colours */
     if (a->vert_out) {
         rgb = malloc(sizeof(float) * 3 * (size_t)(d->scene.mesh.nverts > 0 ? d->scene.mesh.nverts : 1));
         if (!rgb) { prt_fail(&err, "out of memory"); goto fail; }
-        if (runtime_shade_vertices(rt, cam->eye, rgb, &err) || write_vertices(a->vert_out, rgb, d->scene.mesh.nverts, &err))
-            goto fail;
+        if (runtime_shade_vertices(rt, cam->eye, rgb, &err)) goto fail;
+        if (!a->out) runtime_get_timing(rt, &t);   /* no image: the view change is the vertex colours' */
+        double t4 = prt_now();
+        if (write_vertices(a->vert_out, rgb, d->scene.mesh.nverts, &err)) goto fail;
+        t_write = prt_now() - t4;
     }
     image_desc idesc = { .exposure = a->exposure, .tonemap = a->tonemap };
     double t5 = prt_now();
-    if (image_write(a->out, &img, &idesc, &err)) goto fail;
-    /* the light change's parts add up to it, each to 3 significant digits (prt_format_duration), so a
-     * sub-0.05 ms GPU kernel does not print as 0.0 */
-    char gpu[64] = "", tm[7][48];
-    const double secs[7] = { t_read, 1e-3 * (t.light_vector_ms + t.light_ms), 1e-3 * t.light_vector_ms, 1e-3 * t.light_ms,
-                             1e-3 * t.view_ms, 1e-3 * t.raster_ms, prt_now() - t5 };
-    for (int i = 0; i < 7; i++) prt_format_duration(tm[i], sizeof tm[i], secs[i]);
-    if (t.light_gpu_ms > 0 && t.light_gpu_ms <= t.light_ms) {   /* a software GL's timer query can be garbage */
-        char g[48];
-        prt_format_duration(g, sizeof g, 1e-3 * t.light_gpu_ms);
-        snprintf(gpu, sizeof gpu, ", GPU timer %s", g);
-    }
-    fprintf(stderr, "wrote %s (%dx%d): read %s, light change %s (light vector %s + T x L %s%s), view change %s, raster %s, "
-                    "write %s\n", a->out, a->w, a->h, tm[0], tm[1], tm[2], tm[3], gpu, tm[4], tm[5], tm[6]);
+    if (a->out && image_write(a->out, &img, &idesc, &err)) goto fail;
+    if (a->out) t_write = prt_now() - t5;
+    char what[4200];
+    if (a->out) snprintf(what, sizeof what, "%s (%dx%d)", a->out, a->w, a->h);
+    else snprintf(what, sizeof what, "%s (%d vertices)", a->vert_out, d->scene.mesh.nverts);
+    print_timing(what, &t, t_read, t_write);
     rc = 0;
     goto done;
 fail:

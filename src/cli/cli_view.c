@@ -1,10 +1,13 @@
 /* cli_view.c - `prt view`, the interactive relighting viewer.
  *
  * The viewer is a GLFW window drawn through the runtime interface (runtime.h):
- * two runtimes share the window's context, the gl backend (the GPU does both
- * the light change, sparse T x L, and the view change, per-pixel view maps)
- * and the cpu backend (relight.c's per-vertex colours drawn into the same
- * window: the paper's CPU path); key b switches between them. Either way the
+ * one runtime for every backend of the table that draws into a window
+ * (RUNTIME_CAP_WINDOW), all sharing the window's context, held by table
+ * position: the gl backend (the GPU does both the light change, sparse T x L,
+ * and the view change, per-pixel view maps) and the cpu backend (relight.c's
+ * per-vertex colours drawn into the same window: the paper's CPU path); key b
+ * switches to the next. The first that has the per-pixel view model is the one
+ * at start unless --backend says otherwise. Either way the
  * frame is tone-mapped (exposure, clamp, sRGB) onto the window, and the
  * on-screen text (6x13 bitmap font) shows the frame time, the last light-change
  * and view-change times, the probe, K and the exposure. A light change happens
@@ -24,12 +27,12 @@
  * --screenshot OUT.png saves the last one (linear float target written with
  * image_write, the same tone curve `prt render` uses for PNG). */
 #include "cli.h"
+#include "check.h"
 #include "cli_args.h"
 #include "gldraw.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
-#include "render.h"
 #include "runtime.h"
 #include "vec3.h"
 #define GLFW_INCLUDE_NONE
@@ -42,9 +45,11 @@
 #include <unistd.h>
 
 #define VIEW_MAX_PROBES 64
+#define VIEW_MAX_RUNTIMES 8     /* at least runtime_backend_count() */
 
 static const char *k_view = "view";
 
+/* The keys' help, around the b key's line (keys_help: its runtimes from the table). */
 static const char *k_keys =
     "  mouse left drag          orbit the camera around its target\n"
     "  mouse right/middle drag  pan\n"
@@ -53,9 +58,9 @@ static const char *k_keys =
     "  1 .. 9                   switch to probe 1..9\n"
     "  n / p                    next / previous probe\n"
     "  + / -                    exposure up / down half a stop\n"
-    "  K / k                    use more / fewer BRDF terms\n"
-    "  b                        toggle the GL runtime / the CPU runtime\n"
-    "  v                        GL view model: per-pixel view maps / per-vertex (as the CPU)\n"
+    "  K / k                    use more / fewer BRDF terms\n";
+static const char *k_keys2 =
+    "  v                        view model of the runtimes that have per pixel: per-pixel view maps / per vertex\n"
     "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
     "  s                        screenshot (PNG, current exposure)\n"
     "  l                        pick the next local light (point / spot lights of the file and --light)\n"
@@ -67,8 +72,32 @@ static const char *k_keys =
     "  h or ?                   show / hide this help on screen\n"
     "  q or Esc                 quit\n";
 
+/* The keys' help into buf (cap bytes): the b key switches between the runtimes of the window. */
+static const char *keys_help(char *buf, size_t cap) {
+    int n = snprintf(buf, cap, "%s  b                        switch to the next runtime:", k_keys);
+    for (int i = 0, k = 0; i < runtime_backend_count() && n > 0 && (size_t)n < cap; i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        if (b->caps & RUNTIME_CAP_WINDOW) n += snprintf(buf + n, cap - (size_t)n, "%s the %s runtime", k++ ? "," : "", b->title);
+    }
+    if (n > 0 && (size_t)n < cap) snprintf(buf + n, cap - (size_t)n, "\n%s", k_keys2);
+    return buf;
+}
+
+/* The runtime at start: the first of the window's that has the per-pixel view model, else its first. */
+static int start_backend(void) {
+    int first = -1;
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        unsigned caps = runtime_backend_at(i)->caps;
+        if ((caps & RUNTIME_CAP_WINDOW) && (caps & RUNTIME_CAP_VIEW_PIXEL)) return i;
+        if ((caps & RUNTIME_CAP_WINDOW) && first < 0) first = i;
+    }
+    return first;
+}
+
 /* Prints the usage, options and keys. */
 static void view_help(void) {
+    char keys[4096];
+    int start = start_backend();
     printf("usage: prt view FILE.prt --probe PROBE [--probe P2 ...] [--probes DIR] [options]\n"
            "\n"
            "Interactive relighting: a window showing the scene relit under the probe, with\n"
@@ -81,9 +110,9 @@ static void view_help(void) {
            "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: framed as prt render)\n"
            "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
            "  --exposure E           exposure in stops (default 0)\n"
-           "  --terms K              BRDF terms used (default: all)\n"
-           "  --backend gl|cpu       runtime at start (default gl)\n"
-           "  --view-model pixel|vertex  GL view model (default pixel)\n"
+           "  --terms K              BRDF terms used (default: all)\n");
+    cli_backend_help(25, RUNTIME_CAP_WINDOW, start >= 0 ? runtime_backend_at(start)->name : "none");
+    printf("  --view-model pixel|vertex  view model of the runtimes that have per pixel (default pixel)\n"
            "  --threads T            CPU runtime threads (default: all cores)\n"
            "  --frames N             render N frames, then exit (no interaction; default: interactive)\n"
            "  --screenshot OUT.png   with --frames: save the last frame; otherwise the S key's file\n"
@@ -96,7 +125,7 @@ static void view_help(void) {
            "  --no-file-lights       ignore the lights stored in the file\n"
            CLI_INDIRECT_HELP
            "\n"
-           "keys:\n%s", k_keys);
+           "keys:\n%s", keys_help(keys, sizeof keys));
 }
 
 typedef struct viewer {
@@ -107,11 +136,12 @@ typedef struct viewer {
     int nprobes, probe;
     glctx *ctx;
     gltext text;
-    prt_runtime *rts[2];    /* [0] the cpu backend, [1] the gl backend, both drawing into ctx */
-    bool stale[2];          /* that runtime has not seen the current light yet */
+    prt_runtime *rts[VIEW_MAX_RUNTIMES];    /* by table position: the backends that draw into ctx (else NULL) */
+    bool stale[VIEW_MAX_RUNTIMES];          /* that runtime has not seen the current light yet */
+    int cur;                /* the runtime in use (key b) */
     prt_camera cam, cam0;
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
-    bool gl, vertex_model, help, quit, direct;
+    bool vertex_model, help, quit, direct;
     int kmax, kfile, nthreads;
     float exposure;
     bool light_dirty, view_dirty, present_dirty;
@@ -128,7 +158,7 @@ typedef struct viewer {
     prt_lights lights, lights0;   /* local lights (issue 11): current, and as loaded (key r) */
     int pick;                   /* the picked local light */
     bool move_mode;             /* key m: left drag moves the picked light */
-    bool local_dirty, local_stale[2];
+    bool local_dirty, local_stale[VIEW_MAX_RUNTIMES];
     double local_ms, bounce_ms, indirect_ms;   /* the last light move, its one-bounce part; the indirect view part */
     const char *local_backend;
     bool bounce;                /* key o: the local lights' one bounce (VSGLs) */
@@ -156,14 +186,15 @@ static void update_rotation(viewer *v) {
 
 static bool rotated(const viewer *v) { return v->lyaw != 0 || v->lpitch != 0; }
 
-/* The runtime in use (the b key switches). */
-static prt_runtime *current(const viewer *v) { return v->rts[v->gl ? 1 : 0]; }
+/* The runtime in use (the b key switches), and its backend. */
+static prt_runtime *current(const viewer *v) { return v->rts[v->cur]; }
+static const runtime_backend_info *current_info(const viewer *v) { return runtime_backend_at(v->cur); }
 
 /* Light change on the current runtime: the rotated probe through runtime_set_light (the other
  * runtime catches up when it is switched to). */
 static int light_change(viewer *v, prt_error *err) {
     if (v->light_dirty) {
-        v->stale[0] = v->stale[1] = true;
+        for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) v->stale[i] = true;
         v->light_dirty = false;
     }
     prt_runtime *rt = current(v);
@@ -172,15 +203,15 @@ static int light_change(viewer *v, prt_error *err) {
     runtime_get_timing(rt, &t);
     v->lightvec_ms = t.light_vector_ms;
     v->light_ms = t.light_ms;
-    v->light_backend = v->gl ? "GL" : "CPU";
-    v->stale[v->gl] = false;
+    v->light_backend = current_info(v)->title;
+    v->stale[v->cur] = false;
     return 0;
 }
 
 /* Local-light move on the current runtime (the other catches up when switched to). */
 static int local_move(viewer *v, prt_error *err) {
     if (v->local_dirty) {
-        v->local_stale[0] = v->local_stale[1] = true;
+        for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) v->local_stale[i] = true;
         v->local_dirty = false;
     }
     prt_runtime *rt = current(v);
@@ -189,8 +220,8 @@ static int local_move(viewer *v, prt_error *err) {
     runtime_get_timing(rt, &t);
     v->local_ms = t.local_ms;
     v->bounce_ms = t.bounce_ms;
-    v->local_backend = v->gl ? "GL" : "CPU";
-    v->local_stale[v->gl] = false;
+    v->local_backend = current_info(v)->title;
+    v->local_stale[v->cur] = false;
     return 0;
 }
 
@@ -206,7 +237,7 @@ static int view_change(viewer *v, prt_error *err) {
     runtime_timing t;
     runtime_get_timing(rt, &t);
     v->indirect_ms = t.indirect_view_ms;
-    v->view_backend = v->gl ? "GL" : "CPU";
+    v->view_backend = current_info(v)->title;
     return 0;
 }
 
@@ -225,16 +256,17 @@ static int overlay_effects(const viewer *v, char *buf, size_t cap) {
 
 /* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
-    char buf[2048];
+    char buf[8192];
     runtime_timing t;
-    runtime_get_timing(v->rts[1], &t);
+    runtime_get_timing(current(v), &t);
+    bool pixel = current_info(v)->caps & RUNTIME_CAP_VIEW_PIXEL;   /* kernel and view model: where there is a choice */
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
                      "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms = light vector %.1f + T x L %.1f %s   view change %.1f ms %s\n",
-                     slash ? slash + 1 : v->file, v->gl ? "GL" : "CPU", v->gl ? " (light kernel " : "",
-                     v->gl ? t.kernel : "", v->gl ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
+                     slash ? slash + 1 : v->file, current_info(v)->title, pixel ? " (light kernel " : "",
+                     pixel ? t.kernel : "", pixel ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      v->ctx->renderer, glctx_kind_name(v->ctx->kind),
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
                      v->kfile, v->exposure,
@@ -250,7 +282,8 @@ static void overlay(viewer *v) {
         n += overlay_effects(v, buf + n, sizeof buf - (size_t)n);
     }
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
-    if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? k_keys : "h: help");
+    char keys[4096];
+    if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? keys_help(keys, sizeof keys) : "h: help");
     size_t len = strlen(buf);
     while (len && buf[len - 1] == '\n') buf[--len] = 0;
     int scale = v->fbh >= 1400 ? 2 : 1;
@@ -299,9 +332,9 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     glfwGetFramebufferSize((GLFWwindow *)v->ctx->window, &w, &h);
     if (w < 1 || h < 1) return 0; /* minimized */
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
-    bool lit = v->light_dirty || v->stale[v->gl];
+    bool lit = v->light_dirty || v->stale[v->cur];
     if (lit && light_change(v, err)) return -1;
-    if (v->local_dirty || v->local_stale[v->gl]) {
+    if (v->local_dirty || v->local_stale[v->cur]) {
         if (local_move(v, err)) return -1;
         lit = true;
     }
@@ -477,8 +510,11 @@ static void toggle_direct(viewer *v) {
     }
     prt_error err = { { 0 } };
     bool want = !v->direct;
-    if (runtime_use_direct(v->rts[0], want, &err) || runtime_use_direct(v->rts[1], want, &err)) {
-        runtime_use_direct(v->rts[0], v->direct, NULL);
+    int i = 0;
+    while (i < VIEW_MAX_RUNTIMES && (!v->rts[i] || runtime_use_direct(v->rts[i], want, &err) == 0)) i++;
+    if (i < VIEW_MAX_RUNTIMES) {   /* the ones switched go back */
+        while (i-- > 0)
+            if (v->rts[i]) runtime_use_direct(v->rts[i], v->direct, NULL);
         char msg[1100];
         snprintf(msg, sizeof msg, "cannot switch the transport: %s", err.msg[0] ? err.msg : "no direct set");
         set_status(v, msg);
@@ -491,7 +527,7 @@ static void toggle_direct(viewer *v) {
     set_status(v, msg);
 }
 
-/* Keys o and i: the one bounce or the highlights on / off on both runtimes (a light move each), where
+/* Keys o and i: the one bounce or the highlights on / off on every runtime (a light move each), where
  * the effects plan has them. */
 static void toggle_effect(viewer *v, bool highlights) {
     const char *why = highlights ? v->no_hl : v->no_bounce;
@@ -505,17 +541,40 @@ static void toggle_effect(viewer *v, bool highlights) {
     bool bounce = highlights ? v->bounce : !v->bounce;
     int hl = highlights ? (v->hl_samples ? 0 : v->hl_on) : v->hl_samples;
     prt_error err = { { 0 } };
-    if (runtime_set_local_effects(v->rts[0], bounce, hl, &err) || runtime_set_local_effects(v->rts[1], bounce, hl, &err)) {
-        runtime_set_local_effects(v->rts[0], v->bounce, v->hl_samples, NULL);
+    int i = 0;
+    while (i < VIEW_MAX_RUNTIMES && (!v->rts[i] || runtime_set_local_effects(v->rts[i], bounce, hl, &err) == 0)) i++;
+    if (i < VIEW_MAX_RUNTIMES) {   /* the ones switched go back */
+        while (i-- > 0)
+            if (v->rts[i]) runtime_set_local_effects(v->rts[i], v->bounce, v->hl_samples, NULL);
         snprintf(msg, sizeof msg, "cannot switch: %s", err.msg);
         set_status(v, msg);
         return;
     }
     v->bounce = bounce;
     v->hl_samples = hl;
-    v->local_stale[0] = v->local_stale[1] = true;   /* each runtime's time of the move shows at its next frame */
+    for (i = 0; i < VIEW_MAX_RUNTIMES; i++) v->local_stale[i] = true;   /* each runtime's time of the move shows at its next frame */
     snprintf(msg, sizeof msg, "local lights: one bounce %s, indirect highlights %s", bounce ? "on" : "off", hl ? "on" : "off");
     set_status(v, msg);
+}
+
+/* Key b: the next runtime of the window (table order). */
+static void next_runtime(viewer *v) {
+    do v->cur = (v->cur + 1) % VIEW_MAX_RUNTIMES;
+    while (!v->rts[v->cur]);
+    v->view_dirty = true;
+    char msg[128];
+    snprintf(msg, sizeof msg, "%s runtime", current_info(v)->title);
+    set_status(v, msg);
+}
+
+/* Key v: per-pixel view maps or per vertex, on every runtime that has per pixel. */
+static void toggle_view_model(viewer *v) {
+    v->vertex_model = !v->vertex_model;
+    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++)
+        if (v->rts[i] && (runtime_backend_at(i)->caps & RUNTIME_CAP_VIEW_PIXEL))
+            runtime_set_view(v->rts[i], v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, NULL);
+    v->view_dirty = true;
+    set_status(v, v->vertex_model ? "view model: per vertex" : "view model: per pixel (the runtimes that have it)");
 }
 
 /* Character keys (see k_keys). */
@@ -536,17 +595,8 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         else { v->kmax = cur - 1; v->view_dirty = true; }
         break;
     }
-    case 'b': case 'B':
-        v->gl = !v->gl;
-        v->view_dirty = true;
-        set_status(v, v->gl ? "GL runtime" : "CPU runtime");
-        break;
-    case 'v': case 'V':
-        v->vertex_model = !v->vertex_model;
-        runtime_set_view(v->rts[1], v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, NULL);
-        v->view_dirty = true;
-        set_status(v, v->vertex_model ? "GL view model: per vertex (as the CPU runtime)" : "GL view model: per pixel");
-        break;
+    case 'b': case 'B': next_runtime(v); break;
+    case 'v': case 'V': toggle_view_model(v); break;
     case 'd': case 'D': toggle_direct(v); break;
     case 'l': case 'L': pick_light(v); break;
     case 'o': case 'O': toggle_effect(v, false); break;
@@ -628,8 +678,7 @@ static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
 static void viewer_free(viewer *v) {
     if (v->ctx) glctx_make_current(v->ctx, NULL);
     gltext_free(&v->text);
-    runtime_destroy(v->rts[0]);
-    runtime_destroy(v->rts[1]);
+    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) runtime_destroy(v->rts[i]);
     glctx_destroy(v->ctx);
     for (int i = 0; i < v->nprobes; i++) probe_free(&v->probes[i]);
     prt_data_free(&v->d);
@@ -669,8 +718,8 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
     OPT_V("--threads") return cli_int(k_view, "--threads", val, 1, 64, &v->nthreads) ? 1 : -1;
     OPT_V("--frames") return cli_int(k_view, "--frames", val, 1, 1000000, &a->frames) ? 1 : -1;
     OPT_V("--backend") {
-        if (strcmp(val, "gl") && strcmp(val, "cpu")) return cli_error(k_view, "unknown --backend '%s' (gl or cpu)", val), -1;
-        v->gl = !strcmp(val, "gl");
+        if (!cli_backend(k_view, val, RUNTIME_CAP_WINDOW, "draw into a window")) return -1;
+        v->cur = runtime_backend_index(val);
         return 1;
     }
     OPT_V("--view-model") {
@@ -732,7 +781,9 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     if ((lr = cli_take_indirect(k_view, &argc, argv, &a->hl_samples, &a->bounce))) return lr;
     a->w = 1024;
     a->h = 768;
-    v->gl = true;
+    PRT_CHECK(runtime_backend_count() <= VIEW_MAX_RUNTIMES);
+    v->cur = start_backend();
+    if (v->cur < 0) return cli_error(k_view, "no backend of this build draws into a window"), 2;
     for (int i = 1; i < argc; i++) {
         if (cli_is_help(argv[i])) { view_help(); return 0; }
         int r = parse_option(v, a, argc, argv, &i);
@@ -795,17 +846,22 @@ static int open_window(viewer *v, const view_args *a) {
     glctx_window_desc wd = { .width = a->w, .height = a->h, .title = title, .visible = true };
     v->ctx = glctx_create(GLCTX_GLFW, &wd, &err);
     if (!v->ctx) return cli_error(k_view, "%s", err.msg);
-    runtime_desc cpu = { .backend = "cpu", .threads = v->nthreads, .ctx = v->ctx, .local_bounce = a->bounce,
-                         .highlight_samples = a->hl_samples };
-    runtime_desc gl = { .backend = "gl", .threads = v->nthreads, .ctx = v->ctx,
-                        .view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL, .local_bounce = a->bounce,
-                        .highlight_samples = a->hl_samples };
     v->bounce = a->bounce;
     v->hl_samples = a->hl_samples;
     v->hl_on = a->hl_samples ? a->hl_samples : 32;
-    if (!(v->rts[0] = runtime_create(&v->d, &cpu, &err)) || !(v->rts[1] = runtime_create(&v->d, &gl, &err)) ||
-        gltext_init(&v->text, &v->ctx->gl, &err))
-        return cli_error(k_view, "%s", err.msg);
+    char kernels[512] = "";
+    for (int i = 0, n = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        if (!(b->caps & RUNTIME_CAP_WINDOW)) continue;
+        runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = a->bounce,
+                              .highlight_samples = a->hl_samples };
+        if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
+        if (!(v->rts[i] = runtime_create(&v->d, &desc, &err))) return cli_error(k_view, "%s", err.msg);
+        runtime_timing tm;
+        runtime_get_timing(v->rts[i], &tm);
+        if (n >= 0 && n < (int)sizeof kernels) n += snprintf(kernels + n, sizeof kernels - n, "%s%s %s", n ? ", " : "", b->title, tm.kernel);
+    }
+    if (gltext_init(&v->text, &v->ctx->gl, &err)) return cli_error(k_view, "%s", err.msg);
     GLFWwindow *win = (GLFWwindow *)v->ctx->window;
     glfwSetWindowUserPointer(win, v);
     glfwSwapInterval(0); /* frame times are the renderer's, not the display's refresh */
@@ -817,11 +873,9 @@ static int open_window(viewer *v, const view_args *a) {
         glfwSetKeyCallback(win, on_key);
         glfwSetFramebufferSizeCallback(win, on_resize);
     }
-    runtime_timing tm;
-    runtime_get_timing(v->rts[1], &tm);
-    fprintf(stderr, "prt view: %s (%d vertices, %d vectors), GL %s on %s (%s), light kernel %s; press h for help\n",
+    fprintf(stderr, "prt view: %s (%d vertices, %d vectors), GL %s on %s (%s), light kernels %s; press h for help\n",
             v->file, v->d.scene.mesh.nverts, prt_data_transfer(&v->d)->transport.nvecs, v->ctx->version, v->ctx->renderer,
-            glctx_kind_name(v->ctx->kind), tm.kernel);
+            glctx_kind_name(v->ctx->kind), kernels);
     v->light_dirty = v->view_dirty = true;
     return 0;
 }
@@ -843,7 +897,7 @@ static int run_scripted(viewer *v, int frames) {
     if (v->shot_path && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
     printf("view: %d frames at %dx%d, %s runtime: light change %.1f ms (light vector %.1f ms), view change %.2f ms "
            "mean%s%s\n",
-           frames, v->fbw, v->fbh, v->gl ? "GL" : "CPU", v->light_ms, v->lightvec_ms,
+           frames, v->fbw, v->fbh, current_info(v)->title, v->light_ms, v->lightvec_ms,
            sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
     return 0;
 }
@@ -857,7 +911,7 @@ static int run_interactive(viewer *v) {
         if (busy) glfwPollEvents();
         else glfwWaitEventsTimeout(0.25);
         bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;
-        if (v->light_dirty || v->view_dirty || v->present_dirty || v->stale[v->gl] || status_visible)
+        if (v->light_dirty || v->view_dirty || v->present_dirty || v->stale[v->cur] || status_visible)
             if (frame(v, false, &err)) return cli_error(k_view, "%s", err.msg);
     }
     return 0;

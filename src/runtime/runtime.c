@@ -9,14 +9,22 @@
 #include "check.h"
 #include "cubemap.h"
 #include "light.h"
+#include "lights.h"
 #include "prefilter.h"
 #include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
 
-/* Every backend, found by name (the first is the default). Adding one: a module and a line here. */
-static const runtime_backend *const k_backends[] = { &runtime_cpu, &runtime_gl };
-#define NBACKENDS (sizeof k_backends / sizeof k_backends[0])
+/* Every backend, found by name (the first is the default). Adding one: a module and a line here.
+ * A build without GL (PRT_NO_GL) has no gl backend: its module is not compiled. */
+static const runtime_backend *const k_backends[] = {
+    &runtime_cpu,
+#ifndef PRT_NO_GL
+    &runtime_gl,
+#endif
+    &runtime_null,
+};
+#define NBACKENDS ((int)(sizeof k_backends / sizeof k_backends[0]))
 
 struct prt_runtime {
     const runtime_backend *be;
@@ -29,26 +37,63 @@ struct prt_runtime {
     const float *env_pixels;
 };
 
-/* The backend called name, or NULL. */
-static const runtime_backend *find_backend(const char *name) {
-    for (size_t i = 0; i < NBACKENDS; i++)
-        if (!strcmp(k_backends[i]->name, name)) return k_backends[i];
-    return NULL;
+/* See runtime.h. */
+int runtime_backend_count(void) { return NBACKENDS; }
+
+/* Entry i of the table (a bug when out of range). */
+const runtime_backend_info *runtime_backend_at(int i) {
+    PRT_CHECK(i >= 0 && i < NBACKENDS);
+    return &k_backends[i]->info;
+}
+
+/* The table position of the backend called name (NULL: the default), or -1. */
+int runtime_backend_index(const char *name) {
+    if (!name) return 0;
+    for (int i = 0; i < NBACKENDS; i++)
+        if (!strcmp(k_backends[i]->info.name, name)) return i;
+    return -1;
+}
+
+/* The entry called name (NULL: the default), or NULL. */
+const runtime_backend_info *runtime_backend_find(const char *name) {
+    int i = runtime_backend_index(name);
+    return i < 0 ? NULL : &k_backends[i]->info;
+}
+
+/* "cpu, gl, null": the names with every capability in need, cut to cap bytes. */
+const char *runtime_backend_names(char *buf, size_t cap, unsigned need) {
+    PRT_CHECK(buf != NULL && cap > 0);
+    buf[0] = 0;
+    size_t n = 0;
+    for (int i = 0; i < NBACKENDS && n < cap; i++) {
+        const runtime_backend_info *b = &k_backends[i]->info;
+        if ((b->caps & need) != need) continue;
+        int w = snprintf(buf + n, cap - n, "%s%s", n ? ", " : "", b->name);
+        n += w > 0 ? (size_t)w : 0;
+    }
+    return buf;
+}
+
+/* A view model the enum has; -1 with err (the backend says whether it has it). */
+static int check_view(const runtime_backend *be, runtime_view view, prt_error *err) {
+    if (view < RUNTIME_VIEW_DEFAULT || view > RUNTIME_VIEW_VERTEX)
+        return prt_fail(err, "%s runtime: bad view model %d", be->info.name, (int)view);
+    return 0;
 }
 
 /* See runtime.h; the caller owns the runtime (runtime_destroy). */
 prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
     PRT_CHECK(d != NULL);
     runtime_desc dd = desc ? *desc : (runtime_desc){ 0 };
-    if (!dd.backend) dd.backend = k_backends[0]->name;
-    const runtime_backend *be = find_backend(dd.backend);
-    if (!be) {
-        char names[256] = "";
-        for (size_t i = 0, n = 0; i < NBACKENDS && n < sizeof names; i++)
-            n += (size_t)snprintf(names + n, sizeof names - n, "%s%s", i ? ", " : "", k_backends[i]->name);
-        return prt_fail(err, "unknown backend '%s' (known: %s)", dd.backend, names), NULL;
+    if (!dd.backend) dd.backend = k_backends[0]->info.name;
+    int bi = runtime_backend_index(dd.backend);
+    if (bi < 0) {
+        char names[256];
+        return prt_fail(err, "unknown backend '%s' (known: %s)", dd.backend, runtime_backend_names(names, sizeof names, 0)), NULL;
     }
-    if (dd.terms < 0) return prt_fail(err, "%s runtime: bad term count %d", be->name, dd.terms), NULL;
+    const runtime_backend *be = k_backends[bi];
+    if (dd.terms < 0) return prt_fail(err, "%s runtime: bad term count %d", be->info.name, dd.terms), NULL;
+    if (check_view(be, dd.view, err)) return NULL;
     prt_runtime *rt = prt_calloc(1, sizeof *rt, err);
     if (!rt) return NULL;
     rt->be = be;
@@ -155,7 +200,7 @@ int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRA
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err) {
     PRT_CHECK(rt != NULL && eye != NULL);
     if (rt->d->scene.mesh.nverts > 0) PRT_CHECK(rgb != NULL);
-    if (!rt->be->shade_vertices) return prt_fail(err, "the %s backend cannot shade vertex colours", rt->be->name);
+    if (!rt->be->shade_vertices) return prt_fail(err, "the %s backend cannot shade vertex colours", rt->be->info.name);
     return rt->be->shade_vertices(rt->self, eye, rt->kmax, rgb, err);
 }
 
@@ -195,14 +240,17 @@ int runtime_use_direct(prt_runtime *rt, bool direct, prt_error *err) {
 /* The backend's local-light move; -1 with err when it has none. */
 int runtime_set_local_lights(prt_runtime *rt, const prt_lights *ls, prt_error *err) {
     PRT_CHECK(rt != NULL && ls != NULL);
-    if (!rt->be->set_local_lights) return prt_fail(err, "the %s backend has no local lights yet", rt->be->name);
+    if (!rt->be->set_local_lights) return prt_fail(err, "the %s backend has no local lights yet", rt->be->info.name);
+    if (ls->count < 0 || ls->count > PRT_MAX_LIGHTS) return prt_fail(err, "local lights: bad count %d", ls->count);
+    for (int i = 0; i < ls->count; i++)
+        if (light_validate(&ls->light[i], "local lights", err)) return -1;
     return rt->be->set_local_lights(rt->self, ls, err);
 }
 
 /* The local lights' one bounce and highlights on or off (the viewer's keys); a light move. */
 int runtime_set_local_effects(prt_runtime *rt, bool bounce, int highlight_samples, prt_error *err) {
     PRT_CHECK(rt != NULL && highlight_samples >= 0);
-    if (!rt->be->set_local_effects) return prt_fail(err, "the %s backend cannot switch local-light effects", rt->be->name);
+    if (!rt->be->set_local_effects) return prt_fail(err, "the %s backend cannot switch local-light effects", rt->be->info.name);
     return rt->be->set_local_effects(rt->self, bounce, highlight_samples, err);
 }
 
@@ -215,6 +263,7 @@ void runtime_set_terms(prt_runtime *rt, int kmax) {
 /* The backend's view model; -1 with err when it lacks the one asked for. */
 int runtime_set_view(prt_runtime *rt, runtime_view view, prt_error *err) {
     PRT_CHECK(rt != NULL);
+    if (check_view(rt->be, view, err)) return -1;
     return rt->be->set_view(rt->self, view, err);
 }
 
@@ -223,9 +272,12 @@ void runtime_get_timing(const prt_runtime *rt, runtime_timing *t) {
     PRT_CHECK(rt != NULL && t != NULL);
     memset(t, 0, sizeof *t);
     rt->be->get_timing(rt->self, t);
-    t->backend = rt->be->name;
+    t->backend = rt->be->info.name;
     t->light_vector_ms = rt->light_vector_ms;
 }
 
 /* The name the backend was found by. */
-const char *runtime_backend_name(const prt_runtime *rt) { return rt->be->name; }
+const char *runtime_backend_name(const prt_runtime *rt) { return rt->be->info.name; }
+
+/* The runtime's table entry. */
+const runtime_backend_info *runtime_info(const prt_runtime *rt) { return &rt->be->info; }

@@ -20,9 +20,23 @@
  *        Vertex colours: the GPU's K-vectors g are read back and h . g is
  *        finished per vertex on the CPU (relight.h), i.e. the per-vertex model,
  *        equal to the cpu backend's to float rounding.
+ *   null runtime_null.c: does every step but draw, as sokol's dummy backend:
+ *        checks every call as the others do, the light vector still computed
+ *        (runtime.c), timings kept (zeros); vertex colours are zeros and images
+ *        black at the asked size. For testing the seam, and callers that need
+ *        no pixels.
  * A backend is chosen by name; an unknown name is an error listing the known
- * ones. Adding a backend is one module (runtime_NAME.c, a runtime_backend
- * table) and one line in runtime.c's list; nothing else switches on it.
+ * ones. Callers take names and capabilities from the table
+ * (runtime_backend_count / _at / _find: a runtime_backend_info each, its
+ * RUNTIME_CAP_* flags), never by comparing names. Adding a backend is one
+ * module (runtime_NAME.c, a runtime_backend with its info) and one line in
+ * runtime.c's list; nothing else switches on it.
+ *
+ * A build without GL (make NO_GL=1, -DPRT_NO_GL): the table has no gl backend,
+ * and the cpu backend draws no images (it lacks RUNTIME_CAP_IMAGES and
+ * RUNTIME_CAP_WINDOW): its vertex colours and timings are whole, runtime_render
+ * with out NULL is its view change, and asking it for an image (out, or
+ * runtime_read) fails with one line. This header includes no GL header.
  *
  * Several transfers: a file holds one or more transfers (prtfile.h), each over
  * the materials of its mask, and a vertex's radiance is the sum over the
@@ -88,9 +102,42 @@
 #include "common.h"
 #include "prtfile.h"
 #include "probe.h"
-#include "render.h"
+#include "frame.h"
 
 struct glctx;
+
+/* What a backend can do (runtime_backend_info.caps). */
+enum {
+    RUNTIME_CAP_IMAGES = 1u << 0,       /* runtime_render / runtime_read give images (else vertex colours only) */
+    RUNTIME_CAP_VIEW_PIXEL = 1u << 1,   /* the per-pixel view model (every backend has per vertex) */
+    RUNTIME_CAP_WINDOW = 1u << 2,       /* draws into a caller's GL context (desc.ctx: the viewer's window) */
+    RUNTIME_CAP_GL = 1u << 3,           /* needs GL for every frame: makes a headless context when given none */
+    RUNTIME_CAP_LOCAL_LIGHTS = 1u << 4, /* adds local lights' light (runtime_set_local_lights) */
+    RUNTIME_CAP_GPU_TIMERS = 1u << 5,   /* fills light_gpu_ms / view_gpu_ms from GPU timer queries */
+};
+
+/* One entry of the backend table, for callers choosing or describing a backend. */
+typedef struct runtime_backend_info {
+    const char *name;           /* runtime_desc.backend: "cpu" */
+    const char *title;          /* in words, for overlays and messages: "CPU" */
+    const char *summary;        /* one line for --help: what it computes and how it draws */
+    unsigned caps;              /* RUNTIME_CAP_* */
+    const char *kernels;        /* its light kernels by name (runtime_desc.kernel), the default first */
+    const char *quick_kernel;   /* the kernel for a single light change (one image): NULL, the default */
+    const char *indirect_view;  /* what runtime_timing.indirect_view_ms holds, in words */
+} runtime_backend_info;
+
+/* How many backends this build has. */
+int runtime_backend_count(void);
+/* Backend i of the table, 0 <= i < runtime_backend_count(); the first is the default. */
+const runtime_backend_info *runtime_backend_at(int i);
+/* The backend called name, or NULL (NULL name: the default). */
+const runtime_backend_info *runtime_backend_find(const char *name);
+/* The position of the backend called name in the table, or -1. */
+int runtime_backend_index(const char *name);
+/* The names of the backends with every capability in need (0: all), "cpu, gl, null", into buf
+ * (cap bytes, cut to fit); returns buf. */
+const char *runtime_backend_names(char *buf, size_t cap, unsigned need);
 
 /* How view-dependent shading is evaluated. */
 typedef enum runtime_view {
@@ -101,7 +148,7 @@ typedef enum runtime_view {
 
 /* What to create; zero means default everywhere. */
 typedef struct runtime_desc {
-    const char *backend;        /* "cpu" (NULL: default) or "gl" (runtime.c lists them) */
+    const char *backend;        /* a name of the table (runtime_backend_at; NULL: the first, "cpu") */
     int threads;                /* cpu: worker threads (0: all cores); also the gl backend's vertex finish */
     int terms;                  /* BRDF terms used by view changes (0: all the file has) */
     bool direct_only;           /* light with the file's direct-only set (if it keeps one; else ignored) */
@@ -117,7 +164,7 @@ typedef struct runtime_desc {
 
 /* The last call's timings; the same fields for every backend. */
 typedef struct runtime_timing {
-    const char *backend;        /* "cpu", "gl" */
+    const char *backend;        /* the backend's name ("cpu", "gl", "null") */
     double light_vector_ms;     /* last runtime_set_light: probe -> cube -> light vector (CPU) */
     double light_ms;            /* last light change: T x L for every vector, finished */
     double view_ms;             /* last view change: h(view) . g per vertex or per pixel, finished */
@@ -178,8 +225,10 @@ void runtime_set_terms(prt_runtime *rt, int kmax);
 int runtime_set_view(prt_runtime *rt, runtime_view view, prt_error *err);
 /* Fills t with the last calls' timings and the backend's description. */
 void runtime_get_timing(const prt_runtime *rt, runtime_timing *t);
-/* The backend's name ("cpu", "gl"). */
+/* The backend's name ("cpu", "gl", "null"). */
 const char *runtime_backend_name(const prt_runtime *rt);
+/* The runtime's entry of the backend table. */
+const runtime_backend_info *runtime_info(const prt_runtime *rt);
 
 /* ---------------------------------------------------------------- backend interface
  * What a backend module implements (runtime_cpu.c, gpu/runtime_gl.c). runtime.c
@@ -199,7 +248,7 @@ typedef struct runtime_light {
 } runtime_light;
 
 typedef struct runtime_backend {
-    const char *name;           /* found by runtime_create by this name */
+    runtime_backend_info info;  /* its name (runtime_create finds it by it), title and capabilities */
     /* Creates the state; desc is complete (backend resolved). NULL with err. */
     void *(*create)(const prt_data *d, const runtime_desc *desc, prt_error *err);
     void (*destroy)(void *self);
@@ -221,6 +270,25 @@ typedef struct runtime_backend {
     int (*set_local_effects)(void *self, bool bounce, int highlight_samples, prt_error *err);
 } runtime_backend;
 
+/* Vertex colours drawn into images, for a backend whose view change ends in vertex colours (cpu):
+ * implemented where GL lives (gpu/render.c), absent from a build without GL. */
+typedef struct runtime_raster {
+    /* State drawing mesh m into ctx, or headless with ctx NULL (a GL context per image). NULL with err. */
+    void *(*create)(const prt_mesh *m, struct glctx *ctx, prt_error *err);
+    void (*destroy)(void *self);
+    /* A frame (size resolved) of the colours rgb[3*nverts]: drawn into ctx's float target now, or
+     * headless kept (copied) to be rasterized at read. */
+    int (*draw)(void *self, const render_desc *rd, const float *rgb, prt_error *err);
+    /* The last frame as an image: ctx's target read back, or headless rasterized now of rgb. */
+    int (*read)(void *self, const float *rgb, prt_image *out, prt_error *err);
+    /* Tone-mapped blit of ctx's target to its window; nothing headless. */
+    void (*present)(void *self, int win_w, int win_h, float exposure_stops);
+} runtime_raster;
+
 extern const runtime_backend runtime_cpu;   /* src/runtime/runtime_cpu.c */
+extern const runtime_backend runtime_null;  /* src/runtime/runtime_null.c */
+#ifndef PRT_NO_GL
 extern const runtime_backend runtime_gl;    /* gpu/runtime_gl.c */
+extern const runtime_raster runtime_raster_gl;   /* gpu/render.c: OSMesa / EGL headless, or the caller's context */
+#endif
 #endif

@@ -4,12 +4,13 @@
  * every thread; the prefiltered probe is kept for the non-linear transfers.
  * View change: relight_view, h(view) . g per vertex (the per-vertex model; the
  * paper's CPU path), plus ops->shade_vertices of every non-linear transfer
- * (vmf: its lobes looked up in the prefiltered probe), non-finite sums written as 0. Images are those colours drawn with Gouraud interpolation:
- * headless through render_vertex_colors (OSMesa, a context per image, exactly
- * what `prt render` always did, so its output is unchanged), or into the
- * caller's context (the viewer's window) through a gldraw of our own, whose
- * float target runtime_present blits. Without a context the raster waits for
- * the image to be asked for (see runtime.h: bench times the view change alone).
+ * (vmf: its lobes looked up in the prefiltered probe), non-finite sums written as 0. Images are those colours drawn with Gouraud interpolation
+ * by the vertex raster (runtime_raster, gpu/render.c): headless through
+ * render_vertex_colors (OSMesa, a context per image), or into the caller's
+ * context (the viewer's window), whose float target runtime_present blits.
+ * Without a context the raster waits for the image to be asked for (see
+ * runtime.h: bench times the view change alone). A build without GL has no
+ * raster: the colours and timings are whole, an image is refused with one line.
  *
  * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
  *   light move:  cpu_set_local_lights -> direct_set_lights (src/light/direct.h: Embree
@@ -28,23 +29,27 @@
 #include "direct.h"
 #include "indirect.h"
 #include <math.h>
-#include "gldraw.h"
 #include "relight.h"
 #include <stdlib.h>
 #include <string.h>
+
+/* The vertex raster of this build, and the capabilities it gives the backend. */
+#ifdef PRT_NO_GL
+static const runtime_raster *const k_raster = NULL;
+#define CPU_CAPS RUNTIME_CAP_LOCAL_LIGHTS
+#else
+static const runtime_raster *const k_raster = &runtime_raster_gl;
+#define CPU_CAPS (RUNTIME_CAP_IMAGES | RUNTIME_CAP_WINDOW | RUNTIME_CAP_LOCAL_LIGHTS)
+#endif
 
 typedef struct cpu_rt {
     const prt_data *d;
     relight_ctx *rc;
     int nthreads;
     float *rgb;                 /* [3*nverts] the last view change's colours */
-    glctx *ctx;                 /* the caller's, or NULL: headless */
-    gldraw draw;                /* with ctx: the float target */
-    bool draw_ready;
-    const prt_probe *bg;        /* with ctx: the probe uploaded as background (and its pixels) */
-    const float *bg_pixels;
-    render_desc frame;          /* headless: the last frame asked for, rasterized at read */
-    float frame_R[9];
+    struct glctx *ctx;          /* the caller's, or NULL: headless */
+    const runtime_raster *raster;   /* draws the colours (NULL: a build without GL) */
+    void *draw;                 /* its state */
     bool has_frame;
     const struct prefilter_env *env;    /* the last light's prefiltered probe (the runtime's), or NULL */
     double light_ms, view_ms, raster_ms;
@@ -57,11 +62,11 @@ typedef struct cpu_rt {
     double bounce_ms, indirect_view_ms;
 } cpu_rt;
 
-/* Frees the relight context, the colours and the GL objects made in the caller's context. */
+/* Frees the relight context, the colours and the raster (its GL objects in the caller's context). */
 static void cpu_destroy(void *self) {
     cpu_rt *c = self;
     if (!c) return;
-    if (c->draw_ready && glctx_make_current(c->ctx, NULL) == 0) gldraw_free(&c->draw);
+    if (c->draw) c->raster->destroy(c->draw);
     relight_destroy(c->rc);
     indirect_destroy(c->indirect);   /* first: it borrows c->direct's BVH */
     direct_destroy(c->direct);
@@ -74,29 +79,28 @@ static int cpu_check_desc(const runtime_desc *desc, prt_error *err) {
     if (desc->kernel && strcmp(desc->kernel, "auto") && strcmp(desc->kernel, "sparse"))
         return prt_fail(err, "cpu runtime: unknown light kernel '%s' (the cpu backend has one: sparse)", desc->kernel);
     if (desc->view == RUNTIME_VIEW_PIXEL)
-        return prt_fail(err, "cpu runtime: shades per vertex only (the per-pixel view model needs the gl backend)");
+        return prt_fail(err, "cpu runtime: shades per vertex only (it has no per-pixel view model)");
     return 0;
 }
 
-/* relight_create, the colour buffer and, with a context, a gldraw with the mesh. NULL with err. */
+/* relight_create, the colour buffer and the raster (with a context: its GL objects). NULL with err. */
 static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
     if (cpu_check_desc(desc, err)) return NULL;
+    if (desc->ctx && !k_raster)
+        return prt_fail(err, "cpu runtime: this build has no GL (NO_GL=1): it cannot draw into a GL context"), NULL;
     cpu_rt *c = prt_calloc(1, sizeof *c, err);
     if (!c) return NULL;
     c->d = d;
     c->nthreads = desc->threads;
     c->ctx = desc->ctx;
+    c->raster = k_raster;
     c->ind_desc = (indirect_desc){ .hl_samples = desc->highlight_samples, .no_highlights = desc->highlight_samples <= 0,
                                    .no_bounce = !desc->local_bounce, .threads = desc->threads };
     c->rc = relight_create(d, desc->threads, err);
     c->rgb = c->rc ? prt_calloc(3 * (size_t)(d->scene.mesh.nverts > 0 ? d->scene.mesh.nverts : 1), sizeof(float), err) : NULL;
     if (!c->rgb) { cpu_destroy(c); return NULL; }
     if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) relight_use_direct(c->rc, true);
-    if (c->ctx) {
-        if (glctx_make_current(c->ctx, err) || gldraw_init(&c->draw, &c->ctx->gl, err)) { cpu_destroy(c); return NULL; }
-        c->draw_ready = true;
-        if (gldraw_set_mesh(&c->draw, &d->scene.mesh, err)) { cpu_destroy(c); return NULL; }
-    }
+    if (c->raster && !(c->draw = c->raster->create(&d->scene.mesh, c->ctx, err))) { cpu_destroy(c); return NULL; }
     return c;
 }
 
@@ -170,50 +174,30 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     return rc;
 }
 
-/* Into the caller's context: background (uploaded again only for another probe), then the colours. */
-static int draw_in_context(cpu_rt *c, const render_desc *rd, prt_error *err) {
-    if (glctx_make_current(c->ctx, err)) return -1;
-    const prt_probe *p = rd->background;
-    if (p != c->bg || (p && p->img.data != c->bg_pixels)) {
-        if (gldraw_set_probe(&c->draw, p, err)) return -1;
-        c->bg = p;
-        c->bg_pixels = p ? p->img.data : NULL;
-    }
-    int w = rd->width, h = rd->height;
-    if (gldraw_target(&c->draw, w, h, err)) return -1;
-    gldraw_background(&c->draw, &rd->camera, w, h, rd->background_rotation);
-    if (gldraw_vertex_colors(&c->draw, &rd->camera, w, h, c->rgb, err)) return -1;
-    c->ctx->gl.Finish();
-    return glctx_check(&c->ctx->gl, "cpu runtime: drawing", err);
-}
-
-/* The view change, then the raster into the context (or kept for read, headless). */
+/* The view change, then the raster: into the context, timed, or headless kept for read. */
 static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
     cpu_rt *c = self;
     if (cpu_shade_vertices(c, rd->camera.eye, kmax, c->rgb, err)) return -1;
     c->raster_ms = 0;
     c->has_frame = true;
-    if (!c->ctx) { /* headless: rasterized when the image is asked for */
-        c->frame = *rd;
-        if (rd->background_rotation) {
-            memcpy(c->frame_R, rd->background_rotation, sizeof c->frame_R);
-            c->frame.background_rotation = c->frame_R;
-        }
-        return 0;
-    }
+    if (!c->draw) return 0;
     double t0 = prt_now();
-    int rc = draw_in_context(c, rd, err);
-    c->raster_ms = 1e3 * (prt_now() - t0);
+    int rc = c->raster->draw(c->draw, rd, c->rgb, err);
+    if (c->ctx) c->raster_ms = 1e3 * (prt_now() - t0);
     return rc;
 }
 
-/* The frame: the context's target, or rasterized now by OSMesa (headless). */
+/* The frame: the context's target, or rasterized now (headless, timed); -1 with err in a build
+ * without GL. */
 static int cpu_read(void *self, prt_image *out, prt_error *err) {
     cpu_rt *c = self;
     if (!c->has_frame) return prt_fail(err, "cpu runtime: no frame rendered yet");
-    if (c->ctx) return glctx_make_current(c->ctx, err) ? -1 : gldraw_read(&c->draw, out, err);
+    if (!c->draw)
+        return prt_fail(err, "cpu runtime: this build has no GL (NO_GL=1): images need OSMesa; vertex colours "
+                             "(runtime_shade_vertices, prt render --vertices) do not");
+    if (c->ctx) return c->raster->read(c->draw, c->rgb, out, err);
     double t0 = prt_now();
-    int rc = render_vertex_colors(&c->d->scene.mesh, c->rgb, &c->frame, out, err);
+    int rc = c->raster->read(c->draw, c->rgb, out, err);
     c->raster_ms = 1e3 * (prt_now() - t0);
     return rc;
 }
@@ -233,7 +217,7 @@ static int cpu_set_local_effects(void *self, bool bounce, int highlight_samples,
 /* Tone-mapped blit of the target to the window (nothing headless). */
 static void cpu_present(void *self, int win_w, int win_h, float exposure_stops) {
     cpu_rt *c = self;
-    if (c->ctx && glctx_make_current(c->ctx, NULL) == 0) gldraw_present(&c->draw, win_w, win_h, exposure_stops);
+    if (c->draw) c->raster->present(c->draw, win_w, win_h, exposure_stops);
 }
 
 /* relight_use_direct; -1 with err when the file keeps no direct set. */
@@ -274,7 +258,9 @@ static void cpu_get_timing(const void *self, runtime_timing *t) {
 }
 
 const runtime_backend runtime_cpu = {
-    .name = "cpu",
+    .info = { .name = "cpu", .title = "CPU", .caps = CPU_CAPS, .kernels = "sparse",
+              .summary = "T x L and h(view) . g per vertex on the CPU; images: those colours rasterized (OSMesa)",
+              .indirect_view = "VSGL glossy + indirect highlights" },
     .create = cpu_create,
     .destroy = cpu_destroy,
     .set_light = cpu_set_light,
