@@ -14,6 +14,8 @@
 #                   FUZZ_RUNS executions each (default 60 s), FUZZ_JOBS processes of each at once (default 1)
 #   make NO_GL=1 [test]  without OSMesa, GLFW or EGL, into build/nogl: the library, the CPU runtime and the
 #                   CLI's non-GL commands (runtime.h: no gl backend, the cpu one draws no images)
+#   make install    libprt.so, libprt.a, the public headers, prt.pc and prt under PREFIX (default /usr/local;
+#                   DESTDIR honoured); make uninstall removes them (docs/api.md)
 SHELL := /bin/bash
 CC  ?= cc
 CXX ?= c++
@@ -40,12 +42,14 @@ endif
 # not part of it (its harnesses are the clang build of build/fuzz).
 GL_PKGS := libosmesa6-dev libglfw3-dev libgl-dev libegl-dev xvfb xauth
 GL_LIBS := -lOSMesa -lglfw -lGL -lEGL
+GL_PC   := osmesa glfw3 egl gl
 GL_DIRS := gpu
 FUZZ_SMOKE := tools/fuzz.sh
 ifeq ($(NO_GL),1)
 BUILD := $(BUILD)/nogl
 GL_PKGS :=
 GL_LIBS :=
+GL_PC   :=
 GL_DIRS :=
 GL_ONLY := src/cli/cli_view.c tests/test_glrt.c tests/test_render.c tests/test_view.c
 FUZZ_SMOKE :=
@@ -71,6 +75,23 @@ LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas $(GL_
            -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
+# Installation. The version is common.h's; SO_ABI, the SONAME's number, changes with every change to
+# the installed headers that breaks a program built against them (docs/api.md, "What is stable").
+PREFIX     ?= /usr/local
+BINDIR     ?= $(PREFIX)/bin
+LIBDIR     ?= $(PREFIX)/lib
+INCLUDEDIR ?= $(PREFIX)/include
+VERSION := $(shell sed -n 's/^\#define PRT_VERSION_STRING "\(.*\)"/\1/p' $(wildcard src/*/common.h))
+SO_ABI  := 0
+SONAME  := libprt.so.$(SO_ABI)
+SO_FILE := libprt.so.$(VERSION)
+# prt.pc: the libraries libprt uses, by their pkg-config names (Requires.private), and those without one
+PC_REQUIRES := OpenImageIO lapacke openblas $(GL_PC) libcjson zlib ompi-c
+PC_LIBS     := -lembree3 -lstdc++ -lm -lpthread
+# The public headers: src/prt.h and every project header it includes, installed flat into
+# INCLUDEDIR/prt (the project includes headers by name, so no two share a name).
+PUBLIC_H = $(sort $(filter %.h,$(shell $(CC) -MM -MT x $(INCS) src/prt.h)))
+
 # Library: every source of the stage folders, brdf/ and gpu/ (not with NO_GL=1); the command-line front end is src/cli/.
 LIB_C   := $(wildcard $(addsuffix /*.c,$(SRC_DIRS) $(GL_DIRS)) brdf/*.c)
 LIB_CXX := $(wildcard $(addsuffix /*.cpp,$(SRC_DIRS)))
@@ -79,10 +100,10 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out $(GL_ONLY),$(wildcard sr
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(filter-out $(GL_ONLY),$(wildcard tests/test_*.c)))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build clean
+.PHONY: all deps test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
-all: $(BUILD)/.deps $(BUILD)/prt
+all: $(BUILD)/.deps $(BUILD)/prt $(BUILD)/$(SO_FILE)
 
 # Install missing Debian packages once (root: apt-get; otherwise sudo if available).
 $(BUILD)/.deps:
@@ -104,15 +125,46 @@ $(BUILD)/obj/%.o: %.cpp | $(BUILD)/.deps
 	$(CXX) $(CXXFLAGS) -c $< -o $@
 
 $(BUILD)/obj/src/precompute/shard.o: CFLAGS += $(MPI_CFLAGS)
+# Every library object is position-independent, so one build serves libprt.a and libprt.so; without
+# semantic interposition the compiler may inline the library's functions into each other as it does
+# under -fPIE, so the code is -fPIE's but for the addresses of globals (docs/api.md).
+$(LIB_OBJ): CFLAGS += -fPIC -fno-semantic-interposition
+$(LIB_OBJ): CXXFLAGS += -fPIC -fno-semantic-interposition
+# A tree without the stamp $(BUILD)/.pic (left by the archive's rule) may hold objects compiled
+# without -fPIC: they are compiled again, once.
+ifeq ($(wildcard $(BUILD)/.pic),)
+$(LIB_OBJ): pic-rebuild
+endif
+.PHONY: pic-rebuild
 
 $(BUILD)/libprt.a: $(LIB_OBJ)
 	@rm -f $@
 	ar rcs $@ $^
+	@touch $(BUILD)/.pic
+$(BUILD)/$(SO_FILE): $(LIB_OBJ)
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,-z,defs $(LDFLAGS) $^ $(LDLIBS) -o $@
 $(BUILD)/prt: $(CLI_OBJ) $(BUILD)/libprt.a
 	$(CC) $(LDFLAGS) $(CLI_OBJ) $(BUILD)/libprt.a $(LDLIBS) -o $@
 $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $< $(TEST_SUPPORT) $(BUILD)/libprt.a $(LDLIBS) -o $@
+
+install: all
+	@dups=$$(for h in $(PUBLIC_H); do basename $$h; done | sort | uniq -d); \
+	  if [ -n "$$dups" ]; then echo "install: two public headers named $$dups"; exit 1; fi
+	install -d $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(INCLUDEDIR)/prt
+	install -m 755 $(BUILD)/prt $(DESTDIR)$(BINDIR)/prt
+	install -m 755 $(BUILD)/$(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SO_FILE)
+	ln -sf $(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libprt.so
+	install -m 644 $(BUILD)/libprt.a $(DESTDIR)$(LIBDIR)/libprt.a
+	install -m 644 $(PUBLIC_H) $(DESTDIR)$(INCLUDEDIR)/prt/
+	sed -e 's|@PREFIX@|$(PREFIX)|; s|@LIBDIR@|$(LIBDIR)|; s|@INCLUDEDIR@|$(INCLUDEDIR)|; s|@VERSION@|$(VERSION)|' \
+	    -e 's|@REQUIRES@|$(PC_REQUIRES)|; s|@LIBS@|$(PC_LIBS)|' prt.pc.in > $(DESTDIR)$(LIBDIR)/pkgconfig/prt.pc
+uninstall:
+	rm -f $(DESTDIR)$(BINDIR)/prt $(DESTDIR)$(LIBDIR)/$(SO_FILE) $(DESTDIR)$(LIBDIR)/$(SONAME) \
+	      $(DESTDIR)$(LIBDIR)/libprt.so $(DESTDIR)$(LIBDIR)/libprt.a $(DESTDIR)$(LIBDIR)/pkgconfig/prt.pc
+	rm -rf $(DESTDIR)$(INCLUDEDIR)/prt
 
 # T=FILTER runs only the cases whose "domain/case" name contains FILTER (tests/harness.h).
 # The fuzz harnesses' smoke run (tools/fuzz.sh --smoke: the seeds and a few seconds each) is the
