@@ -237,7 +237,7 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float *znear, float *zf
         if (z > dmax) dmax = z;
     }
     if (!(dmax > 0) || !isfinite(dmax)) { *znear = 0.01f; *zfar = 100.0f; return; }
-    float fa = dmax * 1.05f + 1e-6f;
+    float fa = dmax * 1.05f;   /* relative only: an absolute margin would clip a scene 1e-12 across */
     float ne = dmin * 0.95f;
     if (ne < fa * 1e-5f) ne = fa * 1e-5f;
     *znear = ne;
