@@ -25,7 +25,11 @@
  * [0, 1e6], alpha in [0.001, 2]. AS uses its own coupled diffuse term (AS 2000 Eq. 5,
  * kd = Rd, ks = Rs); the microfacet models add a plain kd/pi, so with kd > 0 their
  * albedo can exceed 1 at grazing angles. Blinn's (n+8)/(8pi) overshoots the exact
- * normalization by up to 4%.
+ * normalization by up to 4%. Nothing stops a spec from reflecting more than it receives
+ * (phong:kd=2;ks=3 reflects 5 times the light at normal incidence): such a BRDF is accepted,
+ * and precompute's effects plan warns of it (albedo.h: the directional albedo by quadrature
+ * above 1.05 at 0-60 degrees), since a glowing surface may be meant; its interreflections gain
+ * energy.
  *
  * Sampling: a one-sample mixture of cosine-weighted diffuse and the model's lobe (Phong:
  * cos^n around the mirror direction; Blinn, AS (AS 2000 Eq. 9), GGX, Beckmann: half

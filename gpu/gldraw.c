@@ -400,10 +400,10 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float aspect, float *zn
         if (z > dmax) dmax = z;
     }
     if (!(dmax > 0) || !isfinite(dmax)) { *znear = 0.01f; *zfar = 100.0f; return; }
-    float fa = dmax * 1.05f + 1e-6f;
+    float fa = dmax * 1.05f;   /* relative only: an absolute margin would clip a scene 1e-12 across */
     float ne = dmin * 0.95f, lo, hi;
     if (ne < GLDRAW_BOX_NEAR * fa && gldraw_view_depths(d, cam, aspect, &lo, &hi)) {
-        fa = hi * 1.05f + 1e-6f;
+        fa = hi * 1.05f;
         ne = lo * 0.95f;
     }
     if (ne < fa * 1e-5f) ne = fa * 1e-5f;

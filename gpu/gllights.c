@@ -132,7 +132,7 @@ static const char *k_glsl =
     "vec3 one_light(int i, samplerCube sh, sampler2D sp, int m, vec3 p, vec3 n, vec3 s, vec3 t, vec3 wol) {\n"
     "    vec3 d = u_lpos[i].xyz - p;\n"
     "    float dist2 = dot(d, d), dist = sqrt(dist2);\n"
-    "    if (!(dist > 1e-12)) return vec3(0.0);\n"
+    "    if (!(dist2 >= 1.17549435e-38)) return vec3(0.0);\n"   /* at the light: FLT_MIN, as light_shade (any scale) */
     "    vec3 wi = d / dist;\n"
     "    vec3 wil = vec3(dot(wi, s), dot(wi, t), dot(wi, n));\n"
     "    if (wil.z <= 0.0 || wol.z <= 0.0) return vec3(0.0);\n"
@@ -157,7 +157,7 @@ static const char *k_glsl =
     "    if (u_nlocal <= 0) return vec3(0.0);\n"
     "    vec3 s, t;\n"
     "    frame(n, s, t);\n"
-    "    vec3 wo = normalize(eye - p), wol = vec3(dot(wo, s), dot(wo, t), dot(wo, n));\n"
+    "    vec3 wo = toward(eye - p), wol = vec3(dot(wo, s), dot(wo, t), dot(wo, n));\n"
     "    vec3 c = one_light(0, t_shadow0, t_spot0, m, p, n, s, t, wol);\n"
     "#if LMAX > 1\n"
     "    if (u_nlocal > 1) c += one_light(1, t_shadow1, t_spot1, m, p, n, s, t, wol);\n"
@@ -260,7 +260,8 @@ gllights *gllights_create(const gl_api *gl, const prt_scene *scene, prt_error *e
     L->scene = scene;
     float ext[3];
     v3_sub(ext, scene->bmax, scene->bmin);
-    L->scene_size = fmaxf(v3_len(ext), 1e-6f);
+    L->scene_size = v3_len(ext);   /* no absolute floor: a scene 1e-12 across is as good as any */
+    if (!(L->scene_size > 0) || !isfinite(L->scene_size)) L->scene_size = 1;
     if (upload_brdfs(L, err) || make_cubes(L, err) ||
         !(L->prog_shadow = glctx_program(gl, k_shadow_vs, k_shadow_fs, "local-light shadow", err))) {
         gllights_destroy(L);
@@ -290,7 +291,8 @@ static void persp_matrix(const float p[3], const float F[3], const float up[3], 
     v3_cross(s, F, up);
     v3_normalize(s);
     v3_cross(u, s, F);
-    float k = 1 / tan_half, a = (far + near) / (near - far), b = 2 * far * near / (near - far);
+    float k = 1 / tan_half, a = (far + near) / (near - far);
+    float b = (float)(2.0 * far * near / ((double)near - far));   /* double: far * near leaves float at extreme scales */
     float rows[4][4] = { { k * s[0], k * s[1], k * s[2], -k * v3_dot(s, p) },
                          { k * u[0], k * u[1], k * u[2], -k * v3_dot(u, p) },
                          { -a * F[0], -a * F[1], -a * F[2], a * v3_dot(F, p) + b },

@@ -95,6 +95,12 @@ const char *glrt_light_method_name(glrt_light_method m) {
  * grid clamps at its edge, the polar angle wraps) and Eq. 10's frame (brdf_frame). */
 static const char *k_view_common =
     "uniform samplerBuffer t_view;\n"
+    /* toward: the direction of d whatever its length (a scene 1e20 or 1e-20 across squares d out of
+     * float's range in normalize): divided by its largest component first (docs/design/scale.md) */
+    "vec3 toward(vec3 d) {\n"
+    "    float m = max(max(abs(d.x), abs(d.y)), abs(d.z));\n"
+    "    return m > 0.0 ? normalize(d / m) : d;\n"
+    "}\n"
     "uniform ivec4 u_mat[NMAT];\n" /* x: first view texel, y: res, z: K, w: param | 2 * lambertian */
     /* brdf_frame: Eq. 10's s without cancellation near n.y = -1, the fixed limit within 1e-6 of
      * (0,-1,0), s made orthogonal to n; t = n x s. */
@@ -148,7 +154,7 @@ static const char *k_view_common =
     "    ivec4 mi = u_mat[m];\n"
     "    vec3 s, t;\n"
     "    frame(n, s, t);\n"
-    "    vec3 wo = normalize(eye - pos);\n"
+    "    vec3 wo = toward(eye - pos);\n"
     "    int kuse = kmax > 0 ? min(kmax, mi.z) : mi.z;\n"
     /* Radiance is clamped at zero as the CPU runtime does (a truncated SVD can dip below). */
     "    return max(shade(mi, vec3(dot(wo, s), dot(wo, t), dot(wo, n)), g, kuse), vec3(0.0));\n"
@@ -206,7 +212,7 @@ static const char *k_view_fs =
     "#if HAS_TV\n"   /* a corner of the transfer's materials: its radiance per pixel (the CPU left it out of v_add) */
     "    if (u_pf_n > 0 && v_pix > 0.0) {\n"
     "        int tri = int(texelFetch(t_tvu, u_tv_perm + u_tri0 + gl_PrimitiveID).r);\n"   /* the mesh's triangle index */
-    "        vec3 r = tv_radiance(tri, v_pos, v_nrm, normalize(u_eye - v_pos), v_tva);\n"
+    "        vec3 r = tv_radiance(tri, v_pos, v_nrm, toward(u_eye - v_pos), v_tva);\n"
     "        for (int c = 0; c < 3; c++) add[c] += isnan(r[c]) || isinf(r[c]) || r[c] < 0.0 ? 0.0 : r[c];\n"   /* as the CPU */
     "    }\n"
     "#endif\n"

@@ -118,7 +118,7 @@ static const char *k_glsl =
     "#if VSGL_SPEC\n"
     "    vec3 s, t;\n"
     "    frame(n, s, t);\n"
-    "    vec3 wo = normalize(eye - p), wol = vec3(dot(wo, s), dot(wo, t), dot(wo, n));\n"
+    "    vec3 wo = toward(eye - p), wol = vec3(dot(wo, s), dot(wo, t), dot(wo, n));\n"
     "    vsgl_asg a;\n"
     "    bool spec = u_vsgl_spec != 0 && vsgl_spec_asg(m, kd, n, s, t, wol, a);\n"
     "#endif\n"

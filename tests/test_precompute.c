@@ -12,7 +12,11 @@
  *     rays over a fine direction grid; then the 8-bit N = 128 default the same way.
  * (4) Light-weighted texels (prior.h): a 1-degree sun inside one 1.6-degree lighting texel, an
  *     occluder's edge crossing the sun, uncompressed: the vertex's radiance against a fine
- *     quadrature of the probe with the occluder's exact visibility, with and without the rays. */
+ *     quadrature of the probe with the occluder's exact visibility, with and without the rays.
+ * (5) Scale (docs/design/scale.md): a glossy sphere over a floor with one bounce, built at scales
+ *     2^-100 to 2^96 and 1e-6, 1e6: every vertex's radiance toward an eye scaled with it is the
+ *     scale-1 scene's bit for bit at the powers of two (the scaling is exact and the pipeline
+ *     computes in scaled units), and within a few flipped rays' worth at the decimal scales. */
 #include "harness.h"
 #include "cubemap.h"
 #include "light.h"
@@ -470,6 +474,87 @@ static void weighted_texels(void) {
     probe_free(&p);
 }
 
+/* ---- (5) scale ---- */
+
+/* The scale case's scene at scale s: a Phong sphere (SVD path, view maps) over scene_add_floor's
+ * floor, uncompressed (N = all, float) with one forced bounce at gather res 16, relit under a
+ * constant light; rgb[3 nverts] gets every vertex's radiance toward the eye s (1.5, 1.2, -2).
+ * Returns the vertex count (0 on failure). */
+static int scale_radiance(float s, float **rgb) {
+    prt_error err;
+    prt_mesh sph = { 0 };
+    const float c[3] = { 0, 0.55f, 0 }, I[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 }, zero[3] = { 0, 0, 0 };
+    CHECK(mesh_make_sphere(&sph, c, 0.5f, 6, 12, &err) == 0, "%s", err.msg);
+    mesh_transform(&sph, I, s, zero);
+    prt_scene sc;
+    CHECK(scene_from_mesh(&sph, "phong:kd=0.5,0.4,0.3;ks=0.3;n=12", &sc, &err) == 0, "%s", err.msg);
+    CHECK(scene_add_floor(&sc, 100, 0, NULL, &err) == 0, "scale %g: floor: %s", s, err.msg);
+    precompute_desc d = { .N = CUBE_TEXELS, .qbits = 32, .vis_res = 64, .quiet = true, .nthreads = 2, .bounces = 1,
+                          .force_bounces = 1, .gather_res = 16, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    prt_data out;
+    int rc = precompute_run(&sc, &d, &out, &err), nv = 0;
+    CHECK(rc == 0, "scale %g: %s", s, err.msg);
+    if (rc) return 0;
+    nv = out.scene.mesh.nverts;
+    prt_probe pr;
+    const float white[3] = { 1, 1, 1 };
+    CHECK(probe_make_constant(white, &pr, &err) == 0, "%s", err.msg);
+    light_stats ls;
+    float (*L)[4] = make_light(&pr, 32, 0, &ls);
+    relight_ctx *rl = relight_create(&out, 2, &err);
+    CHECK(rl != NULL, "%s", err.msg);
+    *rgb = calloc(3 * (size_t)nv, sizeof(float));
+    if (rl) {
+        relight_set_light(rl, (const float (*)[4])L);
+        const float eye[3] = { 1.5f * s, 1.2f * s, -2.0f * s };
+        relight_view(rl, eye, 0, *rgb);
+    }
+    relight_destroy(rl);
+    free(L);
+    probe_free(&pr);
+    prt_data_free(&out);
+    return nv;
+}
+
+static void scale(void) {
+    float *ref = NULL;
+    int n1 = scale_radiance(1, &ref);
+    CHECK(n1 > 100, "scale 1: %d vertices", n1);
+    double mean = 0;
+    for (int i = 0; i < 3 * n1; i++) mean += ref[i] / (3.0 * n1);
+    CHECK(mean > 0.1 && mean < 1, "scale 1: mean radiance %g", mean);
+    /* Decimal scales round every coordinate (relative 6e-8), so a ray passing within that of an
+     * edge can go the other way. One flipped visibility ray moves a vertex by at most its texel's
+     * share, kd/pi n.w dw <= 0.5/pi x 4 pi / (6 64^2) ~ 1.6e-4 at unit light; one flipped gathering
+     * ray by its texel's share of the bounce, <= 0.5/pi x 4 pi / (6 16^2) x 1 ~ 2.6e-3; the glossy
+     * lobe up to (n+2)/2 = 7 times these. Asserted: 2e-3 a vertex (a few flipped visibility rays or
+     * one gathering ray on the diffuse part), and 1e-4 of the mean in RMS over the vertices. */
+    const float scales[] = { 0x1p-100f, 0x1p-20f, 0x1p20f, 0x1p96f, 1e-6f, 1e6f };
+    for (int q = 0; q < (int)(sizeof scales / sizeof scales[0]); q++) {
+        float *got = NULL;
+        int n = scale_radiance(scales[q], &got);
+        CHECK(n == n1, "scale %g: %d vertices vs %d", scales[q], n, n1);
+        if (n != n1 || !got) { free(got); continue; }
+        int e;
+        bool exact = frexpf(scales[q], &e) == 0.5f;
+        double se = 0, worst = 0;
+        for (int i = 0; i < 3 * n; i++) {
+            double dd = (double)got[i] - ref[i];
+            se += dd * dd;
+            worst = fmax(worst, fabs(dd));
+        }
+        double rms = sqrt(se / (3.0 * n));
+        printf("scale %g: RMS difference %.3g, worst %.3g (mean radiance %.4f)\n", scales[q], rms, worst, mean);
+        if (exact) CHECK(memcmp(got, ref, sizeof(float) * 3 * (size_t)n) == 0, "scale 2^%d: radiance differs (worst %g)", e - 1, worst);
+        else {
+            CHECK(worst <= 2e-3, "scale %g: worst vertex differs by %g", scales[q], worst);
+            CHECK(rms <= 1e-4 * mean, "scale %g: RMS difference %g", scales[q], rms);
+        }
+        free(got);
+    }
+    free(ref);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lambert_open);
@@ -478,5 +563,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(end_to_end_8bit);
     CHECK_CASE(budget_auto);
     CHECK_CASE(weighted_texels);
+    CHECK_CASE(scale);
     return check_summary();
 }

@@ -125,9 +125,14 @@ static void sphere_cap(void) {
     printf("sphere cap: occluded %.5f sr, analytic %.5f sr (tol %.4f), %ld texels\n", om, exact, tol, cnt);
 
     /* Robustness: the same occlusion at tiny and huge scales and far from the origin.
-     * (A model far from the origin is made large enough that float positions still resolve it.) */
-    struct { float scale; float off; } cases[4] = { { 1e-4f, 0 }, { 1e5f, 0 }, { 1e4f, 1e6f }, { 1.f, 30.f } };
-    for (int q = 0; q < 4; q++) {
+     * (A model far from the origin is made large enough that float positions still resolve it.)
+     * Embree's triangle test multiplies three lengths, so before the ray tracer worked in scaled
+     * units a scene 1e15 across lost shadows and one 1e20 or 1e-15 across lost them all; at a
+     * power-of-two scale the cube map is the scale-1 one bit for bit (the scaling is exact). */
+    struct { float scale; float off; } cases[] = { { 1e-4f, 0 }, { 1e5f, 0 }, { 1e4f, 1e6f }, { 1.f, 30.f },
+                                                   { 1e-30f, 0 }, { 1e-15f, 0 }, { 1e15f, 0 }, { 1e29f, 0 },
+                                                   { 1e20f, 1e22f }, { 0x1p-100f, 0 }, { 0x1p96f, 0 } };
+    for (int q = 0; q < (int)(sizeof cases / sizeof cases[0]); q++) {
         prt_mesh m2 = { 0 };
         float off[3] = { cases[q].off, cases[q].off, cases[q].off };
         make_scene(&m2, r, dist, cases[q].scale, off);
@@ -140,6 +145,10 @@ static void sphere_cap(void) {
         vis_cube(vs2, p2, n, res, vis2, &tr2, &h2);
         double om2 = occluded_solid_angle(vis2, res, n, &c2);
         CHECK_NEAR(om2, om, 0.002 * om, "scale %g offset %g: occluded %.5f vs %.5f", cases[q].scale, cases[q].off, om2, om);
+        int e2;
+        if (cases[q].off == 0 && frexpf(cases[q].scale, &e2) == 0.5f)
+            CHECK(memcmp(vis2, vis, (size_t)6 * res * res) == 0 && h2 == hits && tr2 == traced,
+                  "scale 2^%d: the cube map differs from scale 1's (%ld vs %ld hits)", e2 - 1, h2, hits);
         /* Self-intersection: a plane vertex away from the sphere's shadow and every sphere vertex
          * (convex) must see no geometry of their own surface. */
         long sh = 0, st;
@@ -213,12 +222,16 @@ static void closest(void) {
             double x = (1 - h.u - h.v) * m.pos[3 * tr[0] + k] + h.u * m.pos[3 * tr[1] + k] + h.v * m.pos[3 * tr[2] + k];
             CHECK_NEAR(x, org[k] + h.t * dirs[3 * i + k], 1e-5, "ray %d: barycentric point", i);
         }
-        /* geometric normal: Embree's Ng is (P1 - P0) x (P2 - P0), unnormalized; the grid's
-         * coordinates are multiples of 0.5, so both cross products are exact on any ISA */
+        /* geometric normal: the direction of (P1 - P0) x (P2 - P0) (its length is in the ray
+         * tracer's scaled units, visibility.h; the grid's coordinates are multiples of 0.5, so the
+         * cross products are exact on any ISA) */
         const float *P0 = m.pos + 3 * tr[0], *P1 = m.pos + 3 * tr[1], *P2 = m.pos + 3 * tr[2];
         float e1[3] = { P1[0] - P0[0], P1[1] - P0[1], P1[2] - P0[2] }, e2[3] = { P2[0] - P0[0], P2[1] - P0[1], P2[2] - P0[2] };
         float cr[3] = { e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0] };
-        for (int k = 0; k < 3; k++) CHECK_NEAR(h.ng[k], cr[k], 1e-6, "Ng component %d", k);
+        double lc = sqrt((double)cr[0] * cr[0] + (double)cr[1] * cr[1] + (double)cr[2] * cr[2]);
+        double lh = sqrt((double)h.ng[0] * h.ng[0] + (double)h.ng[1] * h.ng[1] + (double)h.ng[2] * h.ng[2]);
+        CHECK(lh > 0, "ray %d: Ng is not zero", i);
+        for (int k = 0; k < 3; k++) CHECK_NEAR(h.ng[k] / lh, cr[k] / lc, 1e-6, "Ng direction component %d", k);
         CHECK(cr[1] > 0, "mesh_make_plane faces +y");
         /* the segment ending before the plane is not occluded */
         CHECK(!vis_occluded(vs, org, dirs + 3 * i, 0, 0.99f * h.t), "ray %d: short segment occluded", i);

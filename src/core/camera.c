@@ -31,15 +31,16 @@ void camera_basis(const prt_camera *cam, float fwd[3], float right[3], float up[
 
 /* Frames the box: its bounding sphere fits the narrower half field of view. */
 void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_camera *out) {
-    float c[3], r = 0;
+    float c[3];
+    double r2 = 0;   /* double: a box 1e20 across squares past FLT_MAX, one 1e-20 across below FLT_MIN */
     for (int i = 0; i < 3; i++) {
         float lo = bmin[i], hi = bmax[i];
         if (!isfinite(lo) || !isfinite(hi) || hi < lo) lo = hi = 0;
-        c[i] = 0.5f * (lo + hi);
-        r += 0.25f * (hi - lo) * (hi - lo);
+        c[i] = 0.5f * lo + 0.5f * hi;
+        r2 += 0.25 * ((double)hi - lo) * ((double)hi - lo);
     }
-    r = sqrtf(r);                    /* the bounding sphere holds every corner of the box */
-    if (!(r > 0)) r = 1;
+    float r = (float)sqrt(r2);       /* the bounding sphere holds every corner of the box */
+    if (!(r > 0) || !isfinite(r)) r = 1;
     if (!(aspect > 0) || !isfinite(aspect)) aspect = 4.0f / 3;
     out->fov_deg = 40;
     float half_v = 20.0f * (float)M_PI / 180.0f;
@@ -59,7 +60,7 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
 void camera_lower(prt_camera *cam, float el_deg, float pitch_deg, float fov_deg) {
     float d[3];
     v3_sub(d, cam->eye, cam->target);
-    float dist = v3_len(d), hl = sqrtf(d[0] * d[0] + d[2] * d[2]);
+    float dist = v3_len(d), hl = v3_len((const float[3]){ d[0], 0, d[2] });
     if (!(hl > 0) || !(dist > 0)) return;   /* looking straight down or at itself: no azimuth to keep */
     float hx = d[0] / hl, hz = d[2] / hl, el = el_deg * (float)M_PI / 180, pitch = pitch_deg * (float)M_PI / 180;
     v3_set(cam->eye, cam->target[0] + dist * cosf(el) * hx, cam->target[1] + dist * sinf(el), cam->target[2] + dist * cosf(el) * hz);
@@ -126,7 +127,8 @@ void camera_matrices(const prt_camera *cam, float aspect, float znear, float zfa
     proj[5] = t;
     proj[10] = (zfar + znear) / (znear - zfar);
     proj[11] = -1;
-    proj[14] = 2 * zfar * znear / (znear - zfar);
+    /* double: the product of the planes leaves float for scenes beyond ~1e19 or below ~1e-19 */
+    proj[14] = (float)(2.0 * zfar * znear / ((double)znear - zfar));
 }
 
 /* Unit ray through continuous image point (px, py), top-left origin. */

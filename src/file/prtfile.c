@@ -287,6 +287,8 @@ static bool data_ok(const prt_data *d, char *why) {
         prt_error e;
         if (light_validate(&sc->lights.light[i], "LITE", &e)) return BAD(why, "light %d: %.200s", i, e.msg);
     }
+    prt_error se;   /* precompute refuses such scenes; a file holding one was not written by it */
+    if (scene_check_scale(sc, &se)) return BAD(why, "%.200s", se.msg);
 
     return materials_ok(d, why) && transfers_ok(d, why);
 }

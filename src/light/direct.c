@@ -8,6 +8,7 @@
 #include "brdf.h"
 #include "visibility.h"
 #include "vec3.h"
+#include <float.h>
 #include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -101,7 +102,7 @@ static float direct_toward(const direct_ctx *dc, const prt_light *l, int v, floa
     float dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dist = sqrtf(dist2);
     L[0] = L[1] = L[2] = 0;
     *any = false;
-    if (!(dist > 1e-12f)) return wi[0] = wi[1] = wi[2] = 0, 0;
+    if (!(dist2 >= FLT_MIN)) return wi[0] = wi[1] = wi[2] = 0, 0;   /* at the vertex (any scale) */
     for (int k = 0; k < 3; k++) wi[k] = d[k] / dist;
     float c = n[0] * wi[0] + n[1] * wi[1] + n[2] * wi[2], I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
     if (!(c > 0)) return dist;

@@ -5,6 +5,7 @@
 #include "lights.h"
 #include "brdf.h"
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -151,7 +152,7 @@ float light_shade(const prt_light *l, const brdf_params *bp, const float p[3], c
     out[0] = out[1] = out[2] = 0;
     float d[3] = { l->pos[0] - p[0], l->pos[1] - p[1], l->pos[2] - p[2] };
     float dist2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], dist = sqrtf(dist2);
-    if (!(dist > 1e-12f)) { wi[0] = wi[1] = wi[2] = 0; return 0; }
+    if (!(dist2 >= FLT_MIN)) { wi[0] = wi[1] = wi[2] = 0; return 0; }   /* at the point (any scale) */
     for (int k = 0; k < 3; k++) wi[k] = d[k] / dist;
     float S[3], T[3], wil[3], wol[3], f[3], I[3], away[3] = { -wi[0], -wi[1], -wi[2] };
     brdf_frame(n, S, T);

@@ -4,6 +4,7 @@
  * second moment minus the squared mean (the variance, section 2.2) cancels badly in float. */
 #include "vsgl.h"
 #include "vec3.h"
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -48,7 +49,7 @@ bool vsgl_accum_result(const vsgl_accum *a, vsgl_light *out)
         out->mean[k] = (float)mu[k];
     }
     double var = fmax(a->pos2 / a->w - mu2, 0.0) / 2 + a->spread / a->w;
-    out->var = (float)fmax(var, 1e-12);
+    out->var = (float)fmax(var, FLT_MIN);   /* only not 0: every use floors it relative to the distance */
     return true;
 }
 

@@ -45,6 +45,7 @@
  * time; the pass's wall time is split between "visibility" and "transport" in
  * that ratio. */
 #include "precompute.h"
+#include "albedo.h"
 #include "check.h"
 #include "checkpoint.h"
 #include "cubemap.h"
@@ -623,6 +624,13 @@ static int pc_factor(pc_run *r, prt_error *err) {
     plan_add(r->plan, r->pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
     for (int i = 0; i < out->scene.nmaterials; i++)
         plan_material(r->plan, r->pcap, i, &out->scene.materials[i], &out->factors[i], r->d.max_terms, r->d.term_error);
+    /* A BRDF reflecting more than it receives (albedo.h): a warning, since it may be meant */
+    for (int i = 0; i < out->scene.nmaterials; i++) {
+        char w[700];
+        const char *spec = out->scene.material_spec[i][0] ? out->scene.material_spec[i] : NULL;
+        if (brdf_energy_warning(&out->scene.materials[i], spec, w, sizeof w))
+            plan_add(r->plan, r->pcap, "  warning: material %d %s\n", i, w);
+    }
     return 0;
 }
 

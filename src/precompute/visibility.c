@@ -38,6 +38,14 @@
  * tests' tolerances are checked against a traversal that another CPU would run
  * (tools/test_portable.sh). It is read where the device is created, not kept in any global.
  *
+ * Scale: Embree's triangle test multiplies three lengths (a distance times an edge cross
+ * product), which leaves float at scene sizes near 1e13 or 1e-13 (a sphere over a plane at
+ * 1e15 lost its shadows; at 1e-15 and 1e20 every ray escaped). So the copy Embree holds is
+ * scaled by k, the power of two that brings the bounding-box diagonal into [1, 2), and every
+ * ray's origin, tnear and tfar are scaled by k on the way in and hit distances by 1/k on the
+ * way out. A power of two is exact in float, so Embree solves exactly the caller's problem in
+ * units where the scene is about 1 across, whatever the caller's units (docs/design/scale.md).
+ *
  * Thread safety: the Embree scene is immutable after rtcCommitScene, and every
  * call builds its own RTCIntersectContext on the stack. */
 #include "visibility.h"
@@ -49,13 +57,16 @@
 struct vis_scene {
     RTCDevice device;
     RTCScene scene;
-    float *pos;      /* owned padded copy of the mesh positions [3*nverts + 4] */
-    float eps;
+    float *pos;      /* owned padded copy of the mesh positions times k [3*nverts + 4] */
+    float eps;       /* the ray offset in the caller's units */
+    float k, kinv;   /* Embree's units per caller unit (a power of two) and its inverse */
+    float eps_k;     /* eps * k */
     int ntris;
     /* vis_cull_floor: a ray that goes down (d.up < 0) from above the floor (o.up > floor_top)
      * and crosses its plane (floor_h) inside the rectangle [u0, u1] x [v0, v1] of the in-plane
      * axes tu, tv (shrunk by a margin) at t > tnear + eps is blocked untraced. Set only when the
-     * floor is flat and its triangles tile that rectangle (their areas sum to its area). */
+     * floor is flat and its triangles tile that rectangle (their areas sum to its area). Lengths
+     * are in Embree's units (times k). */
     bool cull;
     float up[3], tu[3], tv[3], floor_top, floor_h, u0, u1, v0, v1;
 };
@@ -82,6 +93,19 @@ void vis_destroy(vis_scene *vs) {
     free(vs);
 }
 
+/* Sets k = 2^-e with the diagonal times k in [1, 2), held where the largest coordinate times k
+ * stays below 2^64 (a scene far smaller than its distance from the origin), and 1 for an empty
+ * or single-point scene. */
+static void vis_choose_scale(vis_scene *vs, double diag, double maxabs) {
+    int e = 0;
+    if (diag > 0 && isfinite(diag)) e = ilogb(diag);
+    if (maxabs > 0 && isfinite(maxabs) && ilogb(maxabs) - e > 63) e = ilogb(maxabs) - 63;
+    e = e < -120 ? -120 : e > 120 ? 120 : e;   /* k and 1/k normal floats */
+    vs->k = ldexpf(1.f, -e);
+    vs->kinv = ldexpf(1.f, e);
+    vs->eps_k = vs->eps * vs->k;
+}
+
 /* Builds the Embree scene over m. Returns a scene the caller frees with vis_destroy, or NULL
  * with err set (an invalid mesh or an Embree failure; nothing to free then). */
 vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
@@ -101,7 +125,6 @@ vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
     /* Padded copy: 4 floats of slack after the last vertex (see the file comment). */
     vs->pos = prt_calloc((size_t)3 * (size_t)m->nverts + 4, sizeof(float), err);
     if (!vs->pos) { vis_destroy(vs); return NULL; }
-    if (m->nverts > 0) memcpy(vs->pos, m->pos, sizeof(float) * 3 * (size_t)m->nverts);
 
     /* eps: 1e-4 of the bounding-box diagonal plus 1e-6 of the largest coordinate magnitude. */
     double lo[3] = { 0, 0, 0 }, hi[3] = { 0, 0, 0 }, maxabs = 0;
@@ -116,6 +139,8 @@ vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
     vs->eps = (float)(1e-4 * diag + 1e-6 * maxabs);
     if (!(vs->eps > 0)) vs->eps = 1e-6f;
+    vis_choose_scale(vs, diag, maxabs);
+    for (size_t i = 0; i < 3 * (size_t)m->nverts; i++) vs->pos[i] = m->pos[i] * vs->k;
 
     /* $PRT_EMBREE_CONFIG: Embree's device config (see the file comment); NULL for its defaults. */
     const char *cfg = getenv("PRT_EMBREE_CONFIG");
@@ -217,10 +242,12 @@ void vis_cull_floor(vis_scene *vs, const prt_mesh *m, int floor_first) {
         !(r[3] - r[2] > 16 * e))
         return;
     for (int c = 0; c < 3; c++) { vs->up[c] = (float)up[c]; vs->tu[c] = (float)tu[c]; vs->tv[c] = (float)tv[c]; }
-    vs->floor_top = (float)(top + 0.25 * e);   /* the margin: o.up is rounded once more */
-    vs->floor_h = (float)bot;
-    vs->u0 = (float)(r[0] + 4 * e); vs->u1 = (float)(r[1] - 4 * e);
-    vs->v0 = (float)(r[2] + 4 * e); vs->v1 = (float)(r[3] - 4 * e);
+    /* in Embree's units: each length rounded to float as the caller's, then times k (exact) */
+    const float k = vs->k;
+    vs->floor_top = (float)(top + 0.25 * e) * k;   /* the margin: o.up is rounded once more */
+    vs->floor_h = (float)bot * k;
+    vs->u0 = (float)(r[0] + 4 * e) * k; vs->u1 = (float)(r[1] - 4 * e) * k;
+    vs->v0 = (float)(r[2] + 4 * e) * k; vs->v1 = (float)(r[3] - 4 * e) * k;
     vs->cull = true;
 }
 
@@ -248,13 +275,15 @@ static const float vis_face_b[6][3] = { { 0, -1, 0 }, { 0, -1, 0 }, { 0, 0, 1 },
 static const float vis_lane_s[16] = { 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3 };
 static const float vis_lane_t[16] = { 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3 };
 
-/* Sets the fields of packet r that every packet of one vertex shares: origin p + eps n, tnear eps. */
-static inline void vis_packet_origin(struct RTCRay16 *r, const float p[3], const float n[3], float eps) {
+/* Sets the fields of packet r that every packet of one vertex shares: origin p + eps n, tnear eps,
+ * in Embree's units (times k, exact: the same floats as the caller's units times k). */
+static inline void vis_packet_origin(const vis_scene *vs, struct RTCRay16 *r, const float p[3], const float n[3]) {
+    const float eps = vs->eps, k = vs->k;
     for (int l = 0; l < 16; l++) {
-        r->org_x[l] = p[0] + eps * n[0];
-        r->org_y[l] = p[1] + eps * n[1];
-        r->org_z[l] = p[2] + eps * n[2];
-        r->tnear[l] = eps;
+        r->org_x[l] = (p[0] + eps * n[0]) * k;
+        r->org_y[l] = (p[1] + eps * n[1]) * k;
+        r->org_z[l] = (p[2] + eps * n[2]) * k;
+        r->tnear[l] = vs->eps_k;
         r->time[l] = 0;
         r->mask[l] = 0xffffffffu;
         r->id[l] = (unsigned)l;
@@ -310,7 +339,7 @@ static int vis_packet_cull(const vis_scene *vs, const struct RTCRay16 *r, const 
         const float t = du < 0 ? oh / -du : 0;   /* where the ray crosses the floor's plane */
         const float qu = ou + t * (dx * vs->tu[0] + dy * vs->tu[1] + dz * vs->tu[2]);
         const float qv = ov + t * (dx * vs->tv[0] + dy * vs->tv[1] + dz * vs->tv[2]);
-        got[l] = valid[l] && du < 0 && t > r->tnear[l] + vs->eps && qu > vs->u0 && qu < vs->u1 && qv > vs->v0 && qv < vs->v1;
+        got[l] = valid[l] && du < 0 && t > r->tnear[l] + vs->eps_k && qu > vs->u0 && qu < vs->u1 && qv > vs->v0 && qv < vs->v1;
         if (got[l]) valid[l] = 0;
         left += valid[l] != 0;
     }
@@ -332,7 +361,7 @@ void vis_cube(const vis_scene *vs, const float p[3], const float n[3], int res, 
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int valid[16];
-    vis_packet_origin(&r, p, n, vs->eps);
+    vis_packet_origin(vs, &r, p, n);
     const float org[3] = { r.org_x[0], r.org_y[0], r.org_z[0] };
     /* A normal within 2.6 degrees of the floor's up (every floor vertex) has next to no rays down: the
      * per-lane test would find none to settle, so it is left out (tracing is always exact). */
@@ -391,7 +420,7 @@ long vis_open_many(const vis_scene *vs, const float p[3], const float n[3], cons
     rtcInitIntersectContext(&ctx);
     RTC_ALIGN(64) struct RTCRay16 r;
     RTC_ALIGN(64) int valid[16];
-    vis_packet_origin(&r, p, n, vs->eps);
+    vis_packet_origin(vs, &r, p, n);
     long nt = 0;
     for (int b = 0; b < count; b += 16) {
         int nvalid = 0;
@@ -415,10 +444,11 @@ bool vis_closest(const vis_scene *vs, const float org[3], const float dir[3], fl
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRayHit rh;
-    rh.ray.org_x = org[0]; rh.ray.org_y = org[1]; rh.ray.org_z = org[2];
+    const float k = vs->k;
+    rh.ray.org_x = org[0] * k; rh.ray.org_y = org[1] * k; rh.ray.org_z = org[2] * k;
     rh.ray.dir_x = dir[0]; rh.ray.dir_y = dir[1]; rh.ray.dir_z = dir[2];
-    rh.ray.tnear = tnear;
-    rh.ray.tfar = tfar;
+    rh.ray.tnear = tnear * k;
+    rh.ray.tfar = tfar * k;
     rh.ray.time = 0;
     rh.ray.mask = 0xffffffffu;
     rh.ray.id = 0;
@@ -432,7 +462,7 @@ bool vis_closest(const vis_scene *vs, const float org[3], const float dir[3], fl
         hit->tri = got ? (int)rh.hit.primID : -1;
         hit->u = got ? rh.hit.u : 0;
         hit->v = got ? rh.hit.v : 0;
-        hit->t = got ? rh.ray.tfar : INFINITY;
+        hit->t = got ? rh.ray.tfar * vs->kinv : INFINITY;
         hit->ng[0] = got ? rh.hit.Ng_x : 0;
         hit->ng[1] = got ? rh.hit.Ng_y : 0;
         hit->ng[2] = got ? rh.hit.Ng_z : 0;
@@ -447,14 +477,15 @@ void vis_closest_many(const vis_scene *vs, const float org[3], const float *dirs
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
     RTC_ALIGN(64) struct RTCRayHit16 rh;
     RTC_ALIGN(64) int valid[16];
+    const float k = vs->k, o[3] = { org[0] * k, org[1] * k, org[2] * k };
     for (int b = 0; b < n; b += 16) {
         int m = n - b < 16 ? n - b : 16;
         for (int l = 0; l < 16; l++) {
             valid[l] = l < m ? -1 : 0;
             const float *d = dirs + 3 * (size_t)(b + (l < m ? l : 0));
-            rh.ray.org_x[l] = org[0]; rh.ray.org_y[l] = org[1]; rh.ray.org_z[l] = org[2];
+            rh.ray.org_x[l] = o[0]; rh.ray.org_y[l] = o[1]; rh.ray.org_z[l] = o[2];
             rh.ray.dir_x[l] = d[0]; rh.ray.dir_y[l] = d[1]; rh.ray.dir_z[l] = d[2];
-            rh.ray.tnear[l] = tnear;
+            rh.ray.tnear[l] = tnear * k;
             rh.ray.tfar[l] = INFINITY;
             rh.ray.time[l] = 0;
             rh.ray.mask[l] = 0xffffffffu;
@@ -471,7 +502,7 @@ void vis_closest_many(const vis_scene *vs, const float org[3], const float *dirs
             h->tri = got ? (int)rh.hit.primID[l] : -1;
             h->u = got ? rh.hit.u[l] : 0;
             h->v = got ? rh.hit.v[l] : 0;
-            h->t = got ? rh.ray.tfar[l] : INFINITY;
+            h->t = got ? rh.ray.tfar[l] * vs->kinv : INFINITY;
             h->ng[0] = got ? rh.hit.Ng_x[l] : 0;
             h->ng[1] = got ? rh.hit.Ng_y[l] : 0;
             h->ng[2] = got ? rh.hit.Ng_z[l] : 0;
@@ -484,10 +515,11 @@ bool vis_occluded(const vis_scene *vs, const float org[3], const float dir[3], f
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay r;
-    r.org_x = org[0]; r.org_y = org[1]; r.org_z = org[2];
+    const float k = vs->k;
+    r.org_x = org[0] * k; r.org_y = org[1] * k; r.org_z = org[2] * k;
     r.dir_x = dir[0]; r.dir_y = dir[1]; r.dir_z = dir[2];
-    r.tnear = tnear;
-    r.tfar = tfar;
+    r.tnear = tnear * k;
+    r.tfar = tfar * k;
     r.time = 0;
     r.mask = 0xffffffffu;
     r.id = 0;

@@ -22,9 +22,14 @@
  * into a padded buffer it owns (12 bytes a vertex). So a later change to mesh.pos is
  * not seen; build a new vis_scene instead.
  *
- * Hits: tri is the mesh's triangle index, ng = (P1 - P0) x (P2 - P0) (Embree's
- * geometric normal: it points to the side from which the triangle is counter-
- * clockwise). A miss has tri = -1, u = v = 0, t = INFINITY, ng = 0.
+ * Hits: tri is the mesh's triangle index, ng the direction of (P1 - P0) x (P2 - P0)
+ * (Embree's geometric normal: it points to the side from which the triangle is counter-
+ * clockwise; its length is in Embree's internal units, so use its direction only). A miss
+ * has tri = -1, u = v = 0, t = INFINITY, ng = 0.
+ *
+ * Scale: positions, origins and distances are the caller's units; Embree holds the scene
+ * scaled by a power of two (exact) that makes it about 1 across, so the scene's size does not
+ * matter to the ray tracer (docs/design/scale.md).
  *
  * A model's rays down to the floor are known blocked without tracing (vis_cull_floor; the
  * pass's time measured in the README, "Shadows").
@@ -46,7 +51,7 @@ typedef struct vis_hit {
     int tri;        /* triangle index, -1 for a miss */
     float u, v;     /* barycentrics: point = (1-u-v) P0 + u P1 + v P2 */
     float t;        /* distance */
-    float ng[3];    /* geometric normal (unnormalized, as Embree gives it) */
+    float ng[3];    /* geometric normal (unnormalized; direction only) */
 } vis_hit;
 
 /* Builds the BVH over m (buffers shared, not copied). Returns NULL with err set on failure. */

@@ -22,6 +22,7 @@
  * t, n) so the view loop streams a single array. */
 #include "relight.h"
 #include "check.h"
+#include "vec3.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -220,7 +221,11 @@ static void view_chunk(void *p, int begin, int end, int thread) {
         const relight_vert *rv = &verts[v];
         float wo[3] = { j->eye[0] - rv->pos[0], j->eye[1] - rv->pos[1], j->eye[2] - rv->pos[2] };
         float len2 = wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2];
-        float inv = len2 > 0 ? 1.f / sqrtf(len2) : 0.f;   /* eye at the vertex: no direction, black unless Lambertian */
+        if (!V3_SAFE_LEN2(len2)) {   /* an eye 1e20 away (or 1e-20): scaled first, exactly (vec3.h) */
+            v3_prescale(wo);
+            len2 = wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2];
+        }
+        float inv = len2 > 0 && isfinite(len2) ? 1.f / sqrtf(len2) : 0.f;   /* eye at the vertex: no direction, black unless Lambertian */
         wo[0] *= inv; wo[1] *= inv; wo[2] *= inv;
         float wl[3];
         brdf_to_local(rv->s, rv->t, rv->n, wo, wl);

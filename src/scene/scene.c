@@ -38,6 +38,46 @@ void scene_free(prt_scene *s) {
 
 void scene_update_bounds(prt_scene *s) { mesh_bounds(&s->mesh, s->bmin, s->bmax); }
 
+/* Largest |coordinate| of vertices [begin, end) and the diagonal of their bounding box (double:
+ * the sum of squares of a 1e30 box passes FLT_MAX). */
+static void scene_extent(const prt_mesh *m, int begin, int end, double *maxabs, double *diag) {
+    double lo[3] = { 0, 0, 0 }, hi[3] = { 0, 0, 0 }, mx = 0;
+    for (int v = begin; v < end; v++)
+        for (int c = 0; c < 3; c++) {
+            double x = m->pos[3 * (size_t)v + c];
+            if (v == begin || x < lo[c]) lo[c] = x;
+            if (v == begin || x > hi[c]) hi[c] = x;
+            mx = fmax(mx, fabs(x));
+        }
+    *maxabs = mx;
+    *diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
+/* See scene.h. The floor is checked apart from the models so that the message names what the
+ * user can change (a model inside the range under a floor that is not: the floor's size). */
+int scene_check_scale(const prt_scene *s, prt_error *err) {
+    const prt_mesh *m = &s->mesh;
+    int nmodel = s->floor_first_vertex >= 0 && s->floor_first_vertex < m->nverts ? s->floor_first_vertex : m->nverts;
+    double mx, diag, fmx = 0, fdiag;
+    scene_extent(m, 0, nmodel, &mx, &diag);
+    if (nmodel < m->nverts) scene_extent(m, nmodel, m->nverts, &fmx, &fdiag);
+    if (mx > SCENE_MAX_COORD)
+        return prt_fail(err, "coordinates up to %.3g overflow float arithmetic; prt takes coordinates within "
+                        "+-%.0e: scale the model down (a JSON scene's \"scale\")", mx, SCENE_MAX_COORD);
+    if (fmx > SCENE_MAX_COORD)
+        return prt_fail(err, "the floor reaches coordinates of %.3g, which overflow float arithmetic; prt takes "
+                        "coordinates within +-%.0e: a smaller floor size, or scale the model down", fmx, SCENE_MAX_COORD);
+    if (m->nverts > 0 && diag < SCENE_MIN_SIZE && mx > 0)
+        return prt_fail(err, "the model is only %.3g across, which underflows float arithmetic; prt takes scenes at "
+                        "least %.0e across: scale the model up (a JSON scene's \"scale\")", diag, SCENE_MIN_SIZE);
+    for (int i = 0; i < s->lights.count; i++)
+        for (int c = 0; c < 3; c++)
+            if (fabs(s->lights.light[i].pos[c]) > SCENE_MAX_COORD)
+                return prt_fail(err, "lights[%d]: position coordinate %.3g overflows float arithmetic; prt takes "
+                                "coordinates within +-%.0e", i, (double)s->lights.light[i].pos[c], SCENE_MAX_COORD);
+    return 0;
+}
+
 /* Returns the index of the material with this spec, adding it if new; -1 with err set. */
 int scene_material(prt_scene *s, const char *spec, prt_error *err) {
     if (!spec || !*spec) return prt_fail(err, "empty material spec");
@@ -545,6 +585,11 @@ int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_err
                 return prt_fail(err, "%s: %s", path, e2.msg);
             }
         }
+        prt_error e3;
+        if (scene_check_scale(out, &e3) != 0) {
+            scene_free(out);
+            return prt_fail(err, "%s: %s", path, e3.msg);
+        }
         return 0;
     }
     if (strcmp(ext, "json") == 0) {
@@ -564,6 +609,11 @@ int scene_parse_json(const char *name, const char *text, size_t len, const scene
     out->floor_first_vertex = -1;
     if (json_scene(name, text, len, desc, out, err) != 0) { scene_free(out); return -1; }
     scene_update_bounds(out);
+    prt_error e2;
+    if (scene_check_scale(out, &e2) != 0) {
+        scene_free(out);
+        return prt_fail(err, "%s: %s", name, e2.msg);
+    }
     return 0;
 }
 

@@ -99,6 +99,18 @@ int scene_add_floor(prt_scene *s, int verts, float size, const char *material, p
 /* Adds (or finds) a material by spec; returns its index or -1 with err set. */
 int scene_material(prt_scene *s, const char *spec, prt_error *err);
 
+/* The range of scene coordinates prt computes with (docs/design/scale.md): every position of
+ * the mesh (floor included) and of the local lights within +-SCENE_MAX_COORD, and a mesh at
+ * least SCENE_MIN_SIZE across (its bounding-box diagonal). Inside it the scale does not matter
+ * (the ray tracer, lengths and the camera work in scaled units); outside it float arithmetic
+ * overflows or underflows on the way to the image. */
+#define SCENE_MAX_COORD 1e30
+#define SCENE_MIN_SIZE 1e-30
+/* Returns 0 when s is inside that range, else -1 with err set to one line naming what is out of
+ * range and what to do ("coordinates up to 3e+35 overflow float arithmetic; ..."); no file name
+ * (the caller's). scene_load and scene_parse_json check every scene they make. */
+int scene_check_scale(const prt_scene *s, prt_error *err);
+
 /* Recomputes s->bmin/bmax. */
 void scene_update_bounds(prt_scene *s);
 

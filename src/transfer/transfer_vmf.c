@@ -8,6 +8,7 @@
 #include "transfer.h"
 #include "check.h"
 #include "prefilter.h"
+#include "vec3.h"
 #include "prtfile.h"
 #include "vmf.h"
 #include "vmfpass.h"
@@ -402,8 +403,9 @@ static void shade_range(void *ctx, int begin, int end, int thread) {
             if (!((c->t->materials >> m->mat[v]) & 1)) continue;
             const float *p = m->pos + 3 * (size_t)v;
             float wo[3] = { c->eye[0] - p[0], c->eye[1] - p[1], c->eye[2] - p[2] };
+            if (!V3_SAFE_LEN2(wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2])) v3_prescale(wo);   /* far or near eye (vec3.h) */
             float l = sqrtf(wo[0] * wo[0] + wo[1] * wo[1] + wo[2] * wo[2]);
-            if (!(l > 0)) continue;
+            if (!(l > 0) || !isfinite(l)) continue;
             for (int k = 0; k < 3; k++) wo[k] /= l;
             vs[nb] = v;
             view_locate(c->t, m, v, wo, &q[nb++]);

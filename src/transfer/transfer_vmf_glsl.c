@@ -139,6 +139,10 @@ static const char k_vmf_view[] =
     "    int bx = int(tu(9)), bd = int(tu(8)), hsize = int(tu(12));\n"
     "    ivec3 c = ivec3(int(tu(bt + 3 * tri)), int(tu(bt + 3 * tri + 1)), int(tu(bt + 3 * tri + 2)));\n"
     "    vec3 p0 = tf(bx + 2 * c.x).xyz, e0 = tf(bx + 2 * c.y).xyz - p0, e1 = tf(bx + 2 * c.z).xyz - p0, e2 = pos - p0;\n"
+    /* den is an edge length to the 4th: edges over ~1e9 or under ~1e-9 leave float, so the edges are
+     * brought near 1 first (the barycentrics are ratios; docs/design/scale.md) */
+    "    float es = max(max(max(abs(e0.x), abs(e0.y)), max(abs(e0.z), abs(e1.x))), max(abs(e1.y), abs(e1.z)));\n"
+    "    if (es > 0.0) { e0 /= es; e1 /= es; e2 /= es; }\n"
     "    float d00 = dot(e0, e0), d01 = dot(e0, e1), d11 = dot(e1, e1), d20 = dot(e2, e0), d21 = dot(e2, e1);\n"
     "    float den = d00 * d11 - d01 * d01;\n"
     "    float bb = den != 0.0 ? (d11 * d20 - d01 * d21) / den : 0.0, bc = den != 0.0 ? (d00 * d21 - d01 * d20) / den : 0.0;\n"
