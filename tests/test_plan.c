@@ -6,7 +6,10 @@
  * that brighten its inside; force_bounces and max_terms / term_error override
  * the plan; a progress callback can cancel; bad settings fail with a message.
  * Issue 9: the path per material (Lambert, SVD, Haar diffuse + vMF specular) decided by
- * measurement and printed with the reason; --glossy forces it; bad values are refused. */
+ * measurement and printed with the reason; --glossy forces it; bad values are refused.
+ * The time estimate covers every pass that runs (direct, each bounce, each vMF stage), one for one
+ * (not its accuracy: README "Effects plan" measures that); a BRDF reflecting more than it
+ * receives gets one warning line in the plan, and the run goes on. */
 #include "harness.h"
 #include "light.h"
 #include "mesh.h"
@@ -376,6 +379,73 @@ static void glossy_transfers(void) {
     }
 }
 
+/* Every pass the run makes has the plan's estimate and every estimated pass runs: forced bounces
+ * (the adaptive stop would leave estimated passes out), a glossy sphere on the vMF path over a
+ * floor (its diffuse-lobe, direct and gathering stages); a Lambert sphere without bounces: the
+ * direct pass alone. The estimates are positive and finite and the plan's line names them. */
+static void estimate_passes(void) {
+    if (!transfer_find("vmf")) { printf("  skipped plan/estimate_passes: no vmf representation\n"); return; }
+    for (int q = 0; q < 2; q++) {
+        prt_error err;
+        prt_scene sc;
+        prt_data out;
+        CHECK(make_sphere_scene(&sc, q ? "lambert:kd=0.5" : "phong:kd=0.3;ks=0.5;n=40", &err) == 0, "%s", err.msg);
+        if (!q) CHECK(scene_add_floor(&sc, 256, 3, NULL, &err) == 0, "%s", err.msg);
+        precompute_desc d = base;
+        d.bounces = q ? 0 : 2;
+        d.force_bounces = q ? -1 : 1;
+        d.glossy = PRECOMPUTE_GLOSSY_VMF;
+        d.vmf.level = 1;
+        d.vmf.samples = 16;
+        if (precompute_run(&sc, &d, &out, &err)) { CHECK(0, "%s", err.msg); continue; }
+        static const char *want[2][8] = { { "direct", "bounce 1", "bounce 2", "vmf diffuse lobes", "vmf direct", "vmf pass 1", "vmf pass 2" },
+                                          { "direct" } };
+        const prt_stats *st = &out.stats;
+        int planned = 0, ran = 0, nwant = q ? 1 : 7;
+        for (int i = 0; i < st->npasses; i++) {
+            const prt_pass_time *p = &st->pass[i];
+            planned += p->planned, ran += p->ran;
+            CHECK(p->planned && p->ran, "pass %s: planned %d, ran %d", p->name, p->planned, p->ran);
+            /* 0 is a fair estimate of a vMF pass >= 2 when no ray hits a fitted triangle (nothing to gather) */
+            CHECK(p->est_cpu >= 0 && isfinite(p->est_cpu) && p->est >= 0 && isfinite(p->est) && (i > 0 || p->est_cpu > 0),
+                  "pass %s: estimate %g s (CPU %g s)", p->name, p->est, p->est_cpu);
+            CHECK(p->wall > 0 && p->cpu >= 0, "pass %s: measured %g s", p->name, p->wall);
+            CHECK(i < nwant && !strcmp(p->name, want[q][i]), "pass %d is %s, want %s", i, p->name, i < nwant ? want[q][i] : "none");
+            printf("  %-18s estimate %6.2fs (CPU %6.2fs), ran %6.2fs (CPU %6.2fs)\n", p->name, p->est, p->est_cpu, p->wall, p->cpu);
+        }
+        CHECK(planned == ran && ran == nwant, "%d passes estimated, %d ran, want %d", planned, ran, nwant);
+        CHECK(strstr(out.plan, q ? "estimate: direct pass" : "each bounce pass") && (q || strstr(out.plan, "vMF lobes")),
+              "plan: %s", out.plan);
+        CHECK(strstr(out.plan, "time (estimate): direct") != NULL, "the plan's measured line: %s", out.plan);
+        prt_data_free(&out);
+    }
+}
+
+/* A BRDF reflecting more than it receives (albedo.h): one warning line in the plan naming it, and
+ * the precompute goes on; a physical one gets none. */
+static void energy_warning(void) {
+    for (int q = 0; q < 2; q++) {
+        prt_error err;
+        prt_scene sc;
+        prt_data out;
+        CHECK(make_sphere_scene(&sc, q ? "phong:kd=0.5;ks=0.4" : "phong:kd=2;ks=3", &err) == 0, "%s", err.msg);
+        precompute_desc d = base;
+        d.glossy = PRECOMPUTE_GLOSSY_SVD;
+        int rc = precompute_run(&sc, &d, &out, &err);
+        CHECK(rc == 0, "%s", err.msg);
+        if (rc) continue;
+        const char *w = strstr(out.plan, "warning:");
+        if (q) CHECK(w == NULL, "a physical BRDF warned of: %s", out.plan);
+        else {
+            CHECK(w && !strncmp(w, "warning: material 0 phong:kd=2;ks=3 reflects up to 5 of the light (directional albedo "
+                                   "above 1 at 0 deg): interreflections will gain energy\n", 129),
+                  "plan: %s", out.plan);
+            CHECK(w && !strstr(w + 1, "warning:"), "one warning line: %s", out.plan);
+        }
+        prt_data_free(&out);
+    }
+}
+
 /* prt precompute --glossy: a bad value is refused with one line naming the flag, exit 2, no file. */
 static void glossy_flag(void) {
     char cmd[1024], buf[1024], outp[512];
@@ -404,5 +474,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(paths);
     CHECK_CASE(glossy_transfers);
     CHECK_CASE(glossy_flag);
+    CHECK_CASE(estimate_passes);
+    CHECK_CASE(energy_warning);
     return check_summary();
 }

@@ -33,6 +33,8 @@
 
 /* Monotonic wall-clock seconds. */
 double prt_now(void);
+/* CPU seconds this process has used, every thread's, user and system (getrusage). */
+double prt_process_cpu(void);
 
 /* Threads to use: requested if > 0, else $PRT_THREADS if set, else online CPUs. */
 int prt_thread_count(int requested);

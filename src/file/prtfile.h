@@ -43,6 +43,16 @@
 #define PRTFILE_VERSION 3
 #define PRTFILE_VERSION_OLDEST 2
 #define PRT_MAX_BOUNCES 8
+#define PRT_MAX_PASSES 16   /* direct + bounces + the vMF stages, with room */
+
+/* One pass of a precompute, as the effects plan estimated it and as it ran (not stored). */
+typedef struct prt_pass_time {
+    char name[24];      /* "direct", "bounce 1", "vmf diffuse lobes", "vmf direct", "vmf pass 1" ... */
+    double est_cpu;     /* the plan's estimate: CPU seconds over every thread */
+    double est;         /* the same in wall seconds at the sample's threads and share of a core */
+    double cpu, wall;   /* measured (0 and ran false while it has not run) */
+    bool planned, ran;
+} prt_pass_time;
 
 typedef struct prt_stats {
     double t_refine;            /* adaptive refinement (refine.h; 0 when off; not stored: the plan line has it) */
@@ -59,6 +69,8 @@ typedef struct prt_stats {
     double bounce_energy[PRT_MAX_BOUNCES]; /* energy of pass i relative to the direct pass */
     double trunc_rel_err;       /* RMS relative L2 error of truncation + quantization over all vectors */
     size_t peak_rss_bytes;
+    int npasses;                /* passes the plan estimated or that ran (not stored) */
+    prt_pass_time pass[PRT_MAX_PASSES];
 } prt_stats;
 
 typedef struct prt_data {

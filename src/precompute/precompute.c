@@ -19,7 +19,19 @@
  * to out->plan for `prt info` but not printed over the bar.
  * The visibility statistics and the time estimate come from a strided sample
  * of ~200 vertices that are fully computed first (their work is kept), so the
- * plan costs almost nothing extra.
+ * plan costs almost nothing extra. The estimate names every pass that will run,
+ * each from its own work in CPU seconds, turned into wall time at the sample's
+ * wall seconds per CPU second (its threads and the share of a core they got):
+ *   - direct: the sample's CPU time a vertex times the vertices left;
+ *   - each bounce pass (pc_estimate_gather): the sample's gathering rays cast and
+ *     timed, their hits and neighbours' coefficients counted at measured costs,
+ *     and each vector stored twice (the pass's, the sum's) at what the sample's
+ *     stores took;
+ *   - the vMF stages (vmfpass_estimate): the real direct and gathering code timed
+ *     on a few dozen of the transfer's vertices and their slices, times the
+ *     vertex and stored-slice counts.
+ * Local lights add no pass: they are shaded at runtime. What each pass then took
+ * is set beside the estimate in out->stats.pass and the plan's last line.
  *
  * Direct pass, per vertex (prt_parallel_for, dynamic chunks of 16 vertices,
  * per-thread scratch): the visibility cube at vis_res is ray cast
@@ -58,6 +70,8 @@
 #include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
+#include "vmf.h"
+#include "vmfpass.h"
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -69,13 +83,29 @@
 
 #define PC_GRAIN 16             /* vertices per dynamic chunk */
 #define PC_SAMPLE 200           /* vertices in the planning sample */
-#define PC_GATHER_SAMPLE 32     /* vertices whose gather rays are timed for the bounce estimate */
 #define PC_HIT_MIN 0.005        /* below this fraction of hitting rays, no interreflections */
 #define PC_MAX_THREADS 64
 /* Plane stride of the K x 3 transport cubes: CUBE_TEXELS floats is a multiple of 4 KB, so the
  * 12 planes' same texel would fall in one L1 set; 32 floats of padding spread them out. */
 #define PC_TSTRIDE (CUBE_TEXELS + 32)
-#define PC_DECODE_NS 0.55       /* per decoded coefficient x term in gathering: fit to the bunny's bounce pass */
+/* Gathering's costs that the plan counts rather than times (pc_estimate_gather), CPU time measured
+ * with per-phase clocks in gather_vertex over the demo, the teapot and the chrome spheres (2026-11,
+ * this 2-core Xeon under load; per thread): combining one hit into its neighbours' weights 51-113 ns,
+ * decoding one coefficient into one accumulator lane 0.44-0.64 ns (the box room's 3,400 distinct
+ * neighbours a vertex against the demo's 550: a larger weight table, more cache misses). Ray
+ * casting and the store are timed on the run itself. */
+#define PC_COMBINE_NS 90.0
+#define PC_DECODE_NS 0.55
+/* A gathering pass's store, and the sum's, took 0.91-0.95 of what the same op took in the direct
+ * pass (the demo, the teapot: 224-246 us against 243-263 us a vector): the direct pass's comes
+ * after the visibility cube and the transport cubes have gone through the cache. */
+#define PC_STORE_HOT 0.92
+
+/* qsort order of uint32_t. */
+static int pc_cmp_u32(const void *a, const void *b) {
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return (x > y) - (x < y);
+}
 
 /* CPU seconds used by the calling thread (so estimates see through a busy machine). */
 static double pc_cpu_now(void) {
@@ -95,6 +125,8 @@ typedef struct pc_scratch {
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
     double t_cpu;           /* CPU seconds of the thread in pc_range (t_cpu / t_busy: share of a core it got) */
+    double t_store;         /* CPU seconds of the thread in the compress op (truncation + quantization) */
+    long n_store;           /* vectors it compressed: the plan's cost of a stored vector (pc_estimate_gather) */
 } pc_scratch;
 
 /* Shared state of the direct pass. */
@@ -276,7 +308,10 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K, ckpt_vstats *
         }
         double norm2 = 0;
         for (int q = 0; q < 8; q++) norm2 += p8[q];
+        double ts = pc_cpu_now();
         double e2 = c->ops->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
+        s->t_store += pc_cpu_now() - ts;
+        s->n_store++;
         if (norm2 > 0) {
             vs->err += e2 / norm2;
             vs->errs++;
@@ -390,11 +425,15 @@ static void plan_material(char *plan, size_t cap, int i, const brdf_params *p, c
     }
 }
 
-/* Rough CPU seconds per vertex of one gather pass: times (in CPU time) the gather rays of a few
- * sample vertices and models the decoding as (distinct neighbour vertices) x K_neighbour x N x K x 3
- * multiply-adds at PC_DECODE_NS each, plus the dense K x 3 cube accumulators. */
+/* CPU seconds per vertex of one gathering pass and its sum (gather.c), from the work its vertices
+ * do: the sample vertices' gathering rays are cast and timed, and the rest is counted on their
+ * hits: PC_COMBINE_NS a hit, PC_DECODE_NS a decoded coefficient lane (each distinct neighbour's
+ * K_y vectors of about N coefficients, times the vertex's accumulator lanes: 4 at K = 1, 3K
+ * else), and each of its K vectors stored twice: the pass's truncation + quantization (store_cpu,
+ * what the direct pass's sample measured for the same op; zero_cpu when no ray hit, an empty
+ * vector) and the sum's (gather_sum, store_cpu). */
 static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const brdf_factor *factors, int gres, int N,
-                                 const int *sample, int nsample) {
+                                 double store_cpu, double zero_cpu, const int *sample, int nsample) {
     int nd = 6 * gres * gres;
     float *dirs = malloc(sizeof(float) * 3 * (size_t)nd);
     float *hd = malloc(sizeof(float) * 3 * (size_t)nd);
@@ -403,13 +442,13 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
     if (!dirs || !hd || !hits || !nb) { free(dirs); free(hd); free(hits); free(nb); return 0; }
     for (int i = 0; i < nd; i++) cube_texel_dir(gres, i, dirs + 3 * i);
     double secs = 0;
-    int step = nsample > PC_GATHER_SAMPLE ? nsample / PC_GATHER_SAMPLE : 1, count = 0;
+    int count = 0;
     float eps = vis_eps(vs);
-    for (int si = 0; si < nsample; si += step) {
+    for (int si = 0; si < nsample; si++) {   /* every one: the hits vary widely from vertex to vertex */
         int v = sample[si];
         const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
         int K = factors[m->mat ? m->mat[v] : 0].K;
-        int nh = 0;
+        int nh = 0, nhit = 0;
         for (int i = 0; i < nd; i++)
             if (dirs[3 * i] * n[0] + dirs[3 * i + 1] * n[1] + dirs[3 * i + 2] * n[2] > 0) {
                 memcpy(hd + 3 * nh, dirs + 3 * i, sizeof(float) * 3);
@@ -421,23 +460,17 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
         secs += pc_cpu_now() - t0;
         int nn = 0;
         for (int i = 0; i < nh; i++)
-            if (hits[i].tri >= 0)
+            if (hits[i].tri >= 0) {
+                nhit++;
                 for (int c = 0; c < 3; c++) nb[nn++] = m->tris[3 * (size_t)hits[i].tri + c];
-        /* distinct neighbours: insertion into a small sorted set would be quadratic; sort instead */
-        for (int i = 1; i < nn; i++) {
-            uint32_t x = nb[i];
-            int j = i - 1;
-            while (j >= 0 && nb[j] > x) { nb[j + 1] = nb[j]; j--; }
-            nb[j + 1] = x;
-        }
-        int distinct = 0;
+            }
+        qsort(nb, (size_t)nn, sizeof *nb, pc_cmp_u32);   /* distinct neighbours */
         double kn = 0;
         for (int i = 0; i < nn; i++)
-            if (i == 0 || nb[i] != nb[i - 1]) {
-                distinct++;
-                kn += factors[m->mat ? m->mat[nb[i]] : 0].K;
-            }
-        secs += kn * (double)N * K * 3 * PC_DECODE_NS * 1e-9 + K * 3 * (double)CUBE_TEXELS * 2e-9;
+            if (i == 0 || nb[i] != nb[i - 1]) kn += factors[m->mat ? m->mat[nb[i]] : 0].K;
+        int lanes = K == 1 ? 4 : 3 * K;
+        secs += nhit * PC_COMBINE_NS * 1e-9 + kn * (double)N * lanes * PC_DECODE_NS * 1e-9 +
+                K * PC_STORE_HOT * (store_cpu + (nhit ? store_cpu : zero_cpu));
         count++;
     }
     free(dirs); free(hd); free(hits); free(nb);
@@ -579,6 +612,8 @@ typedef struct pc_run {
     bool have_lock;
     int nsample, max_b;
     double t_sample, hit_sample;
+    double cpu_sample;          /* process CPU seconds of the planning sample (the direct pass's) */
+    double wall_per_cpu;        /* the sample's wall seconds per CPU second: the estimates' conversion */
     bool plan_bounces;
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
     refit_tables *refit;        /* the prior's refit (pc_refit), or NULL */
@@ -998,40 +1033,151 @@ static void plan_local_lights(pc_run *r) {
                                                         : "none: no glossy surface faces another");
 }
 
+/* Pass `name` of the statistics' table (added when new; NULL when the table is full). */
+static prt_pass_time *pc_pass(prt_stats *st, const char *name) {
+    for (int i = 0; i < st->npasses; i++)
+        if (!strcmp(st->pass[i].name, name)) return &st->pass[i];
+    if (st->npasses >= PRT_MAX_PASSES) return NULL;
+    prt_pass_time *p = &st->pass[st->npasses++];
+    memset(p, 0, sizeof *p);
+    snprintf(p->name, sizeof p->name, "%s", name);
+    return p;
+}
+
+/* The plan's estimate of pass `name`: est_cpu CPU seconds, wall_extra already spent on it. */
+static void pc_pass_plan(pc_run *r, const char *name, double est_cpu, double wall_extra) {
+    prt_pass_time *p = pc_pass(&r->out->stats, name);
+    if (!p) return;
+    p->planned = true;
+    p->est_cpu = est_cpu;
+    p->est = wall_extra + est_cpu * r->wall_per_cpu;
+}
+
+/* What pass `name` took (transfer_precompute_in.pass_done's form, so the vmf passes report here). */
+static void pc_pass_ran(void *user, const char *name, double wall, double cpu) {
+    prt_pass_time *p = pc_pass(&((pc_run *)user)->out->stats, name);
+    if (!p) return;
+    p->ran = true;
+    p->wall = wall;
+    p->cpu = cpu;
+}
+
+/* CPU seconds of one thread to store an empty vector (a gathering pass's vertex whose rays all
+ * escape) in a one-vector set configured as like: 8 stores timed. */
+static double pc_zero_store_cpu(const prt_transport *like) {
+    prt_transport one = *like, z;
+    int k = 1;
+    one.nverts = 1;
+    prt_error e2;
+    float *zero = calloc(3 * (size_t)CUBE_TEXELS, sizeof(float));
+    void *scratch = malloc(transport_scratch_size());
+    double secs = 0;
+    if (zero && scratch && !transport_init_like(&z, &one, &k, &e2)) {
+        double t0 = pc_cpu_now();
+        for (int i = 0; i < 8; i++) transport_store(&z, 0, zero, zero + CUBE_TEXELS, zero + 2 * CUBE_TEXELS, scratch);
+        secs = (pc_cpu_now() - t0) / 8;
+        transport_free(&z);
+    }
+    free(zero);
+    free(scratch);
+    return secs;
+}
+
+/* The vmf transfer's passes as stage vmf runs them. */
+static transfer_precompute_in pc_vmf_in(pc_run *r) {
+    return (transfer_precompute_in){ .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
+                                     .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
+                                     .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck,
+                                     .shard = r->d.shard, .pass_done = pc_pass_ran, .pass_user = r };
+}
+
+/* The vmf passes' estimates (vmfpass_estimate's probe times the counts of their items) into the
+ * pass table and their clause into line; false when the probe failed (no estimate). */
+static bool pc_plan_vmf(pc_run *r, char *line, size_t cap, double *total) {
+    transfer_precompute_in in = pc_vmf_in(r);
+    vmfpass_cost vc;
+    prt_error e2;
+    if (vmfpass_estimate(&in, r->vtr, &vc, &e2)) return false;
+    int R = in.passes < 1 ? 1 : in.passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : in.passes;
+    /* a pass that gathers nothing carries no energy, so the next one does not run: no stored slice
+     * (nothing blocks the lobes), pass 1 is the last; none hits a fitted triangle, pass 2 is */
+    if (vc.stored == 0 && R > 2) R = 2;
+    if (vc.fit_share == 0 && R > 3) R = 3;
+    double cpu[2 + VMFT_MAX_PASSES] = { R > 1 ? vc.nverts * vc.diffuse_cpu : 0, vc.ngverts * vc.direct_cpu };
+    for (int p = 1; p < R; p++) cpu[1 + p] = vc.ngverts * vc.stored * (p == 1 ? vc.gather_cpu : vc.fit_share * vc.gather2_cpu);
+    static const char *names[2 + VMFT_MAX_PASSES] = { "vmf diffuse lobes", "vmf direct", "vmf pass 1", "vmf pass 2", "vmf pass 3" };
+    size_t at = 0;
+    *total = 0;
+    line[0] = 0;
+    for (int k = R > 1 ? 0 : 1; k < 1 + R; k++) {
+        char d[32];
+        pc_pass_plan(r, names[k], cpu[k], 0);
+        fmt_dur(d, sizeof d, cpu[k] * r->wall_per_cpu);
+        *total += cpu[k] * r->wall_per_cpu;
+        if (at < cap) at += (size_t)snprintf(line + at, cap - at, "%s%s %s", at ? ", " : "", names[k] + 4, d);
+    }
+    return true;
+}
+
+/* The plan's estimate line: every pass that will run, from its work (see pc_estimate_gather and
+ * vmfpass_estimate), in wall time at the sample's wall seconds per CPU second (its threads and the
+ * share of a core they got). */
+static void pc_plan_estimate(pc_run *r) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    double cpu = 0, store = 0;
+    long nstore = 0;
+    for (int t = 0; t < r->nthreads; t++) { cpu += r->scratch[t].t_cpu; store += r->scratch[t].t_store; nstore += r->scratch[t].n_store; }
+    r->wall_per_cpu = cpu > 0 && r->t_sample > 0 ? r->t_sample / cpu : 1.0 / r->nthreads;
+    double direct = r->nsample ? cpu / r->nsample * (m->nverts - r->nsample) : 0, total = 0;
+    pc_pass_plan(r, "direct", direct, r->t_sample);
+    char e1[32], e2[32], e3[32], vline[256] = "";
+    total = r->t_sample + direct * r->wall_per_cpu;
+    fmt_dur(e1, sizeof e1, total);
+    plan_add(r->plan, r->pcap, "  estimate: direct pass %s", e1);
+    if (r->plan_bounces && r->max_b > 0) {
+        double eg = pc_estimate_gather(m, r->vs, r->out->factors, r->d.gather_res, r->tr->cfg.N, nstore ? store / nstore : 0,
+                                       pc_zero_store_cpu(&r->direct), r->order, r->nsample) * m->nverts;
+        for (int b = 1; b <= r->max_b && b <= PRT_MAX_BOUNCES; b++) {
+            char name[24];
+            snprintf(name, sizeof name, "bounce %d", b);
+            pc_pass_plan(r, name, eg, 0);
+        }
+        fmt_dur(e2, sizeof e2, eg * r->wall_per_cpu);
+        total += r->max_b * eg * r->wall_per_cpu;
+        plan_add(r->plan, r->pcap, ", each bounce pass %s (up to %d)", e2, r->max_b);
+    }
+    double tv = 0;
+    if (r->vtr && pc_plan_vmf(r, vline, sizeof vline, &tv)) {
+        fmt_dur(e2, sizeof e2, tv);
+        plan_add(r->plan, r->pcap, ", vMF lobes %s (%s)", e2, vline);
+        total += tv;
+    }
+    fmt_dur(e3, sizeof e3, total);
+    plan_add(r->plan, r->pcap, "; about %s in all (CPU time at the sample's %.2f wall s per CPU s on %d thread%s)\n", e3,
+             r->wall_per_cpu, r->nthreads, r->nthreads == 1 ? "" : "s");
+}
+
 /* Stage plan: the planning sample (a strided set of vertices computed first and kept), the
  * visibility, interreflection and estimate lines, and the plan printed. Returns 0 or -1. */
 static int pc_plan(pc_run *r, prt_error *err) {
     const prt_mesh *m = &r->out->scene.mesh;
     r->nsample = m->nverts < PC_SAMPLE ? m->nverts : PC_SAMPLE;
     for (int i = 0; i < r->nsample; i++) r->order[i] = (int)((long)i * m->nverts / r->nsample);
-    double ts = prt_now();
+    double ts = prt_now(), cs = prt_process_cpu();
     prt_parallel_for(r->nsample, 4, r->nthreads, pc_range, &r->c);
     r->t_sample = prt_now() - ts;
+    r->cpu_sample = prt_process_cpu() - cs;
     if (atomic_load(&r->c.cancelled)) return prt_fail(err, "cancelled");
     long s_traced = 0, s_hits = 0;
     for (int i = 0; i < r->nsample; i++) { s_traced += r->vst[r->order[i]].traced; s_hits += r->vst[r->order[i]].hits; }
     r->hit_sample = s_traced ? (double)s_hits / (double)s_traced : 0;
-    double est_direct = r->nsample ? r->t_sample / r->nsample * (m->nverts - r->nsample) : 0;
     plan_add(r->plan, r->pcap, "  visibility: %d^2 rays per face (%dx%d box filter to 64^2); in a %d-vertex sample %.2f%% of rays hit geometry\n",
              r->d.vis_res, r->c.ss, r->c.ss, r->nsample, 100 * r->hit_sample);
     if (vis_culling(r->vs))   /* visibility.h: exact, so the maps are those of tracing every ray */
         plan_add(r->plan, r->pcap, "  visibility: rays down to the floor are known blocked, not traced (a flat floor with no hole)\n");
     plan_bounce_line(r);
     plan_local_lights(r);
-    char e1[32], e2[32];
-    fmt_dur(e1, sizeof e1, est_direct + r->t_sample);
-    if (r->plan_bounces) {
-        /* CPU estimate turned into wall time with the share of a core the sample's threads got */
-        double busy = 0, cpu = 0;
-        for (int t = 0; t < r->nthreads; t++) { busy += r->scratch[t].t_busy; cpu += r->scratch[t].t_cpu; }
-        double share = busy > 0 && cpu > 0 ? fmin(1.0, cpu / busy) : 1.0;
-        double eg = pc_estimate_gather(m, r->vs, r->out->factors, r->d.gather_res, r->tr->cfg.N, r->order, r->nsample) *
-                    m->nverts / r->nthreads / share;
-        fmt_dur(e2, sizeof e2, eg);
-        plan_add(r->plan, r->pcap, "  estimate: direct pass %s, each bounce pass ~%s (rough)\n", e1, e2);
-    } else {
-        plan_add(r->plan, r->pcap, "  estimate: direct pass %s\n", e1);
-    }
+    pc_plan_estimate(r);
     /* stderr, with the command's other status lines; nothing else has been printed in this stage yet */
     if (!r->d.quiet) { fprintf(stderr, "effects plan\n%s", r->plan); fflush(stderr); }
     return 0;
@@ -1135,7 +1281,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
                            .shard = r->d.shard, .cost = r->cost,
                            .stream_dir = r->streamed ? pc_stream_dir(r) : NULL };
         prt_transport next = { 0 }, sum = { 0 };
-        double tb0 = prt_now();
+        double tb0 = prt_now(), cb0 = prt_process_cpu();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;
         double e = e0 > 0 ? gather_energy(&next) / e0 : 0;
         if (gather_sum_streamed(b == 1 ? &r->direct : &r->total, &next, r->nthreads, gd.stream_dir, &sum, err)) {
@@ -1147,6 +1293,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
         transport_free(&r->last);
         r->last = next;
         st->t_bounce[b - 1] = prt_now() - tb0;
+        pc_pass_ran(r, stage, st->t_bounce[b - 1], prt_process_cpu() - cb0);
         st->bounce_energy[b - 1] = e;
         st->bounces = b;
         bool stop = r->d.force_bounces != 1 && e < r->d.bounce_threshold;
@@ -1164,10 +1311,7 @@ static int pc_bounces(pc_run *r, prt_error *err) {
  * threshold; its time and size go into the plan. Returns 0 or -1. */
 static int pc_vmf(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
-    transfer_precompute_in in = { .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
-                                  .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
-                                  .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck,
-                                  .shard = r->d.shard };
+    transfer_precompute_in in = pc_vmf_in(r);
     double t0 = prt_now();
     if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
     r->out->stats.t_vmf = prt_now() - t0;
@@ -1175,6 +1319,22 @@ static int pc_vmf(pc_run *r, prt_error *err) {
     plan_add(r->plan, r->pcap, "  vmf: %d reflection pass%s at most, %.1fs, %.1f MB\n", in.passes, in.passes == 1 ? "" : "es",
              r->out->stats.t_vmf, bytes / 1e6);
     return 0;
+}
+
+/* The plan's last line (prt info): each pass's wall time beside its estimate ("-": not estimated;
+ * a pass estimated that did not run, stopped by the energy threshold, is left out). */
+static void plan_measured(pc_run *r) {
+    const prt_stats *st = &r->out->stats;
+    plan_add(r->plan, r->pcap, "  time (estimate):");
+    for (int i = 0; i < st->npasses; i++) {
+        const prt_pass_time *p = &st->pass[i];
+        if (!p->ran) continue;
+        char a[32], e[32];
+        fmt_dur(a, sizeof a, p->wall);
+        fmt_dur(e, sizeof e, p->est);
+        plan_add(r->plan, r->pcap, "%s %s %s (%s)", i ? "," : "", p->name, a, p->planned ? e : "-");
+    }
+    plan_add(r->plan, r->pcap, "\n");
 }
 
 /* Stage finish: the transfer's sets into out (direct + bounces, and the direct pass alone when
@@ -1234,7 +1394,12 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     atomic_init(&r->c.done, 0);
     pthread_mutex_init(&r->c.lock, NULL);
     r->have_lock = true;
-    if (pc_plan(r, err) || pc_direct(r, err) || pc_bounces(r, err) || pc_vmf(r, err)) goto done;
+    if (pc_plan(r, err)) goto done;
+    double td = prt_now(), cd = prt_process_cpu();
+    if (pc_direct(r, err)) goto done;
+    pc_pass_ran(r, "direct", r->t_sample + prt_now() - td, r->cpu_sample + prt_process_cpu() - cd);
+    if (pc_bounces(r, err) || pc_vmf(r, err)) goto done;
+    plan_measured(r);
     prt_checkpoint *ck = r->ck;
     r->ck = NULL;
     if (ckpt_close(ck, err)) goto done;

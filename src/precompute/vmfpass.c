@@ -17,6 +17,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define VP_MAX_THREADS 64
 #define VP_BROAD_KAPPA 8.0f      /* lobes wider than this are "diffuse" light (the last lobe) */
@@ -501,28 +502,41 @@ static uint32_t *vp_slice_lobes(const vp_ctx *c, size_t e) {
     return c->t->lobe + (((size_t)c->t->entry[s] * c->t->passes + (size_t)c->pass) * c->t->lobes) * VMFT_WORDS;
 }
 
+/* Traces slice (v, j)'s rays (the direct pass's: same seeds) into th; A gets its BRDF lobe's
+ * colour. Returns the rays traced. */
+static int vp_slice_rays(const vp_ctx *c, vp_thread *th, int v, int j, float A[3]) {
+    const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v;
+    vmf_lobe L;
+    vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, geogrid_dir(c->t->grid, j), &L, A);
+    vp_samples(&L, (uint32_t)v, (uint32_t)j, c->S, th->dirs);
+    return vp_trace(c, th, p, n, c->S);
+}
+
+/* Slice (v, j) of pass c->pass: its rays' hits gathered and merged into w (I packed lobes); *fit:
+ * a ray hit a fitted triangle. Returns the energy. */
+static double vp_gather_core(const vp_ctx *c, vp_thread *th, int v, int j, uint32_t *w, bool *fit) {
+    float A[3];
+    int nr = vp_slice_rays(c, th, v, j, A), ni = 0;
+    *fit = false;
+    for (int i = 0; i < nr; i++)
+        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris) {
+            ni += vp_hit_items(c, &th->hits[i], th->tdirs + 3 * i, A, th->items + ni);
+            const uint32_t *tri = c->m->tris + 3 * (size_t)th->hits[i].tri;
+            for (int k = 0; k < 3; k++) *fit |= (c->t->materials >> c->m->mat[tri[k]]) & 1;
+        }
+    return vp_gather_merge(c, th->items, ni, w);
+}
+
 /* Stored slice e (pass c->pass): the direct pass's rays again, their hits gathered and merged. */
 static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
     int v = (int)c->slot_v[e], j = (int)c->slot_j[e];
     /* passes >= 2 gather only the fitted corners' previous pass (diffuse lobes are pass 1's): a
      * slice none of whose rays hit a fitted triangle in pass 1 gathers nothing again (same rays) */
     if (c->pass >= 2 && !c->hitfit[e]) { c->energy[e] = 0; return; }
-    const float *n = c->m->nrm + 3 * (size_t)v, *p = c->m->pos + 3 * (size_t)v;
-    vmf_lobe L;
-    float A[3];
-    vmft_brdf_lobe(&c->t->fit[c->m->mat[v]], n, geogrid_dir(c->t->grid, j), &L, A);
-    vp_samples(&L, (uint32_t)v, (uint32_t)j, c->S, th->dirs);
-    int nr = vp_trace(c, th, p, n, c->S), ni = 0;
-    bool fit = false;
-    for (int i = 0; i < nr; i++)
-        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris) {
-            ni += vp_hit_items(c, &th->hits[i], th->tdirs + 3 * i, A, th->items + ni);
-            const uint32_t *tri = c->m->tris + 3 * (size_t)th->hits[i].tri;
-            for (int k = 0; k < 3; k++) fit |= (c->t->materials >> c->m->mat[tri[k]]) & 1;
-        }
-    if (c->pass == 1) c->hitfit[e] = fit;
+    bool fit;
     uint32_t *w = vp_slice_lobes(c, e);
-    c->energy[e] = vp_gather_merge(c, th->items, ni, w);
+    c->energy[e] = vp_gather_core(c, th, v, j, w, &fit);
+    if (c->pass == 1) c->hitfit[e] = fit;
     if (c->in->ckpt) {   /* its checkpoint blob (CKPT_PASS_VMF + pass): energy, hit flag, lobes */
         uint8_t b[9 + 4 * VMFT_MAX_LOBES * VMFT_WORDS];
         memcpy(b, &c->energy[e], 8), b[8] = c->hitfit[e];
@@ -636,14 +650,10 @@ static int vp_share_gather(vp_ctx *c, const int *first, prt_error *err) {
     return rc;
 }
 
-/* One stage over n items in chunks of grain: fn through prt_parallel_for on this rank's range of
- * them (shard.h: cut by count; one process: all), progress as `stage` over every rank; with a
- * checkpoint, the items of its pass ckpass (-1: none) that it holds are restored first (restore)
- * and skipped. Then the ranks' common status (cancelled on one: on all) and share, which gives
- * every rank the others' results. */
-static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, int ckpass,
-                    int (*restore)(void *, uint32_t, const uint8_t *, uint32_t),
-                    int (*share)(vp_ctx *, const int *, prt_error *), prt_error *err) {
+/* vp_stage's work (below). */
+static int vp_stage_run(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, int ckpass,
+                        int (*restore)(void *, uint32_t, const uint8_t *, uint32_t),
+                        int (*share)(vp_ctx *, const int *, prt_error *), prt_error *err) {
     c->stage = stage, c->total = n > 0 ? n : 1;
     atomic_store(&c->done, 0);
     atomic_store(&c->others, 0);
@@ -663,6 +673,20 @@ static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn
     int st = atomic_load(&c->cancel) ? prt_fail(err, "vmf precompute: cancelled") : 0;
     if (shard_status(c->in->shard, st, err)) return -1;
     return share(c, first, err);
+}
+
+/* One stage over n items in chunks of grain: fn through prt_parallel_for on this rank's range of
+ * them (shard.h: cut by count; one process: all), progress as `stage` over every rank; with a
+ * checkpoint, the items of its pass ckpass (-1: none) that it holds are restored first (restore)
+ * and skipped. Then the ranks' common status (cancelled on one: on all) and share, which gives
+ * every rank the others' results; in->pass_done is told the stage's time. */
+static int vp_stage(vp_ctx *c, const char *stage, int n, int grain, prt_range_fn fn, int ckpass,
+                    int (*restore)(void *, uint32_t, const uint8_t *, uint32_t),
+                    int (*share)(vp_ctx *, const int *, prt_error *), prt_error *err) {
+    double w0 = prt_now(), c0 = prt_process_cpu();
+    int rc = vp_stage_run(c, stage, n, grain, fn, ckpass, restore, share, err);
+    if (!rc && c->in->pass_done) c->in->pass_done(c->in->pass_user, stage, prt_now() - w0, prt_process_cpu() - c0);
+    return rc;
 }
 
 /* The transfer's materials fitted (lobefit.h), its vertices listed, the scratch allocated. */
@@ -765,5 +789,130 @@ done:
     free(c);
     if (rc) vmft_free(t), free(t);
     else tr->priv = t;
+    return rc;
+}
+
+/* ---- the effects plan's probe (vmfpass.h) ------------------------------------------------------ */
+
+/* CPU seconds of the calling thread. */
+static double vp_thread_cpu(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The probe's direct stage on glossy vertex v (as vp_direct_range, nothing kept): the views of
+ * the slices it stores into all[] (t->nviews room). Returns how many. */
+static int vp_probe_direct(vp_ctx *c, int v, int *all) {
+    vp_thread *th = &c->th[0];
+    uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS];
+    double e;
+    int stored = 0;
+    bool open = vp_open(c, v);
+    for (int j = 0; j < c->t->nviews; j++) {
+        if (open) { vp_open_slice(c, v, j); continue; }
+        if (vp_direct_slice(c, th, v, j, w, &e)) all[stored++] = j;
+    }
+    return stored;
+}
+
+/* The diffuse lobes of the corners of the triangles slice (v, j)'s rays hit that have none yet
+ * (done[] marks them), as gathering pass 1 reads them. */
+static void vp_probe_corners(vp_ctx *c, int v, int j, uint8_t *done) {
+    vp_thread *th = &c->th[0];
+    float A[3];
+    int nr = vp_slice_rays(c, th, v, j, A), corners[3 * 256], nc = 0;
+    for (int i = 0; i < nr && nc + 3 <= 3 * 256; i++)
+        if (th->hits[i].tri >= 0 && th->hits[i].tri < c->m->ntris)
+            for (int k = 0; k < 3; k++) {
+                int y = (int)c->m->tris[3 * (size_t)th->hits[i].tri + k];
+                if (!done[y]) done[y] = 1, corners[nc++] = y;
+            }
+    for (int i = 0; i < nc; i++) vp_diffuse_vertex(c, th, corners[i]);
+}
+
+/* The diffuse stage's CPU seconds a vertex: VMFPASS_PROBE_DIFFUSE vertices spread over the mesh
+ * (their lobes are the stage's, so they stay). */
+static double vp_probe_diffuse(vp_ctx *c) {
+    int n = c->m->nverts < VMFPASS_PROBE_DIFFUSE ? c->m->nverts : VMFPASS_PROBE_DIFFUSE;
+    double t0 = vp_thread_cpu();
+    for (int q = 0; q < n; q++) vp_diffuse_vertex(c, &c->th[0], (int)((long)q * c->m->nverts / n));
+    return n ? (vp_thread_cpu() - t0) / n : 0;
+}
+
+/* CPU seconds a slice of gathering pass `pass` over the probe's slices (sv, sj)[n], only those
+ * whose rays hit a fitted triangle when fit_only (the ones passes >= 2 gather); *fits counts
+ * those. */
+static double vp_probe_gather(vp_ctx *c, int pass, const int *sv, const int *sj, int n, bool fit_only, int *fits) {
+    uint32_t w[VMFT_MAX_LOBES * VMFT_WORDS];
+    double secs = 0;
+    int counted = 0;
+    c->pass = pass;
+    *fits = 0;
+    for (int i = 0; i < n; i++) {
+        bool fit;
+        double t0 = vp_thread_cpu();
+        vp_gather_core(c, &c->th[0], sv[i], sj[i], w, &fit);
+        double dt = vp_thread_cpu() - t0;
+        *fits += fit;
+        if (!fit_only || fit) secs += dt, counted++;
+    }
+    return counted ? secs / counted : 0;
+}
+
+/* See vmfpass.h: the direct stage timed on probe vertices spread over the transfer's, then pass 1
+ * on the slices they store (their hit corners' diffuse lobes first, timed as the diffuse stage). */
+static int vp_probe(vp_ctx *c, vmfpass_cost *out, prt_error *err) {
+    int np = c->ngverts < VMFPASS_PROBE_VERTS ? c->ngverts : VMFPASS_PROBE_VERTS, nv = 0;
+    int *sv = prt_calloc(VMFPASS_PROBE_SLICES, sizeof(int), err), *sj = prt_calloc(VMFPASS_PROBE_SLICES, sizeof(int), err);
+    int *all = prt_calloc((size_t)c->t->nviews, sizeof(int), err);
+    uint8_t *done = prt_calloc((size_t)c->m->nverts + 1, 1, err);
+    if (!sv || !sj || !all || !done) return free(sv), free(sj), free(all), free(done), -1;
+    long stored = 0;
+    double td = 0;
+    for (int q = 0; q < np; q++) {
+        int v = c->gverts[(int)((long)q * c->ngverts / np)];
+        double t1 = vp_thread_cpu();
+        int ns = vp_probe_direct(c, v, all), take = ns < VMFPASS_PROBE_SLICES / np ? ns : VMFPASS_PROBE_SLICES / np;
+        td += vp_thread_cpu() - t1;
+        stored += ns;
+        for (int i = 0; i < take; i++) sv[nv] = v, sj[nv++] = all[(int)((long)i * ns / take)];   /* spread over its views */
+    }
+    out->direct_cpu = np ? td / np : 0;
+    out->stored = np ? (double)stored / np : 0;
+    out->diffuse_cpu = vp_probe_diffuse(c);
+    for (int i = 0; i < nv; i++) vp_probe_corners(c, sv[i], sj[i], done);
+    int fits = 0;
+    out->gather_cpu = vp_probe_gather(c, 1, sv, sj, nv, false, &fits);
+    out->fit_share = nv ? (double)fits / nv : 0;
+    /* pass 2 reads pass 1's slices (here the BRDFs' own lobes, as in pass 1) and no diffuse lobes */
+    out->gather2_cpu = fits ? vp_probe_gather(c, 2, sv, sj, nv, true, &fits) : 0;
+    out->probed_verts = np, out->probed_slices = nv;
+    free(sv), free(sj), free(all), free(done);
+    return 0;
+}
+
+int vmfpass_estimate(const transfer_precompute_in *in, const prt_transfer *tr, vmfpass_cost *out, prt_error *err) {
+    PRT_CHECK(in->scene && in->vis && tr->cfg.lobes >= 1 && tr->cfg.samples >= 1);
+    memset(out, 0, sizeof *out);
+    transfer_precompute_in one = *in;   /* one thread, nothing recorded, no ranks */
+    one.nthreads = 1, one.ckpt = NULL, one.shard = NULL, one.progress = NULL, one.pass_done = NULL;
+    vp_ctx *c = calloc(1, sizeof *c);
+    vmft_data *t = calloc(1, sizeof *t);
+    if (!c || !t) return free(c), free(t), prt_fail(err, "vmf estimate: out of memory");
+    const prt_mesh *m = &in->scene->mesh;
+    *c = (vp_ctx){ .in = &one, .m = m, .t = t, .S = tr->cfg.samples, .I = tr->cfg.lobes, .eps = vis_eps(in->vis) };
+    pthread_mutex_init(&c->lock, NULL);
+    int rc = -1;
+    /* an empty slice index: every slice a gathering pass meets is its BRDF's own lobe */
+    if (vmft_init(t, tr->cfg.level, tr->cfg.lobes, m->nverts, err) || (t->materials = tr->materials, 0) ||
+        vp_setup(c, tr, err) || vmft_index(t, err))
+        goto done;
+    out->nverts = m->nverts, out->ngverts = c->ngverts;
+    rc = vp_probe(c, out, err);
+done:
+    vp_teardown(c);
+    free(c);
+    vmft_free(t), free(t);
     return rc;
 }

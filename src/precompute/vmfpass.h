@@ -55,4 +55,28 @@
 
 /* Fills tr->priv for tr->materials (tr->cfg configured by transfer_vmf.configure). 0 or -1 with err. */
 int vmfpass_run(const transfer_precompute_in *in, prt_transfer *tr, prt_error *err);
+
+/* What vmfpass_estimate measured: CPU seconds of one thread per unit of each stage's work. */
+typedef struct vmfpass_cost {
+    int nverts, ngverts;        /* the mesh's vertices (the diffuse stage), the transfer's (the direct stage) */
+    double diffuse_cpu;         /* per vertex of the diffuse-lobe stage */
+    double direct_cpu;          /* per vertex of the transfer's, the direct stage (all its views) */
+    double stored;              /* stored slices per vertex of the transfer's: the gathering passes' items */
+    double gather_cpu;          /* per stored slice of gathering pass 1 */
+    double fit_share;           /* share of stored slices whose rays hit a fitted triangle: the ones passes
+                                 * >= 2 gather again (the others are skipped) */
+    double gather2_cpu;         /* per such slice of a gathering pass >= 2 */
+    int probed_verts, probed_slices;
+} vmfpass_cost;
+
+/* A timed probe of the passes vmfpass_run would make of tr (one thread): the direct stage on
+ * VMFPASS_PROBE_VERTS of the transfer's vertices spread over them, the diffuse stage on
+ * VMFPASS_PROBE_DIFFUSE vertices spread over the mesh, and gathering passes 1 and 2 on up to
+ * VMFPASS_PROBE_SLICES of the slices those store (against the BRDFs' own lobes, as a pass sees
+ * unstored slices; the hit corners' diffuse lobes made first). Its cost is a few hundredths of a
+ * second. 0 or -1 with err (no lobe fit, out of memory). */
+#define VMFPASS_PROBE_VERTS 32
+#define VMFPASS_PROBE_SLICES 512
+#define VMFPASS_PROBE_DIFFUSE 64
+int vmfpass_estimate(const transfer_precompute_in *in, const prt_transfer *tr, vmfpass_cost *out, prt_error *err);
 #endif

@@ -132,6 +132,10 @@ typedef struct transfer_precompute_in {
     struct prt_checkpoint *ckpt;    /* non-NULL: the passes restore what it holds and record the rest
                                      * (checkpoint.h: a resumable run) */
     struct prt_shard *shard;        /* MPI ranks to split the passes across (shard.h); NULL: this process */
+    /* NULL, or told after each stage its name (the progress bar's), wall and process CPU seconds:
+     * precompute sets the effects plan's estimate beside what ran (precompute.h) */
+    void (*pass_done)(void *user, const char *stage, double wall, double cpu);
+    void *pass_user;
 } transfer_precompute_in;
 
 /* GLSL sources of a light kernel family, compiled by glrt (gpu/glrt.c). The kernel computes
