@@ -96,10 +96,12 @@ const char *glrt_light_method_name(glrt_light_method m) {
 static const char *k_view_common =
     "uniform samplerBuffer t_view;\n"
     /* toward: the direction of d whatever its length (a scene 1e20 or 1e-20 across squares d out of
-     * float's range in normalize): divided by its largest component first (docs/design/scale.md) */
+     * float's range in normalize): scaled by its largest component first (docs/design/scale.md).
+     * Branch-free, with the scale floored at FLT_MIN: the form with a ternary corrupted llvmpipe's
+     * heap when it compiles for 128-bit vectors (LP_NATIVE_VECTOR_WIDTH=128, make test-portable). */
     "vec3 toward(vec3 d) {\n"
     "    float m = max(max(abs(d.x), abs(d.y)), abs(d.z));\n"
-    "    return m > 0.0 ? normalize(d / m) : d;\n"
+    "    return normalize(d * (1.0 / max(m, 1.17549435e-38)));\n"
     "}\n"
     "uniform ivec4 u_mat[NMAT];\n" /* x: first view texel, y: res, z: K, w: param | 2 * lambertian */
     /* brdf_frame: Eq. 10's s without cancellation near n.y = -1, the fixed limit within 1e-6 of
