@@ -63,7 +63,7 @@ DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopene
             zlib1g-dev libcjson-dev libopenmpi-dev openmpi-bin
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name.
-SRC_DIRS := src/core src/scene src/light src/image src/transfer src/precompute src/file src/runtime src/reference
+SRC_DIRS := src/core src/scene src/locallight src/image src/transfer src/transfer/sparse src/transfer/haar src/transfer/sh src/transfer/vmf src/precompute src/file src/runtime src/reference
 INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf $(addprefix -I,$(GL_DIRS))
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
@@ -100,7 +100,7 @@ CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out $(GL_ONLY),$(wildcard sr
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(filter-out $(GL_ONLY),$(wildcard tests/test_*.c)))
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
+.PHONY: all deps incs test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt $(BUILD)/$(SO_FILE)
@@ -241,3 +241,7 @@ clean:
 	rm -rf build
 
 -include $(shell find build -name '*.d' 2>/dev/null)
+
+# The include flags of the library's folders, for the tools that build against it (tools/*.sh).
+incs:
+	@echo $(INCS)

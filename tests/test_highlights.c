@@ -1,4 +1,4 @@
-/* test_highlights.c - indirect highlights by vMF merging (src/light/highlights.h) against
+/* test_highlights.c - indirect highlights by vMF merging (src/locallight/highlights.h) against
  * brute-force quadrature of the two-bounce integral (laurijssen-2010 Eq. 7) with the same
  * BRDFs: a glossy floor beside a glossy wall under a point light, the light reaching the
  * floor's viewer by way of the wall. No assets: the scene is JSON text. */

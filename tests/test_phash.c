@@ -1,4 +1,4 @@
-/* test_phash.c - the row-displacement perfect hash (src/transfer/phash.h) against a dense
+/* test_phash.c - the row-displacement perfect hash (src/transfer/vmf/phash.h) against a dense
  * bitmap of the same sparse table: every entry at slot O[i] + j with its own value,
  * every non-entry (brute force over the whole table) reported absent, no slot shared. */
 #include "harness.h"

@@ -1,5 +1,5 @@
-/* test_vsgl.c - the reflective shadow map (src/light/rsm.h) and the two VSGLs
- * (src/light/vsgl.h) against independent truths: quadrature over a Fibonacci sphere of
+/* test_vsgl.c - the reflective shadow map (src/locallight/rsm.h) and the two VSGLs
+ * (src/locallight/vsgl.h) against independent truths: quadrature over a Fibonacci sphere of
  * the shading integral with the exact BRDF, the exact contribution of one point light
  * (VPL), the analytic power a light sends through a square, and conservation of the
  * RSM's power through the VSGL sums. No assets: scenes are built from JSON text. */

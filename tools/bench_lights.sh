@@ -10,7 +10,7 @@
 #     400x300: prt render --backend cpu and --backend gl against prt reference (direct, the
 #     part built so far) and against prt reference --bounces 1 (direct + one bounce: the
 #     issue's target, <= 15% image rel_rmse), each runtime without and with --local-bounce
-#     (the two VSGLs per light, src/light/vsgl.h, gpu/glvsgl.h).
+#     (the two VSGLs per light, src/locallight/vsgl.h, gpu/glvsgl.h).
 #  2. moving a light at 67K vertices: the bunny + floor of make bench (build/bench/bunny.prt,
 #     made by tools/bench.sh; else precomputed here from data/bunny-floor.json) with a spot
 #     light above it: prt bench --backend cpu (target >= 30 fps, direct + VSGL), and the gl

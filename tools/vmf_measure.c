@@ -1,4 +1,4 @@
-/* vmf_measure.c - measures the vMF lobe transfer (src/transfer/vmf.h) on a scene until the
+/* vmf_measure.c - measures the vMF lobe transfer (src/transfer/vmf/vmf.h) on a scene until the
  * effects plan drives it: precompute time, stored share, bytes, CPU shading time, and the
  * per-vertex error of the specular part against the path tracer. Not a test (timings).
  *

@@ -4,7 +4,7 @@
 set -e
 cd "$(dirname "$0")/.."
 make -s build/libprt.a
-INCS="-Isrc/core -Isrc/scene -Isrc/image -Isrc/transfer -Isrc/precompute -Isrc/file -Isrc/runtime -Isrc/reference -Ibrdf -Igpu"
+INCS="$(make -s incs)"
 cc -std=c11 -O2 -D_GNU_SOURCE -Wall -Wextra -Wno-unused-parameter -march=x86-64-v2 -pthread $INCS tools/vmf_measure.c \
    build/libprt.a -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL -lcjson -lz -lm \
    -lpthread -lstdc++ -o build/vmf_measure

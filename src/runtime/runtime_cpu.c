@@ -13,10 +13,10 @@
  * raster: the colours and timings are whole, an image is refused with one line.
  *
  * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
- *   light move:  cpu_set_local_lights -> direct_set_lights (src/light/direct.h: Embree
+ *   light move:  cpu_set_local_lights -> direct_set_lights (src/locallight/direct.h: Embree
  *                shadow rays per vertex on every thread; the direct_ctx is made at the first call,
  *                so runs without local lights build no BVH); timed into local_ms.
- *                Then indirect_set_lights (src/light/indirect.h: an RSM and two VSGLs per light,
+ *                Then indirect_set_lights (src/locallight/indirect.h: an RSM and two VSGLs per light,
  *                the Lambert vertices' bounce), timed into bounce_ms (part of local_ms).
  *   view change: cpu_shade_vertices, after the PRT sum (relight_view + non-linear transfers):
  *                direct_shade_vertices ADDS each light's shadowed radiance to rgb per vertex;

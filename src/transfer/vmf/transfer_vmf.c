@@ -1,6 +1,6 @@
 /* transfer_vmf.c - the vMF lobe transfer (vmf.h; laurijssen-2011 sections 4-6): its ops
  * table, the packed lobe, Eq. 7's interpolation, the CPU shading and the file section.
- * The passes that fill it (Eq. 8-11) are src/precompute/vmfpass.c.
+ * The passes that fill it (Eq. 8-11) are src/transfer/vmf/vmfpass.c.
  *
  * Why the shading looks up the BRDF's own lobe at the exact view when no neighbouring slice
  * is stored: that is the common case (an unoccluded vertex) and then the result is exactly
