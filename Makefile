@@ -4,8 +4,8 @@
 #   make test-portable  the suite three times on other CPUs' code paths (OpenBLAS kernels, Embree
 #                   at SSE4.2, libm without FMA; tools/test_portable.sh), about 3x `make test`
 #   make demo       build and run `prt demo` (writes demo.png)
-#   make bench      benchmarks on ../shared/data (not tests; tools/bench_lights.sh: issue 11's local lights)
-#   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2 (issue 13)
+#   make bench      benchmarks on ../shared/data (not tests; tools/bench_lights.sh: the local lights)
+#   make bench-scale  the direct pass at 100 K, 300 K and 1 M vertices, mpirun -np 2
 #   make study      accuracy-versus-time study (docs/study/)
 #   make study-glossy  vMF lobes against the SVD path on the glossy scenes (docs/study/glossy/)
 #   make accuracy   PRT against the path tracer: scenes x probes x yaws x effects (docs/accuracy/;
@@ -220,7 +220,7 @@ bench: all
 	@echo
 	@tools/bench_lights.sh $(BUILD)/prt
 
-# issue 13: the direct pass at 100 K, 300 K and 1 M vertices, and mpirun -np 2 against 2 threads
+# the direct pass at 100 K, 300 K and 1 M vertices, and mpirun -np 2 against 2 threads
 # (SCALE_SIZES="100k 300k" for fewer; tools/bench_scale.sh says the knobs)
 bench-scale: all
 	@tools/bench_scale.sh $(BUILD)/prt
@@ -228,7 +228,7 @@ bench-scale: all
 study: all
 	@tools/study.sh $(BUILD)/prt
 
-# issue 9: vMF against SVD K = 1..16 (about 35 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
+# vMF against SVD K = 1..16 (about 35 min on 2 cores; STUDY_QUICK=1 for a one-minute check)
 study-glossy: all
 	@tools/study_glossy.sh $(BUILD)/prt
 

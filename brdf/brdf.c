@@ -431,7 +431,7 @@ static int parse_numbers(char *s, double *v, int max) {
         if (!*p) return -1;
         v[n] = strtod(p, &end);
         if (end == p || !isfinite(v[n])) return -1;
-        if ((float)v[n] == 0) v[n] = 0;   /* -0 (or a value that rounds to it as a float) is 0: the canonical spec must re-parse bit for bit (issue 12; fuzz/brdf found -1e-109) */
+        if ((float)v[n] == 0) v[n] = 0;   /* -0 (or a float underflow: -1e-109) is 0: a canonical spec re-parses bit for bit */
         n++;
         p = end;
         while (isspace((unsigned char)*p)) p++;

@@ -1,4 +1,4 @@
-/* gllights.h - local lights on the GPU (issue 11): a distance cube map per light for its
+/* gllights.h - local lights on the GPU: a distance cube map per light for its
  * shadows, the analytic BRDFs in GLSL, and the per-pixel (or per-vertex) direct light the
  * GLSL runtime adds to the probe's PRT result.
  *

@@ -60,7 +60,7 @@ struct glrt {
     float unshift;              /* 2^e: the uploaded light is L x 2^-e (light_scaled_copy), the kernels undo it */
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
-    gllights *local;            /* local lights (issue 11): made at the first glrt_set_local_lights */
+    gllights *local;            /* local lights: made at the first glrt_set_local_lights */
     bool local_bounce;          /* glrt_desc.local_bounce: the VSGLs too (glrt_set_local_effects turns it) */
     bool vsgl_glossy;           /* the VSGLs light the glossy lobe too (false under the highlights) */
     glvsgl *vsgl;               /* their VSGLs (glvsgl.h), made at the first light move when asked */
@@ -505,7 +505,7 @@ static int order_tris(glrt *rt, const float *pix, const float *tva, uint32_t *pe
 /* The per-pixel transfer's data (rt->tv, ops->glsl_view): its two arrays as buffer textures (t_tv
  * RGBA32F, t_tvu R32UI) and attribute 5, 1 at the vertices of its materials. Where the context
  * cannot hold them (buffer-texture size, texture units) rt->tv is dropped: the CPU shades its
- * vertices as before. -1 with err (OOM, GL error). */
+ * vertices (the per-vertex model). -1 with err (OOM, GL error). */
 static int upload_tv(glrt *rt, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (!rt->tv) return 0;
@@ -924,7 +924,7 @@ static int rebuild_view_programs(glrt *rt, int lmax, prt_error *err) {
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err) {
     if (current(rt, err)) return -1;
     double t0 = prt_now();
-    /* issue 11 item 3: the VSGLs' lobe tables before the programs that read them */
+    /* the VSGLs' lobe tables before the programs that read them */
     if (rt->local_bounce && ls->count > 0 && !rt->vsgl) {
         if (!(rt->vsgl = glvsgl_create(&rt->d->scene, err))) return -1;
         glvsgl_set_glossy(rt->vsgl, rt->vsgl_glossy);
@@ -1026,7 +1026,7 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     gl->ActiveTexture(GL_TEXTURE1);
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
     if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
-    if (rt->local) {   /* issue 11: the local lights' uniforms and shadow cubes (gllights_bind) */
+    if (rt->local) {   /* the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
         if (rt->vsgl && rt->local_bounce) glvsgl_bind(rt->vsgl, rt->gl, p);
         else gl->Uniform1i(gl->GetUniformLocation(p, "u_nvsgl"), 0);

@@ -61,7 +61,7 @@
  * radiance for every vertex. The element buffer is then ordered in three classes, each drawn by its
  * own program: no corner of the transfer's materials (no tv code), every corner with vattr 1 (the
  * tv's fast path, TV_FULL 0), the rest (TV_FULL 1); llvmpipe runs a masked branch's body for every
- * pixel, so one program for all took the paper-phong sphere's frame from ~150 to ~365 ms.
+ * pixel, so one program for all would take the paper-phong sphere's frame from ~150 to ~365 ms.
  * Measured (tests/test_runtime.c): vmf_pixel, paper-phong sphere, 24 x 48, smooth sky with an 8-degree
  * sun: per pixel 0.7% from quadrature at 18 pixels where the per-vertex image is 12.7% off;
  * vmf_pixel_point: per pixel against vmft_radiance_point on the CPU at every pixel of a glossy sphere
@@ -121,7 +121,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err);
 void glrt_destroy(glrt *rt);
 /* Light change. L: [CUBE_TEXELS][4] in the file's transfer representation (transfer_light_vector). */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
-/* Local lights (issue 11, gllights.h): their direct light with shadow cubes is added per pixel (or per
+/* Local lights (gllights.h): their direct light with shadow cubes is added per pixel (or per
  * vertex in GLRT_VIEW_VERTEX) to every later draw; count 0 turns them off. At most GLLIGHTS_MAX. */
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err);
 /* Local lights' one bounce on (the VSGLs, glvsgl.h) or off, and with glossy, their light on the receivers'

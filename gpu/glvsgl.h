@@ -1,6 +1,6 @@
 /* glvsgl.h - the local lights' one bounce on the GPU: the two VSGLs of each light (vsgl.h,
  * built on the CPU from an Embree RSM at each light move) as uniforms, and their light on
- * the receiver's lobes in GLSL (issue 11, item 3 on the GLSL runtime).
+ * the receiver's lobes in GLSL (the GLSL runtime's counterpart of indirect.h's bounce).
  *
  * Usage (glrt.c does this when glrt_desc.local_bounce is set):
  *     glvsgl *V = glvsgl_create(&scene, &err);        // BVH, material lobes, an RSM (scene SHARED)

@@ -19,7 +19,7 @@
  * equal the cpu backend's to the float rounding of the GPU's sums. The relight
  * context for that is made on the first such call.
  *
- * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
+ * Local lights - the hooks, for whoever adds more local-light effects:
  *   light move:  gl_set_local_lights -> glrt_set_local_lights (gpu/glrt.c) -> gllights_set
  *                (gpu/gllights.c: one distance cube map per light, rendered from the mesh's VAO).
  *   view change: glrt_draw binds them (gllights_bind: uniforms u_nlocal, u_lpos, u_ldir, u_lcol,
@@ -59,7 +59,7 @@ typedef struct gl_rt {
     bool bg_set, has_frame;
     double view_ms, raster_ms;  /* the last view change (draw or vertex finish) and read-back */
     double local_ms;            /* the last local-light move: glrt's and the highlights' */
-    prt_lights lights;          /* the local lights (issue 11) */
+    prt_lights lights;          /* the local lights */
     direct_ctx *local;          /* vertex colours with local lights: made on first use */
     bool direct_stale;          /* lights moved since direct's last light move */
     int hl_samples;             /* indirect highlights: rays per glossy vertex (0: off) */

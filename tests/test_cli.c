@@ -1,6 +1,6 @@
 /* test_cli.c - the prt command end to end, as a user meets it.
  *
- * Bad input (issue 2's list): missing, unreadable, malformed or empty OBJ; NaN
+ * Bad input: missing, unreadable, malformed or empty OBJ; NaN
  * coordinates; degenerate triangles; corrupt, truncated or wrong-version .prt;
  * unreadable probe. Each must exit non-zero with exactly one line on stderr that
  * names the file, without crashing, and leave no output file (nor a temporary one).

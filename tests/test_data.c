@@ -6,8 +6,8 @@
  *    sphere of R rings and S segments has 2 + (R-1) S vertices and 2 S (R-1)
  *    triangles, ...), read off the JSON with cJSON and the defaults of scene.h;
  *  - the shared models' 'v' and 'f' line counts from ../shared/data/SOURCES.md;
- *  - the demo as it was built in code before it became data (demo_in_code below,
- *    the former scene_make_demo), compared bit for bit, so `prt demo` is unchanged;
+ *  - the demo built in code (demo_in_code below, an independent construction of
+ *    data/demo.json's scene), compared bit for bit, so `prt demo` draws that scene;
  *  - the command lines of tools/bench.sh and tools/study.sh, which data/bunny-floor.json
  *    and data/spot-floor.json must reproduce exactly.
  * A scene whose model file is missing (a checkout without ../shared/data) must fail

@@ -1,4 +1,4 @@
-/* test_edges.c - the rough edges a new user hits (issue 12, items 1-10), through the CLI.
+/* test_edges.c - the rough edges a new user hits, through the CLI.
  *
  * Each case runs build/prt as a user would and checks the exit status, the one line
  * that names the file or flag and the problem, and that no output file and no

@@ -10,7 +10,7 @@
  *    glrt in per-vertex view mode against the CPU runtime (relight_view +
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
  *    mode's difference from it is reported (it is a different, finer model).
- * 4. A finite 1e37 sun (issue 12) through runtime.h on both backends: gl's colours and images
+ * 4. A finite 1e37 sun through runtime.h on both backends: gl's colours and images
  *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun). */
 #include "harness.h"
 #include "brdf.h"

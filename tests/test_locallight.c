@@ -1,4 +1,4 @@
-/* test_locallight.c - local lights (issue 11) against independent truths:
+/* test_locallight.c - local lights against independent truths:
  *   - spec strings: every field parsed, the format round trip, bad specs refused with
  *     one line naming the flag and the problem; JSON scene lights (string and object),
  *     bad ones naming the file and the entry;

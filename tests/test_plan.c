@@ -5,7 +5,7 @@
  * vertex; a box open at the top (surfaces facing each other) gets bounce passes
  * that brighten its inside; force_bounces and max_terms / term_error override
  * the plan; a progress callback can cancel; bad settings fail with a message.
- * Issue 9: the path per material (Lambert, SVD, Haar diffuse + vMF specular) decided by
+ * The path per material (Lambert, SVD, Haar diffuse + vMF specular) decided by
  * measurement and printed with the reason; --glossy forces it; bad values are refused.
  * The time estimate covers every pass that runs (direct, each bounce, each vMF stage), one for one
  * (not its accuracy: README "Effects plan" measures that); a BRDF reflecting more than it

@@ -5,7 +5,7 @@
  * files with a valid checksum but out-of-range indices each fail with one line naming
  * the file; failed writes leave no file behind; the same bytes read from memory
  * (prtfile_read_memory) give the same data and the same messages. The transport lives in a Haar
- * transfer section (transfer.h), written and validated by that module. Issue 13's mapped loading:
+ * transfer section (transfer.h), written and validated by that module. Mapped loading:
  * prtfile_read leaves the runs and coefficients in windows of the file (data_map), which hold the
  * same values as the copies prtfile_read_memory makes and shade the same vertex colours; a file
  * without the padding (older files) maps when its array is aligned and is copied when not; bad

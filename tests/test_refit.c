@@ -3,7 +3,7 @@
  * Parseval); with any model its values solve the normal equations built by brute force from the
  * texel values of the Haar functions; its rounding never raises the expected error over rounding to
  * the nearest; and an open floor under a turning sun keeps its T.L within 0.5% of the exact sum over
- * texels at every one-degree step (issue 10's shimmer), where plain truncation does not. */
+ * texels at every one-degree step (the shimmer of tools/shimmer.sh), where plain truncation does not. */
 #include "harness.h"
 #include "cubemap.h"
 #include "haar.h"

@@ -1,4 +1,4 @@
-/* test_resume.c - resumable precompute (issue 12) through the prt command.
+/* test_resume.c - resumable precompute through the prt command.
  *
  * The scene: a glossy sphere (Phong, SVD with K = 2, so records hold several vectors) on a
  * Lambert floor, 282 vertices, one forced bounce: small enough for a few seconds a run, with a

@@ -14,7 +14,7 @@
  *     from the unrotated light;
  *   - direct-only and the term count switch both backends alike;
  *   - timings are filled and finite for both.
- * Several transfers (issue 9): a paper-phong sphere over a Lambert floor whose plan puts the
+ * Several transfers: a paper-phong sphere over a Lambert floor whose plan puts the
  * sphere on the vMF path (Haar K = 1 diffuse + vmf lobes), under a smooth sky:
  *   - the cpu runtime is the sum of relight's sparse part and the vmf transfer's shade_vertices
  *     with the probe prefiltered independently (exactly), and the top of the sphere (nothing
@@ -31,7 +31,7 @@
  *   - the file round trip renders the same colours, bit for bit;
  *   - the light rotated by R is the rotated sky on both backends (the prefiltered probe only
  *     rotated; 2e-2, see the case), and rotating the kept prefiltered probe equals a fresh one;
- *   - a Lambert-only file shades exactly as the formula before several transfers existed;
+ *   - a Lambert-only file shades bit for bit by Eq. 5 alone, max(h_m (T x L), 0) per vertex;
  *   - a light change from probe_to_cube's cube (runtime_set_light_cube), and from that cube's light
  *     vectors (runtime_set_light_vectors), equals the probe's, bit for bit, on both backends, and a
  *     vmf file, which needs the probe, refuses both (light_cube).

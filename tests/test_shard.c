@@ -1,4 +1,4 @@
-/* test_shard.c - `prt precompute` split across MPI ranks (shard.h, issue 13).
+/* test_shard.c - `prt precompute` split across MPI ranks (shard.h).
  *
  * Truth: the file of one process on the same scene. Two runs differ only in their timings (the
  * META timing fields, the plan's numbers), so both files are read, those zeroed and blanked, and
@@ -17,8 +17,8 @@
  *   vmf         the vMF lobe passes (--glossy vmf, two gathering passes) under -np 2;
  *   binding     one process on all cores, one under taskset -c 0, and -np 2 under mpirun's default
  *               core binding: the same bytes (the factorization runs on one OpenBLAS thread,
- *               factor.c; before, its last bits followed the cores a process could use).
- * The other cases run the ranks unbound (--bind-to none), as before the fix. The Phong sphere
+ *               factor.c; else its last bits would follow the cores a process may use).
+ * The other cases run the ranks unbound (--bind-to none): binding is the binding case's. The Phong sphere
  * (K = 2) runs where the factorization matters; the
  * cases about failing use a Lambert one (no factorization time).
  * Every case is skipped, with the reason printed, when mpirun is not installed. Runs as root need

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# bench_gl_lights.sh - the gl runtime with local lights (issue 11): light-move, view-change (one
+# bench_gl_lights.sh - the gl runtime with local lights: light-move, view-change (one
 # per-pixel frame) and effect times of two scenes, as one table. A benchmark, not a test: it prints
 # what `prt bench` measured and asserts nothing.
 #

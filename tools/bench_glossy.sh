@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# make bench (glossy part, issue 9): vMF lobe transfer (Laurijssen et al. 2011) against
+# make bench (glossy part): vMF lobe transfer (Laurijssen et al. 2011) against
 # the SVD path (Wang et al. 2006) on the glossy scenes of data/, each figure beside its
 # target. Not a test: it prints what it measured and never turns a miss into a pass.
 #
 #   tools/bench_glossy.sh [build/prt]     (needs ../shared/data; writes under build/bench/glossy/)
-#   GLOSSY_SPP=N                          reference samples per pixel (default 128, the issue's)
+#   GLOSSY_SPP=N                          reference samples per pixel (default 128, the targets')
 #
 # Steps (each precompute with its timing summary kept in a .log beside it):
 #  1. paper-phong sphere (data/sphere-phong.json) under city, 400x400: prt render against
@@ -49,7 +49,7 @@ stage_s() { tr '\r' '\n' < "$1" | awk -v pat="$2" "$SECS"' $0 ~ pat {s += secs()
 plan_paths() { tr '\r' '\n' < "$1" | grep -E '^    material [0-9]+ ' | sed 's/^ */   plan: /'; }
 mb() { stat -c %s "$1" | awk '{printf "%.1f", $1/1e6}'; }
 
-echo "== prt glossy benchmark (issue 9): vMF lobes against the SVD path; $(nproc) cores; reference spp $SPP"
+echo "== prt glossy benchmark: vMF lobes against the SVD path; $(nproc) cores; reference spp $SPP"
 echo
 echo "-- 1. paper-phong sphere under city, 400x400"
 s_v=$(precompute sphere data/sphere-phong.json)
@@ -65,7 +65,7 @@ cg=$("$PRT" compare "$OUT/sphere-gl.exr" "$OUT/sphere-ref.exr")
 plan_paths "$OUT/sphere.log"
 printf "   image rel_rmse, vMF                %8s    target <= 0.08   %s\n" "$(kv "$cv" rel_rmse)" "$(verdict "$(kv "$cv" rel_rmse)" 0.08 le)"
 printf "   image rel_rmse, vMF per pixel (gl) %8s    target <= 0.08   %s\n" "$(kv "$cg" rel_rmse)" "$(verdict "$(kv "$cg" rel_rmse)" 0.08 le)"
-printf "   image rel_rmse, SVD K = 4          %8s    (0.47 before issue 9)\n" "$(kv "$cs" rel_rmse)"
+printf "   image rel_rmse, SVD K = 4          %8s    (0.47 expected)\n" "$(kv "$cs" rel_rmse)"
 printf "   precompute vMF / SVD               %8s s / %s s; files %s MB / %s MB\n" "$s_v" "$s_s" "$(mb "$OUT/sphere.prt")" "$(mb "$OUT/sphere-svd.prt")"
 
 echo

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# make bench (local lights, issue 11): measured figures beside issue 11's targets. Not a
+# make bench (local lights): measured figures beside the local lights' targets. Not a
 # test: it prints what it measured and never turns a miss into a pass.
 #
 #   tools/bench_lights.sh [build/prt]     (writes under build/bench/lights/)
@@ -9,7 +9,7 @@
 #  1. the box room (data/box-room.json, a spot light, --probe none: the local light alone),
 #     400x300: prt render --backend cpu and --backend gl against prt reference (direct, the
 #     part built so far) and against prt reference --bounces 1 (direct + one bounce: the
-#     issue's target, <= 15% image rel_rmse), each runtime without and with --local-bounce
+#     target, <= 15% image rel_rmse), each runtime without and with --local-bounce
 #     (the two VSGLs per light, src/locallight/vsgl.h, gpu/glvsgl.h).
 #  2. moving a light at 67K vertices: the bunny + floor of make bench (build/bench/bunny.prt,
 #     made by tools/bench.sh; else precomputed here from data/bunny-floor.json) with a spot
@@ -35,7 +35,7 @@ verdict() { awk -v a="$1" -v b="$2" -v dir="$3" 'BEGIN{ if (a == "") { print "no
   ok = (dir=="le") ? (a<=b) : (a>=b); print ok ? "met" : "MISSED" }'; }
 rel() { "$PRT" compare "$1" "$2" | sed -n 's/.*rel_rmse=\([0-9.e+-]*\).*/\1/p'; }
 
-echo "== local lights (issue 11): box room with a spot light, and light moves at 67K vertices"
+echo "== local lights: box room with a spot light, and light moves at 67K vertices"
 # The probe is none, so the transport only needs to exist: a small N and visibility keep it quick.
 "$PRT" precompute data/box-room.json --no-bounces --coeffs 16 --vis-res 64 -o "$OUT/box.prt" --quiet 2> "$OUT/box.log" ||
   die "box room precompute failed (see $OUT/box.log)"

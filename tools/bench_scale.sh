@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# make bench-scale: issue 13's large scenes (data/scale-*.json: the bunny over a dense floor, about
-# 100 K, 300 K and 1 M vertices). Not a test: it prints measured figures beside the issue's
+# make bench-scale: the large scenes (data/scale-*.json: the bunny over a dense floor, about
+# 100 K, 300 K and 1 M vertices). Not a test: it prints measured figures beside their
 # targets and never turns a miss into a pass.
 #   1. the direct pass (--no-bounces, one process, 2 threads) at each size: wall and CPU time, CPU
 #      time per 1,000 vertices (linear in vertices: about the same at every size; the bunny's K = 4
 #      vertices cost more than the floor's), peak memory (/usr/bin/time -v);
-#   2. loading each size's file (issue 13: mapped, prtfile_read): `prt info` (the whole load: map,
+#   2. loading each size's file (mapped, prtfile_read): `prt info` (the whole load: map,
 #      CRC on every core, every index validated) and `prt render` at 320x240 on 2 threads (its time
 #      to the first frame: load, probe, light change, view change, raster, write), wall and CPU time
 #      and peak memory of each;

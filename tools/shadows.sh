@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# tools/shadows.sh - issue 10's accuracy targets (README "Shadows") on a Lambert bunny
+# tools/shadows.sh - the shadows' accuracy targets (README "Shadows") on a Lambert bunny
 # (lambert:kd=0.8) over a lambert:kd=0.7 floor under city.exr, direct light (--no-bounces),
 # against prt reference: the floor's sun-shadow error per vertex (the study's region: floor
 # vertices below 60% of the floor's median reference radiance) and its worst vertex, every

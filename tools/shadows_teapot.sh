@@ -24,7 +24,7 @@ for o in exr png; do
   [ -f $W/ref.$o ] || "$PRT" reference $W/teapot-floor.prt --probe "$DATA/probes/city.exr" --spp $SPP --size 800x600 --camera $CAM \
     --no-background --exposure -2 -o $W/ref.$o --quiet 2>> $W/ref.log
 done
-# The second row: the whole default view with the light turned 90 degrees (the sawtoothed edge),
+# The second row: the whole default view with the light turned 90 degrees (where a sawtoothed edge shows),
 # away from the prior's own orientation, where the light-weighted texels do not apply.
 for o in exr png; do
   for s in teapot-floor teapot-shadows; do

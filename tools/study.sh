@@ -19,7 +19,7 @@
 #    the 64^2 lighting cube), no interreflection passes; the bounce sweep uses a
 #    gathering cube of 32^2 per face and the gather sweep one bounce.
 #  * "uncompressed" is N = 24,576 (every non-zero coefficient) with float storage.
-#  * Shadows (issue 10): the Haar measure (the default, wavelets of the transport per
+#  * Shadows: the Haar measure (the default, wavelets of the transport per
 #    steradian, against the paper's --texel-measure) and the refinement threshold
 #    (--refine-threshold; 0 = no refinement, the default). A refined point's mesh has its own
 #    vertices, so its per-vertex reference is traced for it; the floor is refined exactly and
@@ -172,7 +172,7 @@ precompute() { # id
   IFS=_ read -r s n k q v b g sh r m <<< "$id"
   n=${n#n}; k=${k#k}; q=${q#q}; v=${v#v}; b=${b#b}; g=${g#g}; sh=${sh#sh}; r=${r#r}; m=${m#m}
   local args=(--glossy svd --terms "$k" --quant "$q" --vis-res "$v" --gather-res "$g")
-  # --glossy svd: the study sweeps the SVD path's knobs (K...); the vMF path is the plan's default since issue 9
+  # --glossy svd: the study sweeps the SVD path's knobs (K...), which the plan's default vMF path does not use
   [ "$r" != 0 ] && args+=(--refine-threshold "$(awk -v r="$r" 'BEGIN { print r / 1000 }')")
   [ "$m" = 1 ] && args+=(--texel-measure)
   [ "$m" = 2 ] && args+=(--light-prior "$DATA/probes/$SHARP.exr")

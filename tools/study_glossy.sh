@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# make study-glossy (issue 9): the vMF lobe transfer (Laurijssen et al. 2011) against the
+# make study-glossy: the vMF lobe transfer (Laurijssen et al. 2011) against the
 # SVD path (Wang et al. 2006, section 3.3) on the glossy scenes of data/: error against
 # precompute time and file size. Not a test: it measures, and a failed step stops it with
 # a message rather than writing a made-up number.

@@ -179,7 +179,7 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     int kuse = a->kmax && a->kmax < K ? a->kmax : K;
     printf("file %s: %d vertices, %d vectors (max K = %d), N = %d, %d-bit\n", a->in, d->scene.mesh.nverts,
            prt_data_transfer(d)->transport.nvecs, kuse, prt_data_transfer(d)->transport.N, prt_data_transfer(d)->transport.qbits);
-    for (int i = 0; i < d->ntransfers; i++) {   /* several transfers (issue 9): each one's materials and bytes */
+    for (int i = 0; i < d->ntransfers; i++) {   /* several transfers: each one's materials and bytes */
         const prt_transfer *tr = &d->transfers[i];
         char desc[256];
         tr->ops->describe(&tr->cfg, desc, sizeof desc);
@@ -195,7 +195,7 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     if (d->scene.lights.count > 0)
         printf("local light move (%d light%s, shadows): %.2f ms median (%s), min %.2f ms; CPU time %.2f ms a move\n",
                d->scene.lights.count, d->scene.lights.count == 1 ? "" : "s", km[0], fps(f[2], km[0]), km[2], km[3]);
-    if (km[1] > 0 || vm[1] > 0)   /* issue 11 items 3-4 (cpu: indirect.h) */
+    if (km[1] > 0 || vm[1] > 0)   /* the one bounce, the highlights (cpu: indirect.h) */
         printf("local indirect: one bounce (RSM + 2 VSGLs per light) %.2f ms of the move, %s %.2f ms of the view change "
                "(means)\n", km[1], runtime_backend_find(tm->backend)->indirect_view, vm[1]);
     if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);

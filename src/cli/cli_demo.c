@@ -84,8 +84,8 @@ int cli_demo(int argc, char **argv) {
     prt_camera cam;
     cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
     /* Lowered to 16 degrees above the objects, looking 8 down, 55-degree field: the horizon crosses
-     * the image about a third of the way down and the sky fills the upper third (from the default
-     * 25 degrees up even the top row looked below the horizon: a flat ground colour; issue 12). */
+     * the image about a third of the way down and the sky fills the upper third (at the default
+     * 25 degrees up even the top row would look below the horizon: a flat ground colour). */
     camera_lower(&cam, 16, 8, 55);
     render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };
     if (!(rt = runtime_create(&d, NULL, &err)) || runtime_set_light(rt, &sky, NULL, &err) ||

@@ -119,12 +119,12 @@ int cli_info(int argc, char **argv) {
     if (ps->bounces) printf(", bounces %s", t[3]);
     printf(", total %s\n", t[4]);
     if (ps->peak_rss_bytes) printf("peak memory   %.2f GB\n", ps->peak_rss_bytes / 1e9);
-    /* issue 13: how the file sits in memory once loaded (prtfile.h, mapped loading) */
+    /* How the file sits in memory once loaded (prtfile.h, mapped loading) */
     long anon, file;
     if (resident_kb(&anon, &file))
         printf("loaded        %.2f MB of the file mapped in place (the transport's runs and coefficients: page cache, "
                "shared), %.2f MB of this process's own memory resident\n", prt_data_mapped_bytes(&d) / 1e6, anon * 1024 / 1e6);
-    for (int i = 0; i < d.scene.lights.count; i++) {   /* issue 11: the file's local lights */
+    for (int i = 0; i < d.scene.lights.count; i++) {   /* the file's local lights */
         char spec[300];
         light_format(&d.scene.lights.light[i], spec, sizeof spec);
         printf("%s %s\n", i ? "             " : "local lights", spec);

@@ -15,7 +15,7 @@
  * is switched to); orbiting is a view change only, exactly the split the paper
  * times.
  *
- * Local lights (issue 11): the file's lights plus --light ones; key l picks the next
+ * Local lights: the file's lights plus --light ones; key l picks the next
  * light, alt + left drag (or, after key m, a plain left drag) moves the picked one in
  * the view plane; each move is a local-light move (runtime_set_local_lights: shadow
  * rays on the CPU, shadow cubes on GL), timed in the overlay. Keys o and i turn their one
@@ -155,7 +155,7 @@ typedef struct viewer {
     const char *shot_path, *window_shot, *keys;
     bool window_shot_now;
     int shots;
-    prt_lights lights, lights0;   /* local lights (issue 11): current, and as loaded (key r) */
+    prt_lights lights, lights0;   /* local lights: current, and as loaded (key r) */
     int pick;                   /* the picked local light */
     bool move_mode;             /* key m: left drag moves the picked light */
     bool local_dirty, local_stale[VIEW_MAX_RUNTIMES];
@@ -796,7 +796,7 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     return check_args(v, a) ? 2 : -1;
 }
 
-/* The effects plan's word on the local lights' one bounce and highlights (issue 11, item 6): the plan
+/* The effects plan's word on the local lights' one bounce and highlights: the plan
  * `prt precompute` stored with the file where it has local-light lines, else its rule on the file's
  * figures (surfaces see each other when at least 0.5% of the visibility rays hit, PC_HIT_MIN); the
  * highlights need a material with a lobe fit (lightmat.h: phong, blinn, ggx, beckmann) too. */

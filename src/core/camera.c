@@ -49,7 +49,7 @@ void camera_default(const float bmin[3], const float bmax[3], float aspect, prt_
     float dist = r / sinf(half) * 1.02f; /* the sphere's cone fits inside the narrower half angle */
     /* Three-quarter view from above, on the -z side: 145 degrees around from +z toward +x (35 from
      * -z), 25 degrees up. The shared models face -z (Spot's head; the bunny and the teapot are seen
-     * side on from either side), so a view from +z showed Spot from behind (issue 12). */
+     * side on from either side), so a view from +z would show Spot from behind. */
     float az = 145.0f * (float)M_PI / 180.0f, el = 25.0f * (float)M_PI / 180.0f;
     float dir[3] = { sinf(az) * cosf(el), sinf(el), cosf(az) * cosf(el) };
     v3_copy(out->target, c);

@@ -14,10 +14,10 @@
  * Output files: prt_atomic_open writes to "<path>.tmp.<pid>"; prt_atomic_commit
  * flushes and renames over <path>; prt_atomic_abort removes the temporary. So a
  * crash or an error never leaves a partial file under the final name. A run
- * killed between the two leaves "<path>.tmp.<pid>" (or, from an older image
- * writer, "<path>.tmp.<pid>.<ext>"); prt_atomic_clean removes those of
- * processes no longer running, and prt_output_check tells before any work
- * whether an output can be created at all (issue 12, items 3 and 4).
+ * killed between the two leaves "<path>.tmp.<pid>" (an image written through a
+ * file of its own leaves "<path>.tmp.<pid>.<ext>"); prt_atomic_clean removes those
+ * of processes that have exited, and prt_output_check tells before any work
+ * whether an output can be created at all.
  *
  * No mutable globals: all state lives in structs the caller owns. */
 #ifndef PRT_COMMON_H
@@ -66,7 +66,7 @@ void prt_bar_done(prt_bar *bar);
 FILE *prt_atomic_open(const char *path, char *tmp, size_t tmpcap, prt_error *err);
 int prt_atomic_commit(FILE *f, const char *tmp, const char *path, prt_error *err);
 void prt_atomic_abort(FILE *f, const char *tmp);
-/* Removes path's temporaries left by processes that no longer run (same folder, the name
+/* Removes path's temporaries left by processes that have exited (same folder, the name
  * "<base>.tmp.<pid>[.<ext>]", pid not alive); returns how many, the first one's name in
  * first[firstcap] (may be NULL). Another running process's temporary is never touched. */
 int prt_atomic_clean(const char *path, char *first, size_t firstcap);

@@ -11,7 +11,7 @@
  *     uint32_t x = prtio_get_u32(&r);        // 0 once past the end; r.bad says so
  *     float *a = prtio_get_arr(&r, n, 4);     // malloc'd (free()); NULL and bad if short
  *
- * Mapped reading (issue 13): prtfile_read maps the whole file read-only and gives its readers
+ * Mapped reading: prtfile_read maps the whole file read-only and gives its readers
  * .file; a section reader may then leave a large array in the file (prtio_peek_arr, then
  * prtio_map_window: a private read-only mapping of just those pages, which outlives the reader)
  * instead of copying it. A reader without .file (bytes in memory) always copies.

@@ -39,7 +39,7 @@ typedef struct prt_image {
     int w, h, c;     /* c is 3 (RGB) or 4 (RGBA) */
     float *data;     /* [h][w][c], row 0 at the top */
     bool ldr;        /* image_read: the file stores integers (PNG, JPEG, 8/16-bit TIFF...), so every
-                      * value is in [0, 1]: a light probe's sun clipped to the sky's white (issue 12) */
+                      * value is in [0, 1]: a light probe's sun clipped to the sky's white */
 } prt_image;
 
 typedef struct image_desc {

@@ -20,7 +20,7 @@
  * (an IOVecOutput proxy; every writer prt uses supports it) and the bytes go
  * through prt_atomic_open/commit ("<path>.tmp.<pid>", every write, the flush
  * and the close checked, then renamed), because OIIO's PNG writer ignores a
- * short write: a full disk must fail, not leave a cut PNG (issue 12). */
+ * short write: a full disk must fail, not leave a cut PNG. */
 /* common.h has no extern "C" guard of its own (it is a C header). */
 extern "C" {
 #include "common.h"

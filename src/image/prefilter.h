@@ -1,4 +1,4 @@
-/* prefilter.h - the light probe prefiltered by vMF lobes over a ladder of kappa (issue 9, step 4):
+/* prefilter.h - the light probe prefiltered by vMF lobes over a ladder of kappa:
  * E(d, k) = int L(w) gamma(w; d, k) dw, gamma the vMF of brdf/lobe.h (laurijssen-2011 Eq. 1,
  * the filtered-environment lookup of its section 7.1), for any unit direction d and kappa >= 0.
  *
@@ -32,8 +32,8 @@
  * 0.7 to 1.0 s per prefilter_create, 0.12 us per lookup. That is not interactive, and need
  * not be: the env holds the unrotated probe, so rotating the light is free (below); a new
  * probe costs one create. A SIMD exp (the taps are scalar expf), fewer levels at the base
- * resolution, or a GPU pass would cut it; coarser ladders cost accuracy (the first version,
- * ratio 4 at 2 texels per width, was 5-8% off on the ladder and up to 22% between levels).
+ * resolution, or a GPU pass would cut it; coarser ladders cost accuracy (ratio 4 at 2 texels
+ * per width is 5-8% off on the ladder and up to 22% between levels).
  *
  * Rotation: the env keeps the unrotated probe and the rotation R (a light at direction d
  * moves to R d, as probe_to_cube); the lookup at world direction d reads the unrotated

@@ -1,5 +1,5 @@
 /* direct.h - direct light from local lights at the vertices, with Embree shadow rays
- * (issue 11; the CPU runtime's local light, and the per-vertex truth the tests use).
+ * (the CPU runtime's local light, and the per-vertex truth the tests use).
  *
  * Usage:
  *     direct_ctx *dc = direct_create(&scene, 0, &err);   // scene is SHARED: keep it alive

@@ -1,6 +1,6 @@
 /* highlights.h - indirect highlights: light that two glossy surfaces reflect in turn, from
  * local lights and the prefiltered probe, by merging the reflected vMF lobes
- * (laurijssen-2010 sections 4-6; issue 11). Short prefix: hl_.
+ * (laurijssen-2010 sections 4-6). Short prefix: hl_.
  *
  * Usage:
  *     hl_scene sc = { .vs = vs, .mesh = &scene.mesh, .lm = lm, .env = env };  // env may be NULL
@@ -32,16 +32,16 @@
  * reading the S fitted lobes costs S vMF evaluations, no more than a merge's EM: merging pays
  * only where a lobe meets a whole environment (the probe). On data/chrome-point.json's 51
  * chrome vertices that mirror the red sphere, against an 8,192-spp reference (the per-vertex
- * relative RMS of the mean of 8 seeds, i.e. the bias), the merged read (K = 2) was 11% off at
+ * relative RMS of the mean of 8 seeds, i.e. the bias), the merged read (K = 2) is 11% off at
  * S = 32 and 25% at S = 128 (the more lobes per cluster, the broader the merge), reading each
- * lobe 3% and 1%; the clusters still group the shadow rays (K per light, as before). The
- * lattice replaced a sampling stratified in the polar variable only: one seed's error there
- * fell from 34% to 18% (merged read) and to 11% (each lobe). README "Local lights: one bounce".
+ * lobe 3% and 1%; the clusters still group the shadow rays (K per light). The lattice, because
+ * a sampling stratified in the polar variable only leaves one seed 34% off, against 18% with
+ * the lattice (merged read) and 11% (each lobe). README "Local lights: one bounce".
  * Light-relative merge (desc.merged; desc.fixed_frame gives the paper's). Section 6.3 reads every
  * lobe of a cluster at the one direction w_l(q_j), which is wrong by the angle d / r between
  * w_l(q_i) and w_l(q_j) (Eq. 11); with mirror-like lobes (kappa 300: 0.06 rad) and a light
  * 0.7 m from a wall whose q_i spread over 0.07 m, that angle exceeds a lobe's width and the
- * estimate was +265% at the peak (tests/test_highlights.c, highlights/near_light). So for each
+ * estimate is +265% at the peak (tests/test_highlights.c, highlights/near_light). So for each
  * point light every lobe is first turned by the rotation taking w_l(q_i) to w_ref, the light's
  * direction from the mean of all q_i, which makes gamma'_i(w_ref) = gamma_i(w_l(q_i)) exactly;
  * the turned lobes are clustered and merged as above, and each merged lobe is read at w_ref.

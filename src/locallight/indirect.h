@@ -1,5 +1,5 @@
 /* indirect.h - local lights' one bounce (two VSGLs per light) and indirect highlights at
- * the vertices: the CPU runtime's per-vertex stage for issue 11 items 3-4, beside the
+ * the vertices: the CPU runtime's per-vertex stage for the local lights' indirect light, beside the
  * direct light of direct.h.
  *
  * Usage:

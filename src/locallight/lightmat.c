@@ -1,7 +1,7 @@
 /* lightmat.c - per-material lobes for the local-light modules (lightmat.h).
  *
- * The fits are the same lobefit tables the vMF transfer uses, so the indirect passes of
- * issue 11 and the probe's glossy path agree on what a material reflects. */
+ * The fits are the same lobefit tables the vMF transfer uses, so the local lights'
+ * indirect light and the probe's glossy path agree on what a material reflects. */
 #include "lightmat.h"
 #include "lobefit.h"
 #include "vec3.h"

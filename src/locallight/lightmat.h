@@ -1,5 +1,5 @@
 /* lightmat.h - the scene's materials as the local-light modules see them: diffuse
- * reflectance, and for glossy models one vMF lobe per view fitted once (issue 11).
+ * reflectance, and for glossy models one vMF lobe per view fitted once.
  *
  * Usage:
  *     lightmat *lm = lightmat_create(&scene, &err);           // fits each glossy material once

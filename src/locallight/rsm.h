@@ -1,5 +1,5 @@
 /* rsm.h - a reflective shadow map of one local light, traced with Embree on the CPU
- * (Dachsbacher and Stamminger 2005; tokuyoshi section 2's set of VPLs S, issue 11).
+ * (Dachsbacher and Stamminger 2005; tokuyoshi section 2's set of VPLs S).
  *
  * Usage:
  *     rsm *r = rsm_create(&(rsm_desc){ .res = 64 }, &err);

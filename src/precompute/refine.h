@@ -58,19 +58,19 @@
  * a model's cast shadows are seen.
  *
  * Defaults: threshold 0.005 (the paper), budget 1.5x the input's vertices (the direct pass
- * grows with the vertex count: issue 10 allows 120 s against 80 s unrefined), mask_res 32,
+ * grows with the vertex count: this keeps the bunny + floor's within 120 s), mask_res 32,
  * max_levels 6 (edges at most 64 times shorter than the input's; a contact line where a
  * model touches the floor stays marked at every level, so the budget and this cap end it).
  * precompute keeps refinement OFF unless asked for (precompute_desc.refine_threshold,
- * `prt precompute --refine`, a JSON scene's "refine"): issue 10's targets are met without it,
- * and its 1.5x vertices would take the benchmark's file past 100 MB (the refined bunny + floor's
- * direct pass, 103 s since the floor shortcut of visibility.h, meets the 120 s). Measured
- * (README "Shadows"): on a reduced bunny (6,029 + 4,096 floor vertices, city) the floor went
- * 4,096 -> 9,158 vertices in one level (budget reached) and the image's relative RMS error
- * 6.68% -> 6.59%. The masks' difference measures visibility change over all directions,
+ * `prt precompute --refine`, a JSON scene's "refine"): the shadow targets (README "Shadows")
+ * are met without it, and its 1.5x vertices would take the benchmark's file past 100 MB (the
+ * refined bunny + floor's direct pass, 103 s with visibility.h's floor shortcut, meets 120 s).
+ * On a reduced bunny (6,029 + 4,096 floor vertices, city) one level refines the floor from
+ * 4,096 to 9,158 vertices (budget reached) and lowers the image's relative RMS error from
+ * 6.68% to 6.59%. The masks' difference measures visibility change over all directions,
  * which falls with the distance to the occluder, so the budget fills the contact shadow
- * before it reaches a sun's shadow edge farther out. Earlier, all parts at a 3x budget on the
- * bunny + 31K floor: 65,810 -> 197,430 vertices, 27 s of refinement, a 549 s direct pass.
+ * before it reaches a sun's shadow edge farther out. All parts at a 3x budget take the bunny +
+ * 31K floor from 65,810 to 197,430 vertices (docs/design/history.md: the time it cost).
  * Errors (prt_error): a threshold outside (0, 1), a budget below the input's vertices,
  * a mask_res that is not a multiple of 4 in 8..64, max_levels outside 1..16, too many
  * vertices, out of memory, an Embree failure. On error the scene is unchanged. */

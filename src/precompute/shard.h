@@ -1,4 +1,4 @@
-/* shard.h - the precompute passes split across MPI ranks (issue 13; Debian's OpenMPI).
+/* shard.h - the precompute passes split across MPI ranks (Debian's OpenMPI).
  *
  * Usage (the CLI, once per process):
  *     prt_shard *sh = shard_create(&err);      // MPI_Init only when launched by mpirun / srun

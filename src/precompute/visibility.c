@@ -13,11 +13,11 @@
  * models, so a ray that goes down from above it and crosses its plane inside the rectangle is
  * blocked (by the floor, or by something before it). That is the answer Embree gives, so the cube
  * maps are byte for byte those of tracing everything (test: visibility/floor_culling). It saves a
- * model vertex the rays of its lower hemisphere, which traversed the BVH to reach the floor: on
- * the refined bunny + floor the direct pass went from 130.5 s to 103 s (README "Shadows"). The
- * converse for the floor's vertices (their rays that miss the models' box are open) was measured
- * too and dropped: 45% of the reduced scene's rays, and no time (130.5 s -> 130.6 s on the refined
- * scene), since Embree leaves such a packet at the first nodes anyway.
+ * model vertex the rays of its lower hemisphere, which would traverse the BVH to reach the floor:
+ * the refined bunny + floor's direct pass takes 103 s with it, 130.5 s without. The converse for
+ * the floor's vertices (their rays that miss the models' box are open) is not done: it settles 45%
+ * of the reduced scene's rays but saves no time (130.6 s against 130.5 s on the refined scene),
+ * since Embree leaves such a packet at the first nodes anyway.
  *
  * Buffers: Embree reads vertex buffers with 16-byte SSE loads, so the last
  * float3 vertex must be followed by 4 readable bytes. A prt_mesh's pos array
@@ -159,9 +159,9 @@ vis_scene *vis_create(const prt_mesh *m, prt_error *err) {
         return NULL;
     }
     /* Robust (watertight) traversal: measured on the bunny + floor it costs ~10% of the ray rate
-     * (29 -> 26 Mrays/s a core) and closes ~2 leaks in 10^7 rays through shared edges; a leak is a
-     * pinhole that can let the sun through, so we pay. RTC_BUILD_QUALITY_HIGH gave no measurable
-     * traversal gain, so the default (medium) build is kept. */
+     * (26 against 29 Mrays/s a core) and closes ~2 leaks in 10^7 rays through shared edges; a leak is a
+     * pinhole that can let the sun through, so we pay. RTC_BUILD_QUALITY_HIGH gives no measurable
+     * traversal gain, so the build is Embree's default (medium). */
     rtcSetSceneFlags(vs->scene, RTC_SCENE_FLAG_ROBUST);
     if (m->ntris > 0) {
         RTCGeometry g = rtcNewGeometry(vs->device, RTC_GEOMETRY_TYPE_TRIANGLE);

@@ -31,12 +31,12 @@
  * scaled by a power of two (exact) that makes it about 1 across, so the scene's size does not
  * matter to the ray tracer (docs/design/scale.md).
  *
- * A model's rays down to the floor are known blocked without tracing (vis_cull_floor; the
- * pass's time measured in the README, "Shadows").
+ * A model's rays down to the floor are known blocked without tracing (vis_cull_floor;
+ * visibility.c says what it saves).
  *
  * Measured (bunny + 31K-vertex floor, one core of a shared Xeon, 128^2 cube, 4x4
  * packets of rtcOccluded16): about 26 million rays a second; streams
- * (rtcOccluded1M, per face or per cube) were 5-10% slower.
+ * (rtcOccluded1M, per face or per cube) are 5-10% slower.
  *
  * Thread-safe: any number of threads may call vis_cube / vis_closest on one
  * vis_scene at once. */

@@ -17,8 +17,8 @@
  *
  * Environment sampling uses a latitude-longitude grid in the probe's frame
  * (for a latlong probe: its own pixels), cells drawn in O(1) by Walker's alias
- * method (Vose's construction; a CDF binary search was a quarter of the run time
- * from cache misses over 512K cells). Within a cell, directions are uniform in
+ * method (Vose's construction; a CDF binary search costs a quarter of the run time
+ * in cache misses over 512K cells). Within a cell, directions are uniform in
  * solid angle (phi uniform, cos(theta) uniform), so the pdf is exactly
  * P(cell) / Omega(cell) with Omega(cell) = dphi (cos theta0 - cos theta1): the
  * estimator stays unbiased whatever probe_eval's filter does inside the cell, as
@@ -394,7 +394,7 @@ static long env_nee(const ref_ctx *rc, const ref_surf *s, const float S[3], cons
     return 1;
 }
 
-/* Next-event estimation of every local light (issue 11) at s: a delta light is sampled with
+/* Next-event estimation of every local light at s: a delta light is sampled with
  * probability 1 and no other strategy can hit it, so it needs no MIS weight; adds
  * beta f I cos / d^2 V per light (lights.h: light_shade). Returns the shadow rays traced. */
 static long lights_nee(const ref_ctx *rc, const ref_surf *s, const float wo[3], const brdf_params *bp,

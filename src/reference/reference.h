@@ -27,7 +27,7 @@
  * bounce passes), k > 0 = at most k indirect bounces (Eq. 8's passes 1..k),
  * -1 = to convergence with Russian roulette after 3 bounces (survival = min(0.95,
  * max throughput)). Emission is the environment and the scene's local lights
- * (scene->lights, issue 11): at every path vertex each point or spot light is
+ * (scene->lights): at every path vertex each point or spot light is
  * sampled by next-event estimation with a shadow ray (a delta light: no MIS weight,
  * BRDF sampling never hits it), so with --bounces k their indirect light follows too.
  * A black probe (probe_make_constant 0; `--probe none`) leaves the local lights alone.

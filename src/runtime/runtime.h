@@ -44,7 +44,7 @@
  * h(view) . (T x L) with the material's factors (Eq. 5), a non-linear one (vmf:
  * ops->shade_vertices) its own view-dependent sum of lobes looked up in the
  * prefiltered probe. Lambert-only and SVD-only files have one sparse transfer
- * and shade exactly as before.
+ * and shade by Eq. 5 alone.
  *
  * The light: runtime_set_light makes a runtime_light and hands it to the
  * backend's light change: the probe resampled once to the 6x64x64 cube
@@ -83,7 +83,7 @@
  * call that draws, so other users of the context (the viewer's text) may draw
  * in between.
  *
- * Local lights (issue 11): runtime_set_local_lights hands the point and spot
+ * Local lights: runtime_set_local_lights hands the point and spot
  * lights (lights.h) to the backend, which adds their direct light with shadows,
  * shaded with the analytic BRDFs (not the factorization), to the probe's PRT
  * result at every later view change: cpu per vertex with Embree shadow rays
@@ -264,7 +264,7 @@ typedef struct runtime_backend {
     int (*set_view)(void *self, runtime_view view, prt_error *err);
     /* Fills everything but backend and light_vector_ms. */
     void (*get_timing)(const void *self, runtime_timing *t);
-    /* Local lights (issue 11): keeps ls (copied) and prepares their shadows; view changes add them. */
+    /* Local lights: keeps ls (copied) and prepares their shadows; view changes add them. */
     int (*set_local_lights)(void *self, const prt_lights *ls, prt_error *err);
     /* The one bounce and the highlights on or off (runtime_set_local_effects), lights kept. */
     int (*set_local_effects)(void *self, bool bounce, int highlight_samples, prt_error *err);

@@ -12,7 +12,7 @@
  * runtime.h: bench times the view change alone). A build without GL has no
  * raster: the colours and timings are whole, an image is refused with one line.
  *
- * Local lights (issue 11) - the hooks, for whoever adds more local-light effects:
+ * Local lights - the hooks, for whoever adds more local-light effects:
  *   light move:  cpu_set_local_lights -> direct_set_lights (src/locallight/direct.h: Embree
  *                shadow rays per vertex on every thread; the direct_ctx is made at the first call,
  *                so runs without local lights build no BVH); timed into local_ms.
@@ -162,7 +162,7 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     int rc = direct_set_lights(c->direct, ls, err);
     c->lights = *ls;
     c->bounce_ms = 0;
-    if (rc == 0 && !(c->ind_desc.no_bounce && c->ind_desc.no_highlights)) {   /* issue 11 items 3-4 */
+    if (rc == 0 && !(c->ind_desc.no_bounce && c->ind_desc.no_highlights)) {   /* the one bounce, the highlights */
         indirect_desc id = c->ind_desc;
         id.vs = direct_vis(c->direct);   /* one BVH for the shadow rays and the bounce: c->direct outlives c->indirect */
         if (!c->indirect && !(c->indirect = indirect_create(&c->d->scene, &id, err))) return -1;

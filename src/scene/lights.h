@@ -1,6 +1,6 @@
 /* lights.h - local lights: point and spot lights a scene or the command line adds.
  *
- * Issue 11. A probe lights the scene from infinity through PRT; local lights add to it
+ * A probe lights the scene from infinity through PRT; local lights add to it
  * at runtime (direct light with shadows, one bounce by two virtual spherical-Gaussian
  * lights, indirect highlights), shaded with the analytic BRDFs, never the factorization.
  *

@@ -329,7 +329,7 @@ static void rot_y(float R[9], double deg) {
 /* Rotation by deg degrees about +x (right-handed: +y turns towards +z). A multiple of
  * 90 degrees is exact (cos 90 is 0, not 6e-17), so a model stood up with "rotate_x": 90
  * gets exactly the coordinates a hand-written permutation would give (the demo's torus).
- * rot_y keeps its cos/sin so that existing scenes load bit for bit as before. */
+ * rot_y takes cos/sin at every angle, the coordinates that stored .prt files of rotate_y scenes hold. */
 static void rot_x(float R[9], double deg) {
     double q = deg / 90.0;
     float cs, sn;
@@ -352,7 +352,7 @@ static void mat3_mul(float C[9], const float A[9], const float B[9]) {
 }
 
 /* The model transform of "scale", "rotate_x", "rotate_y" and "translate":
- * p' = scale * Ry * Rx * p + t. Only rotate_y: Ry itself (bit for bit as before rotate_x). */
+ * p' = scale * Ry * Rx * p + t. Only rotate_y: R is Ry itself, not Ry * I (the same bits without rotate_x). */
 static void model_transform(prt_mesh *m, float scale, double rx, double ry, const float t[3]) {
     if (scale == 1 && rx == 0 && ry == 0 && t[0] == 0 && t[1] == 0 && t[2] == 0) return;
     float R[9], Ry[9], Rx[9];

@@ -19,13 +19,13 @@
  * "rotate_y" (degrees, right-handed; p' = scale * Ry * Rx * p + translate) and "name"
  * (ignored). Paths of OBJ models are relative to the JSON file (absolute ones are kept).
  * "floor" may also be true/false; a top-level "comment" is ignored.
- * "lights" (issue 11, lights.h) is an array of local lights, each a spec string
+ * "lights" (lights.h) is an array of local lights, each a spec string
  * ("spot:pos=0,2,0;dir=0,-1,0;inner=20;outer=30;intensity=10") or an object
  * {"type":"point"|"spot", "pos":[x,y,z], "dir":[x,y,z], "inner":DEG, "outer":DEG,
  *  "intensity":W_PER_SR, "colour":[r,g,b]} with light_parse's defaults; at most
- * PRT_MAX_LIGHTS. "light_prior" (issue 10, prior.h) names the probe, or an array of up to 16 probes,
+ * PRT_MAX_LIGHTS. "light_prior" (prior.h) names the probe, or an array of up to 16 probes,
  * the scene will be lit by (relative to the JSON file): precompute weighs its coefficient selection
- * by their light, as --light-prior does, unless told otherwise. "refine" (issue 10, refine.h) is
+ * by their light, as --light-prior does, unless told otherwise. "refine" (refine.h) is
  * true/false or {"threshold": F, "budget": V, "models": true/false}: precompute refines the mesh
  * where visibility changes first, as --refine does, unless its command line has a refine flag
  * (those replace the scene's). Any other key is
@@ -48,7 +48,7 @@
 
 #define PRT_MAX_MATERIALS 64
 
-/* The JSON's "refine" (issue 10, refine.h): how the scene asks to be refined where visibility
+/* The JSON's "refine" (refine.h): how the scene asks to be refined where visibility
  * changes before its transport; precompute applies it unless its command line says otherwise.
  * Zero fields take refine.h's defaults. */
 typedef struct scene_refine {
@@ -66,7 +66,7 @@ typedef struct prt_scene {
     int floor_first_vertex;    /* first vertex of the floor, or -1 when there is none */
     float bmin[3], bmax[3];    /* bounds of everything, floor included */
     mesh_load_stats load_stats; /* summed over OBJ models */
-    prt_lights lights;         /* local lights (issue 11): the JSON's "lights", plus --light flags */
+    prt_lights lights;         /* local lights: the JSON's "lights", plus --light flags */
     char light_prior[8192];    /* the JSON's "light_prior" probes, resolved and comma-joined ("": none) */
     scene_refine refine;       /* the JSON's "refine" (all zero: not asked for) */
 } prt_scene;
