@@ -14,10 +14,10 @@
  * Output files: prt_atomic_open writes to "<path>.tmp.<pid>"; prt_atomic_commit
  * flushes and renames over <path>; prt_atomic_abort removes the temporary. So a
  * crash or an error never leaves a partial file under the final name. A run
- * killed between the two leaves "<path>.tmp.<pid>" (an image written through a
- * file of its own leaves "<path>.tmp.<pid>.<ext>"); prt_atomic_clean removes those
- * of processes that have exited, and prt_output_check tells before any work
- * whether an output can be created at all.
+ * killed between the two leaves "<path>.tmp.<pid>"; prt_atomic_clean removes those
+ * of processes that have exited (and "<path>.tmp.<pid>.<ext>", the name that earlier
+ * prt builds' image writer gave its temporaries), and prt_output_check tells before
+ * any work whether an output can be created at all.
  *
  * No mutable globals: all state lives in structs the caller owns. */
 #ifndef PRT_COMMON_H

@@ -329,7 +329,7 @@ static void rot_y(float R[9], double deg) {
 /* Rotation by deg degrees about +x (right-handed: +y turns towards +z). A multiple of
  * 90 degrees is exact (cos 90 is 0, not 6e-17), so a model stood up with "rotate_x": 90
  * gets exactly the coordinates a hand-written permutation would give (the demo's torus).
- * rot_y takes cos/sin at every angle, the coordinates that stored .prt files of rotate_y scenes hold. */
+ * rot_y takes cos/sin at every angle, so rotate_y scenes keep the coordinates their stored .prt files hold. */
 static void rot_x(float R[9], double deg) {
     double q = deg / 90.0;
     float cs, sn;
