@@ -7,6 +7,8 @@
 #include "transport.h"
 #include "transport_fixture.h"
 #include "haar.h"
+#include "policy.h"
+#include "select.h"
 #include "transfer.h"
 #include "precompute.h"
 #include "prtfile.h"
@@ -274,7 +276,7 @@ static void light_product(void) {
     }
 }
 
-/* transport_map_to_file (issue 13's mapped previous pass): for each quantization, a set moved to an
+/* transport_map_to_file (a gathering pass's mapped previous pass): for each quantization, a set moved to an
  * unlinked file has the heap set's runs and coefficients byte for byte, the same T x L bits before
  * and after its pages are dropped (transport_drop_mapped; read again from the page cache), and
  * frees cleanly (ASan); a folder that does not exist fails with one line naming it, the set
@@ -571,6 +573,7 @@ static void face_integral(void) {
         int one = 1;
         CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
         t.solid_angle = corr;
+        CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
         transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
         CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
         float g[3];
@@ -609,6 +612,7 @@ static double block_integral_error(const float *tex, const float (*coef)[T], int
     t.solid_angle = true;
     t.block_level = level;
     t.smooth_faces = smooth;
+    CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
     transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
     CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
     memset(kept, 0, sizeof kept);
@@ -693,6 +697,7 @@ static void store_one(prt_transport *t, const float *tex, bool smooth, int budge
     t->solid_angle = true;
     t->block_level = TRANSPORT_BLOCK_LEVEL;
     t->smooth_faces = smooth;
+    CHECK(transport_set_policy(t, &haar_transport_policy, &err) == 0, "%s", err.msg);
     transport_store(t, 0, coef[0], coef[1], coef[2], tscr);
     CHECK(transport_finish(t, &err) == 0, "%s", err.msg);
     free(tscr);
@@ -794,8 +799,7 @@ static float white_radiance(const prt_data *d, int v) {
 }
 
 /* measure_file: a plane under a box precomputed with either measure, written and read back.
- * The file keeps the measure (a texel-measure file has the section's flags byte of files before
- * issue 10), and an unoccluded corner of the plane (Lambert kd 0.5) under a white environment
+ * The file keeps the measure (a texel-measure file's flags byte has only bit 0), and an unoccluded corner of the plane (Lambert kd 0.5) under a white environment
  * gives kd (the analytic answer: the cosine integrates to pi, over pi) within 1.5% for both
  * measures, before and after the round trip (identically). */
 static void measure_file(void) {
@@ -891,6 +895,7 @@ static void expected_selection(void) {
         int one = 1;
         CHECK(transport_init(&t, 1, &one, N, 32, &err) == 0, "%s", err.msg);
         t.select = sel ? TRANSPORT_SELECT_EXPECTED : TRANSPORT_SELECT_MAGNITUDE;
+        CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
         double l2 = transport_store(&t, 0, c, c, c, scr) / 3;
         CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
         float r[T], g[T], b[T];
@@ -1001,6 +1006,7 @@ static void shared_budget(void) {
         int ones[V] = { 1, 1, 1 };
         CHECK(transport_init(&t, V, ones, NB, 32, &err) == 0, "%s", err.msg);
         t.select = TRANSPORT_SELECT_EXPECTED;
+        CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
         CHECK(transport_share_budget(&t, rel ? TRANSPORT_BUDGET_RELATIVE : TRANSPORT_BUDGET_SHARED, CAP, &err) == 0, "%s", err.msg);
         for (int v = V - 1; v >= 0; v--) transport_store(&t, v, c[v], c[v], c[v], scr);   /* any order */
         CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
@@ -1057,6 +1063,7 @@ static void shared_threads(void) {
             t[q].select = TRANSPORT_SELECT_EXPECTED;
             t[q].solid_angle = true;
             t[q].block_level = TRANSPORT_BLOCK_LEVEL;
+            CHECK(transport_set_policy(&t[q], &haar_transport_policy, &err) == 0, "%s", err.msg);
             CHECK(transport_share_budget(&t[q], kind, 0, &err) == 0, "%s", err.msg);
             if (q == 2) CHECK(transport_stage_to_file(&t[q], check_tmpdir(), &err) == 0, "%s", err.msg);
             shared_job j = { &t[q], scr, q > 0 };
@@ -1114,6 +1121,91 @@ static void budget_flag(void) {
     }
 }
 
+/* ---- the policy hook (transport.h, transport_policy) ----
+ * A toy policy that keeps indices 0, 1, F, F + 1 (faces 0 and 1) whatever the magnitudes, corrects
+ * channel 0 of coefficient 1 by +0.25 and fits face 1 itself (0.5, rounded to 3 steps by its quantize):
+ * the store keeps exactly what the policy says. The truths are the contract's arithmetic: the step is
+ * max |value| / 127 over the kept values (sparse.h), a value the store rounds is within half a step,
+ * face 1's are exactly 3 steps, the dropped 2.0 at index 100 is stored as 0 and counts in the error. */
+enum { TOY_F = CUBE_RES * CUBE_RES };
+static void *toy_create(const prt_transport *t, prt_error *err) { (void)t; return prt_calloc(1, sizeof(int), err); }
+static void toy_destroy(void *state) { free(state); }
+static int toy_select(const prt_transport *t, const float *const ch[3], uint32_t *idx, float *keys, void *scratch) {
+    (void)t; (void)ch; (void)keys; (void)scratch;
+    const uint32_t keep[4] = { 0, 1, TOY_F, TOY_F + 1 };
+    memcpy(idx, keep, sizeof keep);
+    return 4;
+}
+static unsigned toy_correct(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *val,
+                            float *adj, void *scratch) {
+    (void)t; (void)ch; (void)scratch;
+    memset(adj, 0, TRANSPORT_BLK * sizeof *adj);
+    adj[(0 * 6 + 0) * 16 + 1] = 0.25f;   /* channel 0, face 0, coefficient 1 */
+    for (int k = 0; k < n; k++)
+        if (idx[k] / TOY_F == 1)
+            for (int c = 0; c < 3; c++) val[3 * k + c] = 0.5f;
+    return 1u << 1;
+}
+static void toy_quantize(const prt_transport *t, int f, const uint32_t *idx, int n, const float step[3], int qmax,
+                         float *val, void *scratch) {
+    (void)t; (void)idx; (void)qmax; (void)scratch;
+    CHECK(f == 1 && n == 2, "quantize asked for face %d with %d values", f, n);
+    for (int k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++) val[3 * k + c] = 3 * step[c];
+}
+static const transport_policy toy_policy = { .create = toy_create, .destroy = toy_destroy, .select = toy_select,
+                                             .correct = toy_correct, .quantize = toy_quantize };
+
+static void policy_hook(void) {
+    static float x[CUBE_TEXELS], r[CUBE_TEXELS], g[CUBE_TEXELS], b[CUBE_TEXELS];
+    x[0] = 1.0f; x[1] = 0.5f; x[TOY_F] = 0.2f; x[TOY_F + 1] = 0.1f; x[100] = 2.0f;
+    prt_transport t;
+    prt_error err;
+    int one = 1;
+    void *scr = malloc(transport_scratch_size());
+    CHECK(transport_init(&t, 1, &one, 8, 8, &err) == 0, "%s", err.msg);
+    CHECK(transport_set_policy(&t, &toy_policy, &err) == 0, "%s", err.msg);
+    CHECK(t.policy_state != NULL, "create's state is the set's");
+    double e2 = transport_store(&t, 0, x, x, x, scr);
+    CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+    CHECK(t.policy == &toy_policy && t.policy_state == NULL, "finish frees the state, keeps the policy");
+    CHECK(transport_ncoefs(&t) == 4, "the policy's 4 kept: %zu", transport_ncoefs(&t));
+    transport_decode(&t, 0, r, g, b);
+    float step = 1.0f / 127;   /* the largest kept value is x[0] = 1 */
+    CHECK_NEAR(t.scale[0], step, 1e-7, "step: max |value| / qmax");
+    CHECK_NEAR(r[0], 1.0, step / 2, "index 0: the input");
+    CHECK_NEAR(r[1], 0.75, step / 2, "index 1, channel 0: input + the policy's correction");
+    CHECK_NEAR(g[1], 0.5, step / 2, "index 1, channel 1: the input, no correction");
+    CHECK(r[TOY_F] == 3 * t.scale[0] && b[TOY_F + 1] == 3 * t.scale[2], "face 1: the policy's own rounding: %g", r[TOY_F]);
+    CHECK(r[100] == 0, "index 100 (the largest) not kept: %g", r[100]);
+    double want = 0;   /* the squared error of what is stored against the input, 3 channels */
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        double d[3] = { (double)x[j] - r[j], (double)x[j] - g[j], (double)x[j] - b[j] };
+        want += d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    }
+    CHECK_NEAR(e2, want, 1e-6 * want, "store's error: the stored values' (%g)", want);
+    transport_free(&t);
+
+    /* Haar's policy with every parameter 0 stores what the plain path stores (the same code on the same
+     * input in one process: exact). */
+    prt_transport p[2];
+    float *v[3] = { malloc(sizeof(float) * T), malloc(sizeof(float) * T), malloc(sizeof(float) * T) };
+    make_vec(7, v[0], v[1], v[2]);
+    for (int q = 0; q < 2; q++) {
+        CHECK(transport_init(&p[q], 1, &one, 128, 8, &err) == 0, "%s", err.msg);
+        if (q) CHECK(transport_set_policy(&p[q], &haar_transport_policy, &err) == 0, "%s", err.msg);
+        transport_store(&p[q], 0, v[0], v[1], v[2], scr);
+        CHECK(transport_finish(&p[q], &err) == 0, "%s", err.msg);
+    }
+    CHECK(transport_ncoefs(&p[0]) == transport_ncoefs(&p[1]) &&
+              !memcmp(p[0].packed, p[1].packed, 4 * transport_ncoefs(&p[0])) && !memcmp(p[0].scale, p[1].scale, 12) &&
+              !memcmp(p[0].runs, p[1].runs, 2 * transport_nruns(&p[0])),
+          "plain path and Haar's policy with no parameters store the same bytes");
+    for (int q = 0; q < 2; q++) transport_free(&p[q]);
+    for (int c = 0; c < 3; c++) free(v[c]);
+    free(scr);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(bad_arguments);
@@ -1135,6 +1227,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(shared_threads);
     CHECK_CASE(budget_flag);
     CHECK_CASE(measure_file);
+    CHECK_CASE(policy_hook);
     CHECK_CASE(benchmark);
     qsets_free();
     return check_summary();

@@ -6,13 +6,15 @@
 #include "harness.h"
 #include "transfer.h"
 #include "transport.h"
+#include "policy.h"
 #include <stdlib.h>
 #include <string.h>
 
 /* tex (Eq. 3's texels, CUBE_TEXELS; the same in the three channels) projected by Haar with cfg (N, qbits,
  * measure; configured here) and stored into *t, a set of one vector, finished. With like, its choices
  * are copied before the store (transport_init_like's: solid_angle, select, prior, block_level,
- * smooth_faces, refit: precompute's settings); without, the set's defaults. t is the caller's
+ * smooth_faces, refit: precompute's settings); without, the set's defaults. Either way the set has
+ * Haar's policy (policy.h), as precompute gives Haar's sets. t is the caller's
  * (transport_free). */
 static __attribute__((unused)) void tfx_store(const float *tex, transfer_config cfg, const prt_transport *like,
                                               prt_transport *t) {
@@ -28,6 +30,7 @@ static __attribute__((unused)) void tfx_store(const float *tex, transfer_config 
     l.N = cfg.N;
     l.qbits = cfg.qbits;
     l.budget = 0;
+    l.policy = &haar_transport_policy;   /* Haar's sets carry Haar's policy (precompute.c) */
     CHECK(transport_init_like(t, &l, &one, &err) == 0, "%s", err.msg);
     void *tscr = malloc(transport_scratch_size());
     transport_store(t, 0, coef[0], coef[1], coef[2], tscr);

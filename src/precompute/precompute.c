@@ -64,6 +64,7 @@
 #include "gather.h"
 #include "haar.h"
 #include "lobefit.h"
+#include "policy.h"
 #include "prior.h"
 #include "refine.h"
 #include "refit.h"
@@ -887,6 +888,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     r->direct.prior = r->d.light_prior;   /* pc_check_prior: only with EXPECTED; the gathering passes inherit it */
     r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
     r->direct.smooth_faces = r->direct.solid_angle && r->d.smooth_faces;
+    if (r->tr->ops == &transfer_haar && transport_set_policy(&r->direct, &haar_transport_policy, err)) return -1;
     if (pc_refit(r, err)) return -1;
     if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
     if (pc_stream(r, err)) return -1;

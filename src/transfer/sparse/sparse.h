@@ -28,6 +28,8 @@
  * 2*len floats. Returns the count (<= n). */
 int sparse_select(const float *r, const float *g, const float *b, int len, int n, uint32_t *idx, float *scratch);
 
+/* The largest |q| of a qbits-bit value: 127 at 8 bits, 32767 at 16; 0 for 32 (floats, no rounding). */
+static inline int sparse_qmax(int qbits) { return qbits == 8 ? 127 : qbits == 16 ? 32767 : 0; }
 /* Quantization step for max |x| = maxabs with qmax levels (0 when maxabs is 0 or not finite). */
 float sparse_step(float maxabs, int qmax);
 /* round(x/step) clamped to [-qmax, qmax]; 0 when step is 0. */

@@ -1,10 +1,11 @@
-/* transport.h - the set of compressed transport vectors of a scene.
+/* transport.h - the set of compressed transport vectors of a scene (Wang et al. 2006,
+ * section 4.1: the N largest coefficients of each vector, quantized and packed).
  *
  * Vertex v has vec_first[v+1] - vec_first[v] vectors: one per BRDF term k of its
  * material (K of that material), vector vec_first[v] + k. Vector i holds
  * coef_first[i+1] - coef_first[i] coefficients (at most N; fewer when the
  * vector has fewer non-zeros, e.g. 0 for a fully occluded vertex), sorted by
- * wavelet index. Their indices are stored as runs over the 96 blocks of 256
+ * coefficient index. Their indices are stored as runs over the 96 blocks of 256
  * (section 4.1.2, with the block bytes run-length coded because sorted indices
  * share blocks): vector i's runs are runs[2*r], runs[2*r+1] for r in
  * run_first[i] .. run_first[i+1]-1, each (block, count-1), covering its
@@ -23,16 +24,22 @@
  * candidates unquantized, and transport_finish picks the best budget x nvecs of all
  * of them (one threshold on the selection weight), corrects and quantizes what each
  * vector keeps. N is always the most any vector holds, which is what a file states.
- * With the solid-angle measure what truncation drops is put back into the kept coarse
- * coefficients: per 16x16-texel block (block_level), or on a face with no occluder edge
- * weighted by the transport (smooth_faces); README "Shadows". With a light prior's refit tables
- * (refit, per-vector budget) each face's kept values are instead refit to the least expected
- * error of T.L under the prior's light and rounded by the same measure (refit.h).
+ *
+ * Policy. Which coefficients a vector keeps and what values they get is the plain path of
+ * section 4.1 (sparse_select's largest energies, the input's values rounded to the nearest step)
+ * unless a representation gives the set a policy (transport_set_policy, transport_policy below):
+ * Haar's (haar/policy.h) weighs the selection by the light it expects (select, prior), puts what
+ * truncation drops back into the kept coarse coefficients (solid_angle, block_level, smooth_faces)
+ * or refits the kept values to a light prior (refit). Those fields are the policy's parameters:
+ * the plain path reads none of them and refuses a set that asks for them without a policy.
  *
  * Runtime: transport_light (Eq. 5's T x L for every vector) computes the
  * light-dependent K-vectors: g[3*i+ch] = sum_c value(c, ch) * L[index(c)][ch].
- * L is the light vector in wavelet-index order as float[4] per index (RGB and
+ * L is the light vector in coefficient-index order as float[4] per index (RGB and
  * padding, 16-byte aligned).
+ *
+ * Files: transport.c (the set, its staging and mapping), store.c (transport_store), budget.c
+ * (a shared budget's choice), pack.c (transport_finish's packing), kernel.c (T x L on the CPU).
  *
  * Ownership: all arrays belong to the set; transport_free frees them. */
 #ifndef PRT_TRANSPORT_H
@@ -63,38 +70,32 @@ typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT
  *             starved by bright ones. */
 typedef enum transport_budget { TRANSPORT_BUDGET_VECTOR = 0, TRANSPORT_BUDGET_SHARED = 1, TRANSPORT_BUDGET_RELATIVE = 2 } transport_budget;
 /* A shared budget's cap per vector, in multiples of the mean (transport_share_budget's nmax default):
- * on the reduced bunny + floor 2 gave the same figures as 4 (19 of 10,125 vectors at the cap), at half
- * the staging (README "Shadows"). */
+ * 2 measured as well as 4 on the shadow tests at half the staging (docs/design/transport.md). */
 #define TRANSPORT_SHARED_CAP 2
 /* What every vector keeps of a shared budget whatever the others hold: budget / TRANSPORT_SHARED_MIN
- * of its best (README "Shadows": without it the absolute weights left 57 dark floor vertices under the
- * model with nothing, black; N/2 and N/4 measured alike on the shadow, N/2 better on its darkest). */
+ * of its best, so absolute weights cannot leave a dark vertex with nothing (black; README "Shadows",
+ * docs/design/transport.md). */
 #define TRANSPORT_SHARED_MIN 2
 
-/* Haar levels of a CUBE_RES face: 0 the scaling coefficient, l >= 1 the details of morton indices
- * [4^(l-1), 4^l) (haar.h), the finest CUBE_RES / 2 x CUBE_RES / 2 blocks at level 6. */
-#define TRANSPORT_LEVELS 7
-/* The integral correction's blocks (prt_transport.block_level): 4 x 4 per face, 16 x 16 texels each
- * (README "Shadows": level 2 measured better than whole faces on the floor's shadow, every vertex and
- * the image; transport_store puts each block's dropped integral into the kept coefficients of levels
- * below it, so the file and the runtimes are unchanged). */
+/* The integral correction's blocks (prt_transport.block_level, Haar's policy): 4 x 4 per face, 16 x 16
+ * texels each (README "Shadows": each block's dropped integral goes into the kept coefficients of
+ * coarser levels, so the file and the runtimes do not see it). */
 #define TRANSPORT_BLOCK_LEVEL 2
 #define TRANSPORT_BLOCK_LEVEL_MAX 2
-/* Floats per vector of a shared budget's block staging: 3 channels x 6 faces x 16 blocks. */
+/* A policy's per-vector corrections (transport_policy.correct, budget_correct): adj[(c * 6 + f) * 16 + m]
+ * is added to coefficient f * CUBE_RES^2 + m, m < 16, of channel c (Haar: a face's levels 0..2). Also
+ * the floats of a shared budget's block staging: 3 channels x 6 faces x 16 blocks. */
 #define TRANSPORT_BLK (3 * 6 * 16)
-/* Floats per vector of that staging: the blocks, the vector's squared L2 norm, then for the smooth faces
- * (smooth_faces) what the non-candidates drop weighted by the transport (3 channels x 6 faces) and each
- * face's transport integral H_0 (6; 0 where the face has an occluder edge). */
+/* Floats per vector of a shared budget's staging (stage_blk): [0, TRANSPORT_BLK) and
+ * (TRANSPORT_BLK, TRANSPORT_STAGE) the policy's (transport_policy.stage; Haar: what the non-candidates
+ * drop per block, then per smooth face weighted by the transport, 3 x 6, and its integral H_0, 6),
+ * [TRANSPORT_BLK] the vector's squared L2 norm (the set's). */
 #define TRANSPORT_STAGE (TRANSPORT_BLK + 1 + 24)
-/* A face is smooth (smooth_faces) when no two neighbouring texels of its T/w, the channels summed, differ
- * by more than this share of its largest value and none is negative: an unoccluded cosine lobe changes
- * by at most about 4.5% of its face's largest value between texels (1.8 degrees at a face's centre; the
- * plane's side faces measured 3-5%), an occluder's edge by its cosine there (README "Shadows"). */
-#define TRANSPORT_SMOOTH_JUMP 0.1f
-/* sigma_l per level, relative to the finest (tools/level_spectrum.c measured it; transport.c says how). */
-extern const float transport_level_sigma[TRANSPORT_LEVELS];
-/* The Haar level (0..TRANSPORT_LEVELS-1) of wavelet index i. */
-int transport_level(uint32_t i);
+/* Bytes of transport_store's scratch a policy's hooks may use per thread (Haar's checks its need
+ * against it when it is set). */
+#define TRANSPORT_POLICY_SCRATCH ((size_t)1 << 20)
+
+struct transport_policy;
 
 typedef struct prt_transport {
     int nverts, nvecs;
@@ -108,19 +109,19 @@ typedef struct prt_transport {
                              * vector's squared norm that transport_finish's choice added to what
                              * transport_store returned (dropped candidates, quantization) */
     int qbits;              /* 8, 16 or 32 (float) */
+    /* The policy's parameters (set after transport_init; all 0 on the plain path): */
     bool solid_angle;       /* Haar of T/w (transfer_haar's solid-angle measure): transport_store keeps
-                             * the solid-angle integral of each block of block_level (set after
-                             * transport_init; 0 = off) */
+                             * the solid-angle integral of each block of block_level */
     int block_level;        /* with solid_angle: the integrals kept are those of the 2^l x 2^l blocks of
                              * each face, 0 (whole faces) .. TRANSPORT_BLOCK_LEVEL_MAX (set after init;
                              * precompute: TRANSPORT_BLOCK_LEVEL) */
-    bool smooth_faces;      /* with solid_angle: a face with no occluder edge (TRANSPORT_SMOOTH_JUMP) gets what
+    bool smooth_faces;      /* with solid_angle: a face with no occluder edge (haar/corrections.h) gets what
                              * was dropped back weighted by the transport, on its scaling coefficient, instead
                              * of per block (README "Shadows": exact under a light shaped like the transport,
                              * which steadies an unoccluded floor under a turning sun; set after init) */
-    int select;             /* which N coefficients transport_store keeps (transport_select; set after
-                             * transport_init; 0 = the paper's largest magnitudes) */
-    const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_level_sigma of its level; else
+    int select;             /* which N coefficients transport_store keeps (transport_select; 0 = the paper's
+                             * largest magnitudes) */
+    const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_level_sigma (haar/select.h); else
                              * by prior[i][ch], [CUBE_TEXELS] per channel (prior.h: a probe's RMS light
                              * over its yaw orbit; BORROWED: the caller keeps it alive until finish) */
     const struct refit_tables *refit; /* NULL, or with a per-vector budget (budget 0) and solid_angle: each face's kept
@@ -138,15 +139,16 @@ typedef struct prt_transport {
     float *f32;             /* qbits 32: [3*ncoefs] */
     /* Build-time staging (NULL after transport_finish). */
     uint32_t *stage_count;  /* [nvecs] coefficients stored per vector */
-    uint32_t *stage_idx;    /* [nvecs*N] wavelet indices */
+    uint32_t *stage_idx;    /* [nvecs*N] coefficient indices */
     float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping; with a shared
                              * budget the candidates' raw values until transport_finish) */
     float *stage_key;       /* shared budget: [nvecs*N] each candidate's selection weight */
     float *stage_blk;       /* shared budget: [nvecs*TRANSPORT_STAGE] what the non-candidates add to each
                              * block's dropped integral (with solid_angle), per channel, face and block, then
                              * the vector's squared norm, then the smooth faces' parts (TRANSPORT_STAGE) */
-    struct transport_tables *tables;   /* build-time: the solid angle per texel, its Haar coefficients and its sums
-                             * per block (transport_init computes them once; freed with the staging) */
+    const struct transport_policy *policy; /* NULL: the plain path; else what transport_set_policy gave
+                             * (transport_init_like copies it) */
+    void *policy_state;     /* build-time: the policy's tables (its create; destroyed with the staging) */
     size_t stage_mapped;    /* > 0: stage_idx and stage_val are one mapping of this many bytes of an unlinked
                              * file (transport_stage_to_file), released as vectors are done */
     void *data_map;         /* non-NULL: runs and the coefficient arrays (packed / offs, q16, f32) live in this
@@ -163,20 +165,20 @@ int transport_init(prt_transport *t, int nverts, const int *nvec_of_vertex, int 
  * nmax (0: TRANSPORT_SHARED_CAP x N, at most CUBE_TEXELS). Staging grows to nmax candidates per vector
  * (transport_staging_bytes). Returns 0 or -1 (OOM; the set is then unchanged). */
 int transport_share_budget(prt_transport *t, int kind, int nmax, prt_error *err);
-/* transport_init with like's budget, kind, qbits, select, measure, block level and smooth faces, and the vector
- * counts given (the gathering passes' sets). Returns 0 or -1. */
+/* transport_init with like's budget, kind, qbits, policy and its parameters (select, prior, refit, measure,
+ * block level, smooth faces), and the vector counts given (the gathering passes' sets). Returns 0 or -1. */
 int transport_init_like(prt_transport *t, const prt_transport *like, const int *nvec_of_vertex, prt_error *err);
 /* Bytes the staging of an unfinished set takes (what transport_stage_to_file moves to a file): nvecs x N x 16,
  * and with a shared budget 4 more per candidate and 4 x TRANSPORT_STAGE per vector. */
 size_t transport_staging_bytes(const prt_transport *t);
-/* Selects, quantizes and stages vector i from dense wavelet coefficients r,g,b[CUBE_TEXELS].
- * t->select picks the coefficients; scratch: transport_scratch_size() bytes.
+/* Selects, quantizes and stages vector i from dense coefficients r,g,b[CUBE_TEXELS] (store.c).
+ * The set's policy picks and corrects the coefficients; scratch: transport_scratch_size() bytes.
  * Returns the L2 error squared of the stored approximation (truncation + quantization); with a
  * shared budget, of its candidates (what it would keep at the cap N; transport_finish decides). */
 double transport_store(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 size_t transport_scratch_size(void);
-/* Streams the staging of a set fresh from transport_init to an unlinked temporary file in dir
- * (issue 13): staged vectors live in the page cache and the file, not in the process's memory,
+/* Streams the staging of a set fresh from transport_init to an unlinked temporary file in dir:
+ * staged vectors live in the page cache and the file, not in the process's memory,
  * once transport_release drops them; results are the same bits. Returns 0 or -1 (err: dir). */
 int transport_stage_to_file(prt_transport *t, const char *dir, prt_error *err);
 /* Drops the pages vectors [i0, i1)'s staging touches from this process's memory (the file keeps
@@ -185,7 +187,7 @@ void transport_release(const prt_transport *t, int i0, int i1);
 /* Compacts staged vectors into the final arrays (a shared budget's choice first). Returns 0 or -1 (OOM). */
 int transport_finish(prt_transport *t, prt_error *err);
 /* Moves a finished set's runs and coefficients (all but about 20 bytes per vector of it) to an
- * unlinked temporary file in dir, mapped read-only (issue 13): a later pass reads them through the
+ * unlinked temporary file in dir, mapped read-only: a later pass reads them through the
  * page cache, which the kernel can drop and read back, instead of from the process's own memory;
  * the same bits. Returns 0, or -1 with err naming dir (the set is then unchanged). */
 int transport_map_to_file(prt_transport *t, const char *dir, prt_error *err);
@@ -213,4 +215,37 @@ typedef void (*transport_light_fn)(const prt_transport *t, const float (*L)[4], 
 void transport_light_with(const prt_transport *t, const float (*L)[4], float *g, int nthreads, transport_light_fn kernel);
 
 void transport_free(prt_transport *t);
+
+/* A representation's policy for transport_store and transport_finish: which coefficients a vector
+ * keeps and what values they get, beyond the plain path (section 4.1.1's largest energies, 4.1.2's
+ * uniform rounding). Each hook reads the set's parameters (solid_angle .. refit) and its state;
+ * `scratch` is the policy's TRANSPORT_POLICY_SCRATCH bytes of the calling thread's transport_store
+ * scratch, which keep what select leaves there until that vector is stored. ch: the vector's
+ * channels r, g, b [CUBE_TEXELS]; idx: the kept (or candidate) indices, increasing. */
+typedef struct transport_policy {
+    /* The set's read-only tables, made once (transport_set_policy); NULL with err on OOM. */
+    void *(*create)(const prt_transport *t, prt_error *err);
+    void (*destroy)(void *state);
+    /* Up to t->N indices into idx, leaving each coefficient's weight's float bits in keys[0 .. CUBE_TEXELS)
+     * as sparse_select does (keys: 2 x CUBE_TEXELS floats). Returns how many. */
+    int (*select)(const prt_transport *t, const float *const ch[3], uint32_t *idx, float *keys, void *scratch);
+    /* Per-vector budget, the n kept: sets val[3 k + c] of the faces it fits itself and returns them (bit f),
+     * and into adj[TRANSPORT_BLK] the corrections of the other faces' values (zeros: none). */
+    unsigned (*correct)(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, float *val,
+                        float *adj, void *scratch);
+    /* Rounds the n values val[3 k + c] of face f (one that correct fitted; idx its indices) to multiples of
+     * step[c] with |q| <= qmax, in place. NULL when correct fits no face. */
+    void (*quantize)(const prt_transport *t, int f, const uint32_t *idx, int n, const float step[3], int qmax,
+                     float *val, void *scratch);
+    /* Shared budget, the n candidates: its part of vector i's stage_blk (TRANSPORT_STAGE) into blk. */
+    void (*stage)(const prt_transport *t, const float *const ch[3], const uint32_t *idx, int n, void *scratch,
+                  float *blk);
+    /* Shared budget at finish: the corrections adj[TRANSPORT_BLK] of vector i's values, keep[k] telling which
+     * of its staged candidates k (stage_idx, stage_val, stage_blk; not yet compacted) it keeps. */
+    void (*budget_correct)(const prt_transport *t, int i, const uint8_t *keep, float *adj);
+} transport_policy;
+
+/* Gives a set fresh from transport_init (nothing stored) its policy p (NULL: the plain path) and makes
+ * p's tables. Returns 0, or -1 with err (OOM; the set is then unchanged). */
+int transport_set_policy(prt_transport *t, const transport_policy *p, prt_error *err);
 #endif
