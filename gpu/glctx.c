@@ -37,6 +37,14 @@ static glctx_proc load_egl(const char *name) { return (glctx_proc)eglGetProcAddr
 static glctx_proc load_glfw(const char *name) { return (glctx_proc)glfwGetProcAddress(name); }
 
 /* Static name of a kind. */
+/* See glctx.h: Mesa names its software rasterizers in GL_RENDERER ("llvmpipe (LLVM 15.0.6, 256 bits)"). */
+bool glctx_software(const glctx *ctx) {
+    static const char *const k_soft[] = { "llvmpipe", "softpipe", "swrast", "Software Rasterizer" };
+    for (size_t i = 0; i < sizeof k_soft / sizeof k_soft[0]; i++)
+        if (strstr(ctx->renderer, k_soft[i])) return true;
+    return false;
+}
+
 const char *glctx_kind_name(glctx_kind k) {
     switch (k) {
     case GLCTX_OSMESA: return "osmesa";

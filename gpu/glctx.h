@@ -120,6 +120,9 @@ int glctx_make_current(glctx *ctx, prt_error *err);
 void glctx_destroy(glctx *ctx);
 /* "osmesa", "egl", "glfw", "auto". */
 const char *glctx_kind_name(glctx_kind k);
+/* Whether ctx's renderer rasterizes on the CPU (Mesa's llvmpipe, softpipe, swrast; GL_RENDERER):
+ * there the GL backend's per-pixel programs run at a few frames per second. */
+bool glctx_software(const glctx *ctx);
 /* Parses "osmesa", "egl", "auto" (case-insensitive). Returns -1 if unknown. */
 int glctx_parse_kind(const char *s, glctx_kind *out);
 /* The kind GLCTX_AUTO resolves to on this machine ($PRT_GL, /dev/nvidia0). Returns -1 with err set

@@ -585,6 +585,54 @@ static void cli_vertex_list(const char *dir, const char *prt) {
     CHECK(rc == 2 && strstr(out, "--vertices"), "--vertex-list without --vertices (rc %d): %s", rc, out);
 }
 
+/* The whole text of path into buf[cap] ("" when unreadable). */
+static const char *slurp(const char *path, char *buf, size_t cap) {
+    FILE *f = fopen(path, "rb");
+    size_t n = f ? fread(buf, 1, cap - 1, f) : 0;
+    if (f) fclose(f);
+    buf[n] = 0;
+    return buf;
+}
+
+/* prt reference without --bounces traces the file's interreflection passes: the same rows, bit for
+ * bit, as --bounces at that count (one seed, one sample sequence), and not those of --bounces 0 (the
+ * floor sees the sphere). The status line says whose count it is. */
+static void file_bounces(void) {
+    const char *dir = check_tmpdir(), *prt = check_prt_bin();
+    char path[512], cmd[4096], out[8192];
+    static char a[1 << 20], b[1 << 20], c[1 << 20];
+    prt_error err;
+    prt_probe sky;
+    sky_desc sd = { .width = 64, .sun_radiance = 1e-6f };
+    CHECK(probe_make_sky(&sd, &sky, &err) == 0, "%s", err.msg);
+    snprintf(path, sizeof path, "%s/sky.exr", dir);
+    image_desc idesc = { 0 };
+    CHECK(image_write(path, &sky.img, &idesc, &err) == 0, "%s", err.msg);
+    probe_free(&sky);
+    snprintf(path, sizeof path, "%s/scene.json", dir);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("{ \"models\": [ { \"sphere\": {\"center\":[0,1,0], \"radius\":1, \"rings\":8, \"segments\":16},"
+              " \"material\": \"lambert:kd=0.8\" } ], \"floor\": { \"vertices\": 64 } }\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd, "%s precompute %s/scene.json -o %s/b1.prt --vis-res 64 --bounces 1 --force-bounces --quiet", prt,
+             dir, dir);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "precompute: %s", out);
+    const char *runs[3] = { "", " --bounces 1", " --bounces 0" };
+    char *rows[3] = { a, b, c };
+    for (int i = 0; i < 3; i++) {
+        snprintf(cmd, sizeof cmd, "%s reference %s/b1.prt --probe %s/sky.exr --no-image --vertices %s/r%d.csv --spp 4%s", prt,
+                 dir, dir, dir, i, runs[i]);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s: %s", cmd, out);
+        if (i == 0) CHECK(strstr(out, "bounces 1 (the file's)") != NULL, "the status line names the file's count: %s", out);
+        snprintf(path, sizeof path, "%s/r%d.csv", dir, i);
+        slurp(path, rows[i], sizeof a);
+    }
+    CHECK(a[0] && !strcmp(a, b), "the default traces the file's one bounce: the rows of --bounces 1");
+    CHECK(strcmp(a, c) != 0, "and not the direct light alone (--bounces 0)");
+}
+
 static void cli(void) {
     const char *dir = check_tmpdir(), *prt = check_prt_bin();
     char path[512], cmd[4096], out[8192];
@@ -604,7 +652,7 @@ static void cli(void) {
               "  \"floor\": { \"vertices\": 400, \"material\": \"lambert:kd=0.6\" } }\n", f);
         fclose(f);
     }
-    /* --bounces 0: compared with the direct-only reference below (bounces are the plan's default since issue 9) */
+    /* --bounces 0: the direct light alone, against a reference of the same (the file's bounce count) */
     snprintf(cmd, sizeof cmd, "%s precompute %s/scene.json -o %s/s.prt --vis-res 64 --bounces 0 --quiet", prt, dir, dir);
     int rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 0, "precompute (rc %d): %s", rc, out);
@@ -670,6 +718,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(glossy_brute_force);
     CHECK_CASE(mis);
     CHECK_CASE(determinism_and_errors);
+    CHECK_CASE(file_bounces);
     CHECK_CASE_GL(cli);
     return check_summary();
 }

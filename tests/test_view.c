@@ -355,6 +355,20 @@ static void bench(void) {
     CHECK(check_run(cmd, out, sizeof out) == 2 && strstr(out, "unknown command 'glbench'"), "glbench still there: %s", out);
 }
 
+/* Under Xvfb the GL renderer is Mesa's llvmpipe: without --backend the viewer starts on the CPU
+ * backend and says why; --backend gl keeps the GL one. */
+static void software_default(void) {
+    char args[8192], out[16384];
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --frames 2", g_scene, g_sky, k_cam, W, H);
+    int rc = run_view(args, out, sizeof out);
+    bool soft = strstr(out, "llvmpipe") != NULL;
+    CHECK(rc == 0 && (!soft || (strstr(out, "is software (llvmpipe") && strstr(out, "starting on the CPU backend"))),
+          "view on a software renderer, no --backend (%d): %s", rc, out);
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --frames 2 --backend gl", g_scene, g_sky, k_cam, W, H);
+    rc = run_view(args, out, sizeof out);
+    CHECK(rc == 0 && !strstr(out, "is software"), "view --backend gl keeps gl (%d): %s", rc, out);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -367,5 +381,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(direct_cpu);
     CHECK_CASE(local_effects);
     CHECK_CASE(bench);
+    CHECK_CASE(software_default);
     return check_summary();
 }

@@ -30,8 +30,9 @@ static void help(void) {
          "  -o OUT.exr              linear radiance image (.exr; .png etc. are tone-mapped 8-bit)\n"
          "  --exposure E            exposure in stops for a tone-mapped output, as prt render's (default 0)\n"
          "  --spp N                 samples per pixel and per vertex (default 64)\n"
-         "  --bounces B             0 direct only (default; a .prt with no bounce passes), B > 0 at most\n"
-         "                          B interreflection bounces, -1 to convergence (Russian roulette)\n"
+         "  --bounces B             interreflection bounces at most: 0 direct only, -1 to convergence\n"
+         "                          (Russian roulette); default: the file's interreflection passes, so\n"
+         "                          that prt compare measures PRT against the truth of the same effects\n"
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera (default: framed as by prt render)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera with standard\n"
@@ -51,6 +52,9 @@ static void help(void) {
          "  --probe none            no environment: the local lights alone (next-event estimation)\n");
 }
 
+/* reference_args.bounces before the file is read: the file's interreflection passes. */
+#define REF_BOUNCES_FILE (-1000)
+
 /* What the command line asked for. */
 typedef struct reference_args {
     const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *vert_list;
@@ -67,6 +71,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     bool no_background = false;
     memset(a, 0, sizeof *a);
     a->spp = 64;
+    a->bounces = REF_BOUNCES_FILE;
     a->seed = 1;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
@@ -187,9 +192,9 @@ static int trace(const reference_args *a, const prt_data *d, const prt_probe *pr
     ref_desc rd = { .spp = a->spp, .bounces = a->bounces, .seed = a->seed, .nthreads = a->nthreads,
                     .black_background = !a->background, .progress = prt_bar_report, .progress_user = &bar };
     if (ref && !a->quiet)
-        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d, spp %d%s\n",
+        fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d%s, spp %d%s\n",
                 d->scene.mesh.nverts, d->scene.mesh.ntris, d->scene.nmaterials, probe->img.w, probe->img.h, a->bounces,
-                a->spp, d->scene.lights.count ? ", local lights" : "");
+                a->bounces == d->stats.bounces ? " (the file's)" : "", a->spp, d->scene.lights.count ? ", local lights" : "");
     int rc = !ref || (a->vert_out && vertices(ref, &d->scene.mesh, cam->eye, &rd, a, &bar, &err)) ||
              (!a->no_image && image(ref, cam, rd, a, &bar, &err));
     if (rc) cli_error(k_cmd, "%s", err.msg);
@@ -219,6 +224,7 @@ int cli_reference(int argc, char **argv) {
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     int rc = 1;
+    if (a.bounces == REF_BOUNCES_FILE) a.bounces = d.stats.bounces;   /* the effects the file was made with */
     if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
         rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : trace(&a, &d, &probe, &cam);
     probe_free(&probe);

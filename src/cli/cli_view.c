@@ -112,7 +112,9 @@ static void view_help(void) {
            "  --exposure E           exposure in stops (default 0)\n"
            "  --terms K              BRDF terms used (default: all)\n");
     cli_backend_help(25, RUNTIME_CAP_WINDOW, start >= 0 ? runtime_backend_at(start)->name : "none");
-    printf("  --view-model pixel|vertex  view model of the runtimes that have per pixel (default pixel)\n"
+    printf("                         (on a software GL renderer, such as Mesa's llvmpipe, the default is a\n"
+           "                         backend that runs on the CPU: it is many times faster there)\n"
+           "  --view-model pixel|vertex  view model of the runtimes that have per pixel (default pixel)\n"
            "  --threads T            CPU runtime threads (default: all cores)\n"
            "  --frames N             render N frames, then exit (no interaction; default: interactive)\n"
            "  --screenshot OUT.png   with --frames: save the last frame; otherwise the S key's file\n"
@@ -688,6 +690,7 @@ static void viewer_free(viewer *v) {
 typedef struct view_args {
     const char *layout, *cam_s, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
     int ndirs, npaths, w, h, frames;
+    bool backend_given;         /* --backend: kept even on a software renderer */
     prt_lights extra;           /* --light */
     bool no_file_lights;
     int hl_samples;             /* --highlights / --highlight-samples (0: none) */
@@ -720,6 +723,7 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
     OPT_V("--backend") {
         if (!cli_backend(k_view, val, RUNTIME_CAP_WINDOW, "draw into a window")) return -1;
         v->cur = runtime_backend_index(val);
+        a->backend_given = true;
         return 1;
     }
     OPT_V("--view-model") {
@@ -838,6 +842,22 @@ static int load_inputs(viewer *v, const view_args *a) {
     return 0;
 }
 
+/* On a software GL renderer the GL backend's per-pixel programs run at a few frames per second where
+ * a backend that does its light and view changes on the CPU (no RUNTIME_CAP_GL) runs at tens: without
+ * --backend the viewer starts on the first such window backend and says so. */
+static void prefer_cpu_on_software(viewer *v, const view_args *a) {
+    if (a->backend_given || !glctx_software(v->ctx) || !(current_info(v)->caps & RUNTIME_CAP_GL)) return;
+    for (int i = 0; i < runtime_backend_count(); i++) {
+        const runtime_backend_info *b = runtime_backend_at(i);
+        if ((b->caps & RUNTIME_CAP_WINDOW) && !(b->caps & RUNTIME_CAP_GL)) {
+            fprintf(stderr, "prt view: the GL renderer is software (%s): starting on the %s backend (b switches; "
+                            "--backend %s starts there)\n", v->ctx->renderer, b->title, current_info(v)->name);
+            v->cur = i;
+            return;
+        }
+    }
+}
+
 /* The window, both runtimes drawing into it, the text and the callbacks. 0 or 1 (error printed). */
 static int open_window(viewer *v, const view_args *a) {
     prt_error err = { { 0 } };
@@ -862,6 +882,7 @@ static int open_window(viewer *v, const view_args *a) {
         if (n >= 0 && n < (int)sizeof kernels) n += snprintf(kernels + n, sizeof kernels - n, "%s%s %s", n ? ", " : "", b->title, tm.kernel);
     }
     if (gltext_init(&v->text, &v->ctx->gl, &err)) return cli_error(k_view, "%s", err.msg);
+    prefer_cpu_on_software(v, a);
     GLFWwindow *win = (GLFWwindow *)v->ctx->window;
     glfwSetWindowUserPointer(win, v);
     glfwSwapInterval(0); /* frame times are the renderer's, not the display's refresh */
