@@ -1,6 +1,7 @@
 /* cli_args.c - argument helpers for the prt subcommands (see cli_args.h). */
 #include "cli_args.h"
 #include "runtime.h"
+#include "image.h"
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -380,4 +381,13 @@ void cli_backend_help(int col, unsigned need, const char *dflt) {
             printf("%*s%-5s %s%s\n", col + 2, "", b->name, b->summary,
                    b->caps & RUNTIME_CAP_IMAGES ? "" : " (no images in this build: no GL)");
     }
+}
+
+/* See cli_args.h. */
+float cli_exposure(float given, const prt_probe *probe, const float R[9], const char *out) {
+    if (isfinite(given)) return given;
+    float e = probe ? probe_exposure(probe, R) : 0;
+    if (out && image_tonemapped(out))
+        fprintf(stderr, "exposure %+.1f stops (from the probe: a white surface facing up shows as white; --exposure sets it)\n", e);
+    return e;
 }

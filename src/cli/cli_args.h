@@ -65,6 +65,9 @@ void cli_backend_help(int col, unsigned need, const char *dflt);
 #include "probe.h"
 /* Loads a probe (layout name or NULL for auto), printing one warning line per clamped kind. Returns 0 or 1 (error printed). */
 int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_probe *out);
+/* The exposure of an image written to out: the --exposure given (finite), else the probe's under
+ * rotation R (probe_exposure: render and reference agree), said on stderr when out is tone-mapped. */
+float cli_exposure(float given, const prt_probe *probe, const float R[9], const char *out);
 /* Every output a command writes is checked before any loading or computing: the name is not
  * empty, its folder exists and is writable, its extension is one the writer makes (kind:
  * CLI_OUT_IMAGE an image format image_write supports, CLI_OUT_PRT ".prt", CLI_OUT_CSV ".csv"),

@@ -13,6 +13,7 @@
 #include "probe.h"
 #include "prtfile.h"
 #include "reference.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -28,7 +29,8 @@ static void help(void) {
          "  --layout L              override the probe layout: latlong, angular, vcross, hcross\n"
          "                          (default: from the aspect ratio, as prt render)\n"
          "  -o OUT.exr              linear radiance image (.exr; .png etc. are tone-mapped 8-bit)\n"
-         "  --exposure E            exposure in stops for a tone-mapped output, as prt render's (default 0)\n"
+         "  --exposure E            exposure in stops for a tone-mapped output (default: from the probe,\n"
+         "                          as prt render's)\n"
          "  --spp N                 samples per pixel and per vertex (default 64)\n"
          "  --bounces B             interreflection bounces at most: 0 direct only, -1 to convergence\n"
          "                          (Russian roulette); default: the file's interreflection passes, so\n"
@@ -72,6 +74,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     memset(a, 0, sizeof *a);
     a->spp = 64;
     a->bounces = REF_BOUNCES_FILE;
+    a->exposure = NAN;   /* not given: from the probe (probe_exposure) */
     a->seed = 1;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
@@ -160,7 +163,8 @@ static int vertices(ref_ctx *ref, const prt_mesh *m, const float eye[3], const r
 }
 
 /* The image from the camera, written to -o. -1 with err. */
-static int image(ref_ctx *ref, const prt_camera *cam, ref_desc rd, const reference_args *a, prt_bar *bar, prt_error *err) {
+static int image(ref_ctx *ref, const prt_probe *probe, const prt_camera *cam, ref_desc rd, const reference_args *a, prt_bar *bar,
+                 prt_error *err) {
     float *ise = malloc(sizeof(float) * 3 * (size_t)a->w * a->h);
     prt_image img = { 0 };
     ref_stats st;
@@ -169,7 +173,7 @@ static int image(ref_ctx *ref, const prt_camera *cam, ref_desc rd, const referen
     if (!ise) prt_fail(err, "out of memory");
     else if (ref_render_image(ref, cam, a->w, a->h, &rd, &img, ise, &st, err) == 0) {
         prt_bar_done(bar);
-        image_desc idesc = { .exposure = a->exposure };
+        image_desc idesc = { .exposure = cli_exposure(a->exposure, probe, a->rot_s ? a->R : NULL, a->out) };
         rc = image_write(a->out, &img, &idesc, err);
     } else prt_bar_done(bar);
     char secs[48];
@@ -196,7 +200,7 @@ static int trace(const reference_args *a, const prt_data *d, const prt_probe *pr
                 d->scene.mesh.nverts, d->scene.mesh.ntris, d->scene.nmaterials, probe->img.w, probe->img.h, a->bounces,
                 a->bounces == d->stats.bounces ? " (the file's)" : "", a->spp, d->scene.lights.count ? ", local lights" : "");
     int rc = !ref || (a->vert_out && vertices(ref, &d->scene.mesh, cam->eye, &rd, a, &bar, &err)) ||
-             (!a->no_image && image(ref, cam, rd, a, &bar, &err));
+             (!a->no_image && image(ref, probe, cam, rd, a, &bar, &err));
     if (rc) cli_error(k_cmd, "%s", err.msg);
     ref_destroy(ref);
     return rc;

@@ -13,6 +13,7 @@
 #include "probe.h"
 #include "prtfile.h"
 #include "runtime.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -29,7 +30,8 @@ static void help(void) {
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera position, target and vertical FOV (default: framed)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees (default 0)\n"
-         "  --exposure E            exposure in stops for PNG output (default 0)\n"
+         "  --exposure E            exposure in stops for PNG output (default: from the probe, so that a\n"
+         "                          white surface facing up shows as white; the same rule as prt reference)\n"
          "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
          "  --terms K               use only the first K BRDF terms (default: all)\n", stdout);
     cli_backend_help(26, 0, runtime_backend_at(0)->name);
@@ -70,6 +72,7 @@ static int parse_args(int argc, char **argv, render_args *a) {
     bool no_background = false;
     memset(a, 0, sizeof *a);
     a->backend = runtime_backend_at(0)->name;
+    a->exposure = NAN;   /* not given: from the probe (probe_exposure) */
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
         CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
@@ -151,7 +154,7 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
         if (write_vertices(a->vert_out, rgb, d->scene.mesh.nverts, &err)) goto fail;
         t_write = prt_now() - t4;
     }
-    image_desc idesc = { .exposure = a->exposure, .tonemap = a->tonemap };
+    image_desc idesc = { .exposure = cli_exposure(a->exposure, probe, a->rot_s ? a->R : NULL, a->out), .tonemap = a->tonemap };
     double t5 = prt_now();
     if (a->out && image_write(a->out, &img, &idesc, &err)) goto fail;
     if (a->out) t_write = prt_now() - t5;

@@ -109,7 +109,7 @@ static void view_help(void) {
            "  --size WxH             window size (default 1024x768)\n"
            "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: framed as prt render)\n"
            "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
-           "  --exposure E           exposure in stops (default 0)\n"
+           "  --exposure E           exposure in stops (default: from the first probe, as prt render)\n"
            "  --terms K              BRDF terms used (default: all)\n");
     cli_backend_help(25, RUNTIME_CAP_WINDOW, start >= 0 ? runtime_backend_at(start)->name : "none");
     printf("                         (on a software GL renderer, such as Mesa's llvmpipe, the default is a\n"
@@ -785,6 +785,7 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     if ((lr = cli_take_indirect(k_view, &argc, argv, &a->hl_samples, &a->bounce))) return lr;
     a->w = 1024;
     a->h = 768;
+    v->exposure = NAN;   /* not given: from the first probe (cli_exposure) */
     PRT_CHECK(runtime_backend_count() <= VIEW_MAX_RUNTIMES);
     v->cur = start_backend();
     if (v->cur < 0) return cli_error(k_view, "no backend of this build draws into a window"), 2;
@@ -839,6 +840,7 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->lyaw0 = v->lyaw;
     v->lpitch0 = v->lpitch;
     update_rotation(v);
+    v->exposure = cli_exposure(v->exposure, v->nprobes ? &v->probes[v->probe] : NULL, rotated(v) ? v->R : NULL, NULL);
     return 0;
 }
 

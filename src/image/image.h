@@ -56,6 +56,9 @@ int image_alloc(prt_image *im, int w, int h, int c, prt_error *err);
 int image_read(const char *path, prt_image *out, prt_error *err);
 int image_write(const char *path, const prt_image *im, const image_desc *desc, prt_error *err);
 void image_free(prt_image *im);
+/* Whether image_write writes path as 8-bit sRGB (its extension: png, jpg, tif, ppm), where the
+ * exposure and the tone map apply; else linear floats (exr, hdr). */
+bool image_tonemapped(const char *path);
 
 #ifdef __cplusplus
 }

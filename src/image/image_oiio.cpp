@@ -207,6 +207,14 @@ static int write_bytes(const char *path, const unsigned char *p, size_t n, prt_e
 }
 
 /* image_write's body (may throw; the wrapper catches). */
+/* See image.h: the formats written as 8-bit sRGB. */
+extern "C" bool image_tonemapped(const char *path) {
+    char ext[16];
+    prt_path_ext(path, ext);
+    std::string e(ext);
+    return e == "png" || e == "jpg" || e == "jpeg" || e == "tif" || e == "tiff" || e == "ppm";
+}
+
 static int image_write_impl(const char *path, const prt_image *im, const image_desc *desc, prt_error *err) {
     if (!im || !im->data || im->w <= 0 || im->h <= 0 || (im->c != 3 && im->c != 4))
         return prt_fail(err, "%s: nothing to write (empty image)", path);
@@ -216,7 +224,7 @@ static int image_write_impl(const char *path, const prt_image *im, const image_d
     prt_path_ext(path, ext);
     std::string e(ext);
     bool is_float = e == "exr" || e == "hdr";
-    bool is_8bit = e == "png" || e == "jpg" || e == "jpeg" || e == "tif" || e == "tiff" || e == "ppm";
+    bool is_8bit = image_tonemapped(path);
     if (!is_float && !is_8bit)
         return prt_fail(err, "%s: unsupported output format '.%s' (use .exr, .hdr, .png, .jpg, .tif or .ppm)", path,
                         ext);

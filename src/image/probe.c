@@ -247,6 +247,26 @@ int probe_load(const char *path, probe_layout layout, prt_probe *out, prt_error 
 }
 
 /* Frees the probe's image and zeroes it (NULL is fine). */
+/* See probe.h. */
+float probe_exposure(const prt_probe *p, const float R[9]) {
+    enum { RES = 32 };
+    float *rgb = malloc(sizeof(float) * 3 * 6 * RES * RES);
+    if (!rgb) return 0;
+    probe_to_cube(p, RES, R, 0, rgb);
+    double e = 0;
+    for (int t = 0; t < 6 * RES * RES; t++) {
+        float d[3];
+        cube_texel_dir(RES, t, d);
+        int ij = t % (RES * RES);
+        double lum = 0.2126 * rgb[3 * t] + 0.7152 * rgb[3 * t + 1] + 0.0722 * rgb[3 * t + 2];
+        if (d[1] > 0 && isfinite(lum)) e += lum * d[1] * cube_texel_solid_angle(RES, ij % RES, ij / RES);
+    }
+    free(rgb);
+    if (!(e > 0)) return 0;
+    double stops = -log2(e / M_PI);
+    return (float)(stops > PROBE_EXPOSURE_MAX ? PROBE_EXPOSURE_MAX : stops < -PROBE_EXPOSURE_MAX ? -PROBE_EXPOSURE_MAX : stops);
+}
+
 void probe_free(prt_probe *p) {
     if (!p) return;
     image_free(&p->img);

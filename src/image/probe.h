@@ -80,6 +80,14 @@ bool probe_pixel_dir(const prt_probe *p, int x, int y, float d[3], float *solid_
  * (NULL = identity), ss x ss sub-samples per texel (0 = 4, at most 64). Uses both cores. */
 void probe_to_cube(const prt_probe *p, int res, const float R[9], int ss, float *out_rgb);
 
+/* The exposure in stops (clamped to +-PROBE_EXPOSURE_MAX) at which a white Lambertian surface facing
+ * up (+y) under p rotated by R (NULL = identity) shows as 1: -log2(E_up / pi), E_up the probe's
+ * irradiance on it (a 32^3 cube, Eq. 3's texels with their solid angle). Render and reference take it
+ * from the light, not the image, so the two pictures of one scene get the same exposure. 0 for a
+ * probe without light above the horizon. */
+#define PROBE_EXPOSURE_MAX 30.0f
+float probe_exposure(const prt_probe *p, const float R[9]);
+
 /* Rotation matrix for --light-rotation "Y" or "Y,P" (degrees about +y, then pitch about +x). Returns -1 if unparsable. */
 int probe_parse_rotation(const char *s, float R[9]);
 /* The same rotation from yaw and pitch in degrees. */
