@@ -578,9 +578,11 @@ static void cli(void) {
     }
     snprintf(a, sizeof a, "%s/lit_r.csv", D);
     snprintf(b, sizeof b, "%s/lit_f.csv", D);
-    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s", B, prt, D, a);
+    /* the direct light alone: exact in both (the one bounce is the plan's where surfaces see each other) */
+    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s --no-local-bounce "
+             "--no-highlights", B, prt, D, a);
     CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
-    snprintf(cmd, sizeof cmd, "%s reference %s --probe none --no-image --vertices %s --spp 2 --quiet", B, prt, b);
+    snprintf(cmd, sizeof cmd, "%s reference %s --probe none --no-image --vertices %s --spp 2 --bounces 0 --quiet", B, prt, b);
     CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
     float ra[200], rb[200];
     int na = read_csv_r(a, ra, 153), nb = read_csv_r(b, rb, 153);
@@ -589,7 +591,8 @@ static void cli(void) {
     for (int i = 0; i < na && i < nb; i++) worst = fmax(worst, fabs(ra[i] - rb[i])), peak = fmax(peak, rb[i]);
     CHECK(peak > 0.1, "the floor is lit (peak %g)", peak);
     CHECK_LE(worst, 1e-4 * peak, "render and reference --vertices agree with the file's light");
-    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s --no-file-lights "
+    snprintf(cmd, sizeof cmd, "%s render %s --probe none -o %s/lit.png --size 64x48 --vertices %s --no-local-bounce "
+             "--no-highlights --no-file-lights "
              "--light 'point:pos=0.2,1,0.1;intensity=10;colour=1,0.5,0.25'", B, prt, D, a);
     CHECK(check_run(cmd, out, sizeof out) == 0 && read_csv_r(a, ra, 153) == 153, "%s", out);
     worst = 0;
@@ -611,6 +614,61 @@ static void cli(void) {
     CHECK(stat(cmd, &st) != 0, "no image written after a bad --light");
 }
 
+/* The local-light effects a file was made for are the default: a sphere over a floor with a point
+ * light, where surfaces see each other, gets the plan's one bounce in prt render (the rows of
+ * --local-bounce, bit for bit; --no-local-bounce gives less light) and in prt reference (their light
+ * one bounce: more than --light-bounces 0, whose rows are those of --bounces 0 bit for bit under a
+ * black probe, where the path's light is the point light's alone and its next event is exact). */
+static void file_effects(void) {
+    const char *D = check_tmpdir(), *B = check_prt_bin();
+    char cmd[4096], out[8192], path[512], csv[5][512];
+    snprintf(path, sizeof path, "%s/fx.json", D);
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs("{ \"models\": [ { \"sphere\": {\"center\":[0,0.6,0], \"radius\":0.5, \"rings\":8, \"segments\":16},"
+              " \"material\": \"lambert:kd=0.8\" } ], \"floor\": { \"vertices\": 100, \"size\": 2 },"
+              " \"lights\": [ \"point:pos=0.7,1.5,0.3;intensity=4\" ] }\n", f);
+        fclose(f);
+    }
+    snprintf(cmd, sizeof cmd, "%s precompute %s -o %s/fx.prt --vis-res 64 --no-bounces --quiet", B, path, D);
+    CHECK(check_run(cmd, out, sizeof out) == 0, "precompute: %s", out);
+#ifdef PRT_NO_GL
+    const char *img = "";
+#else
+    char img[600];
+    snprintf(img, sizeof img, "-o %s/fx.exr --size 32x24", D);
+#endif
+    static const char *flags[3] = { "", "--local-bounce", "--no-local-bounce" };
+    float r[3][200];
+    for (int i = 0; i < 3; i++) {
+        snprintf(csv[i], sizeof csv[i], "%s/fx%d.csv", D, i);
+        snprintf(cmd, sizeof cmd, "%s render %s/fx.prt --probe none %s --vertices %s %s", B, D, img, csv[i], flags[i]);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s: %s", cmd, out);
+        if (i == 0) CHECK(strstr(out, "one bounce on") != NULL, "render says the file's one bounce is on: %s", out);
+        CHECK(read_csv_r(csv[i], r[i], 200) > 0, "%s", csv[i]);
+    }
+    double more = 0;
+    int same = 1;
+    for (int v = 0; v < 200; v++) same &= r[0][v] == r[1][v], more += r[0][v] - r[2][v];
+    CHECK(same, "the default is --local-bounce, bit for bit");
+    CHECK(more > 0, "and gives more light than --no-local-bounce (%g summed over the red channel)", more);
+    static const char *refs[3] = { "", "--light-bounces 0 --bounces 2", "--bounces 0" };
+    for (int i = 0; i < 3; i++) {
+        snprintf(csv[2 + i], sizeof csv[2 + i], "%s/rf%d.csv", D, i);
+        snprintf(cmd, sizeof cmd, "%s reference %s/fx.prt --probe none --no-image --vertices %s --spp 4 %s", B, D, csv[2 + i], refs[i]);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s: %s", cmd, out);
+        if (i == 0) CHECK(strstr(out, "their light: 1 bounce)") != NULL, "reference says the file's one bounce: %s", out);
+    }
+    float a[200], b[200], c[200];
+    int na = read_csv_r(csv[2], a, 200), nb = read_csv_r(csv[3], b, 200), nc = read_csv_r(csv[4], c, 200);
+    CHECK(na > 0 && na == nb && nb == nc, "rows %d %d %d", na, nb, nc);
+    double ab = 0;
+    same = 1;
+    for (int v = 0; v < na && v < 200; v++) same &= b[v] == c[v], ab += a[v] - b[v];
+    CHECK(same, "--light-bounces 0 with --bounces 2 is --bounces 0 under a black probe, bit for bit");
+    CHECK(ab > 0, "the file's one bounce adds light (%g summed)", ab);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(parse_specs);
@@ -620,6 +678,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(spot_falloff);
     CHECK_CASE(phong_plane);
     CHECK_CASE(furnace);
+    CHECK_CASE(file_effects);
     CHECK_CASE_GL(glsl_brdf);
     CHECK_CASE_GL(runtimes_plane);
     CHECK_CASE_GL(cli);

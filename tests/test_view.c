@@ -304,9 +304,10 @@ static void direct_cpu(void) {
     CHECK(worst > 3 && mean > 0.05, "direct and total images should differ (max %g, mean %.4f codes)", worst, mean);
 }
 
-/* Keys o and i (issue 11): with a local light, the one bounce and the indirect highlights turned on
- * in the viewer give, on either runtime, the headless `render --local-bounce --highlights` of that
- * runtime (2 codes, as the other cases), and the effects changed the image (the power check). */
+/* Keys o and i: with a local light, the one bounce and the indirect highlights (started off with
+ * --no-local-bounce --no-highlights) turned on in the viewer give, on either runtime, the headless
+ * `render --local-bounce --highlights` of that runtime (2 codes, as the other cases), and the effects
+ * changed the image (the power check). */
 static void local_effects(void) {
     if (!g_have_xvfb) return;
     const char *dir = check_tmpdir(), *backends[2] = { "cpu", "gl" }, *light = "'point:pos=0.9,1.2,0.8;intensity=2'";
@@ -316,13 +317,15 @@ static void local_effects(void) {
         snprintf(ref, sizeof ref, "%s/ref_fx_%s.png", dir, backends[b]);
         snprintf(plain, sizeof plain, "%s/ref_nofx_%s.png", dir, backends[b]);
         snprintf(args, sizeof args, "%s --probe %s --light %s --camera %s --size %dx%d --exposure -1 --backend %s --frames 3 "
-                 "--keys oi --screenshot %s", g_scene, g_sky, light, k_cam, W, H, backends[b], shot);
+                 "--no-local-bounce --no-highlights --keys oi --screenshot %s", g_scene, g_sky, light, k_cam, W, H, backends[b],
+                 shot);
         int rc = run_view(args, out, sizeof out);
         CHECK(rc == 0 && strstr(out, "one bounce on, indirect highlights on"), "view --keys oi (%s) failed (%d): %s",
               backends[b], rc, out);
         for (int k = 0; k < 2; k++) {
             snprintf(args, sizeof args, "%s --probe %s --light %s --camera %s --size %dx%d --exposure -1 --backend %s %s -o %s",
-                     g_scene, g_sky, light, k_cam, W, H, backends[b], k ? "" : "--local-bounce --highlights", k ? plain : ref);
+                     g_scene, g_sky, light, k_cam, W, H, backends[b],
+                     k ? "--no-local-bounce --no-highlights" : "--local-bounce --highlights", k ? plain : ref);
             rc = run_render(args, out, sizeof out);
             CHECK(rc == 0, "render (%s) failed (%d): %s", backends[b], rc, out);
         }

@@ -40,13 +40,14 @@ echo "== local lights: box room with a spot light, and light moves at 67K vertic
 "$PRT" precompute data/box-room.json --no-bounces --coeffs 16 --vis-res 64 -o "$OUT/box.prt" --quiet 2> "$OUT/box.log" ||
   die "box room precompute failed (see $OUT/box.log)"
 for b in cpu gl; do
-  "$PRT" render "$OUT/box.prt" --probe none --backend $b --camera $CAM --size 400x300 -o "$OUT/box_$b.exr" 2>> "$OUT/box.log" ||
+  "$PRT" render "$OUT/box.prt" --probe none --backend $b --camera $CAM --size 400x300 --no-local-bounce --no-highlights \
+    -o "$OUT/box_$b.exr" 2>> "$OUT/box.log" ||
     echo "bench_lights: render --backend $b failed"
   "$PRT" render "$OUT/box.prt" --probe none --backend $b --camera $CAM --size 400x300 --local-bounce -o "$OUT/box_${b}_vsgl.exr" \
     2>> "$OUT/box.log" || echo "bench_lights: render --backend $b --local-bounce failed"
 done
 "$PRT" render "$OUT/box.prt" --probe none --backend gl --camera $CAM --size 400x300 -o "$OUT/box_gl.png" 2>> "$OUT/box.log"
-"$PRT" reference "$OUT/box.prt" --probe none --camera $CAM --size 400x300 --spp "$SPP" -o "$OUT/box_ref.exr" --quiet 2>> "$OUT/box.log"
+"$PRT" reference "$OUT/box.prt" --probe none --camera $CAM --size 400x300 --spp "$SPP" --bounces 0 -o "$OUT/box_ref.exr" --quiet 2>> "$OUT/box.log"
 "$PRT" reference "$OUT/box.prt" --probe none --camera $CAM --size 400x300 --spp "$SPP" --bounces 1 -o "$OUT/box_ref1.exr" --quiet \
   2>> "$OUT/box.log"
 noise=$(grep -h "box_ref.exr" "$OUT/box.log" | sed -n "s/.*relative noise //p" | head -1)
@@ -78,7 +79,8 @@ echo
 echo "-- light moves: $BUNNY, $SPOT (load average $(cut -d' ' -f1-3 /proc/loadavg))"
 for b in cpu gl; do
   frames=40; [ $b = gl ] && frames=10
-  "$PRT" bench "$BUNNY" --probe "$DATA/probes/city.exr" --backend $b --frames $frames --light "$SPOT" > "$OUT/move_$b.log" 2>&1 ||
+  "$PRT" bench "$BUNNY" --probe "$DATA/probes/city.exr" --backend $b --frames $frames --light "$SPOT" \
+    --no-local-bounce --no-highlights > "$OUT/move_$b.log" 2>&1 ||
     echo "bench_lights: bench --backend $b failed (see $OUT/move_$b.log)"
   grep -E "^file|^backend|^view change|^local light move" "$OUT/move_$b.log" | sed 's/^/   /'
   "$PRT" bench "$BUNNY" --probe "$DATA/probes/city.exr" --backend $b --frames $frames --light "$SPOT" --local-bounce \
@@ -103,8 +105,8 @@ CPEYE=1.7922094,2.0180087,-2.6666513
 CPCAM=$CPEYE,-0.075,0.5,0,40
 "$PRT" reference "$CP.prt" --probe none --camera $CPCAM --bounces 1 --no-image --vertices "${CP}_ref1.csv" --vertex-spp 1024 \
   --quiet 2>> "$CP.log"
-"$PRT" reference "$CP.prt" --probe none --camera $CPCAM --no-image --vertices "${CP}_ref0.csv" --vertex-spp 16 --quiet 2>> "$CP.log"
-for m in "direct:" "vsgl:--local-bounce" "highlights:--local-bounce --highlights" \
+"$PRT" reference "$CP.prt" --probe none --camera $CPCAM --no-image --vertices "${CP}_ref0.csv" --vertex-spp 16 --bounces 0 --quiet 2>> "$CP.log"
+for m in "direct:--no-local-bounce --no-highlights" "vsgl:--local-bounce --no-highlights" "highlights:--local-bounce --highlights" \
          "highlights128:--local-bounce --highlights --highlight-samples 128"; do
   # shellcheck disable=SC2086
   "$PRT" render "$CP.prt" --probe none --camera $CPCAM ${m#*:} -o "${CP}_${m%%:*}.png" --vertices "${CP}_${m%%:*}.csv" \

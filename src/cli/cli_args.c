@@ -2,6 +2,7 @@
 #include "cli_args.h"
 #include "runtime.h"
 #include "image.h"
+#include "effects.h"
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -333,24 +334,36 @@ int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, 
 }
 
 /* Removes the indirect-light flags from argv (argc shrinks), checking the sample count. */
-int cli_take_indirect(const char *cmd, int *argc, char **argv, int *samples, bool *bounce) {
-    *samples = 0;
-    *bounce = false;
+int cli_take_indirect(const char *cmd, int *argc, char **argv, cli_indirect *out) {
+    out->bounce = out->samples = -1;
     int n = 1;
     for (int i = 1; i < *argc; i++) {
-        if (!strcmp(argv[i], "--highlights")) { *samples = *samples ? *samples : 32; continue; }
-        if (!strcmp(argv[i], "--local-bounce")) { *bounce = true; continue; }
+        if (!strcmp(argv[i], "--highlights")) { out->samples = out->samples > 0 ? out->samples : 32; continue; }
+        if (!strcmp(argv[i], "--no-highlights")) { out->samples = 0; continue; }
+        if (!strcmp(argv[i], "--local-bounce")) { out->bounce = 1; continue; }
+        if (!strcmp(argv[i], "--no-local-bounce")) { out->bounce = 0; continue; }
         if (strcmp(argv[i], "--highlight-samples")) { argv[n++] = argv[i]; continue; }
         char *end = NULL;
         long v = i + 1 < *argc ? strtol(argv[i + 1], &end, 10) : 0;
         if (i + 1 >= *argc || !end || *end || end == argv[i + 1] || v < 1 || v > 1024)
             return cli_error(cmd, "--highlight-samples needs a whole number in [1, 1024]") + 1;
-        *samples = (int)v;
+        out->samples = (int)v;
         i++;
     }
     *argc = n;
     argv[n] = NULL;
     return 0;
+}
+
+void cli_indirect_resolve(const cli_indirect *in, const prt_data *d, bool quiet, int *samples, bool *bounce) {
+    prt_effects fx;
+    prt_file_effects(d, &fx);
+    *bounce = in->bounce >= 0 ? in->bounce == 1 : fx.local_bounce;
+    *samples = in->samples >= 0 ? in->samples : fx.highlights ? 32 : 0;
+    bool by_file = (in->bounce < 0 && *bounce) || (in->samples < 0 && *samples);
+    if (!quiet && by_file)
+        fprintf(stderr, "local lights: one bounce %s, indirect highlights %s (the effects the file was made for; "
+                        "--no-local-bounce, --no-highlights turn them off)\n", *bounce ? "on" : "off", *samples ? "on" : "off");
 }
 
 /* The scene's lights become its file's (unless no_file) followed by extra. */

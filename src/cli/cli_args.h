@@ -115,6 +115,7 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
  * one the framing picked: "the eye and the target coincide"). */
 #include "camera.h"
 #include "scene.h"
+#include "prtfile.h"
 /* --layout and --camera checked before any loading (usage errors, exit 2; issue 12 item 7):
  * layout a probe layout name, cam_s numbers as camera_parse takes them (NULL: not given).
  * Returns 0, or 2 after printing one line. */
@@ -127,13 +128,22 @@ int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *ca
 int cli_take_lights(const char *cmd, int *argc, char **argv, prt_lights *extra, bool *no_file);
 /* The scene's lights: the file's (none with no_file) then extra. 0, or 2 after printing. */
 int cli_apply_lights(const char *cmd, prt_scene *s, const prt_lights *extra, bool no_file);
-/* The runtimes' indirect local light (indirect.h, glvsgl.h), off unless asked for: takes
- * "--local-bounce", "--highlights" (samples = 32) and "--highlight-samples N" (1..1024, implies
- * --highlights) out of argv; samples 0 means none. Returns 0, or 2 after printing one line. */
-int cli_take_indirect(const char *cmd, int *argc, char **argv, int *samples, bool *bounce);
+/* The runtimes' indirect local light (indirect.h, glvsgl.h) as the command line asks: each -1 (not
+ * said: the effects the file was made for, effects.h), 0 off or on (samples: rays per glossy vertex). */
+typedef struct cli_indirect {
+    int bounce;     /* --local-bounce 1, --no-local-bounce 0 */
+    int samples;    /* --highlights 32, --highlight-samples N (1..1024), --no-highlights 0 */
+} cli_indirect;
+/* Takes those flags out of argv (argc shrinks) into *out. Returns 0, or 2 after printing one line. */
+int cli_take_indirect(const char *cmd, int *argc, char **argv, cli_indirect *out);
+/* What to run for d (its lights applied): the flags, else the file's effects (prt_file_effects), said
+ * on stderr unless quiet when the file turned one on. */
+void cli_indirect_resolve(const cli_indirect *in, const prt_data *d, bool quiet, int *samples, bool *bounce);
 #define CLI_INDIRECT_HELP \
-    "  --local-bounce          add the local lights' one bounce (two VSGLs per light; cpu per vertex, gl per pixel)\n" \
-    "  --highlights            add their indirect highlights (32 rays per glossy vertex, on the CPU; gl adds them)\n" \
+    "  --local-bounce          the local lights' one bounce (two VSGLs per light; cpu per vertex, gl per pixel);\n" \
+    "                          default: as the file's effects plan decided (--no-local-bounce: off)\n" \
+    "  --highlights            their indirect highlights (32 rays per glossy vertex, on the CPU; gl adds them);\n" \
+    "                          default: as the file's effects plan decided (--no-highlights: off)\n" \
     "  --highlight-samples N   the same with N rays (1..1024)\n"
 /* The help lines of those flags. */
 #define CLI_LIGHT_HELP \

@@ -9,6 +9,7 @@
 #include "cli_args.h"
 #include "camera.h"
 #include "compare.h"
+#include "effects.h"
 #include "image.h"
 #include "probe.h"
 #include "prtfile.h"
@@ -35,6 +36,9 @@ static void help(void) {
          "  --bounces B             interreflection bounces at most: 0 direct only, -1 to convergence\n"
          "                          (Russian roulette); default: the file's interreflection passes, so\n"
          "                          that prt compare measures PRT against the truth of the same effects\n"
+         "  --light-bounces B       the local lights' light: at most B bounces (0 direct, -1 to convergence);\n"
+         "                          default: --bounces when given, else the file's effects (1 with its local\n"
+         "                          lights' one bounce, else 0)\n"
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera (default: framed as by prt render)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera with standard\n"
@@ -60,7 +64,7 @@ static void help(void) {
 /* What the command line asked for. */
 typedef struct reference_args {
     const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *vert_list;
-    int w, h, spp, vspp, bounces, nthreads;
+    int w, h, spp, vspp, bounces, light_bounces, nthreads;
     unsigned long long seed;
     bool background, quiet, no_image;
     float R[9], exposure;   /* exposure: stops, for a tone-mapped (.png) output, as prt render's */
@@ -73,7 +77,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     bool no_background = false;
     memset(a, 0, sizeof *a);
     a->spp = 64;
-    a->bounces = REF_BOUNCES_FILE;
+    a->bounces = a->light_bounces = REF_BOUNCES_FILE;
     a->exposure = NAN;   /* not given: from the probe (probe_exposure) */
     a->seed = 1;
     const cli_option opts[] = {
@@ -83,6 +87,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
         CLI_B("--no-background", &no_background), CLI_B("--no-image", &a->no_image), CLI_B("--quiet", &a->quiet),
         CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24), CLI_F("--exposure", &a->exposure, -64, 64),
         CLI_I("--vertex-spp", &a->vspp, 1, 1 << 24), CLI_I("--bounces", &a->bounces, -1, 1000),
+        CLI_I("--light-bounces", &a->light_bounces, -1, 1000),
         CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--seed", &seed_s), CLI_END,
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &a->in, 1, &npos);
@@ -193,12 +198,16 @@ static int trace(const reference_args *a, const prt_data *d, const prt_probe *pr
     prt_bar bar;
     prt_bar_init(&bar, stderr, a->quiet);
     ref_ctx *ref = ref_create(&d->scene, probe, a->rot_s ? a->R : NULL, &err);
-    ref_desc rd = { .spp = a->spp, .bounces = a->bounces, .seed = a->seed, .nthreads = a->nthreads,
+    char lights[96] = "";
+    if (d->scene.lights.count)
+        snprintf(lights, sizeof lights, ", local lights (their light: %d bounce%s)", a->light_bounces, a->light_bounces == 1 ? "" : "s");
+    ref_desc rd = { .spp = a->spp, .bounces = a->bounces, .light_depth = a->light_bounces < 0 ? 0 : a->light_bounces + 1,
+                    .seed = a->seed, .nthreads = a->nthreads,
                     .black_background = !a->background, .progress = prt_bar_report, .progress_user = &bar };
     if (ref && !a->quiet)
         fprintf(stderr, "reference: %d vertices, %d triangles, %d material(s), probe %dx%d, bounces %d%s, spp %d%s\n",
                 d->scene.mesh.nverts, d->scene.mesh.ntris, d->scene.nmaterials, probe->img.w, probe->img.h, a->bounces,
-                a->bounces == d->stats.bounces ? " (the file's)" : "", a->spp, d->scene.lights.count ? ", local lights" : "");
+                a->bounces == d->stats.bounces ? " (the file's)" : "", a->spp, lights);
     int rc = !ref || (a->vert_out && vertices(ref, &d->scene.mesh, cam->eye, &rd, a, &bar, &err)) ||
              (!a->no_image && image(ref, probe, cam, rd, a, &bar, &err));
     if (rc) cli_error(k_cmd, "%s", err.msg);
@@ -228,7 +237,13 @@ int cli_reference(int argc, char **argv) {
     prt_probe probe;
     memset(&probe, 0, sizeof probe);
     int rc = 1;
-    if (a.bounces == REF_BOUNCES_FILE) a.bounces = d.stats.bounces;   /* the effects the file was made with */
+    if (a.light_bounces == REF_BOUNCES_FILE && a.bounces != REF_BOUNCES_FILE) a.light_bounces = a.bounces;
+    if (a.light_bounces == REF_BOUNCES_FILE) {   /* the local-light effects the file was made for */
+        prt_effects fx;
+        prt_file_effects(&d, &fx);
+        a.light_bounces = fx.local_bounce || fx.highlights ? 1 : 0;
+    }
+    if (a.bounces == REF_BOUNCES_FILE) a.bounces = d.stats.bounces;   /* its interreflection passes */
     if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
         rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : trace(&a, &d, &probe, &cam);
     probe_free(&probe);

@@ -178,14 +178,12 @@ int cli_render(int argc, char **argv) {
     render_args a;
     prt_lights extra;
     bool no_file_lights;
-    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights), hl = 0;
+    int lr = cli_take_lights(k_cmd, &argc, argv, &extra, &no_file_lights);
     if (lr) return lr;
-    bool bounce = false;
-    if ((lr = cli_take_indirect(k_cmd, &argc, argv, &hl, &bounce))) return lr;
+    cli_indirect ind;
+    if ((lr = cli_take_indirect(k_cmd, &argc, argv, &ind))) return lr;
     int pr = parse_args(argc, argv, &a);
     if (pr >= 0) return pr;
-    a.hl_samples = hl;
-    a.bounce = bounce;
     prt_error err = { { 0 } };
     prt_data d;
     memset(&d, 0, sizeof d);
@@ -197,6 +195,7 @@ int cli_render(int argc, char **argv) {
         prt_data_free(&d);
         return rc;
     }
+    cli_indirect_resolve(&ind, &d, false, &a.hl_samples, &a.bounce);
     rc = 1;
     prt_probe probe;
     memset(&probe, 0, sizeof probe);

@@ -29,6 +29,7 @@
 #include "cli.h"
 #include "check.h"
 #include "cli_args.h"
+#include "effects.h"
 #include "gldraw.h"
 #include "image.h"
 #include "probe.h"
@@ -693,8 +694,7 @@ typedef struct view_args {
     bool backend_given;         /* --backend: kept even on a software renderer */
     prt_lights extra;           /* --light */
     bool no_file_lights;
-    int hl_samples;             /* --highlights / --highlight-samples (0: none) */
-    bool bounce;                /* --local-bounce */
+    cli_indirect indirect;      /* --local-bounce, --highlights and their --no- forms (-1: the file's) */
 } view_args;
 
 /* One option of argv at *i into v / a: 1 taken, 0 not an option of ours, -1 usage error (printed). */
@@ -782,7 +782,7 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     memset(a, 0, sizeof *a);
     int lr = cli_take_lights(k_view, &argc, argv, &a->extra, &a->no_file_lights);
     if (lr) return lr;
-    if ((lr = cli_take_indirect(k_view, &argc, argv, &a->hl_samples, &a->bounce))) return lr;
+    if ((lr = cli_take_indirect(k_view, &argc, argv, &a->indirect))) return lr;
     a->w = 1024;
     a->h = 768;
     v->exposure = NAN;   /* not given: from the first probe (cli_exposure) */
@@ -801,22 +801,12 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     return check_args(v, a) ? 2 : -1;
 }
 
-/* The effects plan's word on the local lights' one bounce and highlights: the plan
- * `prt precompute` stored with the file where it has local-light lines, else its rule on the file's
- * figures (surfaces see each other when at least 0.5% of the visibility rays hit, PC_HIT_MIN); the
- * highlights need a material with a lobe fit (lightmat.h: phong, blinn, ggx, beckmann) too. */
+/* The effects the file was made for (effects.h): what the o and i keys may turn on, and why not. */
 static void view_effects_plan(viewer *v) {
-    const char *plan = v->d.plan;
-    bool see = v->d.stats.hit_fraction >= 0.005, lobe = false;
-    for (int m = 0; m < v->d.scene.nmaterials; m++) {
-        brdf_type t = v->d.scene.materials[m].type;
-        lobe |= t == BRDF_PHONG || t == BRDF_BLINN || t == BRDF_GGX || t == BRDF_BECKMANN;
-    }
-    if (strstr(plan, "one bounce (two VSGLs): none")) see = false;
-    else if (strstr(plan, "one bounce (two VSGLs): needed")) see = true;
-    v->no_bounce = see ? NULL : "surfaces do not see each other";
-    v->no_hl = !lobe ? "no glossy material" : !see || strstr(plan, "indirect highlights: none") ? "no glossy surface faces another"
-                                                                                               : NULL;
+    prt_effects fx;
+    prt_file_effects(&v->d, &fx);
+    v->no_bounce = fx.no_bounce;
+    v->no_hl = fx.no_highlights;
 }
 
 /* Reads the file and the probes, frames the camera. Returns 0, or the exit status after printing. */
@@ -828,6 +818,7 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->lights = v->lights0 = v->d.scene.lights;
     v->local_dirty = v->lights.count > 0;
     view_effects_plan(v);
+    cli_indirect_resolve(&a->indirect, &v->d, false, &v->hl_samples, &v->bounce);
     if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)
@@ -868,15 +859,13 @@ static int open_window(viewer *v, const view_args *a) {
     glctx_window_desc wd = { .width = a->w, .height = a->h, .title = title, .visible = true };
     v->ctx = glctx_create(GLCTX_GLFW, &wd, &err);
     if (!v->ctx) return cli_error(k_view, "%s", err.msg);
-    v->bounce = a->bounce;
-    v->hl_samples = a->hl_samples;
-    v->hl_on = a->hl_samples ? a->hl_samples : 32;
+    v->hl_on = v->hl_samples ? v->hl_samples : 32;
     char kernels[512] = "";
     for (int i = 0, n = 0; i < runtime_backend_count(); i++) {
         const runtime_backend_info *b = runtime_backend_at(i);
         if (!(b->caps & RUNTIME_CAP_WINDOW)) continue;
-        runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = a->bounce,
-                              .highlight_samples = a->hl_samples };
+        runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = v->bounce,
+                              .highlight_samples = v->hl_samples };
         if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
         if (!(v->rts[i] = runtime_create(&v->d, &desc, &err))) return cli_error(k_view, "%s", err.msg);
         runtime_timing tm;

@@ -426,18 +426,23 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
     const bool use_env = d->strategy != REF_BRDF_ONLY && rc->total > 0;
     const bool use_brdf_light = d->strategy != REF_ENV_ONLY;
     const bool mis = d->strategy == REF_MIS;
+    /* bounces of the environment's light and of the local lights' (-1: unlimited); the path goes on
+     * while either wants more */
+    const int envb = d->bounces, lightb = d->light_depth > 0 ? d->light_depth - 1 : d->bounces;
+    const int maxb = envb < 0 || lightb < 0 ? -1 : envb > lightb ? envb : lightb;
     for (int depth = 0; depth < REF_MAX_DEPTH; depth++) {
         const brdf_params *bp = &rc->scene->materials[s.mat];
         float S[3], T[3], wol[3];
         brdf_frame(s.ns, S, T);
         brdf_to_local(S, T, s.ns, wo, wol);
         if (wol[2] <= 0.f) break;   /* one-sided: seen from below the shading horizon */
-        const bool cont = d->bounces < 0 || depth < d->bounces;
+        const bool cont = maxb < 0 || depth < maxb;
+        const bool env_here = envb < 0 || depth <= envb, lights_here = lightb < 0 || depth <= lightb;
         /* Strategy 1: environment sample (next-event estimation). */
-        if (use_env) rays += env_nee(rc, &s, S, T, wol, bp, mis, rng, beta, L);
-        rays += lights_nee(rc, &s, wo, bp, beta, L);
+        if (use_env && env_here) rays += env_nee(rc, &s, S, T, wol, bp, mis, rng, beta, L);
+        if (lights_here) rays += lights_nee(rc, &s, wo, bp, beta, L);
         /* Strategy 2: BRDF sample; it also carries the path on. */
-        if (!use_brdf_light && !cont) break;
+        if (!(use_brdf_light && env_here) && !cont) break;
         float u1 = pcg32_float(rng), u2 = pcg32_float(rng), wil[3], pb;
         if (!brdf_sample(bp, wol, u1, u2, wil, &pb) || !(pb > 0.f) || wil[2] <= 0.f) break;
         float f[3], wi[3], o[3];
@@ -453,7 +458,7 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
         if (cont) hit_any = vis_closest(rc->vs, o, wi, rc->eps, INFINITY, &hit);
         else hit_any = vis_occluded(rc->vs, o, wi, rc->eps, INFINITY);
         if (!hit_any) {
-            if (use_brdf_light) {
+            if (use_brdf_light && env_here) {
                 float Le[3], wgt = 1.f;
                 ref_env_radiance(rc, wi, Le);
                 if (mis && rc->total > 0) {
@@ -466,7 +471,7 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
         }
         if (!cont) break;
         for (int c = 0; c < 3; c++) beta[c] *= thr[c];
-        if (d->bounces < 0 && depth + 1 >= REF_RR_DEPTH) {
+        if (maxb < 0 && depth + 1 >= REF_RR_DEPTH) {
             float q = fminf(0.95f, max3(beta));
             if (!(q > 0.f) || pcg32_float(rng) >= q) break;
             for (int c = 0; c < 3; c++) beta[c] /= q;

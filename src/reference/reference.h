@@ -58,6 +58,9 @@ typedef enum ref_strategy {
 typedef struct ref_desc {
     int spp;                 /* samples per pixel / vertex; 0: 64 */
     int bounces;             /* 0 direct only; k > 0 at most k bounces; -1 Russian roulette */
+    int light_depth;         /* the local lights' light: 0 as bounces; k > 0 at most k - 1 bounces (1 direct
+                              * only, 2 one bounce: what prt's local-light effects simulate), the path
+                              * going on as long as either count wants it */
     uint64_t seed;
     ref_strategy strategy;
     int nthreads;            /* 0: all cores */
