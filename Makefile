@@ -62,8 +62,10 @@ DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopene
             liblapacke-dev libopenblas-dev $(GL_PKGS) \
             zlib1g-dev libcjson-dev libopenmpi-dev openmpi-bin
 
-# Library folders by pipeline stage (README "Architecture"); headers are included by name.
-SRC_DIRS := src/core src/scene src/locallight src/image src/transfer src/transfer/sparse src/transfer/haar src/transfer/sh src/transfer/vmf src/precompute src/file src/runtime src/reference
+# Library folders by pipeline stage (README "Architecture"); headers are included by name. Every folder
+# under src/transfer/ is one (a representation's, or what several share: transfer.h).
+TRANSFER_DIRS := $(patsubst %/,%,$(sort $(wildcard src/transfer/*/)))
+SRC_DIRS := src/core src/scene src/locallight src/image src/transfer $(TRANSFER_DIRS) src/precompute src/file src/runtime src/reference
 INCS    := $(addprefix -I,$(SRC_DIRS)) -Isrc/cli -Ibrdf $(addprefix -I,$(GL_DIRS))
 CFLAGS  += -std=c11 $(OPT) -g -Wall -Wextra -Wno-unused-parameter -D_GNU_SOURCE -march=x86-64-v2 \
            -pthread $(INCS) -MMD -MP $(SANFLAGS)
@@ -98,6 +100,10 @@ LIB_CXX := $(wildcard $(addsuffix /*.cpp,$(SRC_DIRS)))
 LIB_OBJ := $(LIB_C:%.c=$(BUILD)/obj/%.o) $(LIB_CXX:%.cpp=$(BUILD)/obj/%.o)
 CLI_OBJ := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out $(GL_ONLY),$(wildcard src/cli/*.c)))
 TESTS   := $(patsubst tests/%.c,$(BUILD)/tests/%,$(filter-out $(GL_ONLY),$(wildcard tests/test_*.c)))
+# A test with its own library code: tests/NAME/test_NAME.c and the sources beside it, linked before libprt.a
+# so that they may stand in for a library object (tests/dense/ links its own transfer table).
+TEST_DIRS := $(patsubst tests/%/,%,$(dir $(wildcard tests/*/test_*.c)))
+TESTS   += $(TEST_DIRS:%=$(BUILD)/tests/test_%)
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
 .PHONY: all deps incs test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
@@ -148,6 +154,13 @@ $(BUILD)/prt: $(CLI_OBJ) $(BUILD)/libprt.a
 $(BUILD)/tests/%: $(BUILD)/obj/tests/%.o $(TEST_SUPPORT) $(BUILD)/libprt.a
 	@mkdir -p $(dir $@)
 	$(CC) $(LDFLAGS) $< $(TEST_SUPPORT) $(BUILD)/libprt.a $(LDLIBS) -o $@
+define TEST_DIR_RULE
+$(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tests/$(1)/*.c)): CFLAGS += -Itests
+$(BUILD)/tests/test_$(1): $(patsubst %.c,$(BUILD)/obj/%.o,$(wildcard tests/$(1)/*.c)) $(TEST_SUPPORT) $(BUILD)/libprt.a
+	@mkdir -p $$(dir $$@)
+	$$(CC) $$(LDFLAGS) $$(filter %.o,$$^) $(BUILD)/libprt.a $$(LDLIBS) -o $$@
+endef
+$(foreach d,$(TEST_DIRS),$(eval $(call TEST_DIR_RULE,$(d))))
 
 install: all
 	@dups=$$(for h in $(PUBLIC_H); do basename $$h; done | sort | uniq -d); \

@@ -17,7 +17,6 @@
  * The 8-bit layout is the paper's (4.1.2): a 4-byte word per coefficient plus
  * its block byte, 5 bytes in all. */
 #include "glrt.h"
-#include "light.h"
 #include "prefilter.h"
 #include "gldraw.h"
 #include "gllights.h"
@@ -47,7 +46,7 @@ struct glrt {
     int tv_tris[3];             /* triangles drawn by prog_view[2], [3], [0] in that order (per pixel with a tv) */
     int tv_perm;                /* word offset in t_tvu of the drawn order's triangle indices */
     GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
-    const prt_transfer *tv;     /* the transfer shaded per pixel (ops->glsl_view), or NULL */
+    const prt_transfer *tv;     /* the transfer shaded per pixel (ops->view->glsl), or NULL */
     GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
     int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
     float pf_kappa[16], pf_Rt[9];
@@ -57,7 +56,7 @@ struct glrt {
     bool bg_rotated, light_set;
     glrt_view_mode view_mode;
     glrt_light_method method;
-    float unshift;              /* 2^e: the uploaded light is L x 2^-e (light_scaled_copy), the kernels undo it */
+    float unshift;              /* 2^e: the uploaded light is L x 2^-e (transfer_light_scaled_copy), the kernels undo it */
     glrt_timing timing;
     int lmax;                   /* local lights the view programs take (GLLIGHTS_MAX, or 0: units lacking) */
     gllights *local;            /* local lights: made at the first glrt_set_local_lights */
@@ -89,7 +88,7 @@ const char *glrt_light_method_name(glrt_light_method m) {
 /* ---------------------------------------------------------------- shaders */
 
 /* The light kernels (coefficient decoding, fragment, thread and warp) are the transfer
- * representation's (transfer.h: ops->glsl; the sparse family's live in transfer_sparse.c). */
+ * representation's (transfer.h: ops->linear->glsl; the linear family's live in linear.c). */
 
 /* View-map lookups, mirroring brdf_factor_uv / brdf_factor_view (bilinear on texel centres; the
  * grid clamps at its edge, the polar angle wraps) and Eq. 10's frame (brdf_frame). */
@@ -168,8 +167,8 @@ static const char *k_view_vs =
     "layout(location = 2) in uvec2 a_vec;\n"
     "layout(location = 3) in uint a_mat;\n"
     "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
-    "layout(location = 5) in float a_pix;\n"  /* 1: a vertex of the per-pixel transfer's materials (glsl_view) */
-    "layout(location = 6) in float a_tva;\n"  /* the per-pixel transfer's own per-vertex value (glsl_view->data) */
+    "layout(location = 5) in float a_pix;\n"  /* 1: a vertex of the per-pixel transfer's materials (view->glsl) */
+    "layout(location = 6) in float a_tva;\n"  /* the per-pixel transfer's own per-vertex value (view->glsl->data) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -502,7 +501,7 @@ static int order_tris(glrt *rt, const float *pix, const float *tva, uint32_t *pe
     return partition_tris(rt, 3, tv_class, ctx, rt->tv_tris, perm, err);
 }
 
-/* The per-pixel transfer's data (rt->tv, ops->glsl_view): its two arrays as buffer textures (t_tv
+/* The per-pixel transfer's data (rt->tv, ops->view->glsl): its two arrays as buffer textures (t_tv
  * RGBA32F, t_tvu R32UI) and attribute 5, 1 at the vertices of its materials. Where the context
  * cannot hold them (buffer-texture size, texture units) rt->tv is dropped: the CPU shades its
  * vertices (the per-vertex model). -1 with err (OOM, GL error). */
@@ -513,7 +512,7 @@ static int upload_tv(glrt *rt, prt_error *err) {
     uint32_t *u = NULL;
     float *tva = NULL;
     size_t nf = 0, nu = 0;
-    if (rt->tv->ops->glsl_view->data(rt->d, rt->tv, &f, &nf, &u, &nu, &tva, err)) return -1;
+    if (rt->tv->ops->view->glsl->data(rt->d, rt->tv, &f, &nf, &u, &nu, &tva, err)) return -1;
     GLint maxtb = 0, units = 0;
     gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
     gl->GetIntegerv(GL_MAX_TEXTURE_IMAGE_UNITS, &units);
@@ -560,7 +559,7 @@ static int build_light_programs(glrt *rt, prt_error *err) {
             gl->DeleteProgram(rt->prog_light[i]);
             rt->prog_light[i] = 0;
         }
-    const transfer_glsl *k = rt->tr->ops->glsl;
+    const transfer_glsl *k = rt->tr->ops->linear->glsl;
     snprintf(decode, sizeof decode, "#define QBITS %d\n%s", rt->qbits, k->decode);
     snprintf(head, sizeof head, "#version 330 core\n");
     char *fs = build_src(head, k->fragment, decode, "");
@@ -586,7 +585,7 @@ static int build_light_programs(glrt *rt, prt_error *err) {
 /* The per-pixel program's extra fragment source: the prefilter lookup with its pf_level chain,
  * then the transfer's tv_radiance (malloc'd; NULL on OOM). */
 static char *tv_source(const glrt *rt) {
-    const char *src = rt->tv->ops->glsl_view->source;
+    const char *src = rt->tv->ops->view->glsl->source;
     size_t cap = strlen(k_pf_glsl) + strlen(src) + 256 * GLRT_PF_LEVELS + 256;
     char *chain = malloc(cap), *out = malloc(cap);
     if (!chain || !out) { free(chain); free(out); return NULL; }
@@ -620,7 +619,7 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
              "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
-             rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->glsl_view->rows : 1, GLRT_PF_LEVELS,
+             rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->view->glsl->rows : 1, GLRT_PF_LEVELS,
              rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
@@ -779,12 +778,12 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
 /* See glrt.h. The caller owns the runtime (glrt_destroy); d must outlive it. */
 glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     glrt_desc dd = desc ? *desc : (glrt_desc){ 0 };
-    int nsparse = 0;
-    for (int i = 0; i < d->ntransfers; i++) nsparse += d->transfers[i].ops && d->transfers[i].ops->light_range;
-    if (nsparse != 1)
-        return prt_fail(err, "GL runtime: the data has %d sparse transfers (one supported)", nsparse), NULL;
+    int nlinear = 0;
+    for (int i = 0; i < d->ntransfers; i++) nlinear += d->transfers[i].ops && d->transfers[i].ops->kind == TRANSFER_LINEAR;
+    if (nlinear != 1)
+        return prt_fail(err, "GL runtime: the data has %d linear transfers (one supported)", nlinear), NULL;
     const prt_transfer *tr = prt_data_transfer(d);
-    if (!tr->ops->glsl)
+    if (!tr->ops->linear->glsl)
         return prt_fail(err, "GL runtime: the %s transfer has no GL kernel (use the CPU backend)", tr->ops->name), NULL;
     const prt_transport *t = &tr->transport;
     const prt_mesh *m = &d->scene.mesh;
@@ -817,7 +816,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->kmax_all = kmax;
     rt->view_mode = dd.view;
     for (int i = 0; i < d->ntransfers && !rt->tv; i++)
-        if (d->transfers[i].ops->glsl_view) rt->tv = &d->transfers[i];
+        if (d->transfers[i].ops->kind == TRANSFER_VIEW && d->transfers[i].ops->view->glsl) rt->tv = &d->transfers[i];
     if (dd.ctx) rt->ctx = dd.ctx;
     else {
         rt->ctx = glctx_create(GLCTX_AUTO, NULL, err);
@@ -955,14 +954,14 @@ int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
     return glrt_set_local_lights(rt, &rt->lights, err);
 }
 
-/* Light change: uploads L (scaled when huge: light_scaled_copy) and runs the kernel, finished and timed;
+/* Light change: uploads L (scaled when huge: transfer_light_scaled_copy) and runs the kernel, finished and timed;
  * -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
     double t0 = prt_now();
     int shift;
-    float (*Ls)[4] = light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */
+    float (*Ls)[4] = transfer_light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */
     rt->unshift = ldexpf(1.f, shift);
     gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_L);
     gl->BufferSubData(GL_ARRAY_BUFFER, 0, sizeof(float) * 4 * CUBE_TEXELS, Ls ? (const float (*)[4])Ls : L);

@@ -19,7 +19,7 @@
  * the 16-bit dequantized values light.h makes, so CPU and GPU use identical
  * numbers) is uploaded, then one GPU pass computes every light-dependent
  * K-vector g_i = scale_i * sum_c q_c L[index_c] (Eq. 5's T x L) into a buffer;
- * the kernels' GLSL is the transfer representation's (transfer.h, ops->glsl).
+ * the kernels' GLSL is the transfer representation's (transfer.h, ops->linear->glsl).
  * Three kernels exist; GLRT_LIGHT_AUTO times each once at create and keeps the
  * fastest (the paper chose its layout by measurement too):
  *   fragment  one fragment per vector looping over its coefficients, written to
@@ -49,12 +49,12 @@
  *
  * Several transfers: glrt draws the data's one sparse transfer (prt_data_transfer; a file with
  * more than one is refused) and adds, per vertex, a radiance computed elsewhere
- * (glrt_set_vertex_add: the vmf transfer's lobes from ops->shade_vertices on the CPU, per view
- * change). Per pixel (GLRT_VIEW_PIXEL), a transfer with ops->glsl_view (vmf) is evaluated in the
+ * (glrt_set_vertex_add: the vmf transfer's lobes from ops->view->shade_vertices on the CPU, per view
+ * change). Per pixel (GLRT_VIEW_PIXEL), a transfer with ops->view->glsl (vmf) is evaluated in the
  * fragment shader instead, on every triangle with a corner of its materials: its GLSL
  * (tv_radiance: vmft_radiance_point, vmf.h, i.e. laurijssen-2011 Eq. 7 over the pixel's triangle
  * and grid views, stored slices from the perfect hash) reads the transfer's data as two buffer
- * textures (glsl_view->data) and looks lobes up in the prefiltered probe uploaded by
+ * textures (view->glsl->data) and looks lobes up in the prefiltered probe uploaded by
  * glrt_set_prefilter (one seamless cube map per ladder level, GLRT_PF_LEVELS at most); the caller
  * then leaves that transfer out of glrt_set_vertex_add (glrt_shades_per_pixel). A context whose
  * buffer textures or texture units cannot hold the data (17 units are used) keeps the per-vertex
@@ -140,15 +140,15 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
 int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
 /* Radiance added to every vertex's shading in both view modes (rgb[3 * nverts], interpolated across
  * triangles; NULL: zeros, the default): the non-linear transfers' part, computed elsewhere
- * (runtime_gl.c: ops->shade_vertices per view change). */
+ * (runtime_gl.c: ops->view->shade_vertices per view change). */
 int glrt_set_vertex_add(glrt *rt, const float *rgb, prt_error *err);
-/* Per-pixel mode: the prefiltered probe (prefilter.h) the transfer with ops->glsl_view is looked up in
+/* Per-pixel mode: the prefiltered probe (prefilter.h) the transfer with ops->view->glsl is looked up in
  * (its levels uploaded as seamless cube maps, its rotation as a uniform); NULL, or a ladder of more than
  * GLRT_PF_LEVELS levels: none, every pixel takes the per-vertex radiance. Call it once per probe. */
 struct prefilter_env;
 int glrt_set_prefilter(glrt *rt, const struct prefilter_env *env, prt_error *err);
 /* True when the per-pixel program shades tr in the current view mode (so its per-vertex radiance
- * must not be added too): tr has glsl_view, its data fit the context, a ladder is uploaded, per pixel. */
+ * must not be added too): tr has view->glsl, its data fit the context, a ladder is uploaded, per pixel. */
 bool glrt_shades_per_pixel(const glrt *rt, const prt_transfer *tr);
 /* Takes env's rotation for the ladder uploaded last (same probe, turned): no upload. */
 void glrt_set_prefilter_rotation(glrt *rt, const struct prefilter_env *env);

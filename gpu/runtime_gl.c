@@ -5,10 +5,10 @@
  * per pixel (the default) or per vertex. Images are read back from glrt's float
  * target; runtime_present blits it to the caller's window.
  *
- * Non-linear transfers (vmf): per vertex on the CPU through their ops->shade_vertices
+ * Non-linear transfers (vmf): per vertex on the CPU through their ops->view->shade_vertices
  * at every view change (toward the camera's eye), the colours uploaded to glrt
  * (glrt_set_vertex_add) and added to the sparse transfer's shading per pixel or per
- * vertex; their time is part of view_ms. Per pixel, a transfer with ops->glsl_view is shaded
+ * vertex; their time is part of view_ms. Per pixel, a transfer with ops->view->glsl is shaded
  * per pixel on the GPU instead (glrt.h) and not on the CPU (glrt_shades_per_pixel): the
  * prefiltered probe is uploaded once per probe (glrt_set_prefilter); a rotation only updates a
  * uniform.
@@ -51,7 +51,7 @@ typedef struct gl_rt {
     relight_ctx *finish;        /* vertex colours: made on first use */
     float *g;                   /* [3*nvecs] read back */
     int sparse;                 /* index of the sparse transfer in d->transfers */
-    bool nonlinear;             /* some transfer has ops->shade_vertices */
+    bool nonlinear;             /* some transfer has ops->view->shade_vertices */
     const struct prefilter_env *env;    /* the last light's prefiltered probe (the runtime's) */
     float *add;                 /* [3*nverts] the non-linear transfers' radiance of the last view */
     const prt_probe *bg;        /* the probe uploaded as background (and its pixels) */
@@ -115,7 +115,7 @@ static void *gl_create(const prt_data *d, const runtime_desc *desc, prt_error *e
     g->rt = glrt_create(d, &gd, err);
     if (!g->rt) { gl_destroy(g); return NULL; }
     g->sparse = (int)(prt_data_transfer(d) - d->transfers);
-    for (int i = 0; i < d->ntransfers; i++) g->nonlinear |= d->transfers[i].ops->shade_vertices != NULL;
+    for (int i = 0; i < d->ntransfers; i++) g->nonlinear |= d->transfers[i].ops->kind == TRANSFER_VIEW;
     g->bounce = desc->local_bounce;
     g->hl_samples = desc->highlight_samples > 0 ? desc->highlight_samples : 0;
     /* with the highlights, the glossy lobe's one bounce is theirs (indirect.h): the VSGLs light the diffuse lobe */
@@ -138,15 +138,15 @@ static int gl_set_light(void *self, const runtime_light *light, prt_error *err) 
     return glrt_set_light(g->rt, light->L[g->sparse], err);
 }
 
-/* Adds every non-linear transfer's radiance toward eye (ops->shade_vertices) to rgb, non-finite
+/* Adds every non-linear transfer's radiance toward eye (ops->view->shade_vertices) to rgb, non-finite
  * values written as 0, but for those glrt shades per pixel when pixel is set; -1 with err before a
  * light change. */
 static int add_nonlinear(gl_rt *g, const float eye[3], bool pixel, float *rgb, prt_error *err) {
     for (int i = 0; i < g->d->ntransfers; i++) {
         const prt_transfer *tr = &g->d->transfers[i];
-        if (!tr->ops->shade_vertices || (pixel && glrt_shades_per_pixel(g->rt, tr))) continue;
+        if (tr->ops->kind != TRANSFER_VIEW || (pixel && glrt_shades_per_pixel(g->rt, tr))) continue;
         if (!g->env) return prt_fail(err, "gl runtime: the %s transfer needs a light change first", tr->ops->name);
-        tr->ops->shade_vertices(g->d, tr, g->env, eye, rgb, g->nthreads);
+        tr->ops->view->shade_vertices(g->d, tr, g->env, eye, rgb, g->nthreads);
     }
     for (size_t k = 0; k < 3 * (size_t)g->d->scene.mesh.nverts; k++)
         if (!(rgb[k] >= 0) || !isfinite(rgb[k])) rgb[k] = 0;

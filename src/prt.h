@@ -17,7 +17,8 @@
  *     runtime.h     relighting a prt_data: runtime_create on a backend ("cpu", "gl"), light and view changes
  *     lights.h      local point and spot lights (runtime_set_local_lights)
  *     scene.h       scenes to precompute: an OBJ model or a JSON scene
- *     precompute.h  precompute_run: a scene into a prt_data, what `prt precompute` does
+ *     precompute.h  precompute_run: a scene into a prt_data, what `prt precompute` does (a zeroed desc,
+ *                   the scene's own keys applied by precompute_desc_apply_scene)
  *
  * Usage: relight a .prt file under a probe turned 30 degrees about +y and write a PNG
  * (examples/relight.c is this program with its arguments and every error said):

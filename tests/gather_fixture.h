@@ -4,9 +4,10 @@
  *
  * The direct builder is deliberately simple (one visibility ray per 64-res
  * lighting texel, Eq. 3 at the texel centre), then goes through the transfer
- * representation interface (transfer.h: ops->project_transport per channel,
- * ops->compress), so the tests do not depend on the precompute pipeline but do
- * exercise the same seam it uses (fx_direct: Haar; fx_direct_ops: any). */
+ * representation interface (transfer.h: ops->linear->project_transport per
+ * channel, ops->linear->compress), so the tests do not depend on the precompute
+ * pipeline but do exercise the same seam it uses (fx_direct: Haar of the texels,
+ * the paper's; fx_direct_ops: any linear representation, with its options). */
 #ifndef GATHER_FIXTURE_H
 #define GATHER_FIXTURE_H
 #include "harness.h"
@@ -96,24 +97,27 @@ FX_FN void fx_direct_range(void *ctx, int begin, int end, int thread) {
                 brdf_factor_light(f, wl, g);
                 for (int ch = 0; ch < 3; ch++) pix[ch * CUBE_TEXELS + j] = g[3 * k + ch] * cw * c->dw[j];
             }
-            for (int ch = 0; ch < 3; ch++) c->ops->project_transport(c->cfg, pix + ch * CUBE_TEXELS, wav + ch * CUBE_TEXELS, tmp);
-            c->ops->compress(c->t, (int)c->t->vec_first[v] + k, wav, wav + CUBE_TEXELS, wav + 2 * CUBE_TEXELS, scratch);
+            for (int ch = 0; ch < 3; ch++)
+                c->ops->linear->project_transport(c->cfg, pix + ch * CUBE_TEXELS, wav + ch * CUBE_TEXELS, tmp);
+            c->ops->linear->compress(c->t, (int)c->t->vec_first[v] + k, wav, wav + CUBE_TEXELS, wav + 2 * CUBE_TEXELS, scratch);
         }
     }
     free(vis); free(pix); free(wav); free(tmp); free(scratch);
 }
 
-/* Builds the direct transport of d's scene (K of each vertex's material) into out through representation
- * ops (configured from N, qbits, order). Returns 0 or -1. */
-FX_FN int fx_direct_ops(const prt_data *d, const vis_scene *vs, const transfer_ops *ops, int N, int qbits, int order,
+/* Builds the direct transport of d's scene (K of each vertex's material) into out through linear
+ * representation ops (configured from N, qbits and its options text; its set as its init_set makes it
+ * with no run: no light prior). Returns 0 or -1. */
+FX_FN int fx_direct_ops(const prt_data *d, const vis_scene *vs, const transfer_ops *ops, int N, int qbits, const char *options,
                         prt_transport *out) {
     const prt_mesh *m = &d->scene.mesh;
     prt_error err;
-    transfer_config cfg = { .N = N, .qbits = qbits, .order = order };
-    if (ops->configure(&cfg, &err)) { fprintf(stderr, "configure: %s\n", err.msg); return -1; }
+    transfer_config cfg;
+    transfer_setup setup = { .options = options, .N = N, .qbits = qbits };
+    if (ops->configure(&setup, &cfg, &err)) { fprintf(stderr, "configure: %s\n", err.msg); return -1; }
     int *cnt = malloc(sizeof(int) * (size_t)m->nverts);
     for (int v = 0; v < m->nverts; v++) cnt[v] = d->factors[m->mat[v]].K;
-    int rc = transport_init(out, m->nverts, cnt, N, qbits, &err);
+    int rc = ops->linear->init_set(&cfg, &(transfer_linear_run){ 0 }, out, m->nverts, cnt, &err);
     free(cnt);
     if (rc) { fprintf(stderr, "transport_init: %s\n", err.msg); return -1; }
     float *dir = malloc(sizeof(float) * 3 * CUBE_TEXELS), *dw = malloc(sizeof(float) * CUBE_TEXELS);
@@ -129,9 +133,9 @@ FX_FN int fx_direct_ops(const prt_data *d, const vis_scene *vs, const transfer_o
     return 0;
 }
 
-/* The Haar direct transport (the paper's representation) of d's scene into out. Returns 0 or -1. */
+/* The Haar direct transport of the texels (the paper's representation) of d's scene into out. 0 or -1. */
 FX_FN int fx_direct(const prt_data *d, const vis_scene *vs, int N, int qbits, prt_transport *out) {
-    return fx_direct_ops(d, vs, transfer_find("haar"), N, qbits, 0, out);
+    return fx_direct_ops(d, vs, transfer_find("haar"), N, qbits, "measure=texels", out);
 }
 
 /* A probe set: every vector i holds the single coefficient (index idx_of[i] or 0) with per-channel
@@ -148,7 +152,7 @@ FX_FN int fx_probe_set(const prt_transport *layout, const uint32_t *idx_of, cons
     for (int i = 0; i < layout->nvecs; i++) {
         uint32_t idx = idx_of ? idx_of[i] : 0;
         for (int ch = 0; ch < 3; ch++) pl[ch * CUBE_TEXELS + idx] = val[3 * i + ch];
-        transfer_haar.compress(out, i, pl, pl + CUBE_TEXELS, pl + 2 * CUBE_TEXELS, scratch);
+        transport_store(out, i, pl, pl + CUBE_TEXELS, pl + 2 * CUBE_TEXELS, scratch);
         for (int ch = 0; ch < 3; ch++) pl[ch * CUBE_TEXELS + idx] = 0.f;
     }
     free(pl); free(scratch);

@@ -13,6 +13,7 @@
  * 4. A finite 1e37 sun through runtime.h on both backends: gl's colours and images
  *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun). */
 #include "harness.h"
+#include "transport_fixture.h"
 #include "brdf.h"
 #include "factor.h"
 #include "glrt.h"
@@ -95,7 +96,8 @@ static void synth_make(synth *s, int n, int N, int qbits, uint64_t seed) {
     }
     /* Transport: vertex v has K of its material vectors; each vector a random number of coefficients
      * (0 included: an occluded vertex) at sorted random indices clustered into a few blocks. */
-    prt_transport *tr = &prt_data_add_transfer(d, &transfer_haar, &(transfer_config){ .N = N, .qbits = qbits }, 3)->transport;
+    transfer_config cfg = tfx_haar_cfg(N, qbits);
+    prt_transport *tr = &prt_data_add_transfer(d, transfer_find("haar"), &cfg, 3)->transport;
     tr->nverts = m->nverts;
     tr->N = N;
     tr->qbits = qbits;
@@ -111,7 +113,7 @@ static void synth_make(synth *s, int n, int N, int qbits, uint64_t seed) {
     else tr->offs = calloc(cap + 1, 1);
     if (qbits == 16) tr->q16 = calloc(3 * cap + 3, sizeof(int16_t));
     if (qbits == 32) tr->f32 = calloc(3 * cap + 3, sizeof(float));
-    s->L = light_alloc();
+    s->L = transfer_light_alloc();
     for (int i = 0; i < CUBE_TEXELS; i++) {
         for (int ch = 0; ch < 3; ch++) s->L[i][ch] = (rng_f(&r) - 0.3f) * (i < 256 ? 10.0f : 1.0f);
         s->L[i][3] = 0;
@@ -445,9 +447,9 @@ static void scene(void) {
     CHECK(rc == 0, "%s", err.msg);
     if (rc) { prt_data_free(&d); return; }
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     probe_to_cube(&sky, CUBE_RES, NULL, 0, cube);
-    light_from_cube(cube, NULL, L, NULL);
+    prt_data_transfer(&d)->ops->linear->project_light(&prt_data_transfer(&d)->cfg, cube, L);   /* the file's basis */
     free(cube);
 
     /* CPU runtime. */

@@ -3,6 +3,7 @@
 #include "harness.h"
 #include "light.h"
 #include "haar.h"
+#include "transfer.h"
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -31,7 +32,7 @@ static void sun_sky_cube(float *cube) {
 
 static void constant_radiance(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     light_stats st;
     CHECK(L != NULL && ((uintptr_t)L % 64) == 0, "light_alloc aligned");
     /* 1. Constant radiance c: only each face's scaling coefficient, c * 4096 / 64 = 64 c. */
@@ -55,7 +56,7 @@ static void constant_radiance(void) {
 
 static void wavelet_product(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     light_stats st;
     /* 2. Eq. 4: sum_j L_j T_j (texels, radiance x transport that includes solid angle)
      * equals the wavelet-domain dot product within sum_i |T_i| * (step/2) for 16 bits,
@@ -114,7 +115,7 @@ static void wavelet_product(void) {
 
 static void threshold(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     light_stats st;
     /* 3. Threshold: exactly the coefficients with energy >= threshold * max survive
      * (brute force: own planar transform; qbits 32 so quantization cannot zero any). */
@@ -149,7 +150,7 @@ static void threshold(void) {
 
 static void non_finite(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     light_stats st;
     /* 4. Non-finite texels do not reach the output; an all-zero cube gives zeros. */
     {
@@ -170,7 +171,7 @@ static void non_finite(void) {
 
 static void speed(void) {
     float *cube = malloc(sizeof(float) * 3 * T);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     light_stats st;
     /* 5. Speed (printed): one light update. */
     {

@@ -11,12 +11,12 @@
  * (not its accuracy: README "Effects plan" measures that); a BRDF reflecting more than it
  * receives gets one warning line in the plan, and the run goes on. */
 #include "harness.h"
-#include "light.h"
 #include "mesh.h"
 #include "precompute.h"
 #include "probe.h"
 #include "relight.h"
 #include "transfer.h"
+#include "linear.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -52,9 +52,7 @@ static float radiance_up(const prt_data *d, int v) {
     if (probe_make_constant(one, &pr, &err)) return -1;
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     probe_to_cube(&pr, CUBE_RES, NULL, 0, cube);
-    float (*L)[4] = light_alloc();
-    light_desc ld = { 0 };
-    light_from_cube(cube, &ld, L, NULL);
+    float (*L)[4] = transfer_light_vector(prt_data_transfer(d), cube);
     relight_ctx *rc = relight_create(d, 2, &err);
     if (rc) {
         relight_set_light(rc, (const float (*)[4])L);
@@ -272,15 +270,15 @@ static void bad_settings(void) {
         d.N = bad[q][0];
         d.qbits = bad[q][1];
         d.vis_res = bad[q][2];
-        if (q == 4) { d.basis = "sh"; d.basis_order = 2; }
-        if (q == 5) d.basis = "sg";   /* not a representation (vmf is one since issue 9) */
-        if (q == 6) d.select = 7;     /* not a transport_select */
+        if (q == 4) { d.basis = "sh"; d.basis_options = "order=2"; }
+        if (q == 5) d.basis = "sg";   /* not a representation */
+        if (q == 6) d.basis_options = "select=7";   /* not one of Haar's selections */
         err.msg[0] = 0;
         CHECK(precompute_run(&sc, &d, &out, &err) == -1, "bad setting %d accepted", q);
         CHECK(strncmp(err.msg, "precompute: ", 12) == 0, "message: %s", err.msg);
-        if (q == 4) CHECK(strstr(err.msg, "order = 2") != NULL, "message: %s", err.msg);
+        if (q == 4) CHECK(strstr(err.msg, "order = '2'") != NULL, "message: %s", err.msg);
         if (q == 5) CHECK(strstr(err.msg, "unknown basis 'sg'") != NULL, "message: %s", err.msg);
-        if (q == 6) CHECK(strstr(err.msg, "select = 7") != NULL, "message: %s", err.msg);
+        if (q == 6) CHECK(strstr(err.msg, "select = '7'") != NULL, "message: %s", err.msg);
     }
 }
 
@@ -293,13 +291,14 @@ static void basis_choice(void) {
     for (int q = 0; q < 2; q++) {
         CHECK(make_sphere_scene(&sc, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
         precompute_desc d = base;
-        if (q) { d.basis = "sh"; d.basis_order = 4; }
+        if (q) { d.basis = "sh"; d.basis_options = "order=4"; }
         CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
-        CHECK(out.ntransfers == 1 && out.transfers[0].ops == (q ? &transfer_sh : &transfer_haar), "one transfer");
-        CHECK(out.transfers[0].materials == 1 && out.transfers[0].cfg.N == 64 && out.transfers[0].cfg.qbits == 8,
-              "mask and config");
+        CHECK(out.ntransfers == 1 && out.transfers[0].ops == transfer_find(q ? "sh" : "haar"), "one transfer");
+        linear_config lc = linear_config_of(&out.transfers[0].cfg);
+        CHECK(out.transfers[0].materials == 1 && lc.N == 64 && lc.qbits == 8, "mask and config");
         const char *want = q ? "basis: spherical harmonics of order 4 (16 coefficients; N=64); the material: asked for\n"
-                             : "basis: Haar wavelets, N=64 of 24576 coefficients per vector, 8-bit; the material: the default (all-frequency)\n";
+                             : "basis: Haar wavelets, N=64 of 24576 coefficients per vector, 8-bit, per steradian; the material: "
+                               "the default (all-frequency)\n";
         CHECK(strstr(out.plan, want) != NULL, "plan: %s", out.plan);
         prt_data_free(&out);
     }
@@ -307,7 +306,7 @@ static void basis_choice(void) {
 
 
 /* Factors spec at K = 4 (the default cap) and asks for its path. */
-static precompute_path path_of(const char *spec, precompute_glossy mode, bool have_vmf, char *why, size_t cap) {
+static precompute_path path_of(const char *spec, precompute_glossy mode, bool have_view, char *why, size_t cap) {
     prt_error err;
     brdf_params p;
     brdf_factor f;
@@ -315,7 +314,11 @@ static precompute_path path_of(const char *spec, precompute_glossy mode, bool ha
     CHECK(brdf_parse(spec, &p, &err) == 0, "%s", err.msg);
     brdf_factor_desc fd = { .max_terms = 4 };
     CHECK(brdf_factorize(&p, &fd, &f, &err) == 0, "%s", err.msg);
-    CHECK(precompute_choose_path(&p, &f, mode, have_vmf, &path, why, cap, &err) == 0, "%s: %s", spec, err.msg);
+    const transfer_ops *view = have_view ? transfer_default(TRANSFER_VIEW) : NULL;
+    transfer_config vcfg;
+    CHECK(!view || view->configure(&(transfer_setup){ 0 }, &vcfg, &err) == 0, "%s", err.msg);
+    CHECK(precompute_choose_path(&p, &f, mode, transfer_default(TRANSFER_LINEAR), view, &vcfg, &path, why, cap, &err) == 0,
+          "%s: %s", spec, err.msg);
     brdf_factor_free(&f);
     return path;
 }
@@ -327,7 +330,7 @@ static precompute_path path_of(const char *spec, precompute_glossy mode, bool ha
 static void paths(void) {
     char why[512];
     CHECK(path_of("lambert:kd=0.5", PRECOMPUTE_GLOSSY_AUTO, true, why, sizeof why) == PRECOMPUTE_PATH_LAMBERT, "lambert: %s", why);
-    CHECK(path_of("paper-phong", PRECOMPUTE_GLOSSY_AUTO, true, why, sizeof why) == PRECOMPUTE_PATH_VMF, "phong n=50: %s", why);
+    CHECK(path_of("paper-phong", PRECOMPUTE_GLOSSY_AUTO, true, why, sizeof why) == PRECOMPUTE_PATH_VIEW, "phong n=50: %s", why);
     CHECK(strstr(why, "SVD K = 4 error 7") && strstr(why, "> 10%") && strstr(why, "one vMF lobe 1."), "reason: %s", why);
     printf("paper-phong: %s\n", why);
     CHECK(path_of("ggx:kd=0.5;ks=0.04;alpha=0.5", PRECOMPUTE_GLOSSY_AUTO, true, why, sizeof why) == PRECOMPUTE_PATH_SVD, "soft ggx: %s", why);
@@ -337,10 +340,10 @@ static void paths(void) {
     CHECK(strstr(why, "no ASG fit") != NULL, "reason: %s", why);
     CHECK(path_of("paper-phong", PRECOMPUTE_GLOSSY_SVD, true, why, sizeof why) == PRECOMPUTE_PATH_SVD, "forced svd: %s", why);
     CHECK(strstr(why, "asked for") != NULL, "reason: %s", why);
-    CHECK(path_of("ggx:kd=0.5;ks=0.04;alpha=0.5", PRECOMPUTE_GLOSSY_VMF, true, why, sizeof why) == PRECOMPUTE_PATH_VMF, "forced vmf: %s", why);
-    CHECK(path_of("paper-as", PRECOMPUTE_GLOSSY_VMF, true, why, sizeof why) == PRECOMPUTE_PATH_SVD, "forced vmf, as: %s", why);
+    CHECK(path_of("ggx:kd=0.5;ks=0.04;alpha=0.5", PRECOMPUTE_GLOSSY_VIEW, true, why, sizeof why) == PRECOMPUTE_PATH_VIEW, "forced vmf: %s", why);
+    CHECK(path_of("paper-as", PRECOMPUTE_GLOSSY_VIEW, true, why, sizeof why) == PRECOMPUTE_PATH_SVD, "forced vmf, as: %s", why);
     CHECK(path_of("paper-phong", PRECOMPUTE_GLOSSY_AUTO, false, why, sizeof why) == PRECOMPUTE_PATH_SVD, "no vmf: %s", why);
-    CHECK(strstr(why, "no vmf") != NULL, "reason: %s", why);
+    CHECK(strstr(why, "no view-dependent") != NULL, "reason: %s", why);
 }
 
 /* End to end on a paper-phong sphere: with a vmf representation in the table, two transfers (the
@@ -356,11 +359,10 @@ static void glossy_transfers(void) {
         CHECK(make_sphere_scene(&sc, "paper-phong", &err) == 0, "%s", err.msg);
         precompute_desc d = base;
         d.glossy = q ? PRECOMPUTE_GLOSSY_SVD : PRECOMPUTE_GLOSSY_AUTO;
-        d.vmf.level = 1;
-        d.vmf.samples = 64;
+        d.view_options = "level=1,samples=64";
         if (precompute_run(&sc, &d, &out, &err)) { CHECK(0, "%s", err.msg); continue; }
         bool vmf = have && q == 0;
-        CHECK(out.ntransfers == (vmf ? 2 : 1) && out.transfers[0].ops == &transfer_haar && out.transfers[0].materials == 1,
+        CHECK(out.ntransfers == (vmf ? 2 : 1) && out.transfers[0].ops == transfer_find("haar") && out.transfers[0].materials == 1,
               "%d transfers", out.ntransfers);
         if (vmf) {
             CHECK(out.transfers[1].ops == transfer_find("vmf") && out.transfers[1].materials == 1, "vmf transfer over material 0");
@@ -373,7 +375,7 @@ static void glossy_transfers(void) {
             CHECK(strstr(out.plan, "Haar K = 1 diffuse + vMF specular") != NULL, "plan: %s", out.plan);
         } else {
             CHECK(out.factors[0].K == 4, "SVD K = %d", out.factors[0].K);
-            CHECK(strstr(out.plan, q ? "asked for: glossy svd" : "no vmf transfer representation") != NULL, "plan: %s", out.plan);
+            CHECK(strstr(out.plan, q ? "asked for: glossy svd" : "no view-dependent transfer representation") != NULL, "plan: %s", out.plan);
         }
         prt_data_free(&out);
     }
@@ -394,9 +396,8 @@ static void estimate_passes(void) {
         precompute_desc d = base;
         d.bounces = q ? 0 : 2;
         d.force_bounces = q ? -1 : 1;
-        d.glossy = PRECOMPUTE_GLOSSY_VMF;
-        d.vmf.level = 1;
-        d.vmf.samples = 16;
+        d.glossy = PRECOMPUTE_GLOSSY_VIEW;
+        d.view_options = "level=1,samples=16";
         if (precompute_run(&sc, &d, &out, &err)) { CHECK(0, "%s", err.msg); continue; }
         static const char *want[2][8] = { { "direct", "bounce 1", "bounce 2", "vmf diffuse lobes", "vmf direct", "vmf pass 1", "vmf pass 2" },
                                           { "direct" } };

@@ -10,20 +10,28 @@
  *     float (uncompressed), relit under the procedural sky, against a brute-force
  *     Eq. 2 integral of the same probe with the factorized BRDF and vis_occluded
  *     rays over a fine direction grid; then the 8-bit N = 128 default the same way.
- * (4) Light-weighted texels (prior.h): a 1-degree sun inside one 1.6-degree lighting texel, an
- *     occluder's edge crossing the sun, uncompressed: the vertex's radiance against a fine
- *     quadrature of the probe with the occluder's exact visibility, with and without the rays.
+ * (4) Light-weighted texels (prior.h, through Haar's light prior of a probe file): a 1-degree sun
+ *     inside one 1.6-degree lighting texel, an occluder's edge crossing the sun, uncompressed: the
+ *     vertex's radiance against a fine quadrature of the probe with the occluder's exact
+ *     visibility, with and without the rays.
  * (5) Scale (docs/design/scale.md): a glossy sphere over a floor with one bounce, built at scales
  *     2^-100 to 2^96 and 1e-6, 1e6: every vertex's radiance toward an eye scaled with it is the
  *     scale-1 scene's bit for bit at the powers of two (the scaling is exact and the pipeline
  *     computes in scaled units), and within a few flipped rays' worth at the decimal scales. */
 #include "harness.h"
 #include "cubemap.h"
+#include "haar.h"
+#include "haar_run.h"
+#include "image.h"
 #include "light.h"
+#include "linear.h"
 #include "mesh.h"
 #include "precompute.h"
 #include "prior.h"
 #include "probe.h"
+#include "scene.h"
+#include "refine.h"
+#include "prtfile.h"
 #include "relight.h"
 #include "shbasis.h"
 #include "visibility.h"
@@ -31,10 +39,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Light vector of a probe: cube resample, then Haar (light.h) or SH (shbasis.h). */
+/* Haar's options for the paper's transfer (texel measure, N largest per vector), which make_light's
+ * light vector matches. */
+#define PAPER_HAAR "measure=texels,budget=vector"
+
+/* Light vector of a probe: cube resample, then Haar of the texels (light.h) or SH (shbasis.h). */
 static float (*make_light(const prt_probe *pr, int qbits, int sh_bands, light_stats *st))[4] {
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     probe_to_cube(pr, CUBE_RES, NULL, 0, cube);
     memset(st, 0, sizeof *st);
     if (sh_bands > 0) {
@@ -70,16 +82,18 @@ static void lambert_case(const char *label, prt_mesh *mesh, int v, float a, floa
     char spec[64];
     snprintf(spec, sizeof spec, "lambert:kd=%g", a);
     CHECK(scene_from_mesh(mesh, spec, &sc, &err) == 0, "%s", err.msg);
+    char order[32];
+    snprintf(order, sizeof order, "order=%d", sh_bands);
     precompute_desc d = { .N = 128, .vis_res = vis_res, .quiet = true, .basis = sh_bands ? "sh" : NULL,
-                          .basis_order = sh_bands, .nthreads = 2 };
+                          .basis_options = sh_bands ? order : PAPER_HAAR, .nthreads = 2 };
     prt_data out;
     int rc = precompute_run(&sc, &d, &out, &err);
     CHECK(rc == 0, "%s: %s", label, err.msg);
     if (rc) return;
     CHECK(out.factors[0].K == 1 && out.factors[0].lambertian, "%s: Lambert factor K = %d", label, out.factors[0].K);
-    CHECK(out.ntransfers == 1 && out.transfers[0].ops == (sh_bands ? &transfer_sh : &transfer_haar) &&
-          out.transfers[0].cfg.order == sh_bands && out.transfers[0].materials == 1, "%s: one %s transfer", label,
-          sh_bands ? "sh" : "haar");
+    CHECK(out.ntransfers == 1 && out.transfers[0].ops == transfer_find(sh_bands ? "sh" : "haar") &&
+          linear_config_of(&out.transfers[0].cfg).order == sh_bands && out.transfers[0].materials == 1, "%s: one %s transfer",
+          label, sh_bands ? "sh" : "haar");
     CHECK(out.transfers[0].transport.nvecs == out.scene.mesh.nverts, "%s: one vector per vertex", label);
     CHECK_NEAR(out.scene.mesh.nrm[3 * v + 1], 1.0, 1e-6, "%s: vertex normal is +y", label);
 
@@ -245,7 +259,8 @@ static void end_to_end(int pass) {
         CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
         /* the direct pass with the SVD is what this checks: no bounces, glossy svd */
         precompute_desc d = { .N = pass == 0 ? CUBE_TEXELS : 128, .qbits = pass == 0 ? 32 : 8, .vis_res = 128,
-                              .quiet = true, .nthreads = 2, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
+                              .quiet = true, .nthreads = 2, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD,
+                              .basis_options = PAPER_HAAR };
         prt_data out;
         int rc = precompute_run(&sc, &d, &out, &err);
         CHECK(rc == 0, "%s", err.msg);
@@ -319,21 +334,29 @@ done:
 static void end_to_end_float(void) { end_to_end(0); }
 static void end_to_end_8bit(void) { end_to_end(1); }
 
-/* PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for) below PRECOMPUTE_SHARED_MAX_VECS vectors is
- * the shared budget, coefficient for coefficient, and the plan says so; an explicit per-vector budget
+/* A constant probe (radiance rgb) written to path as a float EXR, for a light prior. Returns 0 or -1. */
+static int write_probe(const prt_probe *p, const char *path) {
+    prt_error err;
+    int rc = image_write(path, &p->img, NULL, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    return rc;
+}
+
+/* Haar's budget=auto (its default, what `prt precompute` does) below HAAR_SHARED_MAX_VECS vectors is the
+ * shared budget, coefficient for coefficient, and the plan says so; an explicit per-vector budget
  * differs (at most N per vector) and its plan has no shared line. With a light prior auto is per vector. */
 static void budget_auto(void) {
     prt_error err;
     prt_data out[3];
-    const int kinds[3] = { PRECOMPUTE_BUDGET_AUTO, TRANSPORT_BUDGET_SHARED, TRANSPORT_BUDGET_VECTOR };
+    const char *kinds[3] = { NULL, "budget=shared", "budget=vector" };
     int ok = 0;
     for (int k = 0; k < 3; k++) {
         prt_scene sc;
         CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
         precompute_desc d = { .N = 32, .qbits = 8, .vis_res = 64, .quiet = true, .nthreads = 2, .force_bounces = -1,
-                              .select = TRANSPORT_SELECT_EXPECTED, .budget = kinds[k] };
+                              .basis_options = kinds[k] };
         int rc = precompute_run(&sc, &d, &out[k], &err);
-        CHECK(rc == 0, "budget %d: %s", kinds[k], err.msg);
+        CHECK(rc == 0, "budget %s: %s", kinds[k] ? kinds[k] : "auto", err.msg);
         ok += rc == 0;
     }
     if (ok < 3) return;
@@ -341,25 +364,29 @@ static void budget_auto(void) {
     size_t n = transport_ncoefs(a);
     /* exact by construction: auto resolves to the shared budget, the same code on the same inputs
      * in one process (and below, with a prior, to the per-vector one) */
-    CHECK(a->nvecs < PRECOMPUTE_SHARED_MAX_VECS && n == transport_ncoefs(s) && a->N == s->N &&
+    CHECK(a->nvecs < HAAR_SHARED_MAX_VECS && n == transport_ncoefs(s) && a->N == s->N &&
               !memcmp(a->coef_first, s->coef_first, sizeof(uint32_t) * (a->nvecs + 1)) &&
               !memcmp(a->packed, s->packed, sizeof(uint32_t) * n), "auto differs from shared (%zu coefficients)", n);
     CHECK(strstr(out[0].plan, "N x vectors shared") && !strstr(out[2].plan, "N x vectors shared"), "plans: %s / %s",
           out[0].plan, out[2].plan);
     CHECK(v->N == 32 && a->N == 64 && n <= (size_t)32 * a->nvecs, "N per vector %d, shared up to %d", v->N, a->N);
     for (int k = 0; k < 3; k++) prt_data_free(&out[k]);
-    /* With a light prior (here a flat one) auto is the per-vector budget, coefficient for coefficient. */
-    float (*w)[4] = light_alloc();
-    for (int i = 0; i < CUBE_TEXELS; i++) w[i][0] = w[i][1] = w[i][2] = 1;
+    /* With a light prior (a constant probe's, which turning does not change: one yaw angle) auto is the
+     * per-vector budget, coefficient for coefficient. */
+    prt_probe pr;
+    const float grey[3] = { 0.5f, 0.5f, 0.5f };
+    char path[600];
+    snprintf(path, sizeof path, "%s/prior_grey.exr", check_tmpdir());
+    if (probe_make_constant(grey, &pr, &err) || write_probe(&pr, path)) { CHECK(0, "%s", err.msg); return; }
+    probe_free(&pr);
     ok = 0;
     for (int k = 0; k < 2; k++) {
         prt_scene sc;
         CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
         precompute_desc d = { .N = 32, .qbits = 8, .vis_res = 64, .quiet = true, .nthreads = 2, .force_bounces = -1,
-                              .select = TRANSPORT_SELECT_EXPECTED, .measure = TRANSFER_MEASURE_SOLID_ANGLE,
-                              .light_prior = (const float (*)[4])w, .budget = k ? TRANSPORT_BUDGET_VECTOR : PRECOMPUTE_BUDGET_AUTO };
+                              .light_prior = path, .basis_options = k ? "budget=vector,prior_yaws=1" : "prior_yaws=1" };
         int rc = precompute_run(&sc, &d, &out[k], &err);
-        CHECK(rc == 0, "prior, budget %d: %s", d.budget, err.msg);
+        CHECK(rc == 0, "prior, budget %s: %s", k ? "vector" : "auto", err.msg);
         ok += rc == 0;
     }
     if (ok == 2) {
@@ -370,7 +397,57 @@ static void budget_auto(void) {
         CHECK(strstr(out[0].plan, "N per vector (with a light prior") != NULL, "the plan says so: %s", out[0].plan);
         for (int k = 0; k < 2; k++) prt_data_free(&out[k]);
     }
-    free(w);
+}
+
+/* What `prt precompute SCENE.json` does is a zeroed desc with the scene's own keys applied
+ * (precompute_desc_apply_scene): a small scene naming a light prior (a sky written here) and asking
+ * for refinement, precomputed by the library so and by the prt binary with no flag, gives the same
+ * refined mesh and the same transport, vector for vector (exact: the same library code on the same
+ * inputs; the thread count changes nothing, precompute.h). Also the defaults' plan lines: Haar per
+ * steradian, the prior named, the per-vector budget it implies, the refit. */
+static void scene_keys(void) {
+    prt_error err;
+    char probe[600], json[600], cli_out[600], cmd[2400], buf[8192];
+    snprintf(probe, sizeof probe, "%s/keys-sky.exr", check_tmpdir());
+    snprintf(json, sizeof json, "%s/keys.json", check_tmpdir());
+    snprintf(cli_out, sizeof cli_out, "%s/keys-cli.prt", check_tmpdir());
+    prt_probe sky;
+    sky_desc sd = { .width = 128 };
+    if (probe_make_sky(&sd, &sky, &err) || write_probe(&sky, probe)) { CHECK(0, "%s", err.msg); return; }
+    probe_free(&sky);
+    FILE *f = fopen(json, "w");
+    if (!f) { CHECK(0, "cannot write %s", json); return; }
+    fputs("{ \"models\": [ { \"box\": { \"min\": [-0.2, 0.3, -0.2], \"max\": [0.2, 0.5, 0.2], \"n\": 1 } },\n"
+          "    { \"plane\": { \"x\": [-1, 1], \"z\": [-1, 1], \"height\": 0, \"nx\": 6, \"nz\": 6 }, \"material\": \"lambert:kd=0.5\" } ],\n"
+          "  \"light_prior\": \"keys-sky.exr\", \"refine\": { \"budget\": 80, \"models\": true } }\n", f);
+    fclose(f);
+    snprintf(cmd, sizeof cmd, "%s precompute %s -o %s --quiet --threads 2", check_prt_bin(), json, cli_out);
+    int rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 0, "prt precompute: %s", buf);
+    prt_scene sc;
+    prt_data lib, cli;
+    if (rc || scene_load(json, &(scene_desc){ .floor = -1 }, &sc, &err)) { CHECK(0, "%s", err.msg); return; }
+    precompute_desc d = { 0 };
+    CHECK(precompute_desc_apply_scene(&d, &sc, PRECOMPUTE_SCENE_ALL, &err) == 0 && d.light_prior && d.light_prior_scene &&
+          d.refine_threshold > 0 && d.refine_budget == 80 && d.refine_parts == REFINE_ALL, "the scene's keys applied");
+    d.quiet = true;
+    if (precompute_run(&sc, &d, &lib, &err)) { CHECK(0, "%s", err.msg); return; }
+    if (prtfile_read(cli_out, &cli, &err)) { CHECK(0, "%s", err.msg); prt_data_free(&lib); return; }
+    const prt_mesh *a = &lib.scene.mesh, *b = &cli.scene.mesh;
+    CHECK(a->nverts == b->nverts && a->nverts > 6 * 6 && !memcmp(a->pos, b->pos, sizeof(float) * 3 * (size_t)a->nverts),
+          "the same refined mesh: %d and %d vertices", a->nverts, b->nverts);
+    const prt_transport *x = &prt_data_transfer(&lib)->transport, *y = &prt_data_transfer(&cli)->transport;
+    size_t nc = transport_ncoefs(x);
+    CHECK(x->nvecs == y->nvecs && nc == transport_ncoefs(y) && x->N == y->N && x->qbits == y->qbits &&
+              !memcmp(x->coef_first, y->coef_first, sizeof(uint32_t) * ((size_t)x->nvecs + 1)) &&
+              !memcmp(x->scale, y->scale, sizeof(float) * 3 * (size_t)x->nvecs) &&
+              !memcmp(x->packed, y->packed, sizeof(uint32_t) * nc),
+          "the same transport: %d / %d vectors, %zu / %zu coefficients", x->nvecs, y->nvecs, nc, transport_ncoefs(y));
+    CHECK(strstr(lib.plan, "per steradian") && strstr(lib.plan, "light prior: keys-sky.exr turned about +y") &&
+              strstr(lib.plan, "N per vector (with a light prior") && strstr(lib.plan, "kept values: refit"),
+          "the defaults in the plan: %s", lib.plan);
+    prt_data_free(&lib);
+    prt_data_free(&cli);
 }
 
 /* ---- (4) light-weighted texels against the probe's pixels ---- */
@@ -400,9 +477,10 @@ static double sun_truth(const prt_probe *p, const float s[3], float kd, double x
 }
 
 /* The centre vertex of a small +y plane, under the cover when x0 > 0, precomputed uncompressed
- * (every coefficient, float) with or without rays, relit by p: channel 0 of its radiance; *eps: the
- * rays' offset in that scene. */
-static double sun_prt(const prt_probe *p, float kd, double x0, const prior_rays *rays, double *eps) {
+ * (every coefficient, float) with the light prior of the probe file prior (Haar's: its light-weighted
+ * texels) or none (every texel box-filtered), relit by p: channel 0 of its radiance; *eps: the rays'
+ * offset in that scene. */
+static double sun_prt(const prt_probe *p, float kd, double x0, const char *prior, double *eps) {
     prt_error err;
     prt_mesh m = { 0 }, cover = { 0 };
     CHECK(mesh_make_plane(&m, -0.01f, 0.01f, -0.01f, 0.01f, 0, 3, 3, &err) == 0, "%s", err.msg);
@@ -419,12 +497,19 @@ static double sun_prt(const prt_probe *p, float kd, double x0, const prior_rays 
     char spec[64];
     snprintf(spec, sizeof spec, "lambert:kd=%g", kd);
     CHECK(scene_from_mesh(&m, spec, &sc, &err) == 0, "%s", err.msg);
+    /* the prior's weights do not matter with every coefficient kept: one yaw angle is enough */
     precompute_desc d = { .N = CUBE_TEXELS, .qbits = 32, .vis_res = 128, .quiet = true, .nthreads = 2,
-                          .force_bounces = -1, .prior_rays = rays };
+                          .force_bounces = -1, .light_prior = prior, .basis_options = prior ? "prior_yaws=1" : NULL };
     prt_data out;
     if (precompute_run(&sc, &d, &out, &err)) { CHECK(0, "%s", err.msg); return 0; }
-    light_stats ls;
-    float (*L)[4] = make_light(p, 32, 0, &ls), up[3] = { 0, 1, 0 }, rgb[3] = { 0, 0, 0 };
+    CHECK(!prior || strstr(out.plan, "light-weighted texels"), "the plan names the light-weighted texels: %s", out.plan);
+    /* the light of the solid-angle measure (Haar's default), unquantized */
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), w[CUBE_RES * CUBE_RES];
+    float (*L)[4] = transfer_light_alloc(), up[3] = { 0, 1, 0 }, rgb[3] = { 0, 0, 0 };
+    probe_to_cube(p, CUBE_RES, NULL, 0, cube);
+    haar_face_solid_angle(w, CUBE_RES, false);
+    light_from_cube(cube, &(light_desc){ .qbits = 32, .face_weight = w }, L, NULL);
+    free(cube);
     relight_ctx *rl = relight_create(&out, 1, &err);
     CHECK(rl != NULL, "%s", err.msg);
     if (rl) {
@@ -459,10 +544,13 @@ static void weighted_texels(void) {
     CHECK(prior_rays_from_probes(&pp, 1, rays, &err) == 0, "%s", err.msg);
     CHECK(rays->n >= 1 && rays->texel[0] == 20 * CUBE_RES + 32, "the sun's texel first: %d texels, texel %d", rays->n,
           rays->texel[0]);
+    char path[600];   /* the probe as the light prior names it: a float EXR */
+    snprintf(path, sizeof path, "%s/sun.exr", check_tmpdir());
+    write_probe(&p, path);
     const double edges[4] = { 0, 1 / 0.352, 1 / 0.358, 1 / 0.3635 }, open = sun_truth(&p, sun, 0.8f, 0, 0);
     double box_worst = 0;
     for (int q = 0; q < 4; q++) {
-        double eps, w = sun_prt(&p, 0.8f, edges[q], rays, &eps), b = sun_prt(&p, 0.8f, edges[q], NULL, &eps);
+        double eps, w = sun_prt(&p, 0.8f, edges[q], path, &eps), b = sun_prt(&p, 0.8f, edges[q], NULL, &eps);
         double t = sun_truth(&p, sun, 0.8f, edges[q], eps);
         printf("  edge %d: truth %.5f (%.0f%% of the open sun), light-weighted %.5f (%+.2f%% of it), box %.5f (%+.2f%%)\n", q, t,
                100 * t / open, w, 100 * (w - t) / open, b, 100 * (b - t) / open);
@@ -490,7 +578,7 @@ static int scale_radiance(float s, float **rgb) {
     CHECK(scene_from_mesh(&sph, "phong:kd=0.5,0.4,0.3;ks=0.3;n=12", &sc, &err) == 0, "%s", err.msg);
     CHECK(scene_add_floor(&sc, 100, 0, NULL, &err) == 0, "scale %g: floor: %s", s, err.msg);
     precompute_desc d = { .N = CUBE_TEXELS, .qbits = 32, .vis_res = 64, .quiet = true, .nthreads = 2, .bounces = 1,
-                          .force_bounces = 1, .gather_res = 16, .glossy = PRECOMPUTE_GLOSSY_SVD };
+                          .force_bounces = 1, .gather_res = 16, .glossy = PRECOMPUTE_GLOSSY_SVD, .basis_options = PAPER_HAAR };
     prt_data out;
     int rc = precompute_run(&sc, &d, &out, &err), nv = 0;
     CHECK(rc == 0, "scale %g: %s", s, err.msg);
@@ -562,6 +650,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(end_to_end_float);
     CHECK_CASE(end_to_end_8bit);
     CHECK_CASE(budget_auto);
+    CHECK_CASE(scene_keys);
     CHECK_CASE(weighted_texels);
     CHECK_CASE(scale);
     return check_summary();

@@ -29,11 +29,10 @@ static void sun_sky(prt_probe *p) {
 static void light_at(const prt_probe *p, const char *rot, float *cube, float (*L)[4]) {
     float R[9];
     CHECK(probe_parse_rotation(rot, R) == 0, "rotation %s", rot);
-    transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
+    transfer_config cfg;
+    tfx_haar(0, 0, true, &cfg);
     probe_to_cube(p, CUBE_RES, R, 0, cube);
-    transfer_haar.project_light(&cfg, cube, L);
+    tfx_light(&cfg, cube, L);
 }
 
 /* Eight yaw steps, no floor: w must be sqrt(mean of L^2 over the eight rotations) over the largest
@@ -43,7 +42,7 @@ static void orbit_mean(void) {
     static double acc[T][3];
     prt_probe p;
     sun_sky(&p);
-    float (*w)[4] = light_alloc(), (*L)[4] = light_alloc();
+    float (*w)[4] = transfer_light_alloc(), (*L)[4] = transfer_light_alloc();
     prt_error err;
     prior_desc d = { .steps = 8, .floor = -1 };
     CHECK(prior_from_probe(&p, &d, w, &err) == 0, "%s", err.msg);
@@ -77,7 +76,7 @@ static void two_probes(void) {
     const float e = (float)(60 * M_PI / 180);
     sky_desc sd = { .width = 256, .sun_dir = { 0, sinf(e), cosf(e) }, .sun_radiance = 2e6f };
     CHECK(probe_make_sky(&sd, &p[1], &err) == 0, "%s", err.msg);
-    float (*w)[4] = light_alloc(), (*w1)[4] = light_alloc(), (*w2)[4] = light_alloc();
+    float (*w)[4] = transfer_light_alloc(), (*w1)[4] = transfer_light_alloc(), (*w2)[4] = transfer_light_alloc();
     prior_desc d = { .steps = 8, .floor = -1 };
     const prt_probe *pp[2] = { &p[0], &p[1] };
     CHECK(prior_from_probes(pp, 2, &d, w, &err) == 0, "%s", err.msg);
@@ -105,7 +104,7 @@ static void black_probe(void) {
     prt_error err;
     const float black[3] = { 0, 0, 0 };
     CHECK(probe_make_constant(black, &p, &err) == 0, "%s", err.msg);
-    float (*w)[4] = light_alloc();
+    float (*w)[4] = transfer_light_alloc();
     prior_desc d = { .steps = 4 };
     CHECK(prior_from_probe(&p, &d, w, &err) == -1, "a black probe is refused");
     CHECK(strstr(err.msg, "no light") != NULL, "message: %s", err.msg);
@@ -132,12 +131,13 @@ static void walled_vertex(float *tex) {
 static double orbit_error(const prt_probe *p, const float (*w)[4], int N) {
     static float tex[T], cube[3 * T];
     walled_vertex(tex);
-    transfer_config cfg = { .N = N, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    transfer_config cfg;
+    tfx_haar(N, 32, true, &cfg);
     const prt_transport like = { .solid_angle = true, .select = TRANSPORT_SELECT_EXPECTED, .prior = w,
                                  .block_level = TRANSPORT_BLOCK_LEVEL, .smooth_faces = true };
     prt_transport t;
     tfx_store(tex, cfg, &like, &t);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     double se = 0, s2 = 0;
     for (int k = 0; k < 72; k++) {
         char rot[32];
@@ -161,7 +161,7 @@ static double orbit_error(const prt_probe *p, const float (*w)[4], int N) {
 static void orbit_selection(void) {
     prt_probe p;
     sun_sky(&p);
-    float (*w)[4] = light_alloc();
+    float (*w)[4] = transfer_light_alloc();
     prt_error err;
     prior_desc d = { .steps = 180 };
     CHECK(prior_from_probe(&p, &d, w, &err) == 0, "%s", err.msg);

@@ -12,6 +12,7 @@
  * padding is refused; no read, failed or not, leaves a mapping of its file behind; the threaded CRC
  * equals zlib's. */
 #include "harness.h"
+#include "transport_fixture.h"
 #include "prtfile.h"
 #include "prtio.h"
 #include "runtime.h"
@@ -74,7 +75,8 @@ static void make_data(prt_data *d, int qbits) {
     }
 
     /* One Haar transfer covering both materials (bits 0 and 1). */
-    prt_transport *t = &prt_data_add_transfer(d, &transfer_haar, &(transfer_config){ .N = 8, .qbits = qbits }, 3)->transport;
+    transfer_config cfg = tfx_haar_cfg(8, qbits);
+    prt_transport *t = &prt_data_add_transfer(d, transfer_find("haar"), &cfg, 3)->transport;
     t->nverts = nv;
     t->nvecs = 9;
     t->N = 8;

@@ -210,20 +210,19 @@ static double open_floor_worst(const prt_probe *p, const float (*w)[4], const re
         cube_texel_dir(CUBE_RES, i, d);
         tex[i] = d[1] > 0 ? d[1] * dw[i % F] : 0.f;
     }
-    transfer_config cfg = { .N = 128, .qbits = 8, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    transfer_config cfg;
+    tfx_haar(128, 8, true, &cfg);
     const prt_transport like = { .solid_angle = true, .select = TRANSPORT_SELECT_EXPECTED, .prior = w,
                                  .block_level = TRANSPORT_BLOCK_LEVEL, .smooth_faces = true, .refit = rt };
     prt_transport t;
     tfx_store(tex, cfg, &like, &t);
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);   /* for project_light */
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     double worst = 0;
     for (int k = 0; k <= 90; k++) {
         float R[9];
         probe_rotation(k, 0, R);
         probe_to_cube(p, CUBE_RES, R, 0, cube);
-        transfer_haar.project_light(&cfg, cube, L);
+        tfx_light(&cfg, cube, L);
         double exact = 0;
         for (int i = 0; i < T; i++) exact += (double)tex[i] * cube[3 * i];
         float g[3];
@@ -240,7 +239,7 @@ static double open_floor_worst(const prt_probe *p, const float (*w)[4], const re
 static void open_floor(void) {
     prt_probe p;
     sun_sky(&p);
-    float (*w)[4] = light_alloc();
+    float (*w)[4] = transfer_light_alloc();
     static prior_texels pt;
     prt_error err;
     const prt_probe *pp = &p;

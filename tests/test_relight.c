@@ -108,7 +108,7 @@ static void lambert_and_linear_views(void) {
         int nv[6];
         for (int v = 0; v < 6; v++) nv[v] = pd.factors[vmat[v]].K;
         prt_error err = { "" };
-        prt_data_add_transfer(&pd, &transfer_haar, NULL, 3);
+        prt_data_add_transfer(&pd, transfer_find("haar"), NULL, 3);
         prt_data bad = pd;
         CHECK(relight_create(&bad, 2, &err) == NULL && strstr(err.msg, "not finished"), "unfinished transport: %s", err.msg);
         CHECK(transport_init(&pd.transfers[0].transport, 6, nv, T, qbits[qi], &err) == 0, "init: %s", err.msg);
@@ -135,7 +135,7 @@ static void lambert_and_linear_views(void) {
         /* constant environment */
         float *cube = malloc(sizeof(float) * 3 * T);
         for (int j = 0; j < T; j++) for (int ch = 0; ch < 3; ch++) cube[3 * j + ch] = c[ch];
-        float (*L)[4] = light_alloc();
+        float (*L)[4] = transfer_light_alloc();
         light_from_cube(cube, NULL, L, NULL);
         relight_set_light(rc, (const float (*)[4])L);
         /* tolerance: float rounding for 32 bits; for 8 bits the quantization bound
@@ -245,7 +245,7 @@ static void speed(void) {
         f->view = malloc(sizeof(float) * 48 * 48 * 12);
         for (int k = 0; k < 48 * 48 * 12; k++) { f->light[k] = g4[(k / 3) % 4][k % 3]; f->view[k] = (float)(k % 97) / 97.f - 0.3f; }
         prt_error err;
-        prt_data_add_transfer(&pd, &transfer_haar, NULL, 3);
+        prt_data_add_transfer(&pd, transfer_find("haar"), NULL, 3);
         transport_init(&pd.transfers[0].transport, n, nv, 128, 8, &err);
         transport_finish(&pd.transfers[0].transport, &err);
         relight_ctx *rc = relight_create(&pd, 2, &err);

@@ -41,6 +41,7 @@
  * and gives zero colours, black images of the asked size and zero times (null_backend, null_vmf).
  * A build without GL (PRT_NO_GL) skips the cases that need GL, each with its reason. */
 #include "harness.h"
+#include "linear.h"
 #include "light.h"
 #include "prefilter.h"
 #include "transfer.h"
@@ -169,6 +170,12 @@ static double max_rel(const float *a, const float *b, size_t n, double floor_fra
     return worst;
 }
 
+/* The light vector of d's linear transfer from cube (its project_light: the file's own basis). */
+static void file_light(const prt_data *d, const float *cube, float (*L)[4]) {
+    const prt_transfer *tr = prt_data_transfer(d);
+    tr->ops->linear->project_light(&tr->cfg, cube, L);
+}
+
 /* cpu = relight.h exactly; gl (g read back, finished per vertex) = cpu to float rounding; terms. */
 static void vertex_colours(void) {
     if (!g_ok) return;
@@ -179,10 +186,10 @@ static void vertex_colours(void) {
     prt_runtime *cpu = lit("cpu", 0, &g_sky, NULL), *gl = lit("gl", 0, &g_sky, NULL);
     relight_ctx *rc = relight_create(&g_d, 0, &err);
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     if (cpu && gl && rc && cube && L) {
         probe_to_cube(&g_sky, CUBE_RES, NULL, 0, cube);
-        light_from_cube(cube, NULL, L, NULL);
+        file_light(&g_d, cube, L);
         relight_set_light(rc, (const float (*)[4])L);
         for (int k = 0; k <= 1; k++) {
             runtime_set_terms(cpu, k);
@@ -544,7 +551,7 @@ static void setup_vmf(void) {
     if (rc == 0) rc = scene_from_mesh(&sphere, "paper-phong", &scene, &err);
     if (rc == 0) rc = scene_add_floor(&scene, 400, 3, NULL, &err);
     precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1,
-                           .vmf = { .level = 2, .samples = 64 } };
+                           .view_options = "level=2,samples=64" };
     if (rc == 0) rc = precompute_run(&scene, &pd, &g_v, &err);
     CHECK(rc == 0, "%s", err.msg);
     CHECK(rc || (g_v.ntransfers == 2 && g_v.transfers[1].ops == transfer_find("vmf") && g_v.transfers[1].materials == 1),
@@ -601,13 +608,13 @@ static void vmf_sum(void) {
     relight_ctx *rc = relight_create(&g_v, 0, &err);
     prefilter_env *env = prefilter_create(&g_smooth, NULL, &(prefilter_desc){ 0 }, &err);
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     if (cpu && rc && env && cube && L && runtime_shade_vertices(cpu, eye, a, &err) == 0) {
         probe_to_cube(&g_smooth, CUBE_RES, NULL, 0, cube);
-        g_v.transfers[0].ops->project_light(&g_v.transfers[0].cfg, cube, L);
+        g_v.transfers[0].ops->linear->project_light(&g_v.transfers[0].cfg, cube, L);
         relight_set_light(rc, (const float (*)[4])L);
         relight_view(rc, eye, 0, ref);
-        g_v.transfers[1].ops->shade_vertices(&g_v, &g_v.transfers[1], env, eye, ref, 0);
+        g_v.transfers[1].ops->view->shade_vertices(&g_v, &g_v.transfers[1], env, eye, ref, 0);
         for (size_t k = 0; k < n3; k++) ref[k] = ref[k] > 0 && isfinite(ref[k]) ? ref[k] : 0;
         /* exact by construction: the cpu backend is these calls, in this order, on the same inputs */
         CHECK(memcmp(a, ref, sizeof(float) * n3) == 0, "cpu runtime differs from relight + vmf shade_vertices");
@@ -765,11 +772,11 @@ static void lambert_unchanged(void) {
     const prt_transfer *tr = &d.transfers[0];
     float *a = calloc(n3, sizeof(float)), *g = calloc(3 * (size_t)tr->transport.nvecs, sizeof(float));
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     prt_runtime *cpu = lit_on(&d, "cpu", 0, &g_sky, NULL);
     if (cpu && runtime_shade_vertices(cpu, g_cam.eye, a, &err) == 0) {
         probe_to_cube(&g_sky, CUBE_RES, NULL, 0, cube);
-        tr->ops->project_light(&tr->cfg, cube, L);
+        tr->ops->linear->project_light(&tr->cfg, cube, L);
         transfer_light(tr, &tr->transport, (const float (*)[4])L, g, 1);
         int same = 1;
         for (int v = 0; v < d.scene.mesh.nverts; v++) {
@@ -807,11 +814,12 @@ static void vmf_pixel(void) {
     const float c[3] = { 0, 0.5f, 0 }, rad = 0.5f;
     int rc = mesh_make_sphere(&sphere, c, rad, 24, 48, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "paper-phong", &scene, &err);
-    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .vmf = { .level = 2, .samples = 32 } };
+    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .view_options = "level=2,samples=32" };
     if (rc == 0) rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
-    CHECK(d.ntransfers == 2 && d.transfers[1].ops->glsl_view, "two transfers, the second per pixel: %s", d.plan);
+    CHECK(d.ntransfers == 2 && d.transfers[1].ops->kind == TRANSFER_VIEW && d.transfers[1].ops->view->glsl,
+          "two transfers, the second per pixel: %s", d.plan);
     prt_camera cam;
     camera_default(d.scene.bmin, d.scene.bmax, (float)W / H, &cam);
     render_desc rd = { .width = W, .height = H, .camera = cam };
@@ -987,13 +995,13 @@ static void vmf_pixel_point(void) {
     prt_image ip = { 0 };
     size_t n3 = VN(&g_v);
     float *sp = calloc(n3, sizeof(float)), *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     relight_ctx *rc = relight_create(&g_v, 0, &err);
     prefilter_env *env = prefilter_create(&g_smooth, NULL, &(prefilter_desc){ 0 }, &err);
     prt_runtime *glp = lit_on(&g_v, "gl", RUNTIME_VIEW_PIXEL, &g_smooth, NULL);
     if (glp && rc && env && sp && cube && L && runtime_render(glp, &rd, &ip, &err) == 0) {
         probe_to_cube(&g_smooth, CUBE_RES, NULL, 0, cube);
-        g_v.transfers[0].ops->project_light(&g_v.transfers[0].cfg, cube, L);
+        g_v.transfers[0].ops->linear->project_light(&g_v.transfers[0].cfg, cube, L);
         relight_set_light(rc, (const float (*)[4])L);
         relight_view(rc, g_cam.eye, 0, sp);
         double se = 0, st = 0, worst = 0, fe = 0, ft = 0;
@@ -1083,9 +1091,8 @@ static void light_cube(void) {
     probe_to_cube(&g_sky, CUBE_RES, g_R, 0, cube);
     const float (*L[PRT_MAX_TRANSFERS])[4] = { 0 };
     for (int i = 0; i < g_d.ntransfers; i++) {
-        if (!g_d.transfers[i].ops->project_light) continue;
-        float (*v)[4] = light_alloc();
-        g_d.transfers[i].ops->project_light(&g_d.transfers[i].cfg, cube, v);
+        if (g_d.transfers[i].ops->kind != TRANSFER_LINEAR) continue;
+        float (*v)[4] = transfer_light_vector(&g_d.transfers[i], cube);
         L[i] = (const float (*)[4])v;
     }
     for (int k = 0; k < 2; k++) {
@@ -1139,8 +1146,7 @@ static void shared_budget(void) {
         " \"material\": \"lambert:kd=0.6\" },\n"
         "  { \"plane\": { \"x\": [-2, 2], \"z\": [-2, 2], \"height\": 0, \"nx\": 24, \"nz\": 24 }, \"material\": \"lambert:kd=0.5\" } ] }";
     precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .keep_direct = true,
-                           .gather_res = 16, .measure = TRANSFER_MEASURE_SOLID_ANGLE, .select = TRANSPORT_SELECT_EXPECTED,
-                           .budget = TRANSPORT_BUDGET_SHARED };
+                           .gather_res = 16, .basis_options = "budget=shared,smooth_faces=off" };
     prt_data d, back;
     memset(&back, 0, sizeof back);
     if (scene_parse_json("shared.json", json, strlen(json), NULL, &scene, &err) || precompute_run(&scene, &pd, &d, &err)) {
@@ -1159,9 +1165,12 @@ static void shared_budget(void) {
     }
     char why[256] = "";   /* a total above the config's N x vectors is refused (what a reader checks) */
     CHECK(d.transfers[0].ops->validate(&d, &d.transfers[0], why), "the set as made: %s", why);
-    d.transfers[0].cfg.N = 16;
+    linear_config lc = linear_config_of(&d.transfers[0].cfg);
+    lc.N = 16;
+    linear_store(&d.transfers[0].cfg, &lc, sizeof lc);
     CHECK(!d.transfers[0].ops->validate(&d, &d.transfers[0], why) && strstr(why, "shared budget of 16 x"), "budget 16: %s", why);
-    d.transfers[0].cfg.N = 32;
+    lc.N = 32;
+    linear_store(&d.transfers[0].cfg, &lc, sizeof lc);
     char path[512];
     snprintf(path, sizeof path, "%s/shared.prt", check_tmpdir());
     CHECK(prtfile_write(path, &d, &err) == 0 && prtfile_read(path, &back, &err) == 0, "%s", err.msg);

@@ -157,7 +157,7 @@ static int set_material(prt_scene *s, int first, const char *spec) {
 /* Light vector of a probe (Haar, 16-bit), allocated. */
 static float (*light_of(const prt_probe *p))[4] {
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     probe_to_cube(p, CUBE_RES, NULL, 0, cube);
     light_from_cube(cube, NULL, L, NULL);
     free(cube);
@@ -183,7 +183,8 @@ static void relight_poles(void) {
     int poles = 0;
     for (int v = 0; v < s.mesh.nverts; v++) poles += fabsf(fabsf(s.mesh.nrm[3 * v + 1]) - 1) < 1e-6f;
     CHECK(poles >= 2, "the mesh has vertices with normals at the poles (%d)", poles);
-    precompute_desc pd = { .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2 };
+    precompute_desc pd = { .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
+                           .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&s, &pd, &d, &err) == 0, "%s", err.msg);
     prt_probe sky;
@@ -256,7 +257,7 @@ static void probes(void) {
     float dw[CUBE_RES * CUBE_RES];
     cube_face_solid_angles(CUBE_RES, dw);
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), *rec = malloc(sizeof(float) * CUBE_TEXELS);
-    float (*L)[4] = light_alloc();
+    float (*L)[4] = transfer_light_alloc();
     /* One-texel sun at 1e6 on black, and a 34,000:1 sun over a sky of 1. */
     for (int kind = 0; kind < 2; kind++) {
         prt_image img;
@@ -421,7 +422,7 @@ static void transport(void) {
         for (int i = 0; i < CUBE_TEXELS; i++) bad += !isfinite(dr[i]) || !isfinite(dg[i]) || !isfinite(db[i]);
         CHECK(bad == 0 && fabsf(dr[5] + 1e30f) <= 1e30f * 1e-6f, "extreme magnitudes decode finite (%d bits)", qbits);
         /* T x L with a unit light: finite. */
-        float (*L)[4] = light_alloc();
+        float (*L)[4] = transfer_light_alloc();
         for (int i = 0; i < CUBE_TEXELS; i++) { L[i][0] = L[i][1] = L[i][2] = 1; L[i][3] = 0; }
         float gv[3 * NV];
         transport_light(&t, (const float (*)[4])L, gv, 1);
@@ -451,7 +452,8 @@ static void check_sphere_scale(float s, float off, bool floor, const char *label
     CHECK(scene_from_mesh(&m, "lambert:kd=0.5", &sc, &err) == 0, "%s", err.msg);
     int nmodel = sc.mesh.nverts;
     if (floor) CHECK(scene_add_floor(&sc, 400, 3, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .nthreads = 2 };
+    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .nthreads = 2,
+                           .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&sc, &pd, &d, &err) == 0, "%s: %s", label, err.msg);
     prt_probe env;
@@ -532,7 +534,8 @@ static void geometry(void) {
     CHECK(bad == 0, "degenerate mesh: positions finite, normals unit");
     prt_scene sc;
     CHECK(scene_from_mesh(&m, "phong:kd=0.3;ks=0.5;n=100", &sc, &err) == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2 };
+    precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
+                           .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&sc, &pd, &d, &err) == 0, "%s", err.msg);
     prt_probe sky;

@@ -500,11 +500,10 @@ static void sun_turning(void) {
     up_vertex_texels(tex);
     double worst_texel = 0, step_texel = 0;
     for (int m = 0; m < 2; m++) {
-        transfer_config cfg = { .N = 128, .qbits = 8, .measure = m ? TRANSFER_MEASURE_SOLID_ANGLE : 0 };
+        transfer_config cfg;
+        tfx_haar(128, 8, m != 0, &cfg);
         prt_transport t;
         tfx_store(tex, cfg, NULL, &t);
-        prt_error err;
-        CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);   /* for project_light */
         double worst = 0, step = 0, prev = 0;
         for (int deg = 0; deg <= 90; deg++) {
             double az = deg * M_PI / 180, el = M_PI / 3;
@@ -513,7 +512,7 @@ static void sun_turning(void) {
             CHECK(s / (CUBE_RES * CUBE_RES) == 2, "the sun is on the +Y face");
             memset(cube, 0, sizeof cube);
             cube[3 * s] = cube[3 * s + 1] = cube[3 * s + 2] = 1000.f;
-            transfer_haar.project_light(&cfg, cube, Lv);
+            tfx_light(&cfg, cube, Lv);
             float g[3];
             transport_light(&t, (const float (*)[4])Lv, g, 1);
             int k = s % (CUBE_RES * CUBE_RES);
@@ -540,10 +539,9 @@ static void sun_turning(void) {
  * channels coef[0..2]. */
 static void project_solid(const float *tex, float (*coef)[T]) {
     static float scr[TRANSFER_SCRATCH_FLOATS];
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_transport(&cfg, tex, coef[0], scr);
+    transfer_config cfg;
+    tfx_haar(128, 32, true, &cfg);
+    tfx_project(&cfg, tex, coef[0], scr);
     memcpy(coef[1], coef[0], sizeof coef[0]);
     memcpy(coef[2], coef[0], sizeof coef[0]);
 }
@@ -561,17 +559,17 @@ static void face_integral(void) {
     static _Alignas(64) float Lv[T][4];
     up_vertex_texels(tex);
     project_solid(tex, coef);
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    transfer_config cfg;
+    tfx_haar(128, 32, true, &cfg);
     prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
     for (int k = 0; k < 3 * T; k++) cube[k] = 1.f;
-    transfer_haar.project_light(&cfg, cube, Lv);
+    tfx_light(&cfg, cube, Lv);
     void *tscr = malloc(transport_scratch_size());
     double off[2] = { 0, 0 };
     for (int corr = 0; corr < 2; corr++) {
         prt_transport t;
         int one = 1;
-        CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
+        CHECK(transport_init(&t, 1, &one, linear_config_of(&cfg).N, linear_config_of(&cfg).qbits, &err) == 0, "%s", err.msg);
         t.solid_angle = corr;
         CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
         transport_store(&t, 0, coef[0], coef[1], coef[2], tscr);
@@ -601,13 +599,13 @@ static double block_integral_error(const float *tex, const float (*coef)[T], int
     static float cube[3 * T];
     static _Alignas(64) float Lv[T][4];
     static uint8_t kept[T];
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
+    transfer_config cfg;
+    tfx_haar(128, 32, true, &cfg);
     prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
     prt_transport t;
     int one = 1;
     void *tscr = malloc(transport_scratch_size());
-    CHECK(transport_init(&t, 1, &one, cfg.N, cfg.qbits, &err) == 0, "%s", err.msg);
+    CHECK(transport_init(&t, 1, &one, linear_config_of(&cfg).N, linear_config_of(&cfg).qbits, &err) == 0, "%s", err.msg);
     CHECK(transport_share_budget(&t, budget, 0, &err) == 0, "%s", err.msg);
     t.solid_angle = true;
     t.block_level = level;
@@ -635,7 +633,7 @@ static double block_integral_error(const float *tex, const float (*coef)[T], int
                     cube[3 * x] = cube[3 * x + 1] = cube[3 * x + 2] = 1.f;
                     exact += tex[x];
                 }
-            transfer_haar.project_light(&cfg, cube, Lv);
+            tfx_light(&cfg, cube, Lv);
             float g[3];
             transport_light(&t, (const float (*)[4])Lv, g, 1);
             worst = fmax(worst, fabs(g[0] - exact) / face);
@@ -707,10 +705,9 @@ static void store_one(prt_transport *t, const float *tex, bool smooth, int budge
  * light vector), first channel. */
 static double one_light(const prt_transport *t, const float *cube) {
     static _Alignas(64) float Lv[T][4];
-    transfer_config cfg = { .N = 128, .qbits = 32, .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    prt_error err;
-    CHECK(transfer_haar.configure(&cfg, &err) == 0, "%s", err.msg);
-    transfer_haar.project_light(&cfg, cube, Lv);
+    transfer_config cfg;
+    tfx_haar(128, 32, true, &cfg);
+    tfx_light(&cfg, cube, Lv);
     float g[3];
     transport_light(t, (const float (*)[4])Lv, g, 1);
     return g[0];
@@ -786,7 +783,7 @@ static float white_radiance(const prt_data *d, int v) {
     if (probe_make_constant(one, &pr, &err)) return -1;
     float *cube = malloc(sizeof(float) * 3 * T);
     probe_to_cube(&pr, CUBE_RES, NULL, 0, cube);
-    float (*Lw)[4] = transfer_light_vector(d, cube);
+    float (*Lw)[4] = transfer_light_vector(prt_data_transfer(d), cube);
     relight_ctx *rc = relight_create(d, 2, &err);
     if (rc && Lw) {
         relight_set_light(rc, (const float (*)[4])Lw);
@@ -799,7 +796,7 @@ static float white_radiance(const prt_data *d, int v) {
 }
 
 /* measure_file: a plane under a box precomputed with either measure, written and read back.
- * The file keeps the measure (a texel-measure file's flags byte has only bit 0), and an unoccluded corner of the plane (Lambert kd 0.5) under a white environment
+ * The file keeps the measure (a texel-measure file's flags byte has no measure bit), and an unoccluded corner of the plane (Lambert kd 0.5) under a white environment
  * gives kd (the analytic answer: the cosine integrates to pi, over pi) within 1.5% for both
  * measures, before and after the round trip (identically). */
 static void measure_file(void) {
@@ -812,18 +809,21 @@ static void measure_file(void) {
         prt_scene sc;
         CHECK(scene_parse_json("measure.json", json, strlen(json), NULL, &sc, &err) == 0, "%s", err.msg);
         precompute_desc d = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2,
-                              .measure = m ? TRANSFER_MEASURE_SOLID_ANGLE : 0 };
+                              .basis_options = m ? "select=magnitude,budget=vector,smooth_faces=off" : "measure=texels,budget=vector" };
+        const int want = m ? LINEAR_MEASURE_SOLID_ANGLE : 0;
         prt_data a, b;
         if (precompute_run(&sc, &d, &a, &err)) { CHECK(false, "%s", err.msg); continue; }
         int corner = -1;   /* the plane's vertex at (-3, 0, -3): far from the box */
         for (int v = 0; v < a.scene.mesh.nverts; v++)
             if (a.scene.mesh.pos[3 * v] == -3.f && a.scene.mesh.pos[3 * v + 2] == -3.f) corner = v;
-        CHECK(corner >= 0 && a.transfers[0].cfg.measure == d.measure, "corner %d, measure %d", corner, a.transfers[0].cfg.measure);
+        CHECK(corner >= 0 && linear_config_of(&a.transfers[0].cfg).measure == want, "corner %d, measure %d", corner,
+              linear_config_of(&a.transfers[0].cfg).measure);
         char path[512];
         snprintf(path, sizeof path, "%s/measure%d.prt", check_tmpdir(), m);
         CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
         CHECK(prtfile_read(path, &b, &err) == 0, "%s", err.msg);
-        CHECK(b.ntransfers == 1 && b.transfers[0].cfg.measure == d.measure, "%s keeps the measure", m ? "solid-angle" : "texel");
+        CHECK(b.ntransfers == 1 && linear_config_of(&b.transfers[0].cfg).measure == want, "%s keeps the measure",
+              m ? "solid-angle" : "texel");
         if (corner >= 0 && b.ntransfers == 1) {
             float ra = white_radiance(&a, corner), rb = white_radiance(&b, corner);
             printf("  %s measure: unoccluded corner under white light %.5f (kd 0.5)\n", m ? "solid-angle" : "texel", ra);

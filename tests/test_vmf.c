@@ -76,20 +76,22 @@ static void pack(void) {
 /* configure: defaults (I = 2, level 2, 64 rays) and one line per refusal. */
 static void configure(void) {
     prt_error err;
-    transfer_config c = { 0 };
-    CHECK(transfer_vmf.configure(&c, &err) == 0 && c.lobes == VMFT_DEFAULT_LOBES && c.level == VMFT_DEFAULT_LEVEL &&
-          c.samples == VMFT_DEFAULT_SAMPLES, "defaults");
+    transfer_config c;
+    CHECK(transfer_vmf.configure(&(transfer_setup){ 0 }, &c, &err) == 0, "%s", err.msg);
+    vmf_config v = vmft_config(&c);
+    CHECK(v.lobes == VMFT_DEFAULT_LOBES && v.level == VMFT_DEFAULT_LEVEL && v.samples == VMFT_DEFAULT_SAMPLES, "defaults");
     char line[256];
     transfer_vmf.describe(&c, line, sizeof line);
     CHECK(strstr(line, "vMF lobes (2 per pass, 162 views, 64 rays per slice)") != NULL, "'%s'", line);
-    struct { transfer_config c; const char *want; } bad[] = {
-        { { .lobes = 5 }, "lobes = 5" }, { { .level = 7 }, "level = 7" }, { { .samples = 3 }, "samples = 3" },
-        { { .samples = 5000 }, "samples = 5000" }, { { .N = 128 }, "do not apply" }, { { .lobes = -1 }, "lobes = -1" },
+    struct { transfer_setup s; const char *want; } bad[] = {
+        { { .options = "lobes=5" }, "lobes = '5'" }, { { .options = "level=7" }, "level = '7'" },
+        { { .options = "samples=3" }, "samples = '3'" }, { { .options = "samples=5000" }, "samples = '5000'" },
+        { { .N = 128 }, "do not apply" }, { { .options = "lobes=-1" }, "lobes = '-1'" }, { { .options = "views=3" }, "unknown option 'views'" },
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         err.msg[0] = 0;
-        CHECK(transfer_vmf.configure(&bad[i].c, &err) == -1 && strstr(err.msg, bad[i].want) && !strchr(err.msg, '\n'), "refusal %zu: '%s'", i,
-              err.msg);
+        CHECK(transfer_vmf.configure(&bad[i].s, &c, &err) == -1 && strstr(err.msg, bad[i].want) && !strchr(err.msg, '\n'),
+              "refusal %zu: '%s'", i, err.msg);
     }
 }
 
@@ -107,13 +109,14 @@ static int load_scene(const char *json, prt_data *d, vis_scene **vs) {
     return *vs ? 0 : -1;
 }
 
-/* Adds and precomputes a vmf transfer of materials mask with cfg; 0 or -1. */
-static int run_vmf(prt_data *d, vis_scene *vs, transfer_config cfg, uint64_t mask, int passes, int threads) {
+/* Adds and precomputes a vmf transfer of materials mask configured from options; 0 or -1. */
+static int run_vmf(prt_data *d, vis_scene *vs, const char *options, uint64_t mask, int passes, int threads) {
     prt_error err;
-    if (transfer_vmf.configure(&cfg, &err)) return fprintf(stderr, "%s\n", err.msg), -1;
+    transfer_config cfg;
+    if (transfer_vmf.configure(&(transfer_setup){ .options = options }, &cfg, &err)) return fprintf(stderr, "%s\n", err.msg), -1;
     prt_transfer *tr = prt_data_add_transfer(d, &transfer_vmf, &cfg, mask);
     transfer_precompute_in in = { .scene = &d->scene, .vis = vs, .passes = passes, .bounce_threshold = 0.0f, .nthreads = threads };
-    if (transfer_vmf.precompute(&in, tr, &err)) return fprintf(stderr, "%s\n", err.msg), -1;
+    if (transfer_vmf.view->precompute(&in, tr, &err)) return fprintf(stderr, "%s\n", err.msg), -1;
     return 0;
 }
 
@@ -167,7 +170,7 @@ static void unoccluded_sphere(void) {
     vis_scene *vs;
     const char *json = "{\"models\":[{\"sphere\":{\"center\":[0,1,0],\"radius\":1,\"rings\":12,\"segments\":24},"
                        "\"material\":\"phong:kd=0.3,0.1,0.1;ks=0.5;n=50\"}]}";
-    if (load_scene(json, &d, &vs) || run_vmf(&d, vs, (transfer_config){ .level = 2 }, 1, 1, 0)) {
+    if (load_scene(json, &d, &vs) || run_vmf(&d, vs, "level=2", 1, 1, 0)) {
         CHECK(0, "set-up");
         return;
     }
@@ -182,7 +185,7 @@ static void unoccluded_sphere(void) {
     spec.kd[0] = spec.kd[1] = spec.kd[2] = 0;
     const prt_mesh *m = &d.scene.mesh;
     float *rgb = calloc(3 * (size_t)m->nverts, sizeof(float)), eye[3] = { 2.5f, 3.0f, 4.0f };
-    transfer_vmf.shade_vertices(&d, tr, env, eye, rgb, 0);
+    transfer_vmf.view->shade_vertices(&d, tr, env, eye, rgb, 0);
     double num = 0, den = 0, worst = 0;
     int nvis = 0;
     for (int v = 0; v < m->nverts; v++) {
@@ -300,7 +303,7 @@ static void pass_alpha(const vmft_data *t, const prt_mesh *m, int v, const float
 static void corner_bounce(void) {
     prt_data d;
     vis_scene *vs;
-    if (load_scene(k_corner, &d, &vs) || run_vmf(&d, vs, (transfer_config){ .level = 2, .samples = 64 }, 1, 3, 0)) {
+    if (load_scene(k_corner, &d, &vs) || run_vmf(&d, vs, "level=2,samples=64", 1, 3, 0)) {
         CHECK(0, "set-up");
         return;
     }
@@ -334,8 +337,8 @@ static void determinism(void) {
     prt_data d1, d2;
     vis_scene *v1, *v2;
     if (load_scene(k_corner, &d1, &v1) || load_scene(k_corner, &d2, &v2) ||
-        run_vmf(&d1, v1, (transfer_config){ .level = 1, .samples = 32 }, 1, 2, 1) ||
-        run_vmf(&d2, v2, (transfer_config){ .level = 1, .samples = 32 }, 1, 2, 2)) {
+        run_vmf(&d1, v1, "level=1,samples=32", 1, 2, 1) ||
+        run_vmf(&d2, v2, "level=1,samples=32", 1, 2, 2)) {
         CHECK(0, "set-up");
         return;
     }
@@ -365,13 +368,13 @@ static void cancel(void) {
         CHECK(0, "set-up");
         return;
     }
-    transfer_config cfg = { .level = 1, .samples = 16 };
+    transfer_config cfg;
     prt_error err = { { 0 } };
-    CHECK(transfer_vmf.configure(&cfg, &err) == 0);
+    CHECK(transfer_vmf.configure(&(transfer_setup){ .options = "level=1,samples=16" }, &cfg, &err) == 0);
     prt_transfer *tr = prt_data_add_transfer(&d, &transfer_vmf, &cfg, 1);
     int calls = 0;
     transfer_precompute_in in = { .scene = &d.scene, .vis = vs, .passes = 2, .progress = stop_at_half, .progress_user = &calls };
-    CHECK(transfer_vmf.precompute(&in, tr, &err) == -1 && strstr(err.msg, "cancelled") && tr->priv == NULL, "'%s', %d calls", err.msg,
+    CHECK(transfer_vmf.view->precompute(&in, tr, &err) == -1 && strstr(err.msg, "cancelled") && tr->priv == NULL, "'%s', %d calls", err.msg,
           calls);
     vis_destroy(vs);
     prt_data_free(&d);
@@ -403,7 +406,7 @@ static size_t section_body(const uint8_t *b, size_t n, uint32_t tag) {
 /* The corner precomputed (2 passes) and written; its path in path[512]. 0 or -1. */
 static int corner_file(prt_data *d, char *path) {
     vis_scene *vs;
-    if (load_scene(k_corner, d, &vs) || run_vmf(d, vs, (transfer_config){ .level = 1, .samples = 16 }, 1, 2, 0)) return -1;
+    if (load_scene(k_corner, d, &vs) || run_vmf(d, vs, "level=1,samples=16", 1, 2, 0)) return -1;
     vis_destroy(vs);
     d->vis_res = 128, d->gather_res = 32;
     prt_error err;
@@ -459,8 +462,8 @@ static void file_roundtrip(void) {
     prefilter_env *env = prefilter_create(&p, NULL, NULL, &err);
     int nv = a.scene.mesh.nverts;
     float *ra = calloc(3 * (size_t)nv, sizeof(float)), *rb = calloc(3 * (size_t)nv, sizeof(float));
-    transfer_vmf.shade_vertices(&a, &a.transfers[0], env, eye, ra, 1);
-    transfer_vmf.shade_vertices(&b, &b.transfers[0], env, eye, rb, 2);
+    transfer_vmf.view->shade_vertices(&a, &a.transfers[0], env, eye, ra, 1);
+    transfer_vmf.view->shade_vertices(&b, &b.transfers[0], env, eye, rb, 2);
     CHECK(!memcmp(ra, rb, sizeof(float) * 3 * nv), "the same shading (1 and 2 threads)");
     free(ra), free(rb);
     prefilter_destroy(env);

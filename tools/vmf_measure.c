@@ -69,8 +69,10 @@ int main(int argc, char **argv) {
         }
     const prt_mesh *m = &d.scene.mesh;
     vis_scene *vs = vis_create(m, &err);
-    transfer_config cfg = { .level = o.level, .samples = o.samples };
-    if (!vs || transfer_vmf.configure(&cfg, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
+    char opts[64];
+    snprintf(opts, sizeof opts, "level=%d,samples=%d", o.level, o.samples);
+    transfer_config cfg;
+    if (!vs || transfer_vmf.configure(&(transfer_setup){ .options = opts }, &cfg, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
     prt_transfer *tr = prt_data_add_transfer(&d, &transfer_vmf, &cfg, mask);
     prt_bar bar;
     prt_bar_init(&bar, stderr, false);
@@ -85,7 +87,7 @@ int main(int argc, char **argv) {
         tr->priv = ft->priv, ft->priv = tmp;
         tr->cfg = ft->cfg;
         prt_data_free(&f);
-    } else if (transfer_vmf.precompute(&in, tr, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
+    } else if (transfer_vmf.view->precompute(&in, tr, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
     double tpre = prt_now() - t0;
     prt_bar_done(&bar);
     if (o.save && prtfile_write(o.save, &d, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
@@ -109,7 +111,7 @@ int main(int argc, char **argv) {
     for (int r = 0; r < 15; r++) {
         memset(rgb, 0, sizeof(float) * 3 * m->nverts);
         t0 = prt_now();
-        transfer_vmf.shade_vertices(&d, tr, env, eye, rgb, 0);
+        transfer_vmf.view->shade_vertices(&d, tr, env, eye, rgb, 0);
         ts[r] = prt_now() - t0;
     }
     qsort(ts, 15, sizeof *ts, cmp_double);
@@ -120,7 +122,7 @@ int main(int argc, char **argv) {
     double *cs = calloc((size_t)o.reps, sizeof(double));
     for (int r = 0; r < o.reps; r++) {   /* the median frame (others' jobs preempt some) */
         clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c0);
-        transfer_vmf.shade_vertices(&d, tr, env, eye, rgb, 1);
+        transfer_vmf.view->shade_vertices(&d, tr, env, eye, rgb, 1);
         clock_gettime(CLOCK_THREAD_CPUTIME_ID, &c1);
         cs[r] = (c1.tv_sec - c0.tv_sec) + 1e-9 * (c1.tv_nsec - c0.tv_nsec);
     }
@@ -129,7 +131,7 @@ int main(int argc, char **argv) {
     printf("  one thread, fastest frame: %.2f ms CPU\n", 1e3 * cs[0]);
     free(cs);
     memset(rgb, 0, sizeof(float) * 3 * m->nverts);   /* shade_vertices adds: one clean frame for the comparison */
-    transfer_vmf.shade_vertices(&d, tr, env, eye, rgb, 0);
+    transfer_vmf.view->shade_vertices(&d, tr, env, eye, rgb, 0);
     printf("  one thread: %.2f ms CPU a frame, %.3f us a glossy vertex; 35,000 on 2 cores: %.1f ms\n", 1e3 * cpu,
            1e6 * cpu / nglossy, 1e3 * cpu / nglossy * 35000 / 2);
 

@@ -125,7 +125,7 @@ int cli_load_probe(const char *cmd, const char *path, const char *layout, prt_pr
     if (layout && probe_parse_layout(layout, &lay) != 0)
         return cli_error(cmd, "unknown probe layout '%s' (latlong, angular, vcross, hcross, auto)", layout);
     prt_error err = { { 0 } };
-    if (!strcmp(path, "none")) {   /* issue 11: local lights alone (a black environment) */
+    if (!strcmp(path, "none")) {   /* local lights alone (a black environment) */
         static const float black[3] = { 0, 0, 0 };
         return probe_make_constant(black, out, &err) ? cli_error(cmd, "%s", err.msg) : 0;
     }

@@ -116,12 +116,12 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
 #include "camera.h"
 #include "scene.h"
 #include "prtfile.h"
-/* --layout and --camera checked before any loading (usage errors, exit 2; issue 12 item 7):
+/* --layout and --camera checked before any loading (usage errors, exit 2):
  * layout a probe layout name, cam_s numbers as camera_parse takes them (NULL: not given).
  * Returns 0, or 2 after printing one line. */
 int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s);
 int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
-/* Local lights (issue 11; render, reference, bench, view): takes every "--light SPEC"
+/* Local lights (render, reference, bench, view): takes every "--light SPEC"
  * (lights.h: point:pos=x,y,z;intensity=I;colour=r,g,b or spot:...;dir=..;inner=..;outer=..)
  * and "--no-file-lights" out of argv (argc shrinks) into extra / no_file. --probe none is
  * a black environment (local lights alone). Returns 0, or 2 after printing one line. */

@@ -45,11 +45,9 @@ int cli_info(int argc, char **argv) {
     struct stat st;
     double mb = stat(in, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_scene *s = &d.scene;
-    /* The sparse transfer (Haar or SH) when there is one: its transport lines; every transfer's
-     * basis line, and the summary of those that have one (vmf). */
-    const prt_transfer *tr = NULL;
-    for (int i = 0; i < d.ntransfers && !tr; i++)
-        if (d.transfers[i].ops->project_transport) tr = &d.transfers[i];
+    /* The linear transfer when there is one: its transport lines; every transfer's basis line, and
+     * the summary of those that have one. */
+    const prt_transfer *tr = prt_data_transfer(&d);
     const prt_stats *ps = &d.stats;
     printf("file          %s (%.2f MB, format version %d)\n", in, mb, PRTFILE_VERSION);
     printf("geometry      %d vertices, %d triangles%s\n", s->mesh.nverts, s->mesh.ntris,
@@ -98,7 +96,7 @@ int cli_info(int argc, char **argv) {
         printf("\n      singular values (R):");
         for (int k = 0; k < f->nsigma && k < 8; k++) printf(" %.4g", f->sigma[0][k]);
         printf("\n");
-        /* A material on a non-linear transfer's path (vmf): the factor above is its kd/pi part only. */
+        /* A material on a view-dependent transfer's path: the factor above is its kd/pi part only. */
         for (int i = 0; i < d.ntransfers; i++)
             if (&d.transfers[i] != tr && (d.transfers[i].materials >> m & 1))
                 printf("      its specular lobe: %s (the factor above is the diffuse kd/pi part)\n",

@@ -4,8 +4,6 @@
 #include "cli_args.h"
 #include "checkpoint.h"
 #include "precompute.h"
-#include "light.h"
-#include "prior.h"
 #include "prtfile.h"
 #include "refine.h"
 #include "scene.h"
@@ -17,8 +15,47 @@
 
 static const char *k_cmd = "precompute";
 
+/* The help of option o of a representation, in the columns of the rest (flag, then its text from
+ * column 25). */
+static void help_option(const transfer_option *o) {
+    char first[96];
+    snprintf(first, sizeof first, "%s%s%s", o->flag, o->arg ? " " : "", o->arg ? o->arg : "");
+    const char *h = o->help ? o->help : "";
+    int n = (int)strcspn(h, "\n");
+    if (strlen(first) <= 22) printf("  %-22s %.*s\n", first, n, h);
+    else printf("  %s  %.*s\n", first, n, h);
+    for (h += n; *h == '\n'; h += n) {
+        h++;
+        n = (int)strcspn(h, "\n");
+        printf("%25s%.*s\n", "", n, h);
+    }
+}
+
+/* Every flag the representations of kind declare (their option tables), in table order. */
+static void help_kind(transfer_kind kind) {
+    for (int i = 0; i < transfer_count(); i++)
+        if (transfer_at(i)->kind == kind)
+            for (const transfer_option *o = transfer_at(i)->options; o && o->key; o++)
+                if (o->flag) help_option(o);
+}
+
+/* The representations of kind as "name (title), ...", the default marked. */
+static void help_names(transfer_kind kind, char *buf, size_t cap) {
+    size_t at = 0;
+    buf[0] = 0;
+    for (int i = 0; i < transfer_count() && at < cap; i++) {
+        const transfer_ops *t = transfer_at(i);
+        if (t->kind == kind)
+            at += (size_t)snprintf(buf + at, cap - at, "%s%s (%s%s)", at ? ", " : "", t->name, t->title,
+                                   t == transfer_default(kind) ? ", the default" : "");
+    }
+}
+
 static void help(void) {
-    puts("usage: prt precompute MODEL.obj|SCENE.json -o OUT.prt [options]\n"
+    char lin[512], view[512];
+    help_names(TRANSFER_LINEAR, lin, sizeof lin);
+    help_names(TRANSFER_VIEW, view, sizeof view);
+    fputs("usage: prt precompute MODEL.obj|SCENE.json -o OUT.prt [options]\n"
          "\n"
          "scene:\n"
          "  --material SPEC        BRDF of an OBJ model (default lambert:kd=0.8); see `prt brdf --help`\n"
@@ -34,45 +71,26 @@ static void help(void) {
          "  --coeffs N             wavelet coefficients kept per transport vector (default 128)\n"
          "  --quant 8|16|32        coefficient quantization bits (default 8; 32 = float)\n"
          "  --vis-res R            visibility cube resolution: 64, 128 (default; 2x2 supersampling) or 256\n"
-         "  --sh ORDER             spherical harmonics of ORDER (3..10) instead of Haar wavelets (baseline)\n"
-         "  --texel-measure        Haar wavelets of the texels with their solid angle (the paper's;\n"
-         "                         default: of the transport per steradian, steadier under a sun)\n"
-         "  --select expected|magnitude  which N coefficients a vector keeps: expected (default) the\n"
-         "                         N largest weighted by the light's typical energy per Haar level\n"
-         "                         (the least expected error under probes with a sun); magnitude\n"
-         "                         the N largest (the paper's; what --texel-measure and --sh use)\n"
-         "  --light-prior PROBE[,PROBE...]  weigh the expected-error selection by PROBE's light: each\n"
-         "                         coefficient by its RMS as PROBE turns about +y (the viewer's yaw), so\n"
-         "                         a shadow edge keeps its detail where the probe's sun can be (README\n"
-         "                         \"Shadows\"; the file serves any probe, best the ones named); a\n"
-         "                         list weighs each probe the same. Default: none, or the probes a JSON\n"
-         "                         scene's \"light_prior\" key names (unless this flag or the next says\n"
-         "                         otherwise)\n"
-         "  --no-light-prior       not the scene's light_prior: the per-level weights\n"
-         "  --box-texels           with a light prior, integrate every lighting texel over its area (default: the\n"
-         "                         prior's brightest texels along rays placed as its light lies inside them)\n"
-         "  --no-refit             with a light prior, keep the kept coefficients' own values, put back as\n"
-         "                         below (default: refit to the prior's light per texel, the least expected\n"
-         "                         error of T.L as its probes turn; a per-vector budget only; README \"Shadows\")\n"
-         "  --no-smooth-faces      put what truncation drops back per 16x16-texel block only (default:\n"
-         "                         weighted by the transport on faces with no occluder edge, steadier\n"
-         "                         on an open floor under a turning sun)\n"
-         "  --budget shared|vector|relative  how the N x vectors coefficients are shared out:\n"
-         "                         shared: the best weights over all vectors win, each vector keeping\n"
-         "                         N/2 to 2N (a shadow edge more, a smooth one fewer; the same storage\n"
-         "                         at most); vector: each vector its own N (the paper's); relative:\n"
-         "                         shared, each weight taken over its vector's own total. shared and\n"
-         "                         relative are for Haar wavelets only. Default: shared up to 500,000\n"
-         "                         vectors, vector beyond (a shared budget's staging costs memory and\n"
-         "                         time) and vector with a light prior\n"
-         "glossy materials (the effects plan prints each material's path and why):\n"
-         "  --glossy auto|svd|vmf  auto (default): the SVD where its error at K is <= 10%, else Haar K = 1\n"
-         "                         diffuse + vMF specular lobes (laurijssen-2011); svd: always the SVD;\n"
-         "                         vmf: vMF lobes wherever a lobe fit exists (phong, blinn, ggx, beckmann)\n"
-         "  --lobes I              vMF lobes per view and reflection pass, 1..4 (default 2)\n"
-         "  --view-level L         geodesic view grid: icosahedron subdivided L times, 0..6 (default 2:\n"
-         "                         162 views)\n"
-         "  --lobe-samples S       rays per (vertex, view) in the vMF passes, 4..4096 (default 64)\n"
+         , stdout);
+    printf("  --basis NAME           the linear representation: %s\n"
+           "  --basis-options K=V,...  its options as text, key=value (the flags below set them too)\n", lin);
+    fputs("  --light-prior PROBE[,PROBE...]  weigh the expected-error selection by PROBE's light: each\n"
+          "                         coefficient by its RMS as PROBE turns about +y (the viewer's yaw), so\n"
+          "                         a shadow edge keeps its detail where the probe's sun can be (README\n"
+          "                         \"Shadows\"; the file serves any probe, best the ones named); a\n"
+          "                         list weighs each probe the same. Default: none, or the probes a JSON\n"
+          "                         scene's \"light_prior\" key names (unless this flag or the next says\n"
+          "                         otherwise)\n"
+          "  --no-light-prior       not the scene's light_prior: the per-level weights\n", stdout);
+    help_kind(TRANSFER_LINEAR);
+    printf("glossy materials (the effects plan prints each material's path and why):\n"
+           "  --glossy auto|svd|NAME  auto (default): the SVD where its error at K is <= 10%%, else the linear\n"
+           "                         K = 1 diffuse + the default view-dependent representation's specular\n"
+           "                         lobes (laurijssen-2011); svd: always the SVD; NAME: that view-dependent\n"
+           "                         representation wherever it fits the BRDF. They are: %s\n"
+           "  --view-options K=V,...  its options as text, key=value (the flags below set them too)\n", view);
+    help_kind(TRANSFER_VIEW);
+    fputs(
          "interreflections (section 3.2, 4.2):\n"
          "  --bounces B            at most B interreflection passes (default 3, stopped by the energy\n"
          "                         threshold; 0: none)\n"
@@ -102,7 +120,7 @@ static void help(void) {
          "  --quiet                no progress output\n"
          "\n"
          "Under mpirun or srun (README \"Running on a cluster\") the passes are split across the ranks,\n"
-         "rank 0 writes OUT.prt (the same file as one process) and --resume is refused.\n");
+         "rank 0 writes OUT.prt (the same file as one process) and --resume is refused.\n", stdout);
 }
 
 /* Under MPI, each split pass's balance (shard_balance): the items, wall and CPU time of every
@@ -137,13 +155,14 @@ static void stage_line(const char *name, double seconds) {
 }
 
 /* The per-stage timing summary, the ranks' balance and the closing line (stderr). */
-static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t_prior, double t0) {
+static void summary(const char *out, const prt_data *data, const prt_shard *sh, double t_load, double t0) {
     struct stat st;
     double mb = stat(out, &st) == 0 ? st.st_size / 1e6 : 0;
     const prt_stats *s = &data->stats;
     fprintf(stderr, "\ntiming summary\n");
     stage_line("scene load", t_load);
-    if (t_prior > 0) stage_line("light prior", t_prior);
+    for (int i = 0; i < data->ntransfers; i++)   /* a representation's own setup (Haar: its light prior) */
+        if (s->t_transfer_name[i]) stage_line(s->t_transfer_name[i], s->t_transfer[i]);
     if (s->t_refine > 0) stage_line("refinement", s->t_refine);
     stage_line("BRDF factorization", s->t_brdf);
     stage_line("visibility (ray casting)", s->t_visibility);
@@ -153,7 +172,12 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
         snprintf(name, sizeof name, "bounce %d (%.2f%% energy)", b + 1, 100 * s->bounce_energy[b]);
         stage_line(name, s->t_bounce[b]);
     }
-    if (s->t_vmf > 0) stage_line("vMF lobes (all passes)", s->t_vmf);
+    for (int i = 0; i < data->ntransfers; i++)
+        if (data->transfers[i].ops->kind == TRANSFER_VIEW && s->t_transfer[i] > 0) {
+            char name[64];
+            snprintf(name, sizeof name, "%s lobes (all passes)", data->transfers[i].ops->label);
+            stage_line(name, s->t_transfer[i]);
+        }
     stage_line("writing", s->t_write);
     stage_line("total", prt_now() - t0);
     balance(sh);
@@ -162,7 +186,7 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
             t->nvecs, t->budget ? t->budget : t->N, t->qbits);
     if (t->budget) fprintf(stderr, ", shared (a vector up to %d)", t->N);
     for (int i = 0; i < data->ntransfers; i++)
-        if (data->transfers[i].ops->bytes && !data->transfers[i].ops->light_range)
+        if (data->transfers[i].ops->kind == TRANSFER_VIEW)
             fprintf(stderr, "; %s %.1f MB", data->transfers[i].ops->name, data->transfers[i].ops->bytes(&data->transfers[i]) / 1e6);
     fputc('\n', stderr);
 }
@@ -171,7 +195,7 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
  * earlier run's checkpoint replaced without --resume is said on stderr. (The temporaries killed
  * runs left are removed before the work by cli_check_files.) */
 static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
-    if (!*out) return;   /* -o "": the write fails as before (issue 12 item 3), and leaves no ".ckpt" */
+    if (!*out) return;   /* -o "": the write fails (an empty name), and leaves no ".ckpt" */
     snprintf(ck, 4096, "%s.ckpt", out);
     pd->checkpoint = ck;
     const char *kill_after = getenv("PRT_CHECKPOINT_KILL");   /* test hook (checkpoint.h) */
@@ -182,112 +206,22 @@ static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, boo
 
 enum { USE_SCENE_PRIOR = 1, USE_SCENE_REFINE = 2 };   /* what the command line leaves to the scene */
 static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
-                    double t0, double t_prior, bool *stray);
+                    double t0, bool *stray);
 
-/* Loads the probes of the comma-separated list `paths` into ps (at most PRIOR_MAX_PROBES) and their
- * base names, comma-joined, into name[cap]. Returns how many, or -1 having said why (exit 1/2). */
-static int prior_probes(const char *paths, prt_probe *ps, char *name, size_t cap, int *status) {
-    int n = 0;
-    name[0] = 0;
-    for (const char *s = paths; *s; ) {
-        size_t len = strcspn(s, ",");
-        char path[4096];
-        if (len == 0 || len >= sizeof path || n == PRIOR_MAX_PROBES) {
-            cli_error(k_cmd, "--light-prior %s: a comma-separated list of 1 to %d probe files", paths, PRIOR_MAX_PROBES);
-            *status = 2;
-            return -1;
-        }
-        memcpy(path, s, len);
-        path[len] = 0;
-        if (cli_load_probe(k_cmd, path, NULL, &ps[n])) { *status = 1; return -1; }
-        const char *base = strrchr(path, '/');
-        const char *b = base ? base + 1 : path;
-        size_t at = strlen(name), bl = strlen(b);
-        if (at + bl + 2 < cap) {   /* a name too long for the plan line is cut there */
-            if (n) name[at++] = ',';
-            memcpy(name + at, b, bl + 1);
-        }
-        n++;
-        s += len + (s[len] == ',');
-    }
-    return n;
-}
-
-/* What a light prior allocates (prior.h; the caller frees it with prior_free): the coefficient weights,
- * the light-weighted texels and the refit's texel statistics. */
-typedef struct cli_prior {
-    float (*w)[4];
-    prior_rays *rays;
-    prior_texels *texels;
-} cli_prior;
-
-static void prior_free(cli_prior *cp) {
-    free(cp->w);
-    free(cp->rays);
-    free(cp->texels);
-    memset(cp, 0, sizeof *cp);
-}
-
-/* --light-prior PROBE[,PROBE...]: the probes' RMS light over their yaw orbits (prior.h) into cp->w
- * (light_alloc'd), unless pd->box_texels their light-weighted texels into cp->rays, their light per
- * texel into cp->texels (the caller frees all: prior_free), pd and name[cap] (pd->light_prior_name
- * points there), its time said on stderr. Returns the exit status (1 or 2: said why). */
-static int light_prior(const char *paths, precompute_desc *pd, bool quiet, cli_prior *cp, char *name, size_t cap,
-                       double *secs) {
-    double t0 = prt_now();
-    prt_probe ps[PRIOR_MAX_PROBES];
-    memset(ps, 0, sizeof ps);
-    const prt_probe *pp[PRIOR_MAX_PROBES];
-    int status = 0, n = prior_probes(paths, ps, name, cap, &status);
-    for (int j = 0; j < PRIOR_MAX_PROBES; j++) pp[j] = &ps[j];
-    prt_error err = { { 0 } };
-    prt_bar bar;
-    prt_bar_init(&bar, stderr, quiet);
-    prior_desc d = { .progress = prt_bar_report, .progress_user = &bar };
-    cp->w = n > 0 ? light_alloc() : NULL;
-    cp->texels = n > 0 ? prt_calloc(1, sizeof *cp->texels, &err) : NULL;   /* the refit's light per texel (refit.h) */
-    int rc = n < 0 ? status : !cp->w || !cp->texels ? cli_error(k_cmd, "light prior: out of memory") : 0;
-    if (!rc && prior_build(pp, n, &d, cp->w, cp->texels, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
-    if (!rc && !pd->box_texels) {   /* the light-weighted texels: where its probes, unturned, have their light */
-        cp->rays = prt_calloc(1, sizeof *cp->rays, &err);
-        if (!cp->rays || prior_rays_from_probes(pp, n, cp->rays, &err)) rc = cli_error(k_cmd, "%s: %s", paths, err.msg);
-    }
-    prt_bar_done(&bar);
-    for (int j = 0; j < PRIOR_MAX_PROBES; j++) probe_free(&ps[j]);
-    if (rc) return rc;
-    pd->light_prior = (const float (*)[4])cp->w;
-    pd->light_prior_name = name;
-    pd->prior_rays = cp->rays;
-    pd->prior_texels = cp->texels;
-    *secs += prt_now() - t0;
-    char took[48];
-    prt_format_duration(took, sizeof took, prt_now() - t0);
-    if (!quiet) fprintf(stderr, "light prior: %s turned through %d yaw angles in %s\n", paths, PRIOR_STEPS, took);
-    return 0;
-}
-
-/* The scene's own "light_prior" (scene.h) when the command line named none and did not say
- * --no-light-prior: computed as --light-prior's into *w and *rays (the caller frees both), or, where the selection
- * is not the expected-error one (--select magnitude, --texel-measure, --sh), left out with a note.
- * Returns the exit status. */
-static int scene_prior(const prt_scene *s, precompute_desc *pd, bool quiet, cli_prior *cp, char *name, size_t cap,
-                       double *secs) {
-    if (!s->light_prior[0] || pd->light_prior) return 0;
-    if (pd->select != TRANSPORT_SELECT_EXPECTED) {
-        if (!quiet) fprintf(stderr, "note: the scene's light_prior is not used (it weighs the expected-error selection)\n");
-        return 0;
-    }
-    return light_prior(s->light_prior, pd, quiet, cp, name, cap, secs);
+/* The scene's own "light_prior" (scene.h) into pd (precompute_desc_apply_scene) when the command line
+ * named none and did not say --no-light-prior: the linear representation weighs by it where it can
+ * and says so where it cannot. */
+static void scene_prior(const prt_scene *s, precompute_desc *pd) {
+    prt_error err;
+    precompute_desc_apply_scene(pd, s, PRECOMPUTE_SCENE_LIGHT_PRIOR, &err);
 }
 
 /* The scene's "refine" (scene.h) into pd, when it asks for refinement (the caller checked that no
  * refine flag was given: those replace it). Returns whether it did. */
 static bool scene_refinement(const prt_scene *s, precompute_desc *pd) {
-    if (!s->refine.on) return false;
-    pd->refine_threshold = s->refine.threshold > 0 ? s->refine.threshold : REFINE_THRESHOLD;
-    pd->refine_budget = s->refine.budget;
-    pd->refine_parts = s->refine.models ? REFINE_ALL : 0;
-    return true;
+    prt_error err;
+    precompute_desc_apply_scene(pd, s, PRECOMPUTE_SCENE_REFINE, &err);
+    return s->refine.on;
 }
 
 /* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
@@ -305,14 +239,9 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
         const char *fail = getenv("PRT_SHARD_FAIL");   /* test hook: that rank fails (precompute.h) */
         pd->shard = sh;
         pd->shard_fail = fail ? atoi(fail) + 1 : 0;
-        cli_prior cp = { 0 };   /* every rank computes the same prior (prior.h: deterministic) */
-        char name[1024];
-        double t0 = prt_now(), t_prior = 0;   /* the timing summary's total counts the prior */
-        rc = prior_path ? light_prior(prior_path, pd, quiet || shard_rank(sh) > 0, &cp, name, sizeof name, &t_prior) : 0;
+        double t0 = prt_now();
         const unsigned use = (!prior_path && !no_prior ? USE_SCENE_PRIOR : 0) | (scene_refine ? USE_SCENE_REFINE : 0);
-        if (!rc) rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, use, t0, t_prior, &stray);
-        else stray = shard_size(sh) > 1;   /* the others are not told: the job is aborted */
-        prior_free(&cp);
+        rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, use, t0, &stray);
     }
     shard_destroy(sh, stray);
     return rc;
@@ -320,10 +249,9 @@ static int run(const char *in, const char *out, const scene_desc *sd, precompute
 
 /* run's work on one rank; *stray: it failed alone, the others not told (shard.h). Every rank loads
  * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
- * t0: when the command's work began; t_prior: the seconds --light-prior took (the summary's). Returns
- * the exit status. */
+ * t0: when the command's work began. Returns the exit status. */
 static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
-                    double t0, double t_prior, bool *stray) {
+                    double t0, bool *stray) {
     const bool use_scene_prior = use_scene & USE_SCENE_PRIOR;
     prt_error err = { { 0 } };
     double t_scene = prt_now();
@@ -346,19 +274,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
                 scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
     if (!quiet && scene.load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
-    cli_prior cp = { 0 };   /* the scene's prior; every rank computes the same (prior.h) */
-    char pname[1024];
-    if (use_scene_prior && (st = scene_prior(&scene, pd, quiet, &cp, pname, sizeof pname, &t_prior))) {
-        prior_free(&cp);
-        scene_free(&scene);
-        *stray = shard_size(pd->shard) > 1;
-        return st;
-    }
-
-    if (!quiet && pd->box_texels && !pd->light_prior)
-        fprintf(stderr, "note: --box-texels changes nothing without a light prior (every texel is box-filtered)\n");
-    if (!quiet && pd->no_refit && !pd->light_prior)
-        fprintf(stderr, "note: --no-refit changes nothing without a light prior (nothing is refit)\n");
+    if (use_scene_prior) scene_prior(&scene, pd);   /* every rank builds the same prior (deterministic) */
     int ranks = shard_size(pd->shard);
     if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
     if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
@@ -376,10 +292,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     prt_data data;
     memset(&data, 0, sizeof data);
     int prc = precompute_run(&scene, pd, &data, &err);
-    prior_free(&cp);   /* the prior is read by the passes only (precompute.h) */
-    pd->light_prior = use_scene_prior ? NULL : pd->light_prior;
-    pd->prior_rays = use_scene_prior ? NULL : pd->prior_rays;
-    pd->prior_texels = use_scene_prior ? NULL : pd->prior_texels;
+    if (pd->light_prior_scene) pd->light_prior = NULL, pd->light_prior_scene = false;   /* it pointed into the scene */
     if (prc) {
         prt_bar_done(&bar);
         scene_free(&scene);
@@ -397,23 +310,150 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     }
     data.stats.t_write = prt_now() - tw;
     if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
-    if (!quiet) summary(out, &data, pd->shard, t_load, t_prior, t0);
+    if (!quiet) summary(out, &data, pd->shard, t_load, t0);
     prt_data_free(&data);
     return 0;
 }
 
-/* --budget NAME into *out (transport_budget; none: shared for Haar, README "Shadows"); returns 0, or 1
- * after saying why. */
-static int budget_of(const char *name, int sh_bands, int *out) {
-    static const char *names[] = { "vector", "shared", "relative" };
-    *out = sh_bands ? TRANSPORT_BUDGET_VECTOR : PRECOMPUTE_BUDGET_AUTO;   /* the plan picks (precompute.h) */
-    if (!name) return 0;
-    *out = TRANSPORT_BUDGET_VECTOR;
-    for (int k = 0; k < 3; k++)
-        if (!strcmp(name, names[k])) *out = k;
-    if (*out == TRANSPORT_BUDGET_VECTOR && strcmp(name, "vector"))
-        return cli_error(k_cmd, "--budget must be vector, shared or relative (got '%s')", name);
-    if (*out != TRANSPORT_BUDGET_VECTOR && sh_bands) return cli_error(k_cmd, "--budget %s applies to Haar wavelets, not --sh", name);
+/* The representations' flags (their option tables, transfer.h): each seen flag is one "key=value" of
+ * its representation's options text. */
+#define REP_FLAGS 64
+typedef struct rep_flags {
+    int n;
+    const transfer_ops *ops[REP_FLAGS];
+    const transfer_option *opt[REP_FLAGS];
+    const char *word[REP_FLAGS];    /* WORD: the argument */
+    int num[REP_FLAGS];             /* INT: the argument */
+    bool on[REP_FLAGS];             /* SWITCH: given */
+    int seen[REP_FLAGS];
+} rep_flags;
+
+/* Appends one cli_option per representation flag to opts (from at, cap in all); returns the new count. */
+static int rep_flag_options(rep_flags *rf, cli_option *opts, int at, int cap) {
+    for (int i = 0; i < transfer_count(); i++)
+        for (const transfer_option *o = transfer_at(i)->options; o && o->key; o++) {
+            if (!o->flag || rf->n == REP_FLAGS || at + 1 >= cap) continue;
+            int k = rf->n++;
+            rf->ops[k] = transfer_at(i), rf->opt[k] = o;
+            cli_option *c = &opts[at++];
+            if (o->kind == TRANSFER_OPT_SWITCH) *c = (cli_option)CLI_B(o->flag, &rf->on[k]);
+            else if (o->kind == TRANSFER_OPT_INT) *c = (cli_option)CLI_I(o->flag, &rf->num[k], o->lo, o->hi);
+            else *c = (cli_option)CLI_S(o->flag, &rf->word[k]);
+            c->set = &rf->seen[k], c->setval = 1;
+        }
+    opts[at] = (cli_option)CLI_END;
+    return at;
+}
+
+/* "a, b or c" from the words "a|b|c". */
+static void words_or(const char *w, char *buf, size_t cap) {
+    size_t at = 0;
+    buf[0] = 0;
+    for (int k = 0; *w && at < cap; k++) {
+        size_t n = strcspn(w, "|");
+        bool last = !w[n];
+        at += (size_t)snprintf(buf + at, cap - at, "%s%.*s", k == 0 ? "" : last ? " or " : ", ", (int)n, w);
+        w += n + !last;
+    }
+}
+
+/* Representation ops: the options text of its flags seen (rf), then extra (--basis-options and the like),
+ * into text[cap]; a WORD flag's argument is checked against its words. Returns 0, or 2 after saying why. */
+static int rep_text(const rep_flags *rf, const transfer_ops *ops, const char *extra, char *text, size_t cap) {
+    size_t at = 0;
+    text[0] = 0;
+    for (int k = 0; k < rf->n; k++) {
+        if (rf->ops[k] != ops || !rf->seen[k]) continue;
+        const transfer_option *o = rf->opt[k];
+        prt_error err;
+        if (o->kind == TRANSFER_OPT_WORD && transfer_option_word(ops->name, o, rf->word[k], &err) < 0) {
+            char w[256];
+            words_or(o->words, w, sizeof w);
+            return cli_error(k_cmd, "%s must be %s (got '%s')", o->flag, w, rf->word[k]) + 1;
+        }
+        if (o->kind == TRANSFER_OPT_SWITCH) at += (size_t)snprintf(text + at, at < cap ? cap - at : 0, "%s=%s,", o->key, o->value);
+        else if (o->kind == TRANSFER_OPT_INT) at += (size_t)snprintf(text + at, at < cap ? cap - at : 0, "%s=%d,", o->key, rf->num[k]);
+        else at += (size_t)snprintf(text + at, at < cap ? cap - at : 0, "%s=%s,", o->key, rf->word[k]);
+    }
+    if (extra) at += (size_t)snprintf(text + at, at < cap ? cap - at : 0, "%s", extra);
+    return at < cap ? 0 : cli_error(k_cmd, "%s options: too long", ops->name) + 1;
+}
+
+/* The representation of kind the flags chose: --basis / --glossy's name (named), else one whose
+ * selecting flag was seen (--sh), else the table's default (none: NULL). An unknown name is refused
+ * listing the alternatives (also: the other words named_by takes, '|'-separated), and so are the
+ * flags of another representation of that kind ("--texel-measure applies to Haar wavelets, not
+ * --sh"). Returns 0, or 2 after saying why. */
+static int rep_choose(const rep_flags *rf, transfer_kind kind, const char *named, const char *named_by, const char *also,
+                      const transfer_ops **out) {
+    char how[128] = "";
+    *out = NULL;
+    if (named) {
+        *out = transfer_find(named);
+        if (!*out || (*out)->kind != kind) {
+            char names[256], w[300];
+            snprintf(names, sizeof names, "%s", also);
+            for (int i = 0; i < transfer_count(); i++)
+                if (transfer_at(i)->kind == kind)
+                    snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s", names[0] ? "|" : "", transfer_at(i)->name);
+            words_or(names, w, sizeof w);
+            return cli_error(k_cmd, "%s must be %s (got '%s')", named_by, w, named) + 1;
+        }
+        snprintf(how, sizeof how, "%s %s", named_by, named);
+    }
+    for (int k = 0; k < rf->n; k++)
+        if (rf->seen[k] && rf->opt[k]->selects && rf->ops[k]->kind == kind) {
+            if (*out && *out != rf->ops[k]) return cli_error(k_cmd, "%s and %s contradict each other", rf->opt[k]->flag, how) + 1;
+            *out = rf->ops[k];
+            snprintf(how, sizeof how, "%s", rf->opt[k]->flag);
+        }
+    if (!*out) *out = transfer_default(kind), snprintf(how, sizeof how, "the default %s", *out ? (*out)->name : "");
+    for (int k = 0; k < rf->n; k++)
+        if (rf->seen[k] && rf->ops[k]->kind == kind && rf->ops[k] != *out)
+            return cli_error(k_cmd, "%s applies to %s, not %s", rf->opt[k]->flag, rf->ops[k]->title, how) + 1;
+    return 0;
+}
+
+/* The command line's representations into pd: --basis / its flags / --basis-options, and --glossy /
+ * the view-dependent flags / --view-options; texts hold their options (they must outlive pd's use).
+ * Then pd checked as precompute will (every option of both). Returns 0, or 2 after saying why. */
+static int rep_desc(const rep_flags *rf, const char *basis, const char *basis_opts, const char *glossy, const char *view_opts,
+                    precompute_desc *pd, char (*texts)[1024]) {
+    const transfer_ops *lin, *view;
+    bool named_view = glossy && strcmp(glossy, "auto") && strcmp(glossy, "svd");
+    if (rep_choose(rf, TRANSFER_LINEAR, basis, "--basis", "", &lin) ||
+        rep_choose(rf, TRANSFER_VIEW, named_view ? glossy : NULL, "--glossy", "auto|svd", &view))
+        return 2;
+    if (rep_text(rf, lin, basis_opts, texts[0], sizeof texts[0]) || (view && rep_text(rf, view, view_opts, texts[1], sizeof texts[1])))
+        return 2;
+    pd->basis = basis || lin != transfer_default(TRANSFER_LINEAR) ? lin->name : NULL;
+    pd->basis_options = texts[0][0] ? texts[0] : NULL;
+    pd->glossy = !glossy || !strcmp(glossy, "auto") ? PRECOMPUTE_GLOSSY_AUTO : !strcmp(glossy, "svd") ? PRECOMPUTE_GLOSSY_SVD
+                                                                                                   : PRECOMPUTE_GLOSSY_VIEW;
+    pd->view = named_view ? view->name : NULL;
+    pd->view_options = view && texts[1][0] ? texts[1] : NULL;
+    prt_error err;
+    if (precompute_desc_check(pd, &err)) {
+        const char *m = strncmp(err.msg, "precompute: ", 12) ? err.msg : err.msg + 12;
+        return cli_error(k_cmd, "%s", m) + 1;
+    }
+    return 0;
+}
+
+/* The light prior's probe files (--light-prior's comma-separated list, already checked by
+ * precompute_desc_check) read before any work, so that a bad one is one line: each loaded as
+ * render's --probe is, with its warnings, and freed (the representation loads them again). Returns 0,
+ * or 1 after saying why. */
+static int check_prior_probes(const char *list) {
+    for (const char *s = list; *s;) {
+        size_t len = strcspn(s, ",");
+        char path[4096];
+        snprintf(path, sizeof path, "%.*s", (int)len, s);
+        prt_probe p;
+        if (cli_load_probe(k_cmd, path, NULL, &p)) return 1;
+        probe_free(&p);
+        s += len + (s[len] == ',');
+    }
     return 0;
 }
 
@@ -422,11 +462,13 @@ int cli_precompute(int argc, char **argv) {
     scene_desc sd = { .floor = -1 };
     precompute_desc pd = { 0 };
     bool quiet = false;
-    int param = BRDF_PARAM_GRID, sh_bands = 0, refine = 0, bounces_seen = 0;
-    const char *glossy = NULL, *select = NULL, *budget = NULL, *prior = NULL;
+    int param = BRDF_PARAM_GRID, refine = 0, bounces_seen = 0;
+    const char *glossy = NULL, *prior = NULL, *basis = NULL, *basis_opts = NULL, *view_opts = NULL;
     float refine_thr = -1;
-    bool texel = false, no_smooth = false, no_prior = false;
-    const cli_option opts[] = {
+    bool no_prior = false;
+    rep_flags rf;   /* the representations' flags */
+    memset(&rf, 0, sizeof rf);
+    cli_option opts[48 + REP_FLAGS] = {
         CLI_S("-o", &out),
         CLI_S("--material", &sd.material),
         CLI_S("--floor-material", &sd.floor_material),
@@ -447,20 +489,13 @@ int cli_precompute(int argc, char **argv) {
         CLI_I("--coeffs", &pd.N, 1, 24576),
         CLI_I("--quant", &pd.qbits, 8, 32),
         CLI_I("--vis-res", &pd.vis_res, 64, 256),
-        CLI_I("--sh", &sh_bands, 3, 10),
-        CLI_B("--texel-measure", &texel),
-        CLI_B("--no-smooth-faces", &no_smooth),
-        CLI_B("--no-refit", &pd.no_refit),
-        CLI_B("--box-texels", &pd.box_texels),
-        CLI_S("--select", &select),
-        CLI_S("--budget", &budget),
+        CLI_S("--basis", &basis),
+        CLI_S("--basis-options", &basis_opts),
         CLI_S("--light-prior", &prior),
         CLI_B("--no-light-prior", &no_prior),
         { .name = "--bounces", .kind = CLI_INT, .out = &pd.bounces, .lo = 0, .hi = PRT_MAX_BOUNCES, .set = &bounces_seen, .setval = 1 },
         CLI_S("--glossy", &glossy),
-        CLI_I("--lobes", &pd.vmf.lobes, 1, 4),   /* vmf.h VMFT_MAX_LOBES */
-        CLI_I("--view-level", &pd.vmf.level, 0, 6),
-        CLI_I("--lobe-samples", &pd.vmf.samples, 4, 4096),   /* transfer_vmf.c's range */
+        CLI_S("--view-options", &view_opts),
         CLI_I("--gather-res", &pd.gather_res, 4, 128),
         CLI_F("--bounce-threshold", &pd.bounce_threshold, 0, 1),
         CLI_I("--threads", &pd.nthreads, 1, 64),
@@ -468,31 +503,15 @@ int cli_precompute(int argc, char **argv) {
         CLI_F("--memory", &pd.memory_gb, 0.0001, 1e6),
         CLI_END,
     };
+    int nopts = 0;
+    while (opts[nopts].name) nopts++;
+    rep_flag_options(&rf, opts, nopts, (int)(sizeof opts / sizeof opts[0]));
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &in, 1, &npos);
     if (pr == 1) { help(); return 0; }
     if (pr) return 2;
     pd.param = (brdf_param)param;
-    if (sh_bands && texel) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
-    pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* README "Shadows" */
-    pd.smooth_faces = pd.measure == TRANSFER_MEASURE_SOLID_ANGLE && !no_smooth;
-    if (select && strcmp(select, "expected") && strcmp(select, "magnitude"))
-        return cli_error(k_cmd, "--select must be expected or magnitude (got '%s')", select) + 1;
-    if (select && !strcmp(select, "expected") && !pd.measure)
-        return cli_error(k_cmd, "--select expected needs Haar wavelets per steradian (not --texel-measure or --sh)") + 1;
-    pd.select = pd.measure && !(select && !strcmp(select, "magnitude")) ? TRANSPORT_SELECT_EXPECTED
-                                                                         : TRANSPORT_SELECT_MAGNITUDE;
-    if (budget_of(budget, sh_bands, &pd.budget)) return 2;
     if (prior && no_prior) return cli_error(k_cmd, "--light-prior and --no-light-prior contradict each other") + 1;
-    if (prior && pd.select != TRANSPORT_SELECT_EXPECTED)
-        return cli_error(k_cmd, "--light-prior weighs the expected-error selection: not with --select magnitude, "
-                                "--texel-measure or --sh") + 1;
-    if (sh_bands) {   /* --sh ORDER: the spherical-harmonics representation of that order */
-        pd.basis = "sh";
-        pd.basis_order = sh_bands;
-    }
-    if (glossy && !strcmp(glossy, "svd")) pd.glossy = PRECOMPUTE_GLOSSY_SVD;
-    else if (glossy && !strcmp(glossy, "vmf")) pd.glossy = PRECOMPUTE_GLOSSY_VMF;
-    else if (glossy && strcmp(glossy, "auto")) return cli_error(k_cmd, "--glossy must be auto, svd or vmf (got '%s')", glossy) + 1;
+    pd.light_prior = prior;
     /* --bounces 0 turns interreflections off (the library's 0 means its default, 3) */
     if (bounces_seen && pd.bounces == 0 && pd.force_bounces == 0) pd.force_bounces = -1;
     if (pd.qbits && pd.qbits != 8 && pd.qbits != 16 && pd.qbits != 32) return cli_error(k_cmd, "--quant must be 8, 16 or 32") + 1;
@@ -502,6 +521,8 @@ int cli_precompute(int argc, char **argv) {
     /* on when asked for by any refine flag; a threshold of 0 or --no-refine turns it off */
     if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0 || pd.refine_parts))
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
+    char texts[2][1024];   /* the representations' options texts; pd points at them until run returns */
+    if (rep_desc(&rf, basis, basis_opts, glossy, view_opts, &pd, texts)) return 2;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }
     if (!out) { cli_error(k_cmd, "no output file (-o OUT.prt)"); return 2; }
     /* the file, its checkpoint (written during the run) and every file the run reads, before any work */
@@ -519,6 +540,7 @@ int cli_precompute(int argc, char **argv) {
         prt_error err = { { 0 } };
         if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
     }
+    if (prior && check_prior_probes(prior)) return 1;
     /* any refine flag replaces the scene's "refine" (scene.h), --no-refine included */
     const bool scene_refine = refine == 0 && refine_thr < 0 && pd.refine_budget == 0 && !pd.refine_parts;
     return run(in, out, &sd, &pd, quiet, prior, no_prior, scene_refine);

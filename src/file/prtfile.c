@@ -10,11 +10,11 @@
  *     META  resolutions, statistics, effects plan
  *     MESH  positions, normals, triangles, per-vertex material, floor, bounds, load stats
  *     MATL  per material: BRDF parameters, spec string, factorization (K, maps, sigma)
- *     one per transfer, under its representation's tag (HAAR, SHRM; transfer.h), in the
- *     order of d->transfers: written, read and validated by that module
- *     LITE  optional (issue 11): the scene's local lights (lights.h), written only when
- *           there are some, so files without lights are byte for byte as before and
- *           older files (none) read with no lights; read back and validated (light_validate)
+ *     one per transfer, under its representation's tag (transfer.h), in the order of
+ *     d->transfers: written, read and validated by that representation's ops
+ *     LITE  optional: the scene's local lights (lights.h), written only when there are some,
+ *           so a scene without lights writes no section and a file without one reads with no
+ *           lights; read back and validated (light_validate)
  * Scalars are written field by field (never whole structs), so padding and
  * layout of the C structs do not leak into the format (prtio.h).
  *
@@ -30,8 +30,8 @@
  * against each material's K, coefficient and run offsets, blocks, ascending
  * indices) and that every float is finite. A CRC only catches accidents; these
  * checks are what make a crafted file fail with one line instead of crashing the
- * renderer. A sparse transfer keeps its runs and coefficients in windows of the mapped
- * file (transfer_sparse.c): the largest arrays are never copied. */
+ * renderer. A linear transfer keeps its runs and coefficients in windows of the mapped
+ * file (linear.h): the largest arrays are never copied. */
 #include "prtfile.h"
 #include "check.h"
 #include "prtio.h"
@@ -593,10 +593,10 @@ size_t prt_data_mapped_bytes(const prt_data *d) {
     return n;
 }
 
-/* The first transfer with a light kernel, or NULL (see prtfile.h). */
+/* The first linear transfer, or NULL (see prtfile.h). */
 const prt_transfer *prt_data_transfer(const prt_data *d) {
     for (int i = 0; i < d->ntransfers; i++)
-        if (d->transfers[i].ops && d->transfers[i].ops->light_range) return &d->transfers[i];
+        if (d->transfers[i].ops && d->transfers[i].ops->kind == TRANSFER_LINEAR) return &d->transfers[i];
     return NULL;
 }
 
@@ -606,7 +606,7 @@ prt_transfer *prt_data_add_transfer(prt_data *d, const transfer_ops *ops, const 
     prt_transfer *tr = &d->transfers[d->ntransfers++];
     memset(tr, 0, sizeof *tr);
     tr->ops = ops;
-    if (cfg) tr->cfg = *cfg;
+    if (cfg) tr->cfg = *cfg;   /* NULL: zero bytes, filled by ops->read */
     tr->materials = materials;
     return tr;
 }

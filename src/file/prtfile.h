@@ -15,19 +15,20 @@
  * the same on bytes already in memory (a name stands for the path in its errors).
  * prtfile_write writes to a temporary file and renames it.
  *
- * Mapped loading (issue 13): prtfile_read maps the file instead of reading it, folds the
- * CRC on every core, and a sparse transfer's runs and coefficients (nearly all of a large
- * file) stay in the file's pages as a read-only window per transport set (its data_map)
- * rather than being copied; the writer pads them to 64-byte offsets so that they can.
+ * Mapped loading: prtfile_read maps the file instead of reading it, folds the CRC on every
+ * core, and a linear transfer's runs and coefficients (nearly all of a large file) stay in
+ * the file's pages as a read-only window per transport set (its data_map) rather than being
+ * copied; the writer pads them to 64-byte offsets so that they can.
  * The checks are the same. The windows' pages are the page cache's: shared by every process
  * that loads the file, never copied, dropped by the kernel under memory pressure and read
  * back; the CRC's pass over the whole file leaves none resident. prtfile_read_memory, an
- * older file whose arrays fall on odd offsets, or a file mmap refuses, copy as before: the
- * same data.
+ * file whose arrays fall on odd offsets (unpadded, version 2), or a file mmap refuses, are
+ * copied: the same data.
  * A loaded file may be replaced (prt writes by rename) but must not be truncated in place.
  *
  * Ownership: prt_data owns everything in it, mappings included; prt_data_free frees it
- * (each transfer through its ops->release). */
+ * (each transfer through its ops->release). Nothing here names a representation: each
+ * transfer's section is its ops' (transfer.h). */
 #ifndef PRT_PRTFILE_H
 #define PRT_PRTFILE_H
 #include "common.h"
@@ -43,11 +44,11 @@
 #define PRTFILE_VERSION 3
 #define PRTFILE_VERSION_OLDEST 2
 #define PRT_MAX_BOUNCES 8
-#define PRT_MAX_PASSES 16   /* direct + bounces + the vMF stages, with room */
+#define PRT_MAX_PASSES 16   /* direct + bounces + a view-dependent transfer's stages, with room */
 
 /* One pass of a precompute, as the effects plan estimated it and as it ran (not stored). */
 typedef struct prt_pass_time {
-    char name[24];      /* "direct", "bounce 1", "vmf diffuse lobes", "vmf direct", "vmf pass 1" ... */
+    char name[24];      /* "direct", "bounce 1", then a view-dependent transfer's stages as it names them */
     double est_cpu;     /* the plan's estimate: CPU seconds over every thread */
     double est;         /* the same in wall seconds at the sample's threads and share of a core */
     double cpu, wall;   /* measured (0 and ran false while it has not run) */
@@ -56,7 +57,10 @@ typedef struct prt_pass_time {
 
 typedef struct prt_stats {
     double t_refine;            /* adaptive refinement (refine.h; 0 when off; not stored: the plan line has it) */
-    double t_vmf;               /* the vmf transfer's passes (0 without one; not stored: the plan line has it) */
+    double t_transfer[PRT_MAX_TRANSFERS];  /* transfer i's own work beyond the linear passes (a view-dependent
+                                 * transfer's passes, a linear one's begin); 0: none (not stored) */
+    const char *t_transfer_name[PRT_MAX_TRANSFERS];  /* what that time is, as its representation names it
+                                 * ("light prior"; NULL for a view-dependent transfer's passes) */
     double t_brdf;              /* BRDF tabulation + SVD */
     double t_visibility;        /* ray casting */
     double t_transport;         /* transport evaluation, Haar, selection, quantization */
@@ -93,11 +97,10 @@ void prt_data_free(prt_data *d);
 /* Bytes of d that prtfile_read left in the file's pages (the transport sets' windows, data_map)
  * instead of copying: 0 for data read from memory or built by a precompute. */
 size_t prt_data_mapped_bytes(const prt_data *d);
-/* The sparse transfer: the first with a light kernel (haar or sh; ops->light_range), or NULL when
- * there is none (a file holding only a vmf transfer, as its tests write: valid, but the runtimes
- * refuse it with one line). Precompute makes exactly one, covering every material (a material on
- * the vMF path keeps only its kd/pi factor there, its specular lobes being in the vmf transfer).
- * Code that shades iterates d->transfers instead. */
+/* The linear transfer: the first of kind TRANSFER_LINEAR, or NULL when there is none (a file
+ * holding only a view-dependent transfer, as its tests write: valid, but the runtimes refuse it
+ * with one line). Precompute makes exactly one, covering every material (a material on a
+ * view-dependent path keeps only its kd/pi factor there). Code that shades iterates d->transfers. */
 const prt_transfer *prt_data_transfer(const prt_data *d);
 /* Appends a transfer of ops with cfg (NULL: defaults unfilled, zero) for materials (bit i:
  * material i) and returns it, its transport sets empty; the caller fills them. PRT_CHECKs room. */

@@ -164,6 +164,11 @@ prt_checkpoint *ckpt_open(const char *path, uint64_t key, bool resume, int nvert
     return c;
 }
 
+int ckpt_transfer_pass(int slot) {
+    PRT_CHECK(slot >= 1 && slot < PRT_MAX_TRANSFERS);
+    return CKPT_TRANSFER_FIRST + (slot - 1) * TRANSFER_CKPT_PASSES;
+}
+
 int ckpt_count(const prt_checkpoint *c, int pass) { return c && pass >= 0 && pass < CKPT_MAX_PASSES ? c->count[pass] : 0; }
 
 /* Bytes of one stored value channel: the quantized q of 8 / 16 bits, or the float. */

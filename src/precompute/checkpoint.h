@@ -11,9 +11,12 @@
  *     if (ckpt_close(ck, &err)) ...                         // a failed write is reported here
  *     remove(path) once the output file is written           // (the CLI does)
  *
- * Passes: 0 is the direct pass (visibility + transport, Eq. 3), b = 1..PRT_MAX_BOUNCES the
- * gathering pass b (Eq. 8), CKPT_PASS_VMF + p the vMF transfer's pass p (vmfpass.c: per vertex
- * its stored slices, per slice its gathered lobes, as opaque blobs). A pass's records are the staged vectors of its vertices (transport.h:
+ * Passes: 0 is the linear transfer's direct pass (visibility + transport, Eq. 3), b =
+ * 1..PRT_MAX_BOUNCES its gathering pass b (Eq. 8); a view-dependent transfer in slot s >= 1 of
+ * prt_data.transfers numbers its own passes from ckpt_transfer_pass(s) (transfer.h:
+ * transfer_precompute_in.ckpt_pass, TRANSFER_CKPT_PASSES of them), recording opaque blobs (the vMF
+ * passes: per vertex its stored slices, per slice its gathered lobes). A linear pass's records are
+ * the staged vectors of its vertices (transport.h:
  * the kept indices, values and scales, exactly what transport_store staged), so restoring them
  * and finishing the set gives the same bytes as computing them. Every pass is deterministic per
  * vertex (a vertex's result depends on the scene, the options and the previous pass only, never
@@ -43,10 +46,14 @@
 #ifndef PRT_CHECKPOINT_H
 #define PRT_CHECKPOINT_H
 #include "common.h"
+#include "transfer.h"
 #include "transport.h"
 
 #define CKPT_INTERVAL_PERCENT 2     /* flush every 2% of the vertices of a pass */
-#define CKPT_MAX_PASSES 16          /* pass 0 (direct) and the gathering passes */
+#define CKPT_TRANSFER_FIRST 10      /* the first id after the linear passes 0..PRT_MAX_BOUNCES */
+#define CKPT_MAX_PASSES (CKPT_TRANSFER_FIRST + (PRT_MAX_TRANSFERS - 1) * TRANSFER_CKPT_PASSES)
+/* The first pass id of the view-dependent transfer in slot s (1 <= s < PRT_MAX_TRANSFERS). */
+int ckpt_transfer_pass(int slot);
 
 typedef struct prt_checkpoint prt_checkpoint;
 
@@ -77,9 +84,8 @@ int ckpt_count(const prt_checkpoint *c, int pass);
 int ckpt_restore(prt_checkpoint *c, int pass, prt_transport *t, uint8_t *done, ckpt_vstats *vs, prt_error *err);
 /* Appends vertex v of pass (its staged vectors in t; vs may be NULL). Thread-safe. */
 void ckpt_add(prt_checkpoint *c, int pass, const prt_transport *t, int v, const ckpt_vstats *vs);
-/* Passes whose results are not transport sets (the vMF passes: vmfpass.c) record opaque blobs:
+/* Passes whose results are not transport sets (a view-dependent transfer's) record opaque blobs:
  * item (a vertex or slice number), len bytes. Thread-safe, like ckpt_add. */
-#define CKPT_PASS_VMF 10            /* vMF direct pass; its gathering pass p is CKPT_PASS_VMF + p */
 void ckpt_add_blob(prt_checkpoint *c, int pass, uint32_t item, const void *data, uint32_t len);
 /* Calls fn for every blob of pass; fn returns 0, or -1 when the blob does not fit (a corrupt file).
  * Returns how many, or -1 with err. */

@@ -27,9 +27,9 @@
  *     timed, their hits and neighbours' coefficients counted at measured costs,
  *     and each vector stored twice (the pass's, the sum's) at what the sample's
  *     stores took;
- *   - the vMF stages (vmfpass_estimate): the real direct and gathering code timed
- *     on a few dozen of the transfer's vertices and their slices, times the
- *     vertex and stored-slice counts.
+ *   - a view-dependent transfer's stages (its estimate op: vMF times its real
+ *     direct and gathering code on a few dozen of the transfer's vertices and
+ *     their slices, times the vertex and stored-slice counts).
  * Local lights add no pass: they are shaded at runtime. What each pass then took
  * is set beside the estimate in out->stats.pass and the plan's last line.
  *
@@ -43,15 +43,19 @@
  * g_k being the light map at the texel centre's local direction (it is smooth
  * at the 48x48 map resolution). A Lambertian factor is constant, so its value
  * is looked up once per material. Each of the K x 3 cubes is projected by the
- * transfer representation the plan chose (transfer.h: Haar per face, or SH) and
- * handed to its compress op, which keeps the N largest coefficients and
- * quantizes them. The ops are called once per vector channel, never per texel.
+ * linear representation (transfer.h: its project_transport) and handed to its
+ * compress op, which keeps its N best coefficients and quantizes them. The ops
+ * are called once per vector channel, never per texel. Nothing here names a
+ * representation: the plan asks them (configure, begin, fit, estimate) and the
+ * passes call their ops.
  *
  * Stages (precompute_run): refine (optional adaptive refinement where visibility changes,
- * refine.h: it must come first, since every later stage sizes per-vertex arrays), factor (BRDF factorization, the plan's BRDF lines),
- * choose (the representation per material), setup (tables, visibility scene,
+ * refine.h: it must come first, since every later stage sizes per-vertex arrays), factor
+ * (BRDF factorization, the plan's BRDF lines), choose (the path per material, the
+ * transfers, the linear representation's begin), setup (tables, visibility scene,
  * scratch), plan (the sample, the rest of the plan, printed), direct (the rest of
- * the pass), bounces (interreflections), finish (the transfer into out).
+ * the pass), bounces (interreflections), view (the view-dependent transfer's passes),
+ * finish (the transfers into out).
  *
  * Timing: each thread measures its time inside vis_cube and its total busy
  * time; the pass's wall time is split between "visibility" and "transport" in
@@ -62,17 +66,10 @@
 #include "checkpoint.h"
 #include "cubemap.h"
 #include "gather.h"
-#include "haar.h"
-#include "lobefit.h"
-#include "policy.h"
-#include "prior.h"
 #include "refine.h"
-#include "refit.h"
 #include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
-#include "vmf.h"
-#include "vmfpass.h"
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -90,8 +87,8 @@
  * 12 planes' same texel would fall in one L1 set; 32 floats of padding spread them out. */
 #define PC_TSTRIDE (CUBE_TEXELS + 32)
 /* Gathering's costs that the plan counts rather than times (pc_estimate_gather), CPU time measured
- * with per-phase clocks in gather_vertex over the demo, the teapot and the chrome spheres (2026-11,
- * this 2-core Xeon under load; per thread): combining one hit into its neighbours' weights 51-113 ns,
+ * with per-phase clocks in gather_vertex over the demo, the teapot and the chrome spheres (a 2-core
+ * Xeon under load; per thread): combining one hit into its neighbours' weights 51-113 ns,
  * decoding one coefficient into one accumulator lane 0.44-0.64 ns (the box room's 3,400 distinct
  * neighbours a vertex against the demo's 550: a larger weight table, more cache misses). Ray
  * casting and the store are timed on the run itself. */
@@ -137,14 +134,14 @@ typedef struct pc_ctx {
     const brdf_factor *factors;
     float lambert_g[PRT_MAX_MATERIALS][3];   /* constant light map of a Lambertian factor */
     prt_transport *t;
-    const transfer_ops *ops;        /* the representation (transfer.h) */
+    const transfer_linear *lin;     /* the linear representation's ops (transfer.h) */
     const transfer_config *cfg;
     uint64_t materials;             /* materials it shades (the others get no vectors) */
     int vres, ss;
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
-    const prior_rays *rays; /* NULL, or the light-weighted texels (prior.h) */
+    const transfer_texel_rays *rays; /* NULL, or the texels integrated along rays (the representation's) */
     const int *order;       /* vertices to process, indexed by the parallel-for range */
     pc_scratch *scratch;    /* [nthreads] */
     /* per vertex, so that the file's statistics are summed in vertex order whatever the threads
@@ -231,21 +228,22 @@ static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
     }
 }
 
-/* The light-weighted texels (prior.h): a_j = Omega_j / M sum over its M rays w_m of V(w_m) max(n.w_m, 0),
+/* The texels the representation integrates along rays (transfer.h: transfer_texel_rays):
+ * a_j = Omega_j / M sum over its M rays w_m of V(w_m) max(n.w_m, 0),
  * Eq. 3 integrated over texel j against the light inside it rather than over its area, so that L_j a_j
  * is the integral of L V (n.w) where the light is the prior's. The rays are counted in vs. */
 static void pc_weighted_texels(const pc_ctx *c, pc_scratch *s, const float p[3], const float n[3], ckpt_vstats *vs) {
     for (int k = 0; k < c->rays->n; k++) {
-        uint8_t open[PRIOR_RAYS];
+        uint8_t open[TRANSFER_RAYS];
         const float (*d)[3] = c->rays->dir[k];
-        long nt = vis_open_many(c->vs, p, n, &d[0][0], PRIOR_RAYS, open), opened = 0;
+        long nt = vis_open_many(c->vs, p, n, &d[0][0], TRANSFER_RAYS, open), opened = 0;
         double a = 0;
-        for (int m = 0; m < PRIOR_RAYS; m++)   /* open only where traced, so n.w > 0 there */
+        for (int m = 0; m < TRANSFER_RAYS; m++)   /* open only where traced, so n.w > 0 there */
             if (open[m]) {
                 a += n[0] * d[m][0] + n[1] * d[m][1] + n[2] * d[m][2];
                 opened++;
             }
-        s->acc[c->rays->texel[k]] = (float)(a * c->rays->omega[k] / PRIOR_RAYS);
+        s->acc[c->rays->texel[k]] = (float)(a * c->rays->omega[k] / TRANSFER_RAYS);
         vs->traced += nt;
         vs->hits += nt - opened;
     }
@@ -298,7 +296,7 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K, ckpt_vstats *
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++)
-            c->ops->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
+            c->lin->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
         /* |vector|^2 for the error statistics: 8 independent float accumulators (no dependency
          * chain; the vector length is a multiple of 8), summed in double */
         float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
@@ -310,7 +308,7 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K, ckpt_vstats *
         double norm2 = 0;
         for (int q = 0; q < 8; q++) norm2 += p8[q];
         double ts = pc_cpu_now();
-        double e2 = c->ops->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
+        double e2 = c->lin->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         s->t_store += pc_cpu_now() - ts;
         s->n_store++;
         if (norm2 > 0) {
@@ -478,80 +476,57 @@ static double pc_estimate_gather(const prt_mesh *m, const vis_scene *vs, const b
     return count ? secs / count : 0;
 }
 
-/* The vmf representation when the table has one that can precompute, else NULL. */
-static const transfer_ops *pc_vmf_ops(void) {
-    const transfer_ops *ops = transfer_find("vmf");
-    return ops && ops->precompute && ops->shade_vertices ? ops : NULL;
-}
+/* The representations a desc names, configured (pc_check_desc). */
+typedef struct pc_reps {
+    const transfer_ops *lops;   /* the linear one */
+    const transfer_ops *vops;   /* the view-dependent one, or NULL: none */
+    transfer_setup lsetup;      /* what the linear one was configured from (its begin reads it again) */
+    transfer_config lcfg, vcfg;
+} pc_reps;
 
-/* A light prior (prior.h) weighs the expected-error selection of Haar wavelets per steradian only;
- * its weights must be finite and not negative. Returns 0 or -1. */
-static int pc_check_prior(const precompute_desc *d, prt_error *err) {
-    if (!d->light_prior) return 0;
-    if (d->select != TRANSPORT_SELECT_EXPECTED || d->measure != TRANSFER_MEASURE_SOLID_ANGLE ||
-        (d->basis && strcmp(d->basis, "haar")))
-        return prt_fail(err, "precompute: a light prior needs the expected-error selection of Haar wavelets per steradian");
-    for (int i = 0; i < CUBE_TEXELS; i++)
-        for (int ch = 0; ch < 3; ch++)
-            if (!(d->light_prior[i][ch] >= 0 && isfinite(d->light_prior[i][ch])))
-                return prt_fail(err, "precompute: light prior weight %d (channel %d) is %g", i, ch, d->light_prior[i][ch]);
-    return 0;
-}
-
-/* Light-weighted texels (prior.h) must name texels of the lighting cube, with finite solid angles
- * and unit directions. Returns 0 or -1. */
-static int pc_check_rays(const prior_rays *pr, prt_error *err) {
-    if (!pr) return 0;
-    if (pr->n < 0 || pr->n > PRIOR_RAY_TEXELS) return prt_fail(err, "precompute: %d light-weighted texels", pr->n);
-    for (int k = 0; k < pr->n; k++) {
-        if (pr->texel[k] < 0 || pr->texel[k] >= CUBE_TEXELS || !(pr->omega[k] > 0 && pr->omega[k] < 1))
-            return prt_fail(err, "precompute: light-weighted texel %d (texel %d, solid angle %g)", k, pr->texel[k], pr->omega[k]);
-        for (int m = 0; m < PRIOR_RAYS; m++) {
-            const float *d = pr->dir[k][m];
-            if (!(fabsf(d[0] * d[0] + d[1] * d[1] + d[2] * d[2] - 1) < 1e-3f))
-                return prt_fail(err, "precompute: light-weighted texel %d's ray %d is not a unit direction", k, m);
-        }
+/* desc.basis (NULL: the default linear one) and desc.view (NULL: the default view-dependent one,
+ * "none": none) looked up, and each configured from its options. Returns 0 or -1. */
+static int pc_configure(const precompute_desc *d, pc_reps *rp, prt_error *err) {
+    char names[256];
+    rp->lops = d->basis ? transfer_find(d->basis) : transfer_default(TRANSFER_LINEAR);
+    if (!rp->lops || rp->lops->kind != TRANSFER_LINEAR) {
+        transfer_names(TRANSFER_LINEAR, names, sizeof names);
+        return prt_fail(err, "precompute: unknown basis '%s' (one of %s)", d->basis ? d->basis : "(default)", names);
     }
+    bool none = d->view && !strcmp(d->view, "none");
+    rp->vops = none ? NULL : d->view ? transfer_find(d->view) : transfer_default(TRANSFER_VIEW);
+    if (d->view && !none && (!rp->vops || rp->vops->kind != TRANSFER_VIEW)) {
+        transfer_names(TRANSFER_VIEW, names, sizeof names);
+        return prt_fail(err, "precompute: unknown view-dependent representation '%s' (one of %s, none)", d->view, names);
+    }
+    if (d->glossy == PRECOMPUTE_GLOSSY_VIEW && !rp->vops)
+        return prt_fail(err, "precompute: the view path was asked for, but there is no view-dependent representation");
+    rp->lsetup = (transfer_setup){ .options = d->basis_options, .N = d->N, .qbits = d->qbits, .light_prior = d->light_prior,
+                                   .light_prior_scene = d->light_prior_scene };
+    prt_error e2;
+    if (rp->lops->configure(&rp->lsetup, &rp->lcfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
+    transfer_setup vs = { .options = d->view_options };
+    memset(&rp->vcfg, 0, sizeof rp->vcfg);
+    if (rp->vops && rp->vops->configure(&vs, &rp->vcfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
     return 0;
 }
 
-/* Validates desc and fills defaults into *d. Returns 0 or -1. */
-static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_error *err) {
+/* Validates desc and fills defaults into *d, the representations into *rp. Returns 0 or -1. */
+static int pc_check_desc(const precompute_desc *in, precompute_desc *d, pc_reps *rp, prt_error *err) {
     *d = in ? *in : (precompute_desc){ 0 };
-    if (d->N == 0) d->N = 128;
-    if (d->N < 1 || d->N > CUBE_TEXELS) return prt_fail(err, "precompute: N = %d is out of range 1..%d", d->N, CUBE_TEXELS);
     if (d->max_terms == 0) d->max_terms = 4;
     if (d->max_terms < 1 || d->max_terms > BRDF_MAX_SIGMA)
         return prt_fail(err, "precompute: max_terms = %d is out of range 1..%d", d->max_terms, BRDF_MAX_SIGMA);
     if (!(d->term_error >= 0 && d->term_error < 1))
         return prt_fail(err, "precompute: term_error = %g is out of range [0, 1)", d->term_error);
-    if (d->qbits == 0) d->qbits = 8;
-    if (d->qbits != 8 && d->qbits != 16 && d->qbits != 32)
-        return prt_fail(err, "precompute: qbits = %d (must be 8, 16 or 32)", d->qbits);
     if (d->vis_res == 0) d->vis_res = 128;
     if (d->vis_res != 64 && d->vis_res != 128 && d->vis_res != 256)
         return prt_fail(err, "precompute: vis_res = %d (must be 64, 128 or 256)", d->vis_res);
-    if (d->select != TRANSPORT_SELECT_MAGNITUDE && d->select != TRANSPORT_SELECT_EXPECTED)
-        return prt_fail(err, "precompute: select = %d (must be %d, magnitude, or %d, expected error)", d->select,
-                        TRANSPORT_SELECT_MAGNITUDE, TRANSPORT_SELECT_EXPECTED);
-    if (d->budget < PRECOMPUTE_BUDGET_AUTO || d->budget > TRANSPORT_BUDGET_RELATIVE)
-        return prt_fail(err, "precompute: budget = %d (must be -1 auto, 0 per vector, 1 shared or 2 shared relative)", d->budget);
-    const transfer_ops *bops = d->basis ? transfer_find(d->basis) : NULL;
-    if (d->basis && (!bops || !bops->project_transport)) {
-        /* only the projection bases (the sparse family); vMF lobes are the glossy path's, not a basis */
-        char names[128] = "";
-        for (int i = 0, n = 0; i < transfer_count() && n < (int)sizeof names; i++)
-            if (transfer_at(i)->project_transport)
-                n += snprintf(names + n, sizeof names - (size_t)n, "%s%s", n ? ", " : "", transfer_at(i)->name);
-        return prt_fail(err, "precompute: unknown basis '%s' (one of %s)", d->basis, names);
-    }
     if (d->bounces < 0 || d->bounces > PRT_MAX_BOUNCES)
         return prt_fail(err, "precompute: bounces = %d is out of range 0..%d", d->bounces, PRT_MAX_BOUNCES);
     if (d->bounces == 0) d->bounces = PRECOMPUTE_DEFAULT_BOUNCES;
-    if (d->glossy < PRECOMPUTE_GLOSSY_AUTO || d->glossy > PRECOMPUTE_GLOSSY_VMF)
+    if (d->glossy < PRECOMPUTE_GLOSSY_AUTO || d->glossy > PRECOMPUTE_GLOSSY_VIEW)
         return prt_fail(err, "precompute: unknown glossy path %d", (int)d->glossy);
-    if (d->glossy == PRECOMPUTE_GLOSSY_VMF && !pc_vmf_ops())
-        return prt_fail(err, "precompute: the vMF path was asked for, but this build has no vmf transfer representation");
     if (d->gather_res == 0) d->gather_res = 32;
     if (d->gather_res < 4 || d->gather_res > 256)
         return prt_fail(err, "precompute: gather_res = %d is out of range 4..256", d->gather_res);
@@ -567,7 +542,27 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, prt_erro
     if (d->refine_budget < 0) return prt_fail(err, "precompute: refine_budget = %d is negative", d->refine_budget);
     if (d->param != BRDF_PARAM_GRID && d->param != BRDF_PARAM_POLAR)
         return prt_fail(err, "precompute: unknown BRDF parameterization %d", (int)d->param);
-    return pc_check_prior(d, err) || pc_check_rays(d->prior_rays, err) ? -1 : 0;
+    return pc_configure(d, rp, err);
+}
+
+int precompute_desc_check(const precompute_desc *desc, prt_error *err) {
+    precompute_desc d;
+    pc_reps rp;
+    return pc_check_desc(desc, &d, &rp, err);
+}
+
+int precompute_desc_apply_scene(precompute_desc *d, const prt_scene *s, unsigned keys, prt_error *err) {
+    if (keys & ~PRECOMPUTE_SCENE_ALL) return prt_fail(err, "precompute: unknown scene keys 0x%x", keys);
+    if ((keys & PRECOMPUTE_SCENE_LIGHT_PRIOR) && !d->light_prior && s->light_prior[0]) {
+        d->light_prior = s->light_prior;
+        d->light_prior_scene = true;
+    }
+    if ((keys & PRECOMPUTE_SCENE_REFINE) && s->refine.on) {
+        d->refine_threshold = s->refine.threshold > 0 ? s->refine.threshold : REFINE_THRESHOLD;
+        d->refine_budget = s->refine.budget;
+        d->refine_parts = s->refine.models ? REFINE_ALL : 0;
+    }
+    return 0;
 }
 
 /* Checks that the scene can be precomputed. Returns 0 or -1. */
@@ -597,8 +592,11 @@ typedef struct pc_run {
     char *plan;
     size_t pcap;
     int nthreads, kmax;
-    prt_transfer *tr;           /* the sparse transfer (every material; in out, filled by finish) */
-    prt_transfer *vtr;          /* the vmf transfer (the materials on the vMF path), or NULL */
+    pc_reps rp;                 /* the representations (pc_check_desc) */
+    char *prior;                /* desc.light_prior copied (it may point into the scene, which moves) */
+    prt_transfer *tr;           /* the linear transfer (every material; in out, filled by finish) */
+    transfer_linear_run lrun;   /* its begin's decisions for this run (its end frees them) */
+    prt_transfer *vtr;          /* the view-dependent transfer (the materials on the view path), or NULL */
     vis_scene *vs;
     float *vdir, *vdw, *ldir;   /* texel direction tables (pc_ctx) */
     int *order, *nvec;
@@ -617,7 +615,6 @@ typedef struct pc_run {
     double wall_per_cpu;        /* the sample's wall seconds per CPU second: the estimates' conversion */
     bool plan_bounces;
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
-    refit_tables *refit;        /* the prior's refit (pc_refit), or NULL */
 } pc_run;
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
@@ -670,51 +667,41 @@ static int pc_factor(pc_run *r, prt_error *err) {
     return 0;
 }
 
-/* Mean of n floats. */
-static double pc_mean(const float *x, int n) {
-    double s = 0;
-    for (int i = 0; i < n; i++) s += x[i];
-    return n > 0 ? s / n : 0;
-}
-
-/* See precompute.h: the path of one material with the plan's reason. Auto measures both in the lobe
- * fit's measure (relative L2 error over the whole slice f cos, mean over view elevations; lobefit.h):
- * the SVD at f's K, and one vMF lobe per view. */
-int precompute_choose_path(const brdf_params *p, const brdf_factor *f, precompute_glossy mode, bool have_vmf,
-                           precompute_path *path, char *why, size_t cap, prt_error *err) {
+/* See precompute.h: the path of one material with the plan's reason. Auto measures both errors in
+ * the view-dependent representation's own measure (its fit op): the SVD at f's K, and its own. */
+int precompute_choose_path(const brdf_params *p, const brdf_factor *f, precompute_glossy mode, const transfer_ops *linear,
+                           const transfer_ops *view, const transfer_config *vcfg, precompute_path *path, char *why, size_t cap,
+                           prt_error *err) {
     const char *name = brdf_type_name(p->type);
     *path = PRECOMPUTE_PATH_SVD;
     if (f->lambertian || p->type == BRDF_LAMBERT)
         return *path = PRECOMPUTE_PATH_LAMBERT, snprintf(why, cap, "the sparse transfer, K = 1 (Lambertian)"), 0;
     if (mode == PRECOMPUTE_GLOSSY_SVD) return snprintf(why, cap, "SVD, K = %d (asked for: glossy svd)", f->K), 0;
-    if (!lobefit_supported(p->type))
-        return snprintf(why, cap, "SVD, K = %d (%s: %s)", f->K, name,
-                        p->type == BRDF_AS ? "anisotropic, and no ASG fit exists here" : "no lobe fit for this model"), 0;
-    if (!have_vmf) return snprintf(why, cap, "SVD, K = %d (this build has no vmf transfer representation)", f->K), 0;
-    lobefit_table t;
-    if (lobefit_fit(p, &(lobefit_desc){ 0 }, &t, err)) return -1;
-    float e[LOBEFIT_MAX_VIEWS];
-    lobefit_factor_error(&t, p, f, f->K, e);
-    double svd = pc_mean(e, t.views), lobe = t.err_whole_mean;
-    const char *measure = "rel. L2 over the whole slice f cos";
-    if (mode == PRECOMPUTE_GLOSSY_VMF) {
-        *path = PRECOMPUTE_PATH_VMF;
-        snprintf(why, cap, "Haar K = 1 diffuse + vMF specular (asked for: glossy vmf; SVD K = %d %.1f%%, one vMF lobe %.1f%%, %s)",
-                 f->K, 100 * svd, 100 * lobe, measure);
+    if (!view) return snprintf(why, cap, "SVD, K = %d (no view-dependent transfer representation)", f->K), 0;
+    transfer_fit fit;
+    if (view->view->fit(vcfg, p, f, &fit, err)) return -1;
+    if (!fit.fits) return snprintf(why, cap, "SVD, K = %d (%s: %s)", f->K, name, fit.why), 0;
+    double svd = fit.svd_err, own = fit.err;
+    const char *lin = linear ? linear->label : "the linear transfer";
+    if (mode == PRECOMPUTE_GLOSSY_VIEW) {
+        *path = PRECOMPUTE_PATH_VIEW;
+        snprintf(why, cap, "%s K = 1 diffuse + %s specular (asked for: glossy %s; SVD K = %d %.1f%%, %s %.1f%%, %s)", lin,
+                 view->label, view->name, f->K, 100 * svd, fit.what, 100 * own, fit.measure);
     } else if (svd <= PRECOMPUTE_SVD_SMALL) {
-        snprintf(why, cap, "SVD, K = %d: its error %.1f%% <= %.0f%% (one vMF lobe %.1f%%; %s)", f->K, 100 * svd,
-                 100 * PRECOMPUTE_SVD_SMALL, 100 * lobe, measure);
-    } else if (lobe >= svd) {
-        snprintf(why, cap, "SVD, K = %d: error %.1f%%, but one vMF lobe is no better (%.1f%%; %s)", f->K, 100 * svd, 100 * lobe, measure);
+        snprintf(why, cap, "SVD, K = %d: its error %.1f%% <= %.0f%% (%s %.1f%%; %s)", f->K, 100 * svd, 100 * PRECOMPUTE_SVD_SMALL,
+                 fit.what, 100 * own, fit.measure);
+    } else if (own >= svd) {
+        snprintf(why, cap, "SVD, K = %d: error %.1f%%, but %s is no better (%.1f%%; %s)", f->K, 100 * svd, fit.what, 100 * own,
+                 fit.measure);
     } else {
-        *path = PRECOMPUTE_PATH_VMF;
-        snprintf(why, cap, "Haar K = 1 diffuse + vMF specular: SVD K = %d error %.1f%% > %.0f%%, one vMF lobe %.1f%% (%s)", f->K,
-                 100 * svd, 100 * PRECOMPUTE_SVD_SMALL, 100 * lobe, measure);
+        *path = PRECOMPUTE_PATH_VIEW;
+        snprintf(why, cap, "%s K = 1 diffuse + %s specular: SVD K = %d error %.1f%% > %.0f%%, %s %.1f%% (%s)", lin, view->label,
+                 f->K, 100 * svd, 100 * PRECOMPUTE_SVD_SMALL, fit.what, 100 * own, fit.measure);
     }
     return 0;
 }
 
-/* Material i on the vMF path: its factor becomes the K = 1 factor of kd/pi alone (the sparse transfer
+/* Material i on the view path: its factor becomes the K = 1 factor of kd/pi alone (the linear transfer
  * then holds the diffuse part), and the constant light map of it. Returns 0 or -1. */
 static int pc_diffuse_factor(pc_run *r, int i, prt_error *err) {
     brdf_params lp = { .type = BRDF_LAMBERT };
@@ -731,65 +718,37 @@ static int pc_diffuse_factor(pc_run *r, int i, prt_error *err) {
     return 0;
 }
 
-/* The vmf transfer for the materials in mask, configured from desc.vmf, and its plan line. Returns 0 or -1. */
-static int pc_add_vmf(pc_run *r, uint64_t mask, prt_error *err) {
-    const transfer_ops *ops = pc_vmf_ops();
-    PRT_CHECK(ops != NULL);
-    transfer_config cfg = r->d.vmf;
-    prt_error e2;
-    if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
-    r->vtr = prt_data_add_transfer(r->out, ops, &cfg, mask);
+/* The view-dependent transfer for the materials in mask, and its plan line. */
+static void pc_add_view(pc_run *r, uint64_t mask) {
+    r->vtr = prt_data_add_transfer(r->out, r->rp.vops, &r->rp.vcfg, mask);
     char line[256];
-    ops->describe(&cfg, line, sizeof line);
-    plan_add(r->plan, r->pcap, "  specular: %s for the materials on the vMF path\n", line);
-    return 0;
+    r->rp.vops->describe(&r->vtr->cfg, line, sizeof line);
+    plan_add(r->plan, r->pcap, "  specular: %s for the materials on the %s path\n", line, r->rp.vops->label);
 }
 
-/* The coefficient budget the direct pass uses: the asked one for Haar, per vector for the others. */
-static int pc_budget(const pc_run *r) { return r->tr->ops == &transfer_haar ? r->d.budget : TRANSPORT_BUDGET_VECTOR; }
-
-/* Whether the kept values are refit (refit.h): a light prior with its texels, not --no-refit, per vector. */
-static bool pc_refits(const pc_run *r) {
-    return r->d.prior_texels && r->d.light_prior && !r->d.no_refit && pc_budget(r) == TRANSPORT_BUDGET_VECTOR;
-}
-
-/* With a light prior's texels and a budget per vector, the tables that refit every vector's kept values
- * to the prior's light (refit.h) for the direct pass and, through transport_init_like, the gathering
- * passes. Returns 0 or -1. */
-static int pc_refit(pc_run *r, prt_error *err) {
-    if (!pc_refits(r) || !r->direct.solid_angle) return 0;
-    if (!(r->refit = refit_create(r->d.prior_texels, err))) return -1;
-    r->direct.refit = r->refit;
-    return 0;
-}
-
-/* PRECOMPUTE_BUDGET_AUTO resolved from the mesh and the prior (the same on every rank): per vector
- * with a light prior (README "Shadows": its weights already put each vector's N where the light will
- * be, and a shared pool takes from the darkest contact-shadow vertices, 29% too dark on the full
- * bunny against 3% per vector), else shared up to PRECOMPUTE_SHARED_MAX_VECS vectors, said in the plan. */
-static void pc_budget_auto(pc_run *r) {
-    if (r->d.budget != PRECOMPUTE_BUDGET_AUTO) return;
-    if (r->d.light_prior) {
-        r->d.budget = TRANSPORT_BUDGET_VECTOR;
-        plan_add(r->plan, r->pcap, "  coefficients: N per vector (with a light prior: a shared pool would leave the darkest vertices N/2)\n");
-        return;
-    }
+/* The linear representation's begin (transfer.h): what this run needs beyond its config, its plan
+ * lines; its time (a light prior's) kept as its stage's. Returns 0 or -1. */
+static int pc_begin(pc_run *r, prt_error *err) {
+    const transfer_linear *lin = r->rp.lops->linear;
     const prt_mesh *m = &r->out->scene.mesh;
     size_t nvecs = 0;
     for (int v = 0; v < m->nverts; v++) {
         int mat = m->mat ? m->mat[v] : 0;
         nvecs += (r->tr->materials >> mat) & 1 ? (size_t)r->out->factors[mat].K : 0;
     }
-    r->d.budget = nvecs <= PRECOMPUTE_SHARED_MAX_VECS ? TRANSPORT_BUDGET_SHARED : TRANSPORT_BUDGET_VECTOR;
-    if (r->d.budget == TRANSPORT_BUDGET_VECTOR && r->tr->ops == &transfer_haar)
-        plan_add(r->plan, r->pcap, "  coefficients: N per vector (%zu vectors: a shared budget stops at %d, its staging and time)\n",
-                 nvecs, PRECOMPUTE_SHARED_MAX_VECS);
+    transfer_linear_in in = { .nvecs = nvecs, .progress = r->d.progress, .progress_user = r->d.progress_user, .quiet = r->d.quiet,
+                              .plan = r->plan, .plan_cap = r->pcap };
+    if (lin->begin && lin->begin(&r->tr->cfg, &r->rp.lsetup, &in, &r->lrun, err)) return -1;
+    int slot = (int)(r->tr - r->out->transfers);
+    r->out->stats.t_transfer[slot] = r->lrun.stage ? r->lrun.seconds : 0;
+    r->out->stats.t_transfer_name[slot] = r->lrun.stage;
+    return 0;
 }
 
-/* Stage choose: the path of every material with the reason (see precompute.h), then the sparse
- * transfer (desc.basis, else Haar wavelets, the paper's all-frequency basis; SH is the low-frequency
- * baseline) over every material and, when some material took the vMF path, the vmf transfer over
- * those. Returns 0 or -1. */
+/* Stage choose: the path of every material with the reason (see precompute.h), then the linear
+ * transfer (desc.basis, else the table's default, Haar wavelets: the paper's all-frequency basis)
+ * over every material with its begin, and, when some material took the view path, the
+ * view-dependent transfer over those. Returns 0 or -1. */
 static int pc_choose(pc_run *r, prt_error *err) {
     int nm = r->out->scene.nmaterials;
     uint64_t vmask = 0;
@@ -798,44 +757,26 @@ static int pc_choose(pc_run *r, prt_error *err) {
         const brdf_params *p = &r->out->scene.materials[i];
         char why[384];
         precompute_path path;
-        if (precompute_choose_path(p, &r->out->factors[i], r->d.glossy, pc_vmf_ops() != NULL, &path, why, sizeof why, err))
+        if (precompute_choose_path(p, &r->out->factors[i], r->d.glossy, r->rp.lops, r->rp.vops, &r->rp.vcfg, &path, why,
+                                   sizeof why, err))
             return -1;
-        bool vmf = path == PRECOMPUTE_PATH_VMF;
-        if (vmf && pc_diffuse_factor(r, i, err)) return -1;
-        if (vmf) vmask |= (uint64_t)1 << i;
+        bool view = path == PRECOMPUTE_PATH_VIEW;
+        if (view && pc_diffuse_factor(r, i, err)) return -1;
+        if (view) vmask |= (uint64_t)1 << i;
         plan_add(r->plan, r->pcap, "    material %d %s: %s\n", i, brdf_type_name(p->type), why);
     }
     r->kmax = 1;
     for (int i = 0; i < nm; i++)
         if (r->out->factors[i].K > r->kmax) r->kmax = r->out->factors[i].K;
-    const transfer_ops *ops = transfer_find(r->d.basis ? r->d.basis : "haar");
-    PRT_CHECK(ops != NULL);   /* pc_check_desc refused unknown names */
-    transfer_config cfg = { .N = r->d.N, .qbits = r->d.qbits, .order = r->d.basis_order, 
-                           .measure = ops == &transfer_haar ? r->d.measure : 0 };
-    prt_error e2;
-    if (ops->configure(&cfg, &e2)) return prt_fail(err, "precompute: %s", e2.msg);
     uint64_t all = nm >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << nm) - 1;
-    r->tr = prt_data_add_transfer(r->out, ops, &cfg, all);
+    r->tr = prt_data_add_transfer(r->out, r->rp.lops, &r->rp.lcfg, all);
     char line[256];
-    ops->describe(&cfg, line, sizeof line);
+    r->rp.lops->describe(&r->tr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
-    pc_budget_auto(r);
-    if (pc_budget(r) != TRANSPORT_BUDGET_VECTOR)
-        plan_add(r->plan, r->pcap, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
-                 r->d.budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
-    if (r->d.light_prior)   /* pc_check_prior: Haar, expected error */
-        plan_add(r->plan, r->pcap, "  light prior: %s turned about +y (each coefficient weighed by its RMS light)\n",
-                 r->d.light_prior_name ? r->d.light_prior_name : "given");
-    if (r->d.prior_rays && r->d.prior_rays->n)   /* prior.h */
-        plan_add(r->plan, r->pcap, "  light-weighted texels: the prior's %d brightest lighting texels integrated along %d rays each, placed as its light lies inside them\n",
-                 r->d.prior_rays->n, PRIOR_RAYS);
-    if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE && pc_refits(r))
-        plan_add(r->plan, r->pcap, "  kept values: refit to the light prior's texels (least expected error under its turning light; refit.h)\n");
-    else if (cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE)   /* transport.h: block_level, smooth_faces */
-        plan_add(r->plan, r->pcap, "  what truncation drops: put back per 16x16-texel block%s\n",
-                 r->d.smooth_faces ? "; on faces with no occluder edge weighted by the transport" : "");
-    return vmask ? pc_add_vmf(r, vmask, err) : 0;
+    if (pc_begin(r, err)) return -1;
+    if (vmask) pc_add_view(r, vmask);
+    return 0;
 }
 
 static const char *pc_stream_dir(const pc_run *r) { return r->d.stream_dir ? r->d.stream_dir : "."; }
@@ -882,15 +823,8 @@ static int pc_setup(pc_run *r, prt_error *err) {
         int mat = m->mat ? m->mat[v] : 0;
         r->nvec[v] = (r->tr->materials >> mat) & 1 ? r->out->factors[mat].K : 0;
     }
-    if (transport_init(&r->direct, m->nverts, r->nvec, r->tr->cfg.N, r->tr->cfg.qbits, err)) return -1;
-    r->direct.solid_angle = r->tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE;   /* transport.h */
-    r->direct.select = r->direct.solid_angle ? r->d.select : TRANSPORT_SELECT_MAGNITUDE;   /* its prior's light */
-    r->direct.prior = r->d.light_prior;   /* pc_check_prior: only with EXPECTED; the gathering passes inherit it */
-    r->direct.block_level = TRANSPORT_BLOCK_LEVEL;
-    r->direct.smooth_faces = r->direct.solid_angle && r->d.smooth_faces;
-    if (r->tr->ops == &transfer_haar && transport_set_policy(&r->direct, &haar_transport_policy, err)) return -1;
-    if (pc_refit(r, err)) return -1;
-    if (transport_share_budget(&r->direct, pc_budget(r), 0, err)) return -1;
+    /* the representation's N, qbits and store policy; the gathering passes copy it (transport_init_like) */
+    if (r->rp.lops->linear->init_set(&r->tr->cfg, &r->lrun, &r->direct, m->nverts, r->nvec, err)) return -1;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
@@ -902,7 +836,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->vs = r->vs;
     c->factors = r->out->factors;
     c->t = &r->direct;
-    c->ops = r->tr->ops;
+    c->lin = r->tr->ops->linear;
     c->cfg = &r->tr->cfg;
     c->materials = r->tr->materials;
     c->vres = R;
@@ -910,7 +844,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->vdir = r->vdir;
     c->vdw = r->vdw;
     c->ldir = r->ldir;
-    c->rays = r->d.prior_rays && r->d.prior_rays->n ? r->d.prior_rays : NULL;
+    c->rays = r->lrun.rays && r->lrun.rays->n ? r->lrun.rays : NULL;
     c->order = r->order;
     c->scratch = r->scratch;
     c->vst = r->vst;
@@ -922,15 +856,19 @@ static int pc_setup(pc_run *r, prt_error *err) {
     return 0;
 }
 
+/* ckpt_key_add in transfer_key_fn's form (a representation adds its own inputs). */
+static void pc_key_add(void *k, const void *p, size_t n) { ckpt_key_add(k, p, n); }
+
 /* The checkpoint's key: everything the passes' results depend on (checkpoint.h): the mesh as
- * precomputed (after refinement), the materials, their factors and the transfer's configuration,
- * and the options that shape the passes; not the threads, which change nothing. */
+ * precomputed (after refinement), the materials, their factors, each transfer's representation,
+ * configuration and materials, what the linear one's begin decided (its key op), and the options
+ * that shape the passes; not the threads, which change nothing. */
 static uint64_t pc_key(const pc_run *r) {
     const prt_scene *sc = &r->out->scene;
     const prt_mesh *m = &sc->mesh;
     const precompute_desc *d = &r->d;
     ckpt_key k = ckpt_key_init();
-    ckpt_key_str(&k, "prt precompute checkpoint 2");   /* 2: TRANSPORT_STAGE grew (smooth faces) */
+    ckpt_key_str(&k, "prt precompute checkpoint 3");   /* 3: transfer configurations as opaque bytes */
     ckpt_key_add(&k, &m->nverts, sizeof m->nverts);
     ckpt_key_add(&k, &m->ntris, sizeof m->ntris);
     ckpt_key_add(&k, m->pos, 3 * sizeof(float) * (size_t)m->nverts);
@@ -946,24 +884,28 @@ static uint64_t pc_key(const pc_run *r) {
         if (f->light) ckpt_key_add(&k, f->light, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
         if (f->view) ckpt_key_add(&k, f->view, sizeof(float) * 3 * (size_t)f->K * f->res * f->res);
     }
-    for (const prt_transfer *t = r->tr; t; t = t == r->tr ? r->vtr : NULL) {   /* the sparse transfer, the vmf one */
+    for (int i = 0; i < r->out->ntransfers; i++) {
+        const prt_transfer *t = &r->out->transfers[i];
         ckpt_key_str(&k, t->ops->name);
-        ckpt_key_add(&k, &t->cfg, sizeof t->cfg);
+        ckpt_key_add(&k, t->cfg.bytes, sizeof t->cfg.bytes);
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->smooth_faces };
+    if (r->rp.lops->linear->key) r->rp.lops->linear->key(&r->lrun, pc_key_add, &k);
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
-    int budget = pc_budget(r);   /* added only when shared: the keys of earlier runs' checkpoints stay */
-    if (budget != TRANSPORT_BUDGET_VECTOR) ckpt_key_add(&k, &budget, sizeof budget);
-    if (d->light_prior) ckpt_key_add(&k, d->light_prior, sizeof(float) * 4 * CUBE_TEXELS);   /* likewise */
-    if (d->prior_rays && d->prior_rays->n) ckpt_key_add(&k, d->prior_rays, sizeof *d->prior_rays);
-    if (d->prior_texels) {   /* likewise */
-        ckpt_key_add(&k, d->prior_texels, sizeof *d->prior_texels);
-        int no_refit = d->no_refit;
-        ckpt_key_add(&k, &no_refit, sizeof no_refit);
-    }
     return ckpt_key_value(&k);
+}
+
+/* The resume message's clauses of the view-dependent transfer's passes (its resumed op). */
+static void pc_resumed_view(const pc_run *r) {
+    if (!r->vtr || !r->rp.vops->view->resumed) return;
+    int p0 = ckpt_transfer_pass((int)(r->vtr - r->out->transfers));
+    for (int p = 0; p < TRANSFER_CKPT_PASSES && ckpt_count(r->ck, p0 + p) > 0; p++) {
+        char clause[96];
+        r->rp.vops->view->resumed(p, ckpt_count(r->ck, p0 + p), clause, sizeof clause);
+        fprintf(stderr, ", %s", clause);
+    }
 }
 
 /* Stage resume: opens the checkpoint when asked for (new, or the one to continue: its direct-pass
@@ -978,12 +920,9 @@ static int pc_resume(pc_run *r, prt_error *err) {
     if (n0 < 0) return -1;
     if (!r->d.quiet && n0 > 0) {
         fprintf(stderr, "resuming from %s: visibility+transport %d of %d vertices done", r->d.checkpoint, n0, m->nverts);
-        for (int b = 1; b < CKPT_PASS_VMF && ckpt_count(r->ck, b) > 0; b++)
+        for (int b = 1; b <= PRT_MAX_BOUNCES && ckpt_count(r->ck, b) > 0; b++)
             fprintf(stderr, ", bounce %d %d", b, ckpt_count(r->ck, b));
-        for (int p = 0; CKPT_PASS_VMF + p < CKPT_MAX_PASSES && ckpt_count(r->ck, CKPT_PASS_VMF + p) > 0; p++) {
-            if (p == 0) fprintf(stderr, ", vmf direct %d", ckpt_count(r->ck, CKPT_PASS_VMF));
-            else fprintf(stderr, ", vmf pass %d %d slices", p, ckpt_count(r->ck, CKPT_PASS_VMF + p));
-        }
+        pc_resumed_view(r);
         fputc('\n', stderr);
     } else if (!r->d.quiet && r->d.resume) {
         fprintf(stderr, "resume: nothing recorded in %s yet, starting from the beginning\n", r->d.checkpoint);
@@ -1010,7 +949,7 @@ static void plan_bounce_line(pc_run *r) {
     r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && hit >= PC_HIT_MIN);
 }
 
-/* Issue 11: the scene's local lights and the local-light effects they call for. Direct light is
+/* The scene's local lights and the local-light effects they call for. Direct light is
  * always needed (runtime, analytic BRDFs, shadows); one bounce (VSGL) only where surfaces see each
  * other (the same sample as interreflections); indirect highlights only where a glossy material can
  * see another surface. Nothing is printed for a scene without local lights. */
@@ -1055,7 +994,7 @@ static void pc_pass_plan(pc_run *r, const char *name, double est_cpu, double wal
     p->est = wall_extra + est_cpu * r->wall_per_cpu;
 }
 
-/* What pass `name` took (transfer_precompute_in.pass_done's form, so the vmf passes report here). */
+/* What pass `name` took (transfer_precompute_in.pass_done's form, so a view-dependent transfer's passes report here). */
 static void pc_pass_ran(void *user, const char *name, double wall, double cpu) {
     prt_pass_time *p = pc_pass(&((pc_run *)user)->out->stats, name);
     if (!p) return;
@@ -1085,44 +1024,41 @@ static double pc_zero_store_cpu(const prt_transport *like) {
     return secs;
 }
 
-/* The vmf transfer's passes as stage vmf runs them. */
-static transfer_precompute_in pc_vmf_in(pc_run *r) {
+/* The view-dependent transfer's passes as stage view runs them: its checkpoint passes from its slot. */
+static transfer_precompute_in pc_view_in(pc_run *r) {
     return (transfer_precompute_in){ .scene = &r->out->scene, .vis = r->vs, .passes = r->plan_bounces ? 1 + r->max_b : 1,
                                      .bounce_threshold = r->d.bounce_threshold, .nthreads = r->nthreads,
                                      .progress = r->d.progress, .progress_user = r->d.progress_user, .ckpt = r->ck,
+                                     .ckpt_pass = ckpt_transfer_pass((int)(r->vtr - r->out->transfers)),
                                      .shard = r->d.shard, .pass_done = pc_pass_ran, .pass_user = r };
 }
 
-/* The vmf passes' estimates (vmfpass_estimate's probe times the counts of their items) into the
- * pass table and their clause into line; false when the probe failed (no estimate). */
-static bool pc_plan_vmf(pc_run *r, char *line, size_t cap, double *total) {
-    transfer_precompute_in in = pc_vmf_in(r);
-    vmfpass_cost vc;
+/* The view-dependent transfer's estimates (its estimate op: each stage's CPU seconds) into the pass
+ * table, and their clause into line (each stage named as the representation names it, less its own
+ * name's prefix); false when it gives none. */
+static bool pc_plan_view(pc_run *r, char *line, size_t cap, double *total) {
+    const transfer_ops *ops = r->rp.vops;
+    if (!ops->view->estimate) return false;
+    transfer_precompute_in in = pc_view_in(r);
+    transfer_estimate est;
     prt_error e2;
-    if (vmfpass_estimate(&in, r->vtr, &vc, &e2)) return false;
-    int R = in.passes < 1 ? 1 : in.passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : in.passes;
-    /* a pass that gathers nothing carries no energy, so the next one does not run: no stored slice
-     * (nothing blocks the lobes), pass 1 is the last; none hits a fitted triangle, pass 2 is */
-    if (vc.stored == 0 && R > 2) R = 2;
-    if (vc.fit_share == 0 && R > 3) R = 3;
-    double cpu[2 + VMFT_MAX_PASSES] = { R > 1 ? vc.nverts * vc.diffuse_cpu : 0, vc.ngverts * vc.direct_cpu };
-    for (int p = 1; p < R; p++) cpu[1 + p] = vc.ngverts * vc.stored * (p == 1 ? vc.gather_cpu : vc.fit_share * vc.gather2_cpu);
-    static const char *names[2 + VMFT_MAX_PASSES] = { "vmf diffuse lobes", "vmf direct", "vmf pass 1", "vmf pass 2", "vmf pass 3" };
-    size_t at = 0;
+    if (ops->view->estimate(&in, r->vtr, &est, &e2)) return false;
+    size_t at = 0, nl = strlen(ops->name);
     *total = 0;
     line[0] = 0;
-    for (int k = R > 1 ? 0 : 1; k < 1 + R; k++) {
+    for (int k = 0; k < est.n; k++) {
         char d[32];
-        pc_pass_plan(r, names[k], cpu[k], 0);
-        fmt_dur(d, sizeof d, cpu[k] * r->wall_per_cpu);
-        *total += cpu[k] * r->wall_per_cpu;
-        if (at < cap) at += (size_t)snprintf(line + at, cap - at, "%s%s %s", at ? ", " : "", names[k] + 4, d);
+        pc_pass_plan(r, est.name[k], est.cpu[k], 0);
+        fmt_dur(d, sizeof d, est.cpu[k] * r->wall_per_cpu);
+        *total += est.cpu[k] * r->wall_per_cpu;
+        const char *nm = !strncmp(est.name[k], ops->name, nl) && est.name[k][nl] == ' ' ? est.name[k] + nl + 1 : est.name[k];
+        if (at < cap) at += (size_t)snprintf(line + at, cap - at, "%s%s %s", at ? ", " : "", nm, d);
     }
     return true;
 }
 
 /* The plan's estimate line: every pass that will run, from its work (see pc_estimate_gather and
- * vmfpass_estimate), in wall time at the sample's wall seconds per CPU second (its threads and the
+ * a view-dependent transfer's estimate op), in wall time at the sample's wall seconds per CPU second (its threads and the
  * share of a core they got). */
 static void pc_plan_estimate(pc_run *r) {
     const prt_mesh *m = &r->out->scene.mesh;
@@ -1137,7 +1073,8 @@ static void pc_plan_estimate(pc_run *r) {
     fmt_dur(e1, sizeof e1, total);
     plan_add(r->plan, r->pcap, "  estimate: direct pass %s", e1);
     if (r->plan_bounces && r->max_b > 0) {
-        double eg = pc_estimate_gather(m, r->vs, r->out->factors, r->d.gather_res, r->tr->cfg.N, nstore ? store / nstore : 0,
+        int N = r->direct.budget ? r->direct.budget : r->direct.N;   /* a vector's coefficients, the mean when shared */
+        double eg = pc_estimate_gather(m, r->vs, r->out->factors, r->d.gather_res, N, nstore ? store / nstore : 0,
                                        pc_zero_store_cpu(&r->direct), r->order, r->nsample) * m->nverts;
         for (int b = 1; b <= r->max_b && b <= PRT_MAX_BOUNCES; b++) {
             char name[24];
@@ -1149,9 +1086,9 @@ static void pc_plan_estimate(pc_run *r) {
         plan_add(r->plan, r->pcap, ", each bounce pass %s (up to %d)", e2, r->max_b);
     }
     double tv = 0;
-    if (r->vtr && pc_plan_vmf(r, vline, sizeof vline, &tv)) {
+    if (r->vtr && pc_plan_view(r, vline, sizeof vline, &tv)) {
         fmt_dur(e2, sizeof e2, tv);
-        plan_add(r->plan, r->pcap, ", vMF lobes %s (%s)", e2, vline);
+        plan_add(r->plan, r->pcap, ", %s lobes %s (%s)", r->rp.vops->label, e2, vline);
         total += tv;
     }
     fmt_dur(e3, sizeof e3, total);
@@ -1253,7 +1190,7 @@ static int pc_direct(pc_run *r, prt_error *err) {
     if (transport_finish(&r->direct, err)) return -1;
     es += r->direct.chosen_err;   /* a shared budget's choice (0 otherwise) */
     st->trunc_rel_err = ec ? sqrt(es / (double)ec) : 0;
-    /* streamed: the gathering passes read the direct set through a mapped file (issue 13) */
+    /* streamed: the gathering passes read the direct set through a mapped file */
     if (r->streamed && transport_map_to_file(&r->direct, pc_stream_dir(r), err)) return -1;
     if (r->d.force_bounces == 0) {
         bool full = st->hit_fraction >= PC_HIT_MIN;
@@ -1307,19 +1244,20 @@ static int pc_bounces(pc_run *r, prt_error *err) {
     return 0;
 }
 
-/* Stage vmf: the vmf transfer's passes (its ops->precompute: direct and gathering, laurijssen-2011
- * section 5) over the same scene and Embree scene, with as many reflection passes at most as the
- * sparse transfer was allowed (1 + bounces, none when the plan has no interreflections) and the same
- * threshold; its time and size go into the plan. Returns 0 or -1. */
-static int pc_vmf(pc_run *r, prt_error *err) {
+/* Stage view: the view-dependent transfer's passes (its precompute op; vMF: direct and gathering,
+ * laurijssen-2011 section 5) over the same scene and Embree scene, with as many reflection passes at
+ * most as the linear transfer was allowed (1 + bounces, none when the plan has no interreflections)
+ * and the same threshold; its time and size go into the plan. Returns 0 or -1. */
+static int pc_view(pc_run *r, prt_error *err) {
     if (!r->vtr) return 0;
-    transfer_precompute_in in = pc_vmf_in(r);
+    transfer_precompute_in in = pc_view_in(r);
     double t0 = prt_now();
-    if (r->vtr->ops->precompute(&in, r->vtr, err)) return -1;
-    r->out->stats.t_vmf = prt_now() - t0;
-    size_t bytes = r->vtr->ops->bytes ? r->vtr->ops->bytes(r->vtr) : 0;
-    plan_add(r->plan, r->pcap, "  vmf: %d reflection pass%s at most, %.1fs, %.1f MB\n", in.passes, in.passes == 1 ? "" : "es",
-             r->out->stats.t_vmf, bytes / 1e6);
+    if (r->rp.vops->view->precompute(&in, r->vtr, err)) return -1;
+    int slot = (int)(r->vtr - r->out->transfers);
+    r->out->stats.t_transfer[slot] = prt_now() - t0;
+    size_t bytes = r->rp.vops->bytes(r->vtr);
+    plan_add(r->plan, r->pcap, "  %s: %d reflection pass%s at most, %.1fs, %.1f MB\n", r->rp.vops->name, in.passes,
+             in.passes == 1 ? "" : "es", r->out->stats.t_transfer[slot], bytes / 1e6);
     return 0;
 }
 
@@ -1367,22 +1305,27 @@ static void pc_cleanup(pc_run *r) {
     transport_free(&r->direct);
     transport_free(&r->total);
     transport_free(&r->last);
-    refit_destroy(r->refit);
+    if (r->rp.lops && r->rp.lops->linear->end) r->rp.lops->linear->end(&r->lrun);
+    free(r->prior);
 }
 
 /* Runs the whole pipeline (see precompute.h and the file comment). */
 int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out, prt_error *err) {
     double t_start = prt_now();
+    /* desc.light_prior may point into *scene (precompute_desc_apply_scene): copied before the scene moves */
+    pc_run *r = prt_calloc(1, sizeof *r, err);
+    if (r && desc && desc->light_prior && !(r->prior = strdup(desc->light_prior))) prt_fail(err, "precompute: out of memory");
     memset(out, 0, sizeof *out);
     out->scene = *scene;
     memset(scene, 0, sizeof *scene);
-    pc_run *r = prt_calloc(1, sizeof *r, err);
-    if (!r) { prt_data_free(out); return -1; }
+    if (!r || (desc && desc->light_prior && !r->prior)) { free(r); prt_data_free(out); return -1; }
     r->out = out;
     r->plan = out->plan;
     r->pcap = sizeof out->plan;
     int rc = -1, st = -1;
-    if (!pc_check_desc(desc, &r->d, err) && !pc_check_scene(&out->scene, err)) {
+    precompute_desc din = desc ? *desc : (precompute_desc){ 0 };
+    din.light_prior = r->prior;
+    if (!pc_check_desc(&din, &r->d, &r->rp, err) && !pc_check_scene(&out->scene, err)) {
         int nt = prt_thread_count(r->d.nthreads);
         r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
         out->vis_res = r->d.vis_res;
@@ -1400,7 +1343,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     double td = prt_now(), cd = prt_process_cpu();
     if (pc_direct(r, err)) goto done;
     pc_pass_ran(r, "direct", r->t_sample + prt_now() - td, r->cpu_sample + prt_process_cpu() - cd);
-    if (pc_bounces(r, err) || pc_vmf(r, err)) goto done;
+    if (pc_bounces(r, err) || pc_view(r, err)) goto done;
     plan_measured(r);
     prt_checkpoint *ck = r->ck;
     r->ck = NULL;

@@ -44,7 +44,7 @@ typedef struct relight_part {
 
 struct relight_ctx {
     const prt_data *d;
-    relight_part part[PRT_MAX_TRANSFERS];   /* the sparse transfers (ops->light_range), in d's order */
+    relight_part part[PRT_MAX_TRANSFERS];   /* the sparse transfers (ops->linear->light_range), in d's order */
     int nparts;
     int nthreads;
     bool use_direct;       /* light changes use d->direct (see relight_use_direct) */
@@ -62,7 +62,7 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     for (int i = 0; !bad && i < d->ntransfers; i++) {
         const prt_transfer *tr = &d->transfers[i];
         if (!tr->ops) bad = "a transfer has no representation";
-        else if (!tr->ops->light_range) continue;   /* non-linear: the runtime calls its shade_vertices */
+        else if (tr->ops->kind != TRANSFER_LINEAR) continue;   /* view-dependent: the runtime calls its shade_vertices */
         else if (!tr->transport.coef_first || !tr->transport.vec_first) bad = "the transport set is not finished";
         else if (tr->transport.nverts != m->nverts) {
             snprintf(why, sizeof why, "transport has %d vertices but the mesh has %d", tr->transport.nverts, m->nverts);
@@ -102,7 +102,7 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
     if (!rc->verts) { relight_destroy(rc); return NULL; }
     for (int i = 0; i < d->ntransfers; i++) {
         const prt_transfer *tr = &d->transfers[i];
-        if (!tr->ops->light_range) continue;
+        if (tr->ops->kind != TRANSFER_LINEAR) continue;
         relight_part *pt = &rc->part[rc->nparts++];
         pt->tr = tr;
         pt->index = i;

@@ -10,11 +10,11 @@
  * costs only the view-map lookups and a K-term dot product per vertex. kmax
  * limits the terms used (0: all). Lambertian materials skip the lookups.
  *
- * Several transfers: relight handles the sparse ones (ops->light_range), each
+ * Several transfers: relight handles the sparse ones (ops->linear->light_range), each
  * with its own g and its own light vector (relight_set_light_at); a vertex's
  * colour is the sum over the sparse transfers whose mask holds its material.
  * Non-linear transfers (vmf) are not relight's: the runtime adds their
- * ops->shade_vertices. relight_set_light, relight_use_direct and the gvec calls
+ * ops->view->shade_vertices. relight_set_light, relight_use_direct and the gvec calls
  * concern the first sparse transfer (prt_data_transfer), the only one today. */
 #ifndef PRT_RELIGHT_H
 #define PRT_RELIGHT_H

@@ -1,14 +1,13 @@
 /* runtime.c - the runtime seam (runtime.h): the list of every backend, and what
  * all of them share: argument checks, the light (probe -> rotated cube -> each
- * transfer's light vector, transfer.h; and the probe prefiltered by vMF lobes
- * for the non-linear transfers, prefilter.h, kept per probe and only rotated),
+ * linear transfer's light vector, transfer.h; and the probe prefiltered by vMF lobes
+ * for the view-dependent transfers, prefilter.h, kept per probe and only rotated),
  * its timing, and the number of BRDF terms view changes use. Each backend
  * module implements the runtime_backend operations; nothing here knows what a
- * backend does, nor which representation a transfer is (it asks the ops). */
+ * backend does, nor which representation a transfer is (it asks its kind). */
 #include "runtime.h"
 #include "check.h"
 #include "cubemap.h"
-#include "light.h"
 #include "lights.h"
 #include "prefilter.h"
 #include "transfer.h"
@@ -112,14 +111,13 @@ void runtime_destroy(prt_runtime *rt) {
     free(rt);
 }
 
-/* light->L[i] for every transfer with a light projection, from the cube (allocated: rt_light_free). */
+/* light->L[i] for every linear transfer, from the cube (allocated: the caller frees them). */
 static int rt_light_vectors(const prt_runtime *rt, const float *cube, runtime_light *light, prt_error *err) {
     for (int i = 0; i < rt->d->ntransfers; i++) {
         const prt_transfer *tr = &rt->d->transfers[i];
-        if (!tr->ops->project_light) continue;
-        float (*L)[4] = light_alloc();
+        if (tr->ops->kind != TRANSFER_LINEAR) continue;
+        float (*L)[4] = transfer_light_vector(tr, cube);
         if (!L) return prt_fail(err, "out of memory");
-        tr->ops->project_light(&tr->cfg, cube, L);
         light->L[i] = (const float (*)[4])L;
     }
     return 0;
@@ -129,7 +127,7 @@ static int rt_light_vectors(const prt_runtime *rt, const float *cube, runtime_li
  * pixels), else only rotated. -1 with err. */
 static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], runtime_light *light, prt_error *err) {
     bool need = false;
-    for (int i = 0; i < rt->d->ntransfers; i++) need |= rt->d->transfers[i].ops->shade_vertices != NULL;
+    for (int i = 0; i < rt->d->ntransfers; i++) need |= rt->d->transfers[i].ops->kind == TRANSFER_VIEW;
     if (!need) return 0;
     if (rt->env && rt->env_probe == p && rt->env_pixels == p->img.data) {
         prefilter_set_rotation(rt->env, R);
@@ -175,7 +173,7 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
 int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err) {
     PRT_CHECK(rt != NULL && cube != NULL);
     for (int i = 0; i < rt->d->ntransfers; i++)
-        if (rt->d->transfers[i].ops->shade_vertices)
+        if (rt->d->transfers[i].ops->kind == TRANSFER_VIEW)
             return prt_fail(err, "a %s transfer needs the probe itself, not its cube", rt->d->transfers[i].ops->name);
     return rt_set_light(rt, cube, NULL, NULL, prt_now(), err);
 }
@@ -187,8 +185,7 @@ int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRA
     memset(&light, 0, sizeof light);
     for (int i = 0; i < rt->d->ntransfers; i++) {
         const transfer_ops *ops = rt->d->transfers[i].ops;
-        if (ops->shade_vertices) return prt_fail(err, "a %s transfer needs the probe itself, not a light vector", ops->name);
-        if (!ops->project_light) continue;
+        if (ops->kind == TRANSFER_VIEW) return prt_fail(err, "a %s transfer needs the probe itself, not a light vector", ops->name);
         PRT_CHECK(L[i] != NULL);
         light.L[i] = L[i];
     }

@@ -42,15 +42,15 @@
  * the materials of its mask, and a vertex's radiance is the sum over the
  * transfers whose mask holds its material: a sparse transfer (haar, sh) gives
  * h(view) . (T x L) with the material's factors (Eq. 5), a non-linear one (vmf:
- * ops->shade_vertices) its own view-dependent sum of lobes looked up in the
+ * ops->view->shade_vertices) its own view-dependent sum of lobes looked up in the
  * prefiltered probe. Lambert-only and SVD-only files have one sparse transfer
  * and shade by Eq. 5 alone.
  *
  * The light: runtime_set_light makes a runtime_light and hands it to the
  * backend's light change: the probe resampled once to the 6x64x64 cube
  * (probe_to_cube, rotated by R so that a light at d appears at R d), then per
- * transfer with ops->project_light its light vector (transfer.h); and when
- * some transfer has ops->shade_vertices, the probe prefiltered by vMF lobes
+ * transfer with ops->linear->project_light its light vector (transfer.h); and when
+ * some transfer has ops->view->shade_vertices, the probe prefiltered by vMF lobes
  * (prefilter.h), made once per probe (~1 s: prefilter_create) and only rotated
  * (prefilter_set_rotation: free) while the probe stays the same (pointer and
  * pixels), so rotating the light stays interactive. The runtime owns the
@@ -193,7 +193,7 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
  * the same as runtime_set_light(rt, p, R) without resampling, for many files under one light (the
  * fuzz harness relights every input). -1 with err when a transfer shades with the probe itself (vmf). */
 int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err);
-/* Light change from light vectors already projected: L[i] = transfers[i].ops->project_light(cfg, cube)
+/* Light change from light vectors already projected: L[i] = transfers[i].ops->linear->project_light(cfg, cube)
  * for every transfer with a projection (the others' entries are not read); runtime_set_light_cube
  * without the projection, for many files whose transfers share configurations (the fuzz harness
  * keeps one vector per configuration). Only read during the call. -1 with err as runtime_set_light_cube. */
@@ -239,10 +239,10 @@ struct prefilter_env;
 /* What a backend's light change gets (made by runtime_set_light, valid during the call; env until the
  * next light change or runtime_destroy). Indexed like d->transfers. */
 typedef struct runtime_light {
-    const float (*L[PRT_MAX_TRANSFERS])[4]; /* transfer i's light vector ([CUBE_TEXELS][4], ops->project_light);
+    const float (*L[PRT_MAX_TRANSFERS])[4]; /* transfer i's light vector ([CUBE_TEXELS][4], ops->linear->project_light);
                                              * NULL where the transfer has none (non-linear) */
     const struct prefilter_env *env;        /* the probe prefiltered by vMF lobes, rotated as the light; NULL
-                                             * when no transfer has ops->shade_vertices */
+                                             * when no transfer has ops->view->shade_vertices */
     bool env_new;                           /* env was made in this call (a new probe); false: only its
                                              * rotation changed, so a backend's copy of its texels still holds */
 } runtime_light;

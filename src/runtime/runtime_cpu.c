@@ -3,7 +3,7 @@
  * Light change: relight_set_light_at per sparse transfer, the T x L of Eq. 5 on
  * every thread; the prefiltered probe is kept for the non-linear transfers.
  * View change: relight_view, h(view) . g per vertex (the per-vertex model; the
- * paper's CPU path), plus ops->shade_vertices of every non-linear transfer
+ * paper's CPU path), plus ops->view->shade_vertices of every view-dependent transfer
  * (vmf: its lobes looked up in the prefiltered probe), non-finite sums written as 0. Images are those colours drawn with Gouraud interpolation
  * by the vertex raster (runtime_raster, gpu/render.c): headless through
  * render_vertex_colors (OSMesa, a context per image), or into the caller's
@@ -109,7 +109,7 @@ static int cpu_set_light(void *self, const runtime_light *light, prt_error *err)
     cpu_rt *c = self;
     double t0 = prt_now();
     for (int i = 0; i < c->d->ntransfers; i++)
-        if (c->d->transfers[i].ops->light_range) {
+        if (c->d->transfers[i].ops->kind == TRANSFER_LINEAR) {
             PRT_CHECK(light->L[i] != NULL);
             relight_set_light_at(c->rc, i, light->L[i]);
         }
@@ -128,9 +128,9 @@ static int cpu_shade_vertices(void *self, const float eye[3], int kmax, float *r
     bool added = false;
     for (int i = 0; i < c->d->ntransfers; i++) {
         const prt_transfer *tr = &c->d->transfers[i];
-        if (!tr->ops->shade_vertices) continue;
+        if (tr->ops->kind != TRANSFER_VIEW) continue;
         if (!c->env) return prt_fail(err, "cpu runtime: the %s transfer needs a light change first", tr->ops->name);
-        tr->ops->shade_vertices(c->d, tr, c->env, eye, rgb, c->nthreads);
+        tr->ops->view->shade_vertices(c->d, tr, c->env, eye, rgb, c->nthreads);
         added = true;
     }
     c->nonlinear_ms = 1e3 * (prt_now() - t1);
@@ -243,12 +243,12 @@ static void cpu_get_timing(const void *self, runtime_timing *t) {
     t->bounce_ms = c->bounce_ms;
     t->indirect_view_ms = c->indirect_view_ms;
     /* Its own memory: the K-vector caches and the per-vertex position + frame records (relight.c), and
-     * what the non-linear transfers hold (ops->bytes: read at every view change). */
+     * what the view-dependent transfers hold (ops->bytes: read at every view change). */
     size_t bytes = sizeof(float) * 12 * (size_t)c->d->scene.mesh.nverts;
     for (int i = 0; i < c->d->ntransfers; i++) {
         const prt_transfer *tr = &c->d->transfers[i];
-        if (tr->ops->light_range) bytes += sizeof(float) * 3 * (size_t)tr->transport.nvecs;
-        else if (tr->ops->bytes) bytes += tr->ops->bytes(tr);
+        if (tr->ops->kind == TRANSFER_LINEAR) bytes += sizeof(float) * 3 * (size_t)tr->transport.nvecs;
+        else bytes += tr->ops->bytes(tr);
     }
     t->bytes = bytes;
     t->kernel = "sparse";

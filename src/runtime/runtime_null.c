@@ -42,7 +42,7 @@ static int null_set_light(void *self, const runtime_light *light, prt_error *err
 /* -1 with err when a non-linear transfer would shade before any light change (the cpu backend's rule). */
 static int unlit(const null_rt *n, prt_error *err) {
     for (int i = 0; i < n->d->ntransfers; i++)
-        if (n->d->transfers[i].ops->shade_vertices && !n->env)
+        if (n->d->transfers[i].ops->kind == TRANSFER_VIEW && !n->env)
             return prt_fail(err, "null runtime: the %s transfer needs a light change first", n->d->transfers[i].ops->name);
     return 0;
 }

@@ -69,19 +69,19 @@ static const float (*light_vector(const prt_transfer *tr))[4] {
     int i = next;
     next = (next + 1) % LIGHT_VECTORS;
     free(kept[i].L);
-    kept[i].L = light_alloc();
+    kept[i].L = transfer_light_alloc();
     if (!kept[i].L) abort();
     kept[i].ops = tr->ops;
     kept[i].cfg = tr->cfg;
-    tr->ops->project_light(&tr->cfg, light(), kept[i].L);
+    tr->ops->linear->project_light(&tr->cfg, light(), kept[i].L);
     return (const float (*)[4])kept[i].L;
 }
 
 static void relight(const prt_data *d) {
-    /* a vmf transfer's light change prefilters the probe over 12 cube levels (seconds under ASan,
-     * for every input): such a file is read and checked, not relit */
+    /* a view-dependent transfer's light change prefilters the probe over 12 cube levels (seconds under
+     * ASan, for every input): such a file is read and checked, not relit */
     for (int i = 0; i < d->ntransfers; i++)
-        if (!strcmp(d->transfers[i].ops->name, "vmf")) return;
+        if (d->transfers[i].ops->kind == TRANSFER_VIEW) return;
     prt_error err = { { 0 } };
     runtime_desc rd = { .backend = "cpu", .threads = 1 };
     prt_runtime *rt = runtime_create(d, &rd, &err);
@@ -91,7 +91,7 @@ static void relight(const prt_data *d) {
     if (!rgb) abort();
     const float (*L[PRT_MAX_TRANSFERS])[4] = { 0 };
     for (int i = 0; i < d->ntransfers; i++)
-        if (d->transfers[i].ops->project_light) L[i] = light_vector(&d->transfers[i]);
+        if (d->transfers[i].ops->kind == TRANSFER_LINEAR) L[i] = light_vector(&d->transfers[i]);
     if (runtime_set_light_vectors(rt, L, &err) == 0) {
         static const float eyes[2][3] = { { 0, 1, 5 }, { -3, 4, -2 } };
         for (int e = 0; e < 2; e++) {

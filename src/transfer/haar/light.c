@@ -24,7 +24,7 @@
 /* Power-of-two exponent e such that every finite weighted texel times 2^-e stays below 2^96:
  * the orthonormal Haar scaling coefficient of a face is 64x its mean, and energies are squares,
  * so a texel of 1e37 (finite) would overflow the float transform and make the threshold
- * infinite, cutting every coefficient (issue 12). Scaling by a power of two is exact. */
+ * infinite, cutting every coefficient. Scaling by a power of two is exact. */
 static int light_shift(const float *cube_rgb, const light_desc *desc) {
     float m = 0;
     for (int k = 0; k < CUBE_TEXELS; k++) {
@@ -113,27 +113,4 @@ void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4
         stats->kept = kept;
         for (int c = 0; c < 3; c++) stats->step[c] = step[c];
     }
-}
-
-/* A zeroed, 64-byte aligned light vector of CUBE_TEXELS x 4 floats, or NULL; free with free(). */
-float (*light_alloc(void))[4] {
-    size_t bytes = sizeof(float) * 4 * CUBE_TEXELS;   /* a multiple of 64, as aligned_alloc requires */
-    float (*L)[4] = aligned_alloc(64, bytes);
-    if (L) memset(L, 0, bytes);
-    return L;
-}
-
-float (*light_scaled_copy(const float (*L)[4], int *shift))[4] {
-    float m = 0;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) m = fmaxf(m, fabsf(L[k][c]));
-    int e;
-    frexpf(m, &e);
-    *shift = 0;
-    float (*Ls)[4] = e > 96 ? light_alloc() : NULL;
-    if (!Ls) return NULL;
-    *shift = e - 96;
-    for (int k = 0; k < CUBE_TEXELS; k++)
-        for (int c = 0; c < 3; c++) Ls[k][c] = ldexpf(L[k][c], -*shift);
-    return Ls;
 }

@@ -30,12 +30,4 @@ typedef struct light_stats {
 
 /* cube_rgb: [CUBE_TEXELS][3]. L: [CUBE_TEXELS][4] (16-byte aligned). stats may be NULL. */
 void light_from_cube(const float *cube_rgb, const light_desc *desc, float (*L)[4], light_stats *stats);
-/* Allocates an aligned light vector (free with free()). */
-float (*light_alloc(void))[4];
-/* A copy of L scaled by 2^-*shift (free with free()) when its largest |value| is 2^97 or more, else
- * NULL with *shift = 0 (NULL too when out of memory: the caller uses L as it is). The kernels sum
- * integer codes (up to 127, or 32767 at 16 bits) times L in float before the vector's scale, so a
- * finite sun of 1e37 (issue 12) would overflow to Inf; a power of two scales exactly, and the caller
- * scales g back by 2^shift. Both runtimes use it, so they compute the same g. */
-float (*light_scaled_copy(const float (*L)[4], int *shift))[4];
 #endif

@@ -1,12 +1,11 @@
 /* prior.c - the light prior of the expected-error selection (prior.h): the RMS light vector
  * over a probe's yaw orbit, normalised, with a floor. The light vector is the one the runtime
- * builds (transfer_haar's project_light with the solid-angle measure), so the weights are in
- * the index space and measure of the transport they select. */
+ * builds (Haar's project_light with the solid-angle measure, haar_light_vector), so the weights are
+ * in the index space and measure of the transport they select. */
 #include "prior.h"
 #include "cubemap.h"
 #include "haar.h"
-#include "light.h"
-#include "transfer.h"
+#include "haar_run.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,13 +24,13 @@ static void texel_add(const float *cube, const float *w, double *tex) {
 
 /* Adds the squared light vector of p turned by yaw (degrees, about +y) to acc[CUBE_TEXELS * 3].
  * cube: [CUBE_TEXELS][3] scratch; L: a light vector; tex: NULL, or texel_add's sums (w its weights). */
-static void prior_add(const prt_probe *p, const transfer_config *cfg, double yaw, float *cube, float (*L)[4],
+static void prior_add(const prt_probe *p, double yaw, float *cube, float (*L)[4],
                       double *acc, const float *w, double *tex) {
     float R[9];
     probe_rotation(yaw, 0, R);
     probe_to_cube(p, CUBE_RES, R, 0, cube);
     if (tex) texel_add(cube, w, tex);
-    transfer_haar.project_light(cfg, cube, L);
+    haar_light_vector(cube, true, L);
     for (int i = 0; i < CUBE_TEXELS; i++)
         for (int ch = 0; ch < 3; ch++) acc[3 * i + ch] += (double)L[i][ch] * L[i][ch];
 }
@@ -59,17 +58,17 @@ static void prior_finish(const double *acc, float floor, float (*w)[4]) {
 /* Adds probe p's mean squared light vector over its yaw orbit, over its own largest, to acc:
  * each probe of a prior counts the same, whatever its brightness; with tex, its texel sums as well
  * (texel_add). Returns 0, or -1 with err. */
-static int prior_orbit(const prt_probe *p, const transfer_config *cfg, int steps, const prior_desc *desc,
+static int prior_orbit(const prt_probe *p, int steps, const prior_desc *desc,
                        double frac0, double frac1, double *acc, double *tex, prt_error *err) {
     float w[CUBE_RES * CUBE_RES];
     haar_face_solid_angle(w, CUBE_RES, false);
     double *one = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *one, err);
     float *cube = one ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *cube, err) : NULL;
-    float (*L)[4] = cube ? light_alloc() : NULL;
+    float (*L)[4] = cube ? transfer_light_alloc() : NULL;
     if (cube && !L) prt_fail(err, "light prior: out of memory");
     int rc = L ? 0 : -1;
     for (int k = 0; k < steps && rc == 0; k++) {
-        prior_add(p, cfg, 360.0 * k / steps, cube, L, one, w, tex);
+        prior_add(p, 360.0 * k / steps, cube, L, one, w, tex);
         double f = frac0 + (frac1 - frac0) * (k + 1.0) / steps;
         if (desc && desc->progress && !desc->progress(desc->progress_user, "light prior", f))
             rc = prt_fail(err, "cancelled");
@@ -112,14 +111,12 @@ int prior_build(const prt_probe *const *ps, int n, const prior_desc *desc, float
     float floor = !desc || desc->floor == 0 ? PRIOR_FLOOR : desc->floor < 0 ? 0 : desc->floor;
     if (texels) memset(texels, 0, sizeof *texels);
     if (n < 1 || n > PRIOR_MAX_PROBES) return prt_fail(err, "light prior: %d probes (1..%d)", n, PRIOR_MAX_PROBES);
-    transfer_config cfg = { .measure = TRANSFER_MEASURE_SOLID_ANGLE };
-    if (transfer_haar.configure(&cfg, err)) return -1;
     double *acc = prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *acc, err);
     double *tex = acc && texels ? prt_calloc(3 * (size_t)CUBE_TEXELS, sizeof *tex, err) : NULL;
     int rc = acc && (tex || !texels) ? 0 : -1;
     for (int j = 0; j < n && rc == 0; j++) {
         if (tex) memset(tex, 0, 2 * sizeof(double) * CUBE_TEXELS);
-        rc = prior_orbit(ps[j], &cfg, steps, desc, (double)j / n, (j + 1.0) / n, acc, tex, err);
+        rc = prior_orbit(ps[j], steps, desc, (double)j / n, (j + 1.0) / n, acc, tex, err);
         if (rc == 0 && tex) rc = texel_probe(tex, steps, j, n, tex + 2 * CUBE_TEXELS, texels, err);
     }
     if (rc == 0) prior_finish(acc, floor, w);

@@ -2,12 +2,12 @@
  * coefficient of the light vector carries, on average, as a given probe turns about +y.
  *
  * Usage:
- *     float (*w)[4] = light_alloc();                       // [CUBE_TEXELS][4], caller owns
+ *     float (*w)[4] = transfer_light_alloc();              // [CUBE_TEXELS][4], caller owns
  *     prior_desc pd = { 0 };                               // zero fields mean defaults
  *     if (prior_from_probe(&probe, &pd, w, &err)) puts(err.msg);
- *     precompute_desc d = { ..., .light_prior = w, .light_prior_name = "city.exr" };
+ *     // haar_run.c builds it from precompute_desc.light_prior (probe files) for the selection
  *
- * Why (issue 10, README "Shadows"). transport_store keeps the coefficients c_i of a vector
+ * Why (README "Shadows" has the measurements). transport_store keeps the coefficients c_i of a vector
  * whose expected share of T.L is largest: sum over dropped i of c_i^2 E[L_i^2] is the expected
  * squared error of T.L when the light coefficients are uncorrelated. Without a prior E[L_i^2]
  * is one figure per Haar level (transport_level_sigma), the same wherever the coefficient
@@ -15,14 +15,14 @@
  * edge. Under a probe turned about the vertical (the viewer's and --light-rotation's yaw) a
  * sun stays on one ring of elevation: the coefficients whose support the ring crosses carry
  * the sun, the others only sky. With the probe named at precompute time the selection keeps
- * the edge where the sun can be. On the reduced bunny + floor under city (README "Shadows")
- * the floor's sun-shadow error fell from 4.9% to 3.1%, on the full bunny from 7.35% to 3.1%, near the
- * 2.5% of keeping 4,096 coefficients in float. It must be the probe the file will see: a prior of the
+ * the edge where the sun can be. On the reduced bunny + floor under city the floor's
+ * sun-shadow error is 3.1% with the prior against 4.9% without, on the full bunny 3.1% against
+ * 7.35%, near the 2.5% of keeping 4,096 coefficients in float. It must be the probe the file will see: a prior of the
  * seven other shared probes did worse under city than none (5.85% against 4.88%), so there is no
  * default prior; a JSON scene names its own ("light_prior", scene.h).
  *
  * What it computes: w[i][ch] = sqrt(mean over `steps` yaw angles 360 k / steps of L_i(yaw)^2),
- * L the Haar light vector with the solid-angle measure (transfer_haar's project_light, the
+ * L the Haar light vector with the solid-angle measure (haar_light_vector, Haar's project_light, the
  * light the runtime builds), scaled so that the largest w is 1 (a sun of 1e37 stays finite in
  * the weights c_i w_i), plus `floor` times the channel's RMS w, so that no coefficient weighs
  * nothing: a pitched light or another probe still finds what the prior's probe left dark.
@@ -36,6 +36,7 @@
 #include "common.h"
 #include "cubemap.h"
 #include "probe.h"
+#include "transfer.h"
 
 /* The yaw steps and the floor by default (README "Shadows": 360 steps, the sun's ring without
  * gaps at 1.4-degree texels; floors 0.1 / 0.3 / 1 / 3 measured 3.18 / 3.16 / 3.10 / 2.85% in city's
@@ -64,12 +65,12 @@ int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc,
  *
  *     prior_rays *pr = prt_calloc(1, sizeof *pr, &err);     // caller owns; plain struct, no pointers
  *     if (prior_rays_from_probes(pps, n, pr, &err)) puts(err.msg);
- *     precompute_desc d = { ..., .prior_rays = pr };        // precompute.h: the direct pass reads it
+ *     // haar_begin hands them to the direct pass (transfer_linear_run.rays)
  *
- * Why (issue 10, README "Shadows"). The runtime's light is a texel mean L_j and the transport a
+ * Why. The runtime's light is a texel mean L_j and the transport a
  * texel integral a_j = sum over sub-texels of V (n.w) dw (Eq. 3), so the product L_j a_j is right
  * only where L or V is flat inside the texel. A 0.53-degree sun inside a 1.4-degree texel, where an
- * occluder's edge crosses it, is neither: the floor's penumbra vertices came out 20-25% too bright or
+ * occluder's edge crosses it, is neither: the floor's penumbra vertices come out 20-25% too bright or
  * too dark whatever the budget, the visibility resolution (--vis-res 256) or the coefficient count
  * (4,096 in float). If instead a_j = Omega_j E[V (n.w)] with w drawn as the light inside texel j,
  * then L_j a_j = integral over j of L V (n.w) dw exactly when the light inside j is the prior's, and
@@ -83,17 +84,13 @@ int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc,
  * grid cell's solid angle) and PRIOR_RAYS directions are placed at the stratified quantiles
  * (m + 1/2) / PRIOR_RAYS of that distribution, so each ray stands for the same share of the light.
  * Deterministic. A probe whose light is spread out (no texel over the share) gives none. */
-#define PRIOR_RAY_TEXELS 16      /* at most; a sun and its glow take 2-6 at 64^2 */
-#define PRIOR_RAYS 64            /* per texel: 1/64 of the texel's light each */
+#define PRIOR_RAY_TEXELS TRANSFER_RAY_TEXELS   /* at most; a sun and its glow take 2-6 at 64^2 */
+#define PRIOR_RAYS TRANSFER_RAYS                 /* per texel: 1/64 of the texel's light each */
 #define PRIOR_RAY_SHARE 0.005    /* of a probe's light */
 #define PRIOR_RAY_GRID 128       /* 0.011-degree cells on a 1.4-degree texel */
 
-typedef struct prior_rays {
-    int n;                                   /* texels */
-    int texel[PRIOR_RAY_TEXELS];             /* lighting texel index (CUBE_RES cube) */
-    float omega[PRIOR_RAY_TEXELS];           /* its solid angle */
-    float dir[PRIOR_RAY_TEXELS][PRIOR_RAYS][3]; /* unit directions, distributed as the light inside it */
-} prior_rays;
+/* The texels and their rays, as the direct pass takes them (transfer.h). */
+typedef transfer_texel_rays prior_rays;
 
 /* The light-weighted texels of probes ps[0..n-1] (above) into *out. Returns 0, or -1 with err
  * (n < 1, out of memory). */

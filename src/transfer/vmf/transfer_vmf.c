@@ -356,31 +356,103 @@ void vmft_radiance_point(const vmft_data *t, const prt_mesh *m, const int tri[3]
     for (int k = 0; k < 3; k++) rgb[k] += isfinite(e[k]) && e[k] > 0 ? e[k] : 0.f;
 }
 
-/* ---- ops ----------------------------------------------------------------------------------- */
+/* ---- configuration ---------------------------------------------------------------------------- */
 
-static int vmf_configure(transfer_config *cfg, prt_error *err) {
-    if (cfg->N || cfg->qbits || cfg->order)
-        return prt_fail(err, "vmf transfer: N, qbits and order do not apply (lobes, level, samples do)");
-    if (!cfg->lobes) cfg->lobes = VMFT_DEFAULT_LOBES;
-    if (!cfg->level) cfg->level = VMFT_DEFAULT_LEVEL;
-    if (!cfg->samples) cfg->samples = VMFT_DEFAULT_SAMPLES;
-    if (cfg->lobes < 1 || cfg->lobes > VMFT_MAX_LOBES)
-        return prt_fail(err, "vmf transfer: lobes = %d (must be 1..%d)", cfg->lobes, VMFT_MAX_LOBES);
-    if (cfg->level < 0 || cfg->level > GEOGRID_MAX_LEVEL)
-        return prt_fail(err, "vmf transfer: level = %d (must be 0..%d)", cfg->level, GEOGRID_MAX_LEVEL);
-    if (cfg->samples < 4 || cfg->samples > VMFT_MAX_SAMPLES)
-        return prt_fail(err, "vmf transfer: samples = %d (must be 4..%d)", cfg->samples, VMFT_MAX_SAMPLES);
+static const transfer_option k_options[] = {
+    { .key = "lobes", .kind = TRANSFER_OPT_INT, .lo = 1, .hi = VMFT_MAX_LOBES, .flag = "--lobes", .arg = "I",
+      .help = "vMF lobes per view and reflection pass, 1..4 (default 2)" },
+    { .key = "level", .kind = TRANSFER_OPT_INT, .lo = 0, .hi = GEOGRID_MAX_LEVEL, .flag = "--view-level", .arg = "L",
+      .help = "geodesic view grid: icosahedron subdivided L times, 0..6 (default 2:\n162 views)" },
+    { .key = "samples", .kind = TRANSFER_OPT_INT, .lo = 4, .hi = VMFT_MAX_SAMPLES, .flag = "--lobe-samples", .arg = "S",
+      .help = "rays per (vertex, view) in the vMF passes, 4..4096 (default 64)" },
+    { .key = NULL },
+};
+
+vmf_config vmft_config(const transfer_config *cfg) {
+    vmf_config c;
+    memcpy(&c, cfg->bytes, sizeof c);
+    return c;
+}
+
+static int vmf_set(void *user, int i, const char *value, prt_error *err) {
+    vmf_config *c = user;
+    int *field[] = { &c->lobes, &c->level, &c->samples };
+    return transfer_option_int("vmf", &k_options[i], value, field[i], err);
+}
+
+/* lobes (default VMFT_DEFAULT_LOBES), level (VMFT_DEFAULT_LEVEL), samples (VMFT_DEFAULT_SAMPLES); N and
+ * qbits are the linear transfers' and do not apply, nor does a light prior. */
+static int vmf_configure(const transfer_setup *s, transfer_config *cfg, prt_error *err) {
+    _Static_assert(sizeof(vmf_config) <= TRANSFER_CONFIG_BYTES, "vmf_config fits transfer_config");
+    memset(cfg, 0, sizeof *cfg);
+    vmf_config c = { .lobes = VMFT_DEFAULT_LOBES, .level = VMFT_DEFAULT_LEVEL, .samples = VMFT_DEFAULT_SAMPLES };
+    if (s->N || s->qbits) return prt_fail(err, "vmf transfer: N and qbits do not apply (lobes, level, samples do)");
+    if (transfer_parse_options("vmf", k_options, s->options, vmf_set, &c, err)) return -1;
+    memcpy(cfg->bytes, &c, sizeof c);
     return 0;
 }
 
 static void vmf_describe(const transfer_config *cfg, char *buf, size_t cap) {
-    snprintf(buf, cap, "vMF lobes (%d per pass, %d views, %d rays per slice)", cfg->lobes, 10 * (1 << (2 * cfg->level)) + 2,
-             cfg->samples);
+    vmf_config c = vmft_config(cfg);
+    snprintf(buf, cap, "vMF lobes (%d per pass, %d views, %d rays per slice)", c.lobes, 10 * (1 << (2 * c.level)) + 2, c.samples);
+}
+
+/* ---- precompute --------------------------------------------------------------------------------- */
+
+/* Both errors in the lobe fit's measure (relative L2 over the whole slice f cos, mean over view
+ * elevations; lobefit.h): one vMF lobe per view, and the SVD at f's K. */
+static int vmf_fit(const transfer_config *cfg, const brdf_params *p, const brdf_factor *f, transfer_fit *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    out->what = "one vMF lobe";
+    out->measure = "rel. L2 over the whole slice f cos";
+    if (!lobefit_supported(p->type)) {
+        snprintf(out->why, sizeof out->why, "%s", p->type == BRDF_AS ? "anisotropic, and no ASG fit exists here" : "no lobe fit for this model");
+        return 0;
+    }
+    lobefit_table t;
+    if (lobefit_fit(p, &(lobefit_desc){ 0 }, &t, err)) return -1;
+    float e[LOBEFIT_MAX_VIEWS];
+    lobefit_factor_error(&t, p, f, f->K, e);
+    double svd = 0;
+    for (int v = 0; v < t.views; v++) svd += e[v];
+    out->svd_err = t.views > 0 ? svd / t.views : 0;
+    out->err = t.err_whole_mean;
+    out->fits = true;
+    return 0;
 }
 
 static int vmf_precompute(const transfer_precompute_in *in, prt_transfer *tr, prt_error *err) {
     return vmfpass_run(in, tr, err);
 }
+
+/* vmfpass_estimate's probe times the counts of each stage's items. A pass that gathers nothing carries
+ * no energy, so the next one does not run: no stored slice (nothing blocks the lobes), pass 1 is the
+ * last; none hits a fitted triangle, pass 2 is. */
+static int vmf_estimate(const transfer_precompute_in *in, const prt_transfer *tr, transfer_estimate *out, prt_error *err) {
+    vmfpass_cost vc;
+    memset(out, 0, sizeof *out);
+    if (vmfpass_estimate(in, tr, &vc, err)) return -1;
+    int R = in->passes < 1 ? 1 : in->passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : in->passes;
+    if (vc.stored == 0 && R > 2) R = 2;
+    if (vc.fit_share == 0 && R > 3) R = 3;
+    double cpu[2 + VMFT_MAX_PASSES] = { R > 1 ? vc.nverts * vc.diffuse_cpu : 0, vc.ngverts * vc.direct_cpu };
+    for (int p = 1; p < R; p++) cpu[1 + p] = vc.ngverts * vc.stored * (p == 1 ? vc.gather_cpu : vc.fit_share * vc.gather2_cpu);
+    static const char *const names[2 + VMFT_MAX_PASSES] = { "vmf diffuse lobes", "vmf direct", "vmf pass 1", "vmf pass 2",
+                                                            "vmf pass 3" };
+    for (int k = R > 1 ? 0 : 1; k < 1 + R && out->n < TRANSFER_MAX_STAGES; k++, out->n++) {
+        snprintf(out->name[out->n], sizeof out->name[out->n], "%s", names[k]);
+        out->cpu[out->n] = cpu[k];
+    }
+    return 0;
+}
+
+/* Checkpoint pass p's records: vertices of the direct pass, slices of a gathering pass. */
+static void vmf_resumed(int p, int count, char *buf, size_t cap) {
+    if (p == 0) snprintf(buf, cap, "vmf direct %d", count);
+    else snprintf(buf, cap, "vmf pass %d %d slices", p, count);
+}
+
+/* ---- runtime ------------------------------------------------------------------------------------ */
 
 typedef struct shade_ctx {
     const prt_data *d;
@@ -497,7 +569,8 @@ static bool get_fit(prt_reader *r, lobefit_table *f, char *why) {
 
 static void vmf_write(prt_writer *w, const prt_transfer *tr) {
     const vmft_data *t = vmft_get(tr);
-    prtio_put_i32(w, tr->cfg.lobes), prtio_put_i32(w, tr->cfg.level), prtio_put_i32(w, tr->cfg.samples);
+    vmf_config c = vmft_config(&tr->cfg);
+    prtio_put_i32(w, c.lobes), prtio_put_i32(w, c.level), prtio_put_i32(w, c.samples);
     prtio_put_u64(w, tr->materials);
     prtio_put_i32(w, t->passes), prtio_put_i32(w, t->nverts), prtio_put_i32(w, t->nviews);
     prtio_put_f32(w, t->horizon);
@@ -532,24 +605,27 @@ static bool vmf_read_arrays(prt_reader *r, vmft_data *t, char *why) {
 }
 
 static bool vmf_read(prt_reader *r, prt_transfer *tr, char *why) {
-    tr->cfg.lobes = prtio_get_i32(r), tr->cfg.level = prtio_get_i32(r), tr->cfg.samples = prtio_get_i32(r);
+    vmf_config c = { 0 };
+    c.lobes = prtio_get_i32(r), c.level = prtio_get_i32(r), c.samples = prtio_get_i32(r);
+    memset(&tr->cfg, 0, sizeof tr->cfg);
+    memcpy(tr->cfg.bytes, &c, sizeof c);
     tr->materials = prtio_get_u64(r);
     int passes = prtio_get_i32(r), nverts = prtio_get_i32(r), nviews = prtio_get_i32(r);
     if (r->bad) return BAD(why, "vmf section too short");
-    if (tr->cfg.lobes < 1 || tr->cfg.lobes > VMFT_MAX_LOBES) return BAD(why, "vmf: bad lobe count %d", tr->cfg.lobes);
-    if (tr->cfg.level < 0 || tr->cfg.level > GEOGRID_MAX_LEVEL) return BAD(why, "vmf: bad grid level %d", tr->cfg.level);
+    if (c.lobes < 1 || c.lobes > VMFT_MAX_LOBES) return BAD(why, "vmf: bad lobe count %d", c.lobes);
+    if (c.level < 0 || c.level > GEOGRID_MAX_LEVEL) return BAD(why, "vmf: bad grid level %d", c.level);
     if (passes < 1 || passes > VMFT_MAX_PASSES) return BAD(why, "vmf: bad pass count %d", passes);
     if (nverts < 1 || nverts > INT32_MAX / 3) return BAD(why, "vmf: bad vertex count %d", nverts);
     vmft_data *t = calloc(1, sizeof *t);
     prt_error e;
-    if (!t || vmft_init(t, tr->cfg.level, tr->cfg.lobes, nverts, &e)) {
+    if (!t || vmft_init(t, c.level, c.lobes, nverts, &e)) {
         free(t);
         r->bad = r->oom = true;
         return BAD(why, "vmf: out of memory");
     }
     tr->priv = t;
     if (nviews != t->nviews) return BAD(why, "vmf: %d views for grid level %d (expected %d)", nviews, t->level, t->nviews);
-    t->passes = passes, t->samples = tr->cfg.samples, t->materials = tr->materials;
+    t->passes = passes, t->samples = c.samples, t->materials = tr->materials;
     t->horizon = prtio_get_f32(r);
     t->slices = prtio_get_u64(r);
     for (int p = 0; p < VMFT_MAX_PASSES; p++) t->t_pass[p] = prtio_get_f64(r);
@@ -612,9 +688,10 @@ static bool vmf_validate(const prt_data *d, const prt_transfer *tr, char *why) {
     if (!tr->priv) return BAD(why, "vmf transfer has no data");
     const vmft_data *t = vmft_get(tr);
     if (t->nverts != d->scene.mesh.nverts) return BAD(why, "vmf: %d vertices, the mesh has %d", t->nverts, d->scene.mesh.nverts);
-    if (t->materials != tr->materials || t->lobes != tr->cfg.lobes || t->level != tr->cfg.level)
+    vmf_config c = vmft_config(&tr->cfg);
+    if (t->materials != tr->materials || t->lobes != c.lobes || t->level != c.level)
         return BAD(why, "vmf: data and config disagree");
-    if (tr->cfg.samples < 4 || tr->cfg.samples > VMFT_MAX_SAMPLES) return BAD(why, "vmf: bad sample count %d", tr->cfg.samples);
+    if (c.samples < 4 || c.samples > VMFT_MAX_SAMPLES) return BAD(why, "vmf: bad sample count %d", c.samples);
     double st[2 * VMFT_MAX_PASSES + 1] = { t->horizon };
     for (int p = 0; p < VMFT_MAX_PASSES; p++) st[1 + p] = t->t_pass[p], st[1 + VMFT_MAX_PASSES + p] = t->energy[p];
     for (int i = 0; i < 2 * VMFT_MAX_PASSES + 1; i++)
@@ -623,19 +700,29 @@ static bool vmf_validate(const prt_data *d, const prt_transfer *tr, char *why) {
     return fits_ok(d, t, why) && hash_ok(d, t, why);
 }
 
+static const transfer_view k_view = {
+    .fit = vmf_fit,
+    .precompute = vmf_precompute,
+    .estimate = vmf_estimate,
+    .resumed = vmf_resumed,
+    .shade_vertices = vmf_shade_vertices,
+    .glsl = &transfer_vmf_glsl_view,
+};
+
 const transfer_ops transfer_vmf = {
     .name = "vmf",
     .title = "vMF lobes",
+    .label = "vMF",
     .tag = TRANSFER_TAG('V', 'M', 'F', 'L'),
+    .kind = TRANSFER_VIEW,
+    .options = k_options,
     .configure = vmf_configure,
     .describe = vmf_describe,
     .write = vmf_write,
     .read = vmf_read,
     .validate = vmf_validate,
     .release = vmf_release,
-    .precompute = vmf_precompute,
-    .shade_vertices = vmf_shade_vertices,
     .bytes = vmf_bytes,
     .summary = vmf_summary,
-    .glsl_view = &transfer_vmf_glsl_view,
+    .view = &k_view,
 };

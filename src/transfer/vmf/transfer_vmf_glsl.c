@@ -1,5 +1,5 @@
 /* transfer_vmf_glsl.c - the vmf transfer's per-pixel view shading in GLSL (transfer.h:
- * transfer_glsl_view; compiled by gpu/glrt.c into its per-pixel view program).
+ * transfer_glsl_view, its transfer_view.glsl; compiled by gpu/glrt.c into its per-pixel view program).
  *
  * What runs per pixel: vmft_radiance_point (vmf.h, "Per pixel"), the per-pixel form of the
  * shading rule, line for line. The pixel's triangle (gl_PrimitiveID), its barycentrics (solved
@@ -10,7 +10,7 @@
  * around, the BRDF's own lobe at the exact view; each interpolated lobe looked up in the
  * prefiltered probe (pf_lookup). So a stored slice's occlusion edge and gathered reflections are
  * interpolated per pixel too, which the per-vertex model smears over the vertex spacing (the chrome
- * spheres of issue 9: Phong n = 300 and 1000 highlights are a few pixels wide).
+ * spheres of data/two-chrome-spheres.json: Phong n = 300 and 1000 highlights are a few pixels wide).
  *
  * The grid lookup needs no descent: a small cube map (CUBE_RES_START^2 cells a face, in `start`)
  * gives the finest grid triangle holding each cell's centre; the shader tests w_o against that

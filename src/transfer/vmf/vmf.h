@@ -6,7 +6,7 @@
  * Usage (runtime; the ops do this, a GPU backend mirrors it):
  *     const vmft_data *t = vmft_get(tr);                  // tr->priv of a "vmf" transfer
  *     vmft_radiance(t, &d->scene.mesh, v, wo, env, rgb);  // one vertex toward unit wo (world), added to rgb
- *     tr->ops->shade_vertices(d, tr, env, eye, rgb, 0);   // every vertex of tr's materials, both cores
+ *     tr->ops->view->shade_vertices(d, tr, env, eye, rgb, 0);   // every vertex of tr's materials, both cores
  *
  * What is represented (Eq. 5-6): the outgoing radiance of vertex v toward view w_o is
  *     L_o(v, w_o) = sum over passes p < passes, lobes i < lobes of alpha_{p,i} E(mu_{p,i}, kappa_{p,i})
@@ -14,7 +14,7 @@
  * (prefilter.h) and alpha an RGB colour (the slice's integral, Eq. 9 and 11). Pass 0 is the
  * direct pass (the BRDF lobe minus what the scene blocks, Eq. 9), pass p >= 1 the light
  * gathered after p reflections (section 5.2). Only the specular slice f_s cos is here: the
- * material's kd/pi stays in the Haar K = 1 transfer beside this one (issue 9).
+ * material's kd/pi stays in the linear K = 1 transfer beside this one.
  *
  * Sampling: w_o is sampled on the geodesic grid of `level` (geogrid.h: 10 * 4^level + 2
  * views, global frame). A (vertex, view) slice is one pass's I lobes for each pass. Only
@@ -87,19 +87,16 @@
  * Measured (same set-up): teapot + floor, level 2, 3 passes (the third carried 0.25% of the
  * direct energy): 65.8% of 347,243 active slices stored (the floor blocks every low view;
  * 28% of stored slices are fully blocked, only 8% have 1-2 blocked rays of 64), hash fill
- * 46.5% (phash.c), 20.4 MB (the Haar file of the scene: 9.0 MB); CPU shading 0.9-2.0 us a glossy vertex on one core depending on the
- * machine's load (0.28 us on the unoccluded sphere, where every vertex takes the one-lookup
- * path). After the shading and gathering changes of branch vmf2 (tools/vmf_measure.sh
- * --save/--load, the same file shaded by the library before and after, back to back, load 2-4
- * on this 2-core machine): the bunny in paper-phong alone (34,834 glossy vertices, 39% of 3.7 M
- * slices stored, 72 MB), one thread's median frame 17.6-17.8 ms CPU before, 10.4-11.4 ms after
- * (0.30-0.33 us a vertex); both cores' wall median 17.7-22.5 ms before, 11.4-11.6 ms (86-88
- * fps) after. perf had 30% of a frame waiting on the entry and lobe cache misses (shade_range
- * now prefetches a block's); the BRDF lobe no longer builds a tangent frame in doubles
- * (vmft_brdf_lobe); teapot + floor 0.63 us a glossy vertex. Precompute of teapot + floor, 3 passes: 19.0 s before,
- * 16.6 s after (direct 6.2, pass 1 6.7, pass 2 3.2 s: pass 2 skips the slices that hit no fitted
- * triangle in pass 1) beside `prt precompute --no-bounces` (Haar direct) 16.5 s; the paper-phong
- * sphere 10.8 s before, 0.66 s after (vmfpass.c vp_open: nothing above the tangent plane).
+ * 46.5% (phash.c), 20.4 MB (the Haar file of the scene: 9.0 MB). CPU shading (tools/vmf_measure.sh
+ * --save/--load): 0.63 us a glossy vertex of teapot + floor; the bunny in paper-phong alone (34,834
+ * glossy vertices, 39% of 3.7 M slices stored, 72 MB) 0.30-0.33 us a vertex on one thread, 86-88
+ * frames a second on both cores; 0.28 us on the unoccluded sphere, where every vertex takes the
+ * one-lookup path. shade_range prefetches a block's entries and lobes, since a frame otherwise
+ * waits on their cache misses, and vmft_brdf_lobe builds its tangent frame in float. Precompute
+ * of teapot + floor, 3 passes: 16.6 s (direct 6.2, pass 1 6.7, pass 2 3.2 s: pass 2 skips the
+ * slices that hit no fitted triangle in pass 1), about the linear transfer's direct pass (16.5 s);
+ * the paper-phong sphere 0.66 s (vmfpass.c vp_open: nothing above the tangent plane is traced).
+ * docs/design/representations.md keeps how these figures came about.
  * Diffuse hits (vmfpass.h): without pass 1 the stored teapot vertices have 59% of the
  * reference's 1-bounce energy (25.9% error); with the floor's diffuse lobes gathered, 100.6%
  * (16.2%), so they are kept.
@@ -115,6 +112,7 @@
 #include "lobefit.h"
 #include "phash.h"
 #include "scene.h"
+#include "transfer.h"
 
 struct prt_transfer;
 struct prt_data;
@@ -128,6 +126,19 @@ struct prefilter_env;
 #define VMFT_DEFAULT_LOBES 2
 #define VMFT_DEFAULT_LEVEL 2     /* 162 views: measured against level 3 in vmf.h ("Grid level") */
 #define VMFT_DEFAULT_SAMPLES 64  /* rays per slice and pass (the paper traced 144) */
+
+/* The transfer's configuration (its options: lobes=1..4, level=0..6, samples=4..4096; transfer_vmf.c),
+ * the private struct inside its transfer_config. */
+typedef struct vmf_config {
+    int lobes;      /* I: lobes per set and reflection pass */
+    int level;      /* geodesic view grid: icosahedron subdivided `level` times (10 * 4^level + 2 views) */
+    int samples;    /* rays per (vertex, view) set in the direct and gathering passes */
+} vmf_config;
+vmf_config vmft_config(const transfer_config *cfg);
+/* Its table (transfer_vmf.c; listed in transfer.c) and the per-pixel shading it points at
+ * (transfer_vmf_glsl.c), for this folder and the tests and tools that measure vMF itself. */
+extern const transfer_ops transfer_vmf;
+extern const transfer_glsl_view transfer_vmf_glsl_view;
 
 typedef struct vmft_data {
     int level, nviews;          /* geodesic grid (grid is rebuilt from level when read) */

@@ -302,7 +302,7 @@ static double vp_open_slice(const vp_ctx *c, int v, int j) {
     return prt_luminancef(A);
 }
 
-/* The checkpoint blob of glossy vertex gi (CKPT_PASS_VMF): energy, active views and its stored
+/* The checkpoint blob of glossy vertex gi (pass in->ckpt_pass): energy, active views and its stored
  * slices (the last n of the thread's list), each a view and its I packed lobes. */
 static void vp_record_vertex(const vp_ctx *c, int gi, const vp_list *L, size_t first) {
     if (!c->in->ckpt) return;
@@ -315,7 +315,7 @@ static void vp_record_vertex(const vp_ctx *c, int gi, const vp_list *L, size_t f
         memcpy(b + 16 + i * per, &L->e[first + i].j, 4);
         memcpy(b + 20 + i * per, L->e[first + i].w, per - 4);
     }
-    ckpt_add_blob(c->in->ckpt, CKPT_PASS_VMF, (uint32_t)gi, b, (uint32_t)len);
+    ckpt_add_blob(c->in->ckpt, c->in->ckpt_pass, (uint32_t)gi, b, (uint32_t)len);
     free(b);
 }
 
@@ -537,11 +537,11 @@ static void vp_gather_slice(vp_ctx *c, vp_thread *th, size_t e) {
     uint32_t *w = vp_slice_lobes(c, e);
     c->energy[e] = vp_gather_core(c, th, v, j, w, &fit);
     if (c->pass == 1) c->hitfit[e] = fit;
-    if (c->in->ckpt) {   /* its checkpoint blob (CKPT_PASS_VMF + pass): energy, hit flag, lobes */
+    if (c->in->ckpt) {   /* its checkpoint blob (in->ckpt_pass + pass): energy, hit flag, lobes */
         uint8_t b[9 + 4 * VMFT_MAX_LOBES * VMFT_WORDS];
         memcpy(b, &c->energy[e], 8), b[8] = c->hitfit[e];
         memcpy(b + 9, w, 4 * (size_t)c->I * VMFT_WORDS);
-        ckpt_add_blob(c->in->ckpt, CKPT_PASS_VMF + c->pass, (uint32_t)e, b, 9 + 4 * (uint32_t)c->I * VMFT_WORDS);
+        ckpt_add_blob(c->in->ckpt, c->in->ckpt_pass + c->pass, (uint32_t)e, b, 9 + 4 * (uint32_t)c->I * VMFT_WORDS);
     }
 }
 
@@ -749,7 +749,7 @@ static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
     for (int p = 1; p < R; p++) {
         double t0 = prt_now();
         c->pass = p;
-        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, CKPT_PASS_VMF + p, vp_restore_slice, vp_share_gather, err)) return -1;
+        if (vp_stage(c, stages[p], (int)c->nslices, 64, vp_gather_range, c->in->ckpt_pass + p, vp_restore_slice, vp_share_gather, err)) return -1;
         double e = 0;
         for (size_t i = 0; i < c->nslices; i++) e += c->energy[i];
         t->energy[p] = e0 > 0 ? e / e0 : 0;
@@ -762,20 +762,21 @@ static int vp_gather_passes(vp_ctx *c, double e0, int R, prt_error *err) {
 }
 
 int vmfpass_run(const transfer_precompute_in *in, prt_transfer *tr, prt_error *err) {
-    PRT_CHECK(in->scene && in->vis && tr->cfg.lobes >= 1 && tr->cfg.samples >= 1);
+    vmf_config cfg = vmft_config(&tr->cfg);
+    PRT_CHECK(in->scene && in->vis && cfg.lobes >= 1 && cfg.samples >= 1);
     vp_ctx *c = calloc(1, sizeof *c);
     vmft_data *t = calloc(1, sizeof *t);
     if (!c || !t) return free(c), free(t), prt_fail(err, "vmf precompute: out of memory");
     const prt_mesh *m = &in->scene->mesh;
-    *c = (vp_ctx){ .in = in, .m = m, .t = t, .S = tr->cfg.samples, .I = tr->cfg.lobes, .eps = vis_eps(in->vis) };
+    *c = (vp_ctx){ .in = in, .m = m, .t = t, .S = cfg.samples, .I = cfg.lobes, .eps = vis_eps(in->vis) };
     pthread_mutex_init(&c->lock, NULL);
     int R = in->passes < 1 ? 1 : in->passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : in->passes, rc = -1;
-    if (vmft_init(t, tr->cfg.level, tr->cfg.lobes, m->nverts, err) || (t->samples = c->S, t->materials = tr->materials, 0) ||
+    if (vmft_init(t, cfg.level, cfg.lobes, m->nverts, err) || (t->samples = c->S, t->materials = tr->materials, 0) ||
         vp_setup(c, tr, err))
         goto done;
     double t0 = prt_now();
     if (R > 1 && vp_stage(c, "vmf diffuse lobes", m->nverts, 256, vp_diffuse_range, -1, NULL, vp_share_diffuse, err)) goto done;
-    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, CKPT_PASS_VMF, vp_restore_vertex, vp_share_direct, err) ||
+    if (vp_stage(c, "vmf direct", c->ngverts, 4, vp_direct_range, c->in->ckpt_pass, vp_restore_vertex, vp_share_direct, err) ||
         vp_build(c, R, err))
         goto done;
     double e0 = 0;
@@ -893,7 +894,8 @@ static int vp_probe(vp_ctx *c, vmfpass_cost *out, prt_error *err) {
 }
 
 int vmfpass_estimate(const transfer_precompute_in *in, const prt_transfer *tr, vmfpass_cost *out, prt_error *err) {
-    PRT_CHECK(in->scene && in->vis && tr->cfg.lobes >= 1 && tr->cfg.samples >= 1);
+    vmf_config cfg = vmft_config(&tr->cfg);
+    PRT_CHECK(in->scene && in->vis && cfg.lobes >= 1 && cfg.samples >= 1);
     memset(out, 0, sizeof *out);
     transfer_precompute_in one = *in;   /* one thread, nothing recorded, no ranks */
     one.nthreads = 1, one.ckpt = NULL, one.shard = NULL, one.progress = NULL, one.pass_done = NULL;
@@ -901,11 +903,11 @@ int vmfpass_estimate(const transfer_precompute_in *in, const prt_transfer *tr, v
     vmft_data *t = calloc(1, sizeof *t);
     if (!c || !t) return free(c), free(t), prt_fail(err, "vmf estimate: out of memory");
     const prt_mesh *m = &in->scene->mesh;
-    *c = (vp_ctx){ .in = &one, .m = m, .t = t, .S = tr->cfg.samples, .I = tr->cfg.lobes, .eps = vis_eps(in->vis) };
+    *c = (vp_ctx){ .in = &one, .m = m, .t = t, .S = cfg.samples, .I = cfg.lobes, .eps = vis_eps(in->vis) };
     pthread_mutex_init(&c->lock, NULL);
     int rc = -1;
     /* an empty slice index: every slice a gathering pass meets is its BRDF's own lobe */
-    if (vmft_init(t, tr->cfg.level, tr->cfg.lobes, m->nverts, err) || (t->materials = tr->materials, 0) ||
+    if (vmft_init(t, cfg.level, cfg.lobes, m->nverts, err) || (t->materials = tr->materials, 0) ||
         vp_setup(c, tr, err) || vmft_index(t, err))
         goto done;
     out->nverts = m->nverts, out->ngverts = c->ngverts;

@@ -1,10 +1,11 @@
 /* vmfpass.h - the passes that fill a vMF lobe transfer (vmf.h): the direct pass from rays
  * sampled from the BRDF lobe (laurijssen-2011 Eq. 8-9) and the gathering passes (section
- * 5.2, Eq. 7, 10-11). It is transfer_vmf's ops->precompute.
+ * 5.2, Eq. 7, 10-11). It is transfer_vmf's ops->view->precompute; its checkpoint passes are
+ * in->ckpt_pass (the direct pass) and in->ckpt_pass + p (gathering pass p).
  *
  * Usage:
  *     transfer_precompute_in in = { .scene = &sc, .vis = vs, .passes = 3, .bounce_threshold = 0.01f };
- *     prt_transfer *tr = prt_data_add_transfer(d, &transfer_vmf, &cfg, glossy_mask);   // cfg configured
+ *     prt_transfer *tr = prt_data_add_transfer(d, &transfer_vmf, &cfg, glossy_mask);   // cfg: its configure
  *     if (vmfpass_run(&in, tr, &err)) puts(err.msg);      // fills tr->priv (a vmft_data)
  *
  * Direct pass (pass 0), per vertex v of tr's materials and active grid view j (vmf.h): the

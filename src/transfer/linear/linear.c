@@ -1,49 +1,48 @@
-/* transfer_sparse.c - what the sparse family (haar, sh) shares: storage in a
- * prt_transport (transport.h), its compression, its file section, its index
- * validation and its GLSL light kernels. A module's table points at these.
- *
- * Section layout (little-endian; the tag is the module's):
- *     i32 N, i32 qbits, i32 order        the transfer_config
- *     u64 materials                      bit i: material i
- *     u8  flags                          bit 0: the direct-only set follows the total;
- *                                        bit 1: Haar's solid-angle measure (transfer.h;
- *                                        files before issue 10 have only bit 0);
- *                                        bit 2: padded (below; files before issue 13's
- *                                        mapped loading have no padding)
- *     transport, [direct transport]      each: i32 nverts, nvecs, N, qbits; u64 ncoefs, nruns;
- *                                        vec_first, coef_first, run_first, runs, scale,
- *                                        [padded: u8 k, k zero bytes], then
- *                                        packed (8-bit) or offs + q16 / f32
- * The padding puts packed, q16 or f32 at a multiple of 64 bytes from the file's start, so that
- * prtfile_read can leave the coefficients in the file's pages (issue 13): the runs and the
- * coefficient arrays, all but about 24 bytes per vector, become one read-only window of the file
- * (prtio_map_window, kept in the set's data_map as transport_map_to_file's are) instead of a copy.
- * A reader with no file (bytes in memory), a big-endian host, or an older file whose array falls
- * on an odd address copies them as before: the same values either way.
- * Reading sizes and allocates (or maps) only; transfer_sparse_validate then checks every
- * index the runtimes follow: per-vertex vector counts against each material's K
- * (0 for materials outside the mask), coefficient and run offsets, blocks, strictly
- * ascending indices below the representation's limit, finite values. */
-#include "transfer.h"
+/* linear.c - what the linear representations stored as sparse coefficient sets share (linear.h
+ * states the section layout and the checks): the leading config fields and their defaults, the
+ * file section, the validation of every index, the default set setup, and the GLSL light
+ * kernels. */
+#include "linear.h"
 #include "prtfile.h"
 #include "sparse.h"
+#include "check.h"
 #include <math.h>
 #include <string.h>
 
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 #define SPARSE_FILE_ALIGN 64   /* the coefficient arrays' alignment in the file (a cache line) */
 
-/* N default 128 (the paper's budget for a 64x64x6 cube), 8-bit values. */
-int transfer_sparse_configure(transfer_config *cfg, prt_error *err) {
-    if (cfg->N == 0) cfg->N = 128;
-    if (cfg->qbits == 0) cfg->qbits = 8;
-    if (cfg->N < 1 || cfg->N > CUBE_TEXELS) return prt_fail(err, "N = %d is out of range 1..%d", cfg->N, CUBE_TEXELS);
-    if (cfg->qbits != 8 && cfg->qbits != 16 && cfg->qbits != 32)
-        return prt_fail(err, "qbits = %d (must be 8, 16 or 32)", cfg->qbits);
+linear_config linear_config_of(const transfer_config *cfg) {
+    linear_config lc;
+    memcpy(&lc, cfg->bytes, sizeof lc);
+    return lc;
+}
+
+void linear_store(transfer_config *cfg, const void *priv, size_t size) {
+    PRT_CHECK(size >= sizeof(linear_config) && size <= sizeof cfg->bytes);
+    memset(cfg, 0, sizeof *cfg);
+    memcpy(cfg->bytes, priv, size);
+}
+
+int linear_configure(const transfer_setup *s, linear_config *lc, prt_error *err) {
+    memset(lc, 0, sizeof *lc);
+    lc->N = s->N ? s->N : LINEAR_DEFAULT_N;
+    lc->qbits = s->qbits ? s->qbits : 8;
+    if (lc->N < 1 || lc->N > CUBE_TEXELS) return prt_fail(err, "N = %d is out of range 1..%d", lc->N, CUBE_TEXELS);
+    if (lc->qbits != 8 && lc->qbits != 16 && lc->qbits != 32)
+        return prt_fail(err, "qbits = %d (must be 8, 16 or 32)", lc->qbits);
     return 0;
 }
 
-double transfer_sparse_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
+int linear_init_set(const transfer_config *cfg, const transfer_linear_run *run, prt_transport *t, int nverts,
+                    const int *nvec, prt_error *err) {
+    linear_config lc = linear_config_of(cfg);
+    if (transport_init(t, nverts, nvec, lc.N, lc.qbits, err)) return -1;
+    t->block_level = TRANSPORT_BLOCK_LEVEL;   /* read only with the solid-angle measure; set as Haar sets it */
+    return 0;
+}
+
+double linear_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     return transport_store(t, i, r, g, b, scratch);
 }
 
@@ -75,13 +74,14 @@ static void put_transport(prt_writer *w, const prt_transport *t) {
     }
 }
 
-void transfer_sparse_write(prt_writer *w, const prt_transfer *tr) {
-    prtio_put_i32(w, tr->cfg.N);
-    prtio_put_i32(w, tr->cfg.qbits);
-    prtio_put_i32(w, tr->cfg.order);
+void linear_write(prt_writer *w, const prt_transfer *tr) {
+    linear_config lc = linear_config_of(&tr->cfg);
+    prtio_put_i32(w, lc.N);
+    prtio_put_i32(w, lc.qbits);
+    prtio_put_i32(w, lc.order);
     prtio_put_u64(w, tr->materials);
     bool direct = tr->direct.nvecs > 0;
-    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (tr->cfg.measure == TRANSFER_MEASURE_SOLID_ANGLE ? 2 : 0) | 4));
+    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (lc.measure == LINEAR_MEASURE_SOLID_ANGLE ? 2 : 0) | 4));
     put_transport(w, &tr->transport);
     if (direct) put_transport(w, &tr->direct);
 }
@@ -139,20 +139,23 @@ static bool get_transport(prt_reader *r, prt_transport *t, bool padded, char *wh
     return true;
 }
 
-bool transfer_sparse_read(prt_reader *r, prt_transfer *tr, char *why) {
-    tr->cfg.N = prtio_get_i32(r);
-    tr->cfg.qbits = prtio_get_i32(r);
-    tr->cfg.order = prtio_get_i32(r);
+/* Reads the leading config fields into tr->cfg (the rest zero: what only a precompute uses). */
+bool linear_read(prt_reader *r, prt_transfer *tr, char *why) {
+    linear_config lc = { 0 };
+    lc.N = prtio_get_i32(r);
+    lc.qbits = prtio_get_i32(r);
+    lc.order = prtio_get_i32(r);
     tr->materials = prtio_get_u64(r);
     uint8_t flags = prtio_get_u8(r), direct = flags & 1;
     if (r->bad) return BAD(why, "transfer section too short");
     if (flags > 7) return BAD(why, "bad transfer flags %u", flags);
-    tr->cfg.measure = flags & 2 ? TRANSFER_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
+    lc.measure = flags & 2 ? LINEAR_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
+    linear_store(&tr->cfg, &lc, sizeof lc);
     if (!get_transport(r, &tr->transport, flags & 4, why)) return false;
     if (direct && !get_transport(r, &tr->direct, flags & 4, why)) return false;
     prt_transport *sets[2] = { &tr->transport, &tr->direct };
     for (int k = 0; k < 2; k++)   /* a shared budget (budget_ok): its kind is not recorded */
-        if (sets[k]->N > tr->cfg.N && tr->cfg.N > 0) { sets[k]->budget = tr->cfg.N; sets[k]->budget_kind = TRANSPORT_BUDGET_SHARED; }
+        if (sets[k]->N > lc.N && lc.N > 0) { sets[k]->budget = lc.N; sets[k]->budget_kind = TRANSPORT_BUDGET_SHARED; }
     if (r->pos != r->n) return BAD(why, "transfer section longer than its data");
     return true;
 }
@@ -227,15 +230,16 @@ static bool set_ok(const struct prt_data *d, const prt_transfer *tr, const prt_t
 /* A set's N against the config's: equal (every vector its own N), or a shared budget (transport.h): the
  * set's N is the most one vector holds, the config's the mean, and the total at most config N x vectors. */
 static bool budget_ok(const prt_transfer *tr, const prt_transport *t, char *why) {
-    if (tr->cfg.qbits != t->qbits) return BAD(why, "%s config and transport disagree on qbits", tr->ops->name);
-    if (t->N == tr->cfg.N) return true;
-    if (t->N < tr->cfg.N) return BAD(why, "%s config and transport disagree on N", tr->ops->name);
-    if ((uint64_t)t->coef_first[t->nvecs] > (uint64_t)tr->cfg.N * (uint64_t)t->nvecs)
-        return BAD(why, "%u coefficients exceed the shared budget of %d x %d vectors", t->coef_first[t->nvecs], tr->cfg.N, t->nvecs);
+    linear_config lc = linear_config_of(&tr->cfg);
+    if (lc.qbits != t->qbits) return BAD(why, "%s config and transport disagree on qbits", tr->ops->name);
+    if (t->N == lc.N) return true;
+    if (t->N < lc.N) return BAD(why, "%s config and transport disagree on N", tr->ops->name);
+    if ((uint64_t)t->coef_first[t->nvecs] > (uint64_t)lc.N * (uint64_t)t->nvecs)
+        return BAD(why, "%u coefficients exceed the shared budget of %d x %d vectors", t->coef_first[t->nvecs], lc.N, t->nvecs);
     return true;
 }
 
-bool transfer_sparse_validate(const struct prt_data *d, const prt_transfer *tr, uint32_t max_index, char *why) {
+bool linear_validate(const struct prt_data *d, const prt_transfer *tr, uint32_t max_index, char *why) {
     if (!set_ok(d, tr, &tr->transport, max_index, why) || !budget_ok(tr, &tr->transport, why)) return false;
     /* The optional direct-only set (the direct/bounces toggle) has the same layout as the total. */
     if (tr->direct.nvecs || tr->direct.vec_first) {
@@ -246,16 +250,18 @@ bool transfer_sparse_validate(const struct prt_data *d, const prt_transfer *tr, 
     return true;
 }
 
-void transfer_sparse_release(prt_transfer *tr) {
+void linear_release(prt_transfer *tr) {
     transport_free(&tr->transport);
     transport_free(&tr->direct);
 }
+
+size_t linear_bytes(const prt_transfer *tr) { return transport_bytes(&tr->transport) + transport_bytes(&tr->direct); }
 
 /* ---- GLSL light kernels (compiled by gpu/glrt.c; buffer layout in its header comment) ---- */
 
 /* Coefficient decoding, shared by every light kernel. WORD(c) and BLOCK(c) are defined per kernel.
  * Every kernel writes g = acc * scale * u_unshift clamped to the float range: a light near FLT_MAX
- * (a finite 1e37 sun, issue 12) is uploaded scaled down by 2^-e so that the sums of codes x L stay
+ * (a finite 1e37 sun) is uploaded scaled down by 2^-e so that the sums of codes x L stay
  * finite, and u_unshift = 2^e undoes it exactly, as transfer_light does on the CPU. */
 static const char k_decode[] =
     "#if QBITS == 8\n"
@@ -348,7 +354,7 @@ static const char k_light_warp[] =
     "        g[i] = vec4(unshift(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])), 0.0);\n"
     "}\n";
 
-const transfer_glsl transfer_sparse_glsl = {
+const transfer_glsl linear_glsl = {
     .decode = k_decode, .fragment = k_light_frag, .buffers = k_light_buffers,
     .thread = k_light_thread, .warp = k_light_warp,
 };
