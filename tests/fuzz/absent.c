@@ -27,6 +27,7 @@ static void absent(const char *name) {
 /* image_oiio.o (OpenImageIO) */
 ABSENT(image_read)
 ABSENT(image_write)
+ABSENT(image_tonemapped)
 /* glctx.o (OSMesa, EGL, GLFW) */
 ABSENT(glctx_check)
 ABSENT(glctx_compute_program)
