@@ -75,6 +75,7 @@ extern "C" {
 #include "lights.h"
 #include "scene.h"
 #include "precompute.h"
+#include "driver.h"
 #ifdef __cplusplus
 }
 #endif

@@ -27,6 +27,7 @@
 #include "linear.h"
 #include "mesh.h"
 #include "precompute.h"
+#include "driver.h"
 #include "prior.h"
 #include "probe.h"
 #include "scene.h"
@@ -38,6 +39,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 /* Haar's options for the paper's transfer (texel measure, N largest per vector), which make_light's
  * light vector matches. */
@@ -400,11 +402,12 @@ static void budget_auto(void) {
 }
 
 /* What `prt precompute SCENE.json` does is a zeroed desc with the scene's own keys applied
- * (precompute_desc_apply_scene): a small scene naming a light prior (a sky written here) and asking
- * for refinement, precomputed by the library so and by the prt binary with no flag, gives the same
- * refined mesh and the same transport, vector for vector (exact: the same library code on the same
- * inputs; the thread count changes nothing, precompute.h). Also the defaults' plan lines: Haar per
- * steradian, the prior named, the per-vector budget it implies, the refit. */
+ * (precompute_desc_apply_scene), run by precompute_file (driver.h): a small scene naming a light prior
+ * (a sky written here) and asking for refinement, precomputed by the library so and by the prt binary
+ * with no flag, gives the same refined mesh and the same transport, vector for vector (exact: the same
+ * library code on the same inputs; the thread count changes nothing, precompute.h), and leaves no
+ * checkpoint behind. Also the defaults' plan lines: Haar per steradian, the prior named, the
+ * per-vector budget it implies, the refit; and a missing scene: status 1, one line naming it. */
 static void scene_keys(void) {
     prt_error err;
     char probe[600], json[600], cli_out[600], cmd[2400], buf[8192];
@@ -430,8 +433,17 @@ static void scene_keys(void) {
     precompute_desc d = { 0 };
     CHECK(precompute_desc_apply_scene(&d, &sc, PRECOMPUTE_SCENE_ALL, &err) == 0 && d.light_prior && d.light_prior_scene &&
           d.refine_threshold > 0 && d.refine_budget == 80 && d.refine_parts == REFINE_ALL, "the scene's keys applied");
-    d.quiet = true;
-    if (precompute_run(&sc, &d, &lib, &err)) { CHECK(0, "%s", err.msg); return; }
+    scene_free(&sc);
+    char lib_out[700], ck[720];
+    snprintf(lib_out, sizeof lib_out, "%s/keys-lib.prt", check_tmpdir());
+    snprintf(ck, sizeof ck, "%s.ckpt", lib_out);
+    precompute_desc zero = { 0 };
+    precompute_job job = { .scene_path = json, .scene = &(scene_desc){ .floor = -1 }, .out_path = lib_out,
+                           .scene_keys = PRECOMPUTE_SCENE_ALL, .checkpoint = true, .quiet = true };
+    precompute_outcome o;
+    if (precompute_file(&job, &zero, &o, &err)) { CHECK(0, "precompute_file (status %d): %s", o.status, err.msg); return; }
+    CHECK(access(ck, F_OK) != 0, "the checkpoint is removed once the file is whole");
+    if (prtfile_read(lib_out, &lib, &err)) { CHECK(0, "%s", err.msg); return; }
     if (prtfile_read(cli_out, &cli, &err)) { CHECK(0, "%s", err.msg); prt_data_free(&lib); return; }
     const prt_mesh *a = &lib.scene.mesh, *b = &cli.scene.mesh;
     CHECK(a->nverts == b->nverts && a->nverts > 6 * 6 && !memcmp(a->pos, b->pos, sizeof(float) * 3 * (size_t)a->nverts),
@@ -448,6 +460,9 @@ static void scene_keys(void) {
           "the defaults in the plan: %s", lib.plan);
     prt_data_free(&lib);
     prt_data_free(&cli);
+    job.scene_path = "no-such-scene.json";
+    CHECK(precompute_file(&job, &zero, &o, &err) == -1 && o.status == 1 && o.say && strstr(err.msg, "no-such-scene.json"),
+          "a missing scene: status 1, one line naming it (%d: %s)", o.status, err.msg);
 }
 
 /* ---- (4) light-weighted texels against the probe's pixels ---- */

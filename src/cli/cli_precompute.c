@@ -2,16 +2,15 @@
  * with a progress bar and a per-stage timing summary. */
 #include "cli.h"
 #include "cli_args.h"
-#include "checkpoint.h"
 #include "precompute.h"
 #include "prtfile.h"
 #include "refine.h"
 #include "scene.h"
 #include "shard.h"
+#include "driver.h"
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <unistd.h>
 
 static const char *k_cmd = "precompute";
 
@@ -191,128 +190,37 @@ static void summary(const char *out, const prt_data *data, const prt_shard *sh, 
     fputc('\n', stderr);
 }
 
-/* The checkpoint beside out (OUT.ckpt, into ck[4096]; ck stays "" -> none for an empty out); an
- * earlier run's checkpoint replaced without --resume is said on stderr. (The temporaries killed
- * runs left are removed before the work by cli_check_files.) */
-static void checkpoint_setup(const char *out, precompute_desc *pd, char *ck, bool quiet) {
-    if (!*out) return;   /* -o "": the write fails (an empty name), and leaves no ".ckpt" */
-    snprintf(ck, 4096, "%s.ckpt", out);
-    pd->checkpoint = ck;
-    const char *kill_after = getenv("PRT_CHECKPOINT_KILL");   /* test hook (checkpoint.h) */
-    pd->checkpoint_kill = kill_after ? atoi(kill_after) : 0;
-    if (!pd->resume && !quiet && access(ck, F_OK) == 0)
-        fprintf(stderr, "starting anew: %s of an earlier run is replaced (--resume continues it)\n", ck);
+/* What the timing summary needs besides the file's data (driver.h's done callback). */
+typedef struct cli_pc_done {
+    const char *out;
+    prt_bar *bar;
+    bool quiet;
+    double t0;      /* when the command's work began */
+} cli_pc_done;
+
+/* precompute_file's done: the bar's last line, then the timing summary (rank 0, unless quiet). */
+static void on_done(void *user, const prt_data *data, const prt_shard *sh, double t_load) {
+    cli_pc_done *u = user;
+    prt_bar_done(u->bar);
+    if (!u->quiet) summary(u->out, data, sh, t_load, u->t0);
 }
 
-enum { USE_SCENE_PRIOR = 1, USE_SCENE_REFINE = 2 };   /* what the command line leaves to the scene */
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
-                    double t0, bool *stray);
-
-/* The scene's own "light_prior" (scene.h) into pd (precompute_desc_apply_scene) when the command line
- * named none and did not say --no-light-prior: the linear representation weighs by it where it can
- * and says so where it cannot. */
-static void scene_prior(const prt_scene *s, precompute_desc *pd) {
-    prt_error err;
-    precompute_desc_apply_scene(pd, s, PRECOMPUTE_SCENE_LIGHT_PRIOR, &err);
-}
-
-/* The scene's "refine" (scene.h) into pd, when it asks for refinement (the caller checked that no
- * refine flag was given: those replace it). Returns whether it did. */
-static bool scene_refinement(const prt_scene *s, precompute_desc *pd) {
-    prt_error err;
-    precompute_desc_apply_scene(pd, s, PRECOMPUTE_SCENE_REFINE, &err);
-    return s->refine.on;
-}
-
-/* Loads the scene, runs the pipeline with a progress bar, writes the file (rank 0 of an MPI job:
- * the others run quietly and write nothing). Returns the exit status. */
-static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet,
-               const char *prior_path, bool no_prior, bool scene_refine) {
+/* Runs the job (the scene's keys the command line leaves to it: scene_keys) with a progress bar and
+ * the timing summary. Returns the exit status. */
+static int run(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned scene_keys) {
     prt_error err = { { 0 } };
-    prt_shard *sh = shard_create(&err);
-    if (!sh) return cli_error(k_cmd, "%s", err.msg);
-    int rc = 2;
-    bool stray = false;   /* this rank failed where the others cannot know: the job is aborted */
-    if (pd->resume && shard_size(sh) > 1) {
-        if (shard_rank(sh) == 0) cli_error(k_cmd, "--resume cannot be combined with %d MPI ranks (run it in one process)", shard_size(sh));
-    } else {
-        const char *fail = getenv("PRT_SHARD_FAIL");   /* test hook: that rank fails (precompute.h) */
-        pd->shard = sh;
-        pd->shard_fail = fail ? atoi(fail) + 1 : 0;
-        double t0 = prt_now();
-        const unsigned use = (!prior_path && !no_prior ? USE_SCENE_PRIOR : 0) | (scene_refine ? USE_SCENE_REFINE : 0);
-        rc = run_rank(in, out, sd, pd, quiet || shard_rank(sh) > 0, use, t0, &stray);
-    }
-    shard_destroy(sh, stray);
-    return rc;
-}
-
-/* run's work on one rank; *stray: it failed alone, the others not told (shard.h). Every rank loads
- * the scene and says whether it could, so a rank missing a file fails the whole job with one line.
- * t0: when the command's work began. Returns the exit status. */
-static int run_rank(const char *in, const char *out, const scene_desc *sd, precompute_desc *pd, bool quiet, unsigned use_scene,
-                    double t0, bool *stray) {
-    const bool use_scene_prior = use_scene & USE_SCENE_PRIOR;
-    prt_error err = { { 0 } };
-    double t_scene = prt_now();
-    char ck[4096] = "";
-    prt_scene scene = { 0 };
-    bool lead = shard_rank(pd->shard) == 0;
-    int st = scene_load(in, sd, &scene, &err) ? 1 : 0;
-    double t_load = prt_now() - t_scene;
-    const bool by_scene = !st && (use_scene & USE_SCENE_REFINE) && scene_refinement(&scene, pd);
-    if (!st && pd->refine_threshold > 0 && pd->refine_budget > 0 && pd->refine_budget < scene.mesh.nverts)
-        st = by_scene ? 1 + 0 * prt_fail(&err, "%s: refine.budget %d is below its %d vertices", in, pd->refine_budget, scene.mesh.nverts)
-                      : 2 + 0 * prt_fail(&err, "--refine-budget %d is below the %d vertices of %s", pd->refine_budget, scene.mesh.nverts, in);
-    if (shard_status(pd->shard, st ? -1 : 0, &err)) {
-        if (lead) cli_error(k_cmd, "%s", err.msg);
-        scene_free(&scene);
-        return st ? st : 1;
-    }
-    if (!quiet)
-        fprintf(stderr, "scene: %d vertices, %d triangles, %d material(s)%s (loaded in %.2fs)\n", scene.mesh.nverts,
-                scene.mesh.ntris, scene.nmaterials, scene.floor_first_vertex >= 0 ? ", with floor" : "", t_load);
-    if (!quiet && scene.load_stats.degenerate)
-        fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", in, scene.load_stats.degenerate);
-    if (use_scene_prior) scene_prior(&scene, pd);   /* every rank builds the same prior (deterministic) */
-    int ranks = shard_size(pd->shard);
-    if (!quiet && ranks > 1) fprintf(stderr, "mpi: %d ranks, each with its own threads; rank 0 writes %s\n", ranks, out);
-    if (ranks == 1) checkpoint_setup(out, pd, ck, quiet);
-    char dir[4096];   /* the streamed pass's temporary file goes beside the output */
-    snprintf(dir, sizeof dir, "%s", out);
-    char *slash = strrchr(dir, '/');
-    if (slash) slash[slash == dir] = 0;
-    else snprintf(dir, sizeof dir, ".");
-    pd->stream_dir = dir;   /* a checkpoint is one process's (precompute.h) */
     prt_bar bar;
     prt_bar_init(&bar, stderr, quiet);
     pd->progress = prt_bar_report;
     pd->progress_user = &bar;
-    pd->quiet = quiet;
-    prt_data data;
-    memset(&data, 0, sizeof data);
-    int prc = precompute_run(&scene, pd, &data, &err);
-    if (pd->light_prior_scene) pd->light_prior = NULL, pd->light_prior_scene = false;   /* it pointed into the scene */
-    if (prc) {
-        prt_bar_done(&bar);
-        scene_free(&scene);
-        *stray = !shard_failed_together(pd->shard);
-        if (lead || *stray) cli_error(k_cmd, "%s", err.msg);
-        return 1;
-    }
+    cli_pc_done u = { .out = out, .bar = &bar, .quiet = quiet, .t0 = prt_now() };
+    precompute_job job = { .scene_path = in, .scene = sd, .out_path = out, .scene_keys = scene_keys, .checkpoint = true,
+                           .quiet = quiet, .done = on_done, .done_user = &u };
+    precompute_outcome o;
+    int rc = precompute_file(&job, pd, &o, &err);
     prt_bar_done(&bar);
-    if (!lead) { prt_data_free(&data); return 0; }
-    double tw = prt_now();
-    data.stats.t_write = 0;
-    if (prtfile_write(out, &data, &err)) {
-        prt_data_free(&data);
-        return cli_error(k_cmd, "%s", err.msg);
-    }
-    data.stats.t_write = prt_now() - tw;
-    if (*ck) remove(ck);   /* the file is whole: nothing left to resume */
-    if (!quiet) summary(out, &data, pd->shard, t_load, t0);
-    prt_data_free(&data);
-    return 0;
+    if (rc && o.say) cli_error(k_cmd, "%s", err.msg);
+    return rc ? o.status : 0;
 }
 
 /* The representations' flags (their option tables, transfer.h): each seen flag is one "key=value" of
@@ -541,7 +449,9 @@ int cli_precompute(int argc, char **argv) {
         if (specs[i] && brdf_parse(specs[i], &bp, &err)) return cli_error(k_cmd, "%s: %s", i ? "--floor-material" : "--material", err.msg) + 1;
     }
     if (prior && check_prior_probes(prior)) return 1;
-    /* any refine flag replaces the scene's "refine" (scene.h), --no-refine included */
+    /* any refine flag replaces the scene's "refine" (scene.h), --no-refine included; --light-prior and
+     * --no-light-prior its "light_prior" */
     const bool scene_refine = refine == 0 && refine_thr < 0 && pd.refine_budget == 0 && !pd.refine_parts;
-    return run(in, out, &sd, &pd, quiet, prior, no_prior, scene_refine);
+    const unsigned keys = (!prior && !no_prior ? PRECOMPUTE_SCENE_LIGHT_PRIOR : 0) | (scene_refine ? PRECOMPUTE_SCENE_REFINE : 0);
+    return run(in, out, &sd, &pd, quiet, keys);
 }
