@@ -402,7 +402,7 @@ static int run_rank(const char *in, const char *out, const scene_desc *sd, preco
     return 0;
 }
 
-/* --budget NAME into *out (transport_budget; none: shared for Haar, README "Shadows"); returns 0, or 1
+/* --budget NAME into *out (transport_budget; none: shared for Haar, docs/design/shadows.md); returns 0, or 1
  * after saying why. */
 static int budget_of(const char *name, int sh_bands, int *out) {
     static const char *names[] = { "vector", "shared", "relative" };
@@ -473,7 +473,7 @@ int cli_precompute(int argc, char **argv) {
     if (pr) return 2;
     pd.param = (brdf_param)param;
     if (sh_bands && texel) return cli_error(k_cmd, "--texel-measure applies to Haar wavelets, not --sh") + 1;
-    pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* README "Shadows" */
+    pd.measure = texel || sh_bands ? 0 : TRANSFER_MEASURE_SOLID_ANGLE;   /* docs/design/shadows.md */
     pd.smooth_faces = pd.measure == TRANSFER_MEASURE_SOLID_ANGLE && !no_smooth;
     if (select && strcmp(select, "expected") && strcmp(select, "magnitude"))
         return cli_error(k_cmd, "--select must be expected or magnitude (got '%s')", select) + 1;

@@ -764,7 +764,7 @@ static int pc_refit(pc_run *r, prt_error *err) {
 }
 
 /* PRECOMPUTE_BUDGET_AUTO resolved from the mesh and the prior (the same on every rank): per vector
- * with a light prior (README "Shadows": its weights already put each vector's N where the light will
+ * with a light prior (docs/design/shadows.md: its weights already put each vector's N where the light will
  * be, and a shared pool takes from the darkest contact-shadow vertices, 29% too dark on the full
  * bunny against 3% per vector), else shared up to PRECOMPUTE_SHARED_MAX_VECS vectors, said in the plan. */
 static void pc_budget_auto(pc_run *r) {

@@ -77,7 +77,7 @@ typedef enum precompute_glossy {
 #define PRECOMPUTE_DEFAULT_BOUNCES 3
 
 /* precompute_desc.budget: the plan picks (pc_choose). A shared budget stages 2N candidates per vector
- * (6.4 KB against 2 KB) and costs about 13% more CPU (README "Shadows"); above this many vectors it
+ * (6.4 KB against 2 KB) and costs about 13% more CPU (docs/design/shadows.md); above this many vectors it
  * would take the 1 M-vertex scene (1.1 M vectors) past issue 13's 25-minute direct pass and triple its
  * staging, so the plan keeps the paper's per-vector N there. */
 #define PRECOMPUTE_BUDGET_AUTO (-1)
@@ -119,7 +119,7 @@ typedef struct precompute_desc {
     int budget;             /* Haar: who shares the N x vectors coefficients (transport_budget): 0 every vector its
                              * own N (the paper's), TRANSPORT_BUDGET_SHARED / _RELATIVE one threshold over all
                              * of them, a vector budget / TRANSPORT_SHARED_MIN to TRANSPORT_SHARED_CAP x N
-                             * (README "Shadows"); PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for unless
+                             * (docs/design/shadows.md); PRECOMPUTE_BUDGET_AUTO (what `prt precompute` asks for unless
                              * --budget says): per vector with a light_prior, else shared up to
                              * PRECOMPUTE_SHARED_MAX_VECS vectors, else per vector */
     int bounces;            /* maximum interreflection passes; 0: PRECOMPUTE_DEFAULT_BOUNCES (none: force_bounces -1) */

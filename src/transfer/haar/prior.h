@@ -7,7 +7,7 @@
  *     if (prior_from_probe(&probe, &pd, w, &err)) puts(err.msg);
  *     precompute_desc d = { ..., .light_prior = w, .light_prior_name = "city.exr" };
  *
- * Why (issue 10, README "Shadows"). transport_store keeps the coefficients c_i of a vector
+ * Why (docs/design/shadows.md). transport_store keeps the coefficients c_i of a vector
  * whose expected share of T.L is largest: sum over dropped i of c_i^2 E[L_i^2] is the expected
  * squared error of T.L when the light coefficients are uncorrelated. Without a prior E[L_i^2]
  * is one figure per Haar level (transport_level_sigma), the same wherever the coefficient
@@ -15,7 +15,7 @@
  * edge. Under a probe turned about the vertical (the viewer's and --light-rotation's yaw) a
  * sun stays on one ring of elevation: the coefficients whose support the ring crosses carry
  * the sun, the others only sky. With the probe named at precompute time the selection keeps
- * the edge where the sun can be. On the reduced bunny + floor under city (README "Shadows")
+ * the edge where the sun can be. On the reduced bunny + floor under city (docs/design/shadows.md)
  * the floor's sun-shadow error fell from 4.9% to 3.1%, on the full bunny from 7.35% to 3.1%, near the
  * 2.5% of keeping 4,096 coefficients in float. It must be the probe the file will see: a prior of the
  * seven other shared probes did worse under city than none (5.85% against 4.88%), so there is no
@@ -37,7 +37,7 @@
 #include "cubemap.h"
 #include "probe.h"
 
-/* The yaw steps and the floor by default (README "Shadows": 360 steps, the sun's ring without
+/* The yaw steps and the floor by default (docs/design/shadows.md: 360 steps, the sun's ring without
  * gaps at 1.4-degree texels; floors 0.1 / 0.3 / 1 / 3 measured 3.18 / 3.16 / 3.10 / 2.85% in city's
  * shadow with city's prior and 5.09 / 3.23 / 2.77 / 2.63% in forest's, the level prior 2.65%). */
 #define PRIOR_STEPS 360
@@ -66,7 +66,7 @@ int prior_from_probes(const prt_probe *const *ps, int n, const prior_desc *desc,
  *     if (prior_rays_from_probes(pps, n, pr, &err)) puts(err.msg);
  *     precompute_desc d = { ..., .prior_rays = pr };        // precompute.h: the direct pass reads it
  *
- * Why (issue 10, README "Shadows"). The runtime's light is a texel mean L_j and the transport a
+ * Why (docs/design/shadows.md). The runtime's light is a texel mean L_j and the transport a
  * texel integral a_j = sum over sub-texels of V (n.w) dw (Eq. 3), so the product L_j a_j is right
  * only where L or V is flat inside the texel. A 0.53-degree sun inside a 1.4-degree texel, where an
  * occluder's edge crosses it, is neither: the floor's penumbra vertices came out 20-25% too bright or

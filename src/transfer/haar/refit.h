@@ -5,7 +5,7 @@
  *     float *scratch = malloc(refit_scratch_size(N));          // per thread
  *     refit_face(rt, f, r, g, b, kept, n, out, scratch);       // a vector's face f: new values, or false
  *
- * Why (README "Shadows", the shimmer). Truncation keeps the values c_k of the kept coefficients, the
+ * Why (docs/design/shadows.md, the shimmer). Truncation keeps the values c_k of the kept coefficients, the
  * L2-best approximation of T. What the runtime sees is T.L, and under a sun on a ring of elevation
  * (a probe turned about +y) its error is the truncated transport's error at the sun's texels: an
  * unoccluded floor's piecewise-constant blocks miss the cosine lobe there by up to 8% where the ring
@@ -17,7 +17,7 @@
  * with Psi the kept Haar functions of the face (texel values), T the face's T/w texels: a weighted
  * least-squares fit that is exact for each probe's mean light (the sky) and tracks T where the sun
  * can be. With v uniform and no means it returns the c_k themselves. Measured on that floor under city:
- * worst step 0.60% -> 0.20% (float; README "Shadows" for the 8-bit file and the scenes).
+ * worst step 0.60% -> 0.20% (float; docs/design/shadows.md for the 8-bit file and the scenes).
  *
  * Cost: Psi' V Psi is built from the tables (refit_create: the Haar functions' supports and quadrant
  * values, the quadrant sums of v, the Haar coefficients of v and of each m_p), an entry in O(1); then
@@ -51,7 +51,7 @@ bool refit_face(const refit_tables *rt, int f, const float *r, const float *g, c
 /* Rounds face f's refit values val[3 k + c] (refit_face's, n kept as there) to multiples q step[c] with
  * |q| <= qmax, in place: first to the nearest, then coordinate by coordinate to the neighbouring multiple
  * wherever that lowers the expected error of T.L (the normal equations' quadratic form), so the coarse
- * coefficients' rounding is made up by the others (README "Shadows": at 8 bits, without this, an open
+ * coefficients' rounding is made up by the others (docs/design/shadows.md: at 8 bits, without this, an open
  * floor's ratio kept a -0.35% bias). scratch as refit_face's. */
 void refit_quantize(const refit_tables *rt, int f, const uint32_t *kept, int n, const float step[3], int qmax, float *val,
                     void *scratch);

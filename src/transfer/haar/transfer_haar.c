@@ -16,8 +16,8 @@
  * (within 0.025% of the exact dw_j; any fixed positive weight keeps the product exact, since
  * the light vector is built from L_j w_j: sum_j (L_j w_j)(T_j / w_j) = sum_j L_j T_j). The
  * transport per steradian is the cosine times the visibility and the BRDF, flat where the
- * texels were steep, so truncation keeps what varies with visibility. Measured (README
- * "Shadows"; N = 128, 8-bit): an unoccluded plane under city.exr turned in 1-degree steps
+ * texels were steep, so truncation keeps what varies with visibility. Measured
+ * (docs/design/shadows.md; N = 128, 8-bit): an unoccluded plane under city.exr turned in 1-degree steps
  * (tools/shimmer.sh) keeps its ratio to the exact product within a spread (sd) of 0.13%
  * instead of 2.27%, steps of at most 0.72% instead of 2.85%, but with a uniform -1% bias; on a
  * reduced bunny over a floor the floor's sun-shadow error falls from 12.5% to 5.7%.
