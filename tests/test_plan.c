@@ -8,7 +8,7 @@
  * The path per material (Lambert, SVD, Haar diffuse + vMF specular) decided by
  * measurement and printed with the reason; --glossy forces it; bad values are refused.
  * The time estimate covers every pass that runs (direct, each bounce, each vMF stage), one for one
- * (not its accuracy: README "Effects plan" measures that); a BRDF reflecting more than it
+ * (not its accuracy: docs/design/pipeline.md, "Effects plan", measures that); a BRDF reflecting more than it
  * receives gets one warning line in the plan, and the run goes on. */
 #include "harness.h"
 #include "mesh.h"

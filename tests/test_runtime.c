@@ -1132,7 +1132,7 @@ static void light_cube(void) {
     free(c);
 }
 
-/* A shared coefficient budget (transport.h, README "Shadows"): a Lambert box over a floor under the
+/* A shared coefficient budget (transport.h, docs/design/shadows.md): a Lambert box over a floor under the
  * solid-angle measure, N = 32 shared, one bounce, the direct set kept. Both sets hold at most 32 x
  * vectors in all and some vector more than 32 (the file's N, 64, is the most one may hold), and the
  * validation a reader runs refuses the set against a budget of 16 x vectors; the file

@@ -724,7 +724,7 @@ static double one_light(const prt_transport *t, const float *cube) {
  *   of T x L to the exact cosine integral over the sun's texel, what an open floor's bias is, must be
  *   no farther from 1 than with the block correction (measured -2.31% against -2.37%: a one-texel sun
  *   sees a point of the lobe, which 128 block means miss either way; a probe's sun and sky see more
- *   of it, README "Shadows").
+ *   of it, docs/design/shadows.md).
  * With an occluder edge on the +Y face (cut_top_face) that face is not smooth and keeps the block
  * correction: each of its 16x16-texel blocks integrates exactly, as in transport/block_integrals. */
 static void smooth_faces(void) {

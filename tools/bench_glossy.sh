@@ -18,7 +18,7 @@
 #     lobes per pixel, gpu/glrt.h; headless llvmpipe here), the cpu backend's per-vertex image
 #     beside it, and the gl view change (prt bench --backend gl, 400x300).
 #     CHROME_SPP=N: that reference's samples per pixel (default GLOSSY_SPP): its own noise at
-#     128 is a large share of the 10% (README, glossy section).
+#     128 is a large share of the 10% (docs/design/glossy.md).
 #  4. CPU view change with 35,947 glossy vertices (the bunny in paper-phong, no floor):
 #     prt bench --backend cpu (target >= 60 fps).
 set -u

@@ -1,6 +1,6 @@
-/* level_spectrum.c - the per-level energy of probes' Haar light vectors (issue 10, README
- * "Shadows"): the prior the expected-error selection (transport.h, TRANSPORT_SELECT_EXPECTED)
- * weights each level's transport coefficients with. Not a test: it measures assets.
+/* level_spectrum.c - the per-level energy of probes' Haar light vectors
+ * (docs/design/shadows.md): the prior the expected-error selection (transport.h,
+ * TRANSPORT_SELECT_EXPECTED) weights each level's transport coefficients with. Not a test: it measures assets.
  *
  *     tools/level_spectrum.sh PROBE.exr...      (builds against build/libprt.a)
  *

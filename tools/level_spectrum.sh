@@ -1,5 +1,5 @@
 #!/bin/bash
-# Builds tools/level_spectrum (the probes' per-level light energy, README "Shadows")
+# Builds tools/level_spectrum (the probes' per-level light energy, docs/design/shadows.md)
 # against build/libprt.a and runs it: tools/level_spectrum.sh PROBE.exr....
 set -e
 cd "$(dirname "$0")/.."

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""long_functions.py - lists library functions longer than a limit (README: "no
-library function over about 80 lines").
+"""long_functions.py - lists library functions longer than a limit (docs/design/cli.md,
+"Library conventions": library functions stay under about 80 lines).
 
 usage: tools/long_functions.py [--max N] [PATH ...]
   PATH: files or folders to scan (default: the library, i.e. src/ without src/cli,

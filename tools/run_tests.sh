@@ -7,8 +7,8 @@
 # A binary that crashes or exits non-zero without counting counts as one failure.
 #
 # Binaries run $TEST_JOBS at a time (default 2): many of them spend their time starting
-# `prt` processes or in one thread, so two at once use both cores (measured: see README,
-# "Tests"). Each binary's output is kept whole and printed in the order given. Every test
+# `prt` processes or in one thread, so two at once use both cores (measured: see
+# docs/design/tests.md). Each binary's output is kept whole and printed in the order given. Every test
 # writes only under its own fresh build/tmp/t<pid>-XXXXXX (tests/harness.h: check_tmpdir), so two binaries
 # never share a file.
 set -u

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# tools/shadows.sh - the shadows' accuracy targets (README "Shadows") on a Lambert bunny
+# tools/shadows.sh - the shadows' accuracy targets (docs/design/shadows.md) on a Lambert bunny
 # (lambert:kd=0.8) over a lambert:kd=0.7 floor under city.exr, direct light (--no-bounces),
 # against prt reference: the floor's sun-shadow error per vertex (the study's region: floor
 # vertices below 60% of the floor's median reference radiance) and its worst vertex, every
@@ -13,7 +13,7 @@
 #                                                         flags change the mesh (--refine), since the reference is
 #                                                         kept per folder and read by vertex id
 # The full case with `--light-prior ../shared/data/probes/city.exr` is data/bunny-shadows.json at its
-# defaults (the same file but for its recorded timings; README "Shadows").
+# defaults (the same file but for its recorded timings; docs/design/shadows.md).
 # The reference (4,096 samples per vertex, 65,536 in the shadow region, 256 per pixel at 400x300) is
 # traced once per case and probe and kept in build/shadows*/; the precompute flags name the variant measured (default: none).
 set -eu

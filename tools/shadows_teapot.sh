@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# tools/shadows_teapot.sh - README "Shadows"' teapot figure (docs/shadows_teapot.png): the handle's
+# tools/shadows_teapot.sh - docs/design/shadows.md's teapot figure (docs/shadows_teapot.png): the handle's
 # shadow of data/teapot-floor.json at its defaults, of data/teapot-shadows.json (its light prior and
 # "refine": true) and of prt reference, under city.exr, direct light (--no-bounces), seen from behind
 # the handle, cropped and enlarged 1.5x, and below, the whole default view with the light turned 90 degrees;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# tools/shimmer.sh - the far floor's ratio to the exact transport as the light turns (README
-# "Shadows"). A plane alone (every vertex unoccluded: what every far-floor vertex of a
+# tools/shimmer.sh - the far floor's ratio to the exact transport as the light turns
+# (docs/design/shadows.md). A plane alone (every vertex unoccluded: what every far-floor vertex of a
 # scene stores) is precomputed three ways: the defaults (Haar of the transport per steradian,
 # N = 128, 8-bit), the paper's texel measure (--texel-measure, same storage), and
 # uncompressed (all 24,576 coefficients, float: the exact product of the 6x64x64 cube, which

@@ -24,7 +24,7 @@
 #    (--refine-threshold; 0 = no refinement, the default). A refined point's mesh has its own
 #    vertices, so its per-vertex reference is traced for it; the floor is refined exactly and
 #    the models are not, so the scene's reference image serves.
-#  * The light prior (--light-prior, README "Shadows"): the sharp probe's, measured under it and
+#  * The light prior (--light-prior, docs/design/shadows.md): the sharp probe's, measured under it and
 #    under the soft one (the cost of a prior made for another probe).
 #  * SH baseline: --sh ORDER (ORDER^2 coefficients, same pipeline and 8-bit storage)
 #    against Haar with N = ORDER^2, under a probe with a sun (city) and a soft one.

@@ -36,7 +36,7 @@
  * S = 32 and 25% at S = 128 (the more lobes per cluster, the broader the merge), reading each
  * lobe 3% and 1%; the clusters still group the shadow rays (K per light). The lattice, because
  * a sampling stratified in the polar variable only leaves one seed 34% off, against 18% with
- * the lattice (merged read) and 11% (each lobe). README "Local lights: one bounce".
+ * the lattice (merged read) and 11% (each lobe). docs/design/local-lights.md.
  * Light-relative merge (desc.merged; desc.fixed_frame gives the paper's). Section 6.3 reads every
  * lobe of a cluster at the one direction w_l(q_j), which is wrong by the angle d / r between
  * w_l(q_i) and w_l(q_j) (Eq. 11); with mirror-like lobes (kappa 300: 0.06 rad) and a light
@@ -51,7 +51,8 @@
  * models' kd) is gathered from the local lights per hit, w_i kd/pi cos I / r^2 V / S with one
  * shadow ray each (the final gather the paper's renderer traces for the diffuse component,
  * section 7): with sharp lobes at p these rays see a small, smooth patch, and a VSGL's one
- * Gaussian cannot draw a lit floor in a mirror (measured on data/chrome-point.json, README).
+ * Gaussian cannot draw a lit floor in a mirror (measured on data/chrome-point.json,
+ * docs/design/local-lights.md).
  * So with highlights on, p's glossy lobe takes all its one-bounce local light from here and
  * its diffuse lobe from the VSGLs (indirect.h: vsgl_shade_diffuse); nothing is counted twice.
  * Rays that miss add nothing (the probe's direct reflection is PRT's), nor does the probe
@@ -59,8 +60,9 @@
  *
  * Cost per point: S rays and S lobe look-ups; per light one EM over the glossy hits (S K per
  * iteration) and K shadow rays, and one shadow ray per hit with a diffuse part; for the probe
- * up to S shadow rays and one more EM. Measured on data/chrome-point.json (README): S = 32 at
- * 6,898 glossy vertices, 100-180 ms a view change on two loaded cores. Deterministic per seed.
+ * up to S shadow rays and one more EM. Measured on data/chrome-point.json
+ * (docs/design/local-lights.md): S = 32 at 6,898 glossy vertices, 100-180 ms a view change on
+ * two loaded cores. Deterministic per seed.
  * Errors: none (a non-glossy material at p gives 0); bad desc values are clamped to their
  * ranges (samples 1..HL_MAX_SAMPLES, clusters 1..HL_MAX_CLUSTERS). Thread-safe: scene and
  * env are only read. Ownership: the caller keeps everything hl_scene points to alive. */

@@ -8,7 +8,7 @@
  * dropped part weighted by the transport put on the face's scaling coefficient. A shared budget
  * splits the same sums: haar_block_stage stages what the non-candidates drop when a vector is
  * stored, haar_budget_corrections adds the dropped candidates at finish. The file and the runtimes
- * never see the corrections: they change only the kept values (README "Shadows").
+ * never see the corrections: they change only the kept values (docs/design/shadows.md).
  *
  * Why: Wang et al. 2006 (section 4.1.1) keep the N largest coefficients, the L2-best T; what the
  * runtime sees is T.L, and the dropped details of T/w correlate with those of w (both smooth bowls
@@ -20,7 +20,7 @@
 /* A face is smooth (smooth_faces) when no two neighbouring texels of its T/w, the channels summed, differ
  * by more than this share of its largest value and none is negative: an unoccluded cosine lobe changes
  * by at most about 4.5% of its face's largest value between texels (1.8 degrees at a face's centre; the
- * plane's side faces measured 3-5%), an occluder's edge by its cosine there (README "Shadows"). */
+ * plane's side faces measured 3-5%), an occluder's edge by its cosine there (docs/design/shadows.md). */
 #define TRANSPORT_SMOOTH_JUMP 0.1f
 
 /* What every vector's corrections read, made once per set (haar_tables_create; per vector they would

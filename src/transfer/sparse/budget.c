@@ -1,4 +1,4 @@
-/* budget.c - a shared budget's choice (transport_share_budget, README "Shadows"): which of all the
+/* budget.c - a shared budget's choice (transport_share_budget, docs/design/shadows.md): which of all the
  * vectors' staged candidates the set keeps, and each vector's corrected, quantized values.
  *
  * Contract (transport.h): transport_store stages each vector's N_max best candidates raw with their

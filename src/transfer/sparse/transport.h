@@ -18,7 +18,7 @@
  * vectors per vertex and N; transport_store (thread-safe for distinct vectors)
  * selects, quantizes and stores one dense vector; transport_finish compacts the
  * storage. After finish the set is immutable and can be written to a .prt file.
- * With a shared budget (transport_share_budget, README "Shadows": the default of
+ * With a shared budget (transport_share_budget, docs/design/shadows.md: the default of
  * `prt precompute`) the set keeps at most budget x nvecs coefficients in all and a
  * vector up to N (then 2 x budget): transport_store stages each vector's N best
  * candidates unquantized, and transport_finish picks the best budget x nvecs of all
@@ -47,7 +47,7 @@
 #include "common.h"
 #include "sparse.h"
 
-/* How transport_store picks a vector's N coefficients (README "Shadows"):
+/* How transport_store picks a vector's N coefficients (docs/design/shadows.md):
  *   MAGNITUDE: the N largest |c_i| (the paper's; the L2-optimal approximation of the vector).
  *   EXPECTED:  the N largest |c_i| sigma_l(i), sigma_l the RMS light coefficient of Haar level l
  *              (transport_level_sigma): the set that minimises the expected squared error of T.L,
@@ -73,12 +73,12 @@ typedef enum transport_budget { TRANSPORT_BUDGET_VECTOR = 0, TRANSPORT_BUDGET_SH
  * 2 measured as well as 4 on the shadow tests at half the staging (docs/design/transport.md). */
 #define TRANSPORT_SHARED_CAP 2
 /* What every vector keeps of a shared budget whatever the others hold: budget / TRANSPORT_SHARED_MIN
- * of its best, so absolute weights cannot leave a dark vertex with nothing (black; README "Shadows",
+ * of its best, so absolute weights cannot leave a dark vertex with nothing (black; docs/design/shadows.md,
  * docs/design/transport.md). */
 #define TRANSPORT_SHARED_MIN 2
 
 /* The integral correction's blocks (prt_transport.block_level, Haar's policy): 4 x 4 per face, 16 x 16
- * texels each (README "Shadows": each block's dropped integral goes into the kept coefficients of
+ * texels each (docs/design/shadows.md: each block's dropped integral goes into the kept coefficients of
  * coarser levels, so the file and the runtimes do not see it). */
 #define TRANSPORT_BLOCK_LEVEL 2
 #define TRANSPORT_BLOCK_LEVEL_MAX 2
@@ -117,7 +117,7 @@ typedef struct prt_transport {
                              * precompute: TRANSPORT_BLOCK_LEVEL) */
     bool smooth_faces;      /* with solid_angle: a face with no occluder edge (haar/corrections.h) gets what
                              * was dropped back weighted by the transport, on its scaling coefficient, instead
-                             * of per block (README "Shadows": exact under a light shaped like the transport,
+                             * of per block (docs/design/shadows.md: exact under a light shaped like the transport,
                              * which steadies an unoccluded floor under a turning sun; set after init) */
     int select;             /* which N coefficients transport_store keeps (transport_select; 0 = the paper's
                              * largest magnitudes) */
