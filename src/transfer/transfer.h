@@ -54,7 +54,7 @@
  * transfer over those materials.
  *
  * Adding a representation: its folder with one module exporting a const transfer_ops (and its
- * kind's table), and one line in transfer.c's table. README "Adding a representation" says
+ * kind's table), and one line in transfer.c's table. README "Extending prt" says
  * the steps; tests/dense/ is one, in the table of its test binary only (the table below).
  *
  * Thread safety: the ops are pure functions of their arguments (project_transport and compress

@@ -7,7 +7,7 @@
  *     if (prior_from_probe(&probe, &pd, w, &err)) puts(err.msg);
  *     // haar_run.c builds it from precompute_desc.light_prior (probe files) for the selection
  *
- * Why (README "Shadows" has the measurements). transport_store keeps the coefficients c_i of a vector
+ * Why (docs/design/shadows.md has the measurements). transport_store keeps the coefficients c_i of a vector
  * whose expected share of T.L is largest: sum over dropped i of c_i^2 E[L_i^2] is the expected
  * squared error of T.L when the light coefficients are uncorrelated. Without a prior E[L_i^2]
  * is one figure per Haar level (transport_level_sigma), the same wherever the coefficient
@@ -38,7 +38,7 @@
 #include "probe.h"
 #include "transfer.h"
 
-/* The yaw steps and the floor by default (README "Shadows": 360 steps, the sun's ring without
+/* The yaw steps and the floor by default (docs/design/shadows.md: 360 steps, the sun's ring without
  * gaps at 1.4-degree texels; floors 0.1 / 0.3 / 1 / 3 measured 3.18 / 3.16 / 3.10 / 2.85% in city's
  * shadow with city's prior and 5.09 / 3.23 / 2.77 / 2.63% in forest's, the level prior 2.65%). */
 #define PRIOR_STEPS 360

@@ -5,7 +5,7 @@
  *     float *scratch = malloc(refit_scratch_size(N));          // per thread
  *     refit_face(rt, f, r, g, b, kept, n, out, scratch);       // a vector's face f: new values, or false
  *
- * Why (the shimmer; README "Shadows" has the measurements). Truncation keeps the values c_k of the kept coefficients, the
+ * Why (the shimmer; docs/design/shadows.md has the measurements). Truncation keeps the values c_k of the kept coefficients, the
  * L2-best approximation of T. What the runtime sees is T.L, and under a sun on a ring of elevation
  * (a probe turned about +y) its error is the truncated transport's error at the sun's texels: an
  * unoccluded floor's piecewise-constant blocks miss the cosine lobe there by up to 8% where the ring
