@@ -50,6 +50,8 @@ struct glrt {
     GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
     int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
     float pf_kappa[16], pf_Rt[9];
+    int pf_nl;                  /* the ladder's lights uploaded (prefilter.h "Lights") */
+    float pf_light[4 * PREFILTER_MAX_LIGHTS][4];   /* per light: (dir, kappa) of r, g, b, then (power, 0) */
     GLuint query;
     GLint mat_info[PRT_MAX_MATERIALS][4];
     float bg_R[9];
@@ -224,19 +226,38 @@ static const char *k_view_fs =
 
 /* prefilter_lookup (prefilter.h) on the GPU: one seamless cube map per ladder level (bilinear
  * within, GL's seamless corner filtering instead of the CPU's extrapolated tap), log kappa between
- * vMF levels, kappa towards the kappa-0 level, R^T applied to the direction. */
+ * vMF levels, kappa towards the kappa-0 level, R^T applied to the direction; plus the lights taken out
+ * of the ladder, each channel's vMF convolved exactly with the lookup's (pf_add_lights' arithmetic in
+ * float: 1 - cos as |d - w|^2 / 2, the exponent -2 k ks (1 - cos) / (k + ks + km), C(k) by its series
+ * below 1e-2). */
 static const char *k_pf_glsl =
     "uniform samplerCube t_pf[PF_LEVELS];\n"
     "uniform vec4 u_pf_kappa[4];\n"
-    "uniform int u_pf_n;\n"
+    "uniform int u_pf_n, u_pf_nl;\n"
     "uniform mat3 u_pf_Rt;\n"
+    "uniform vec4 u_pf_light[4 * PF_LIGHTS];\n"
     "uniform samplerBuffer t_tv;\n"
     "uniform usamplerBuffer t_tvu;\n"
     "float pf_k(int l) { return u_pf_kappa[l / 4][l % 4]; }\n"
     "PF_LEVEL\n"   /* vec3 pf_pair(int l, vec3 d, float t): levels l and l + 1 mixed by t, one if chain
                       * (GLSL 3.3 indexes samplers by constants only) */
-    "vec3 pf_lookup(vec3 dir, float kappa) {\n"
-    "    vec3 d = normalize(u_pf_Rt * dir);\n"
+    "float pf_norm(float k) { return k < 1e-2 ? (1.0 + k + k * k / 3.0) * 0.0795774715 : k / (6.2831853 * (1.0 - exp(-2.0 * k))); }\n"
+    "float pf_conv(vec4 l, vec3 d, float k, float ck) {\n"   /* int gamma(.; l.xyz, l.w) gamma(.; d, k), ck = C(k) */
+    "    vec3 v = d - l.xyz;\n"
+    "    float omc = 0.5 * dot(v, v), ks = l.w;\n"
+    "    if (k * ks * omc > 20.0 * (k + ks)) return 0.0;\n"   /* PF_LIGHT_CUT */
+    "    float km = sqrt(max((k + ks) * (k + ks) - 2.0 * k * ks * omc, 0.0));\n"
+    "    return ck / pf_norm(km) * pf_norm(ks) * exp(-2.0 * k * ks * omc / (k + ks + km));\n"   /* C(k) / C(km) first: near 1 unless the exponential vanishes, so no float overflow */
+    "}\n"
+    "vec3 pf_lights(vec3 d, float kappa) {\n"
+    "    float k = clamp(kappa, 0.0, 1e8), ck = pf_norm(k);\n"
+    "    vec3 s = vec3(0.0);\n"
+    "    for (int i = 0; i < u_pf_nl; i++)\n"
+    "        s += u_pf_light[4 * i + 3].rgb * vec3(pf_conv(u_pf_light[4 * i], d, k, ck), pf_conv(u_pf_light[4 * i + 1], d, k, ck),\n"
+    "                                               pf_conv(u_pf_light[4 * i + 2], d, k, ck));\n"
+    "    return s;\n"
+    "}\n"
+    "vec3 pf_ladder(vec3 d, float kappa) {\n"
     "    int last = u_pf_n - 1;\n"
     "    if (kappa >= pf_k(0)) return pf_pair(0, d, 0.0);\n"
     "    if (!(kappa > 0.0)) return pf_pair(last, d, 0.0);\n"
@@ -244,6 +265,10 @@ static const char *k_pf_glsl =
     "    while (l + 1 < last && pf_k(l + 1) > kappa) l++;\n"
     "    float t = l + 1 < last ? log(pf_k(l) / kappa) / log(pf_k(l) / pf_k(l + 1)) : 1.0 - kappa / pf_k(l);\n"
     "    return pf_pair(l, d, t);\n"
+    "}\n"
+    "vec3 pf_lookup(vec3 dir, float kappa) {\n"
+    "    vec3 d = normalize(u_pf_Rt * dir);\n"
+    "    return u_pf_nl > 0 ? pf_ladder(d, kappa) + pf_lights(d, kappa) : pf_ladder(d, kappa);\n"
     "}\n";
 
 static const char *k_fullscreen_vs =
@@ -618,8 +643,8 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     for (int m = 0; m < rt->d->scene.nmaterials; m++) types |= 1 << rt->d->scene.materials[m].type;
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
-             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
-             rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->view->glsl->rows : 1, GLRT_PF_LEVELS,
+             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define PF_LIGHTS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
+             rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->view->glsl->rows : 1, GLRT_PF_LEVELS, PREFILTER_MAX_LIGHTS,
              rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
@@ -999,6 +1024,8 @@ static void bind_tv(glrt *rt, GLuint p) {
     gl->Uniform1i(gl->GetUniformLocation(p, "u_pf_n"), rt->pf_n);
     gl->Uniform4fv(gl->GetUniformLocation(p, "u_pf_kappa"), 4, rt->pf_kappa);
     gl->UniformMatrix3fv(gl->GetUniformLocation(p, "u_pf_Rt"), 1, GL_TRUE, rt->pf_Rt);
+    gl->Uniform1i(gl->GetUniformLocation(p, "u_pf_nl"), rt->pf_nl);
+    gl->Uniform4fv(gl->GetUniformLocation(p, "u_pf_light"), 4 * PREFILTER_MAX_LIGHTS, rt->pf_light[0]);
     gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_TV);
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_tv);
     for (int l = 0; l < GLRT_PF_LEVELS; l++) {
@@ -1098,6 +1125,13 @@ int glrt_set_prefilter(glrt *rt, const prefilter_env *env, prt_error *err) {
     }
     gl->BindTexture(GL_TEXTURE_CUBE_MAP, 0);
     prefilter_rotation_t(env, rt->pf_Rt);
+    memset(rt->pf_light, 0, sizeof rt->pf_light);
+    rt->pf_nl = prefilter_light_count(env);
+    for (int i = 0; i < rt->pf_nl; i++) {
+        float dir[3][3], kappa[3];
+        prefilter_light(env, i, dir, kappa, rt->pf_light[4 * i + 3]);
+        for (int c = 0; c < 3; c++) memcpy(rt->pf_light[4 * i + c], dir[c], sizeof dir[c]), rt->pf_light[4 * i + c][3] = kappa[c];
+    }
     rt->pf_n = n;
     return glctx_check(gl, "uploading the prefiltered probe", err);
 }

@@ -2,8 +2,10 @@
  * truths: a constant probe (exact), a linear + quadratic probe against the analytic vMF
  * moments (E[w] = A3 d, E[w w^T] = (A3/k) I + (1 - 3 A3/k) d d^T), a probe that is one vMF
  * lobe against vmf_product_integral (exact), a sharp sun (the shared probes' hard case: a
- * 0.5-degree disc of 34,000) against brute-force quadrature over the probe's pixels, the
- * three interpolation variables between levels measured on that sun, rotation against a
+ * 0.5-degree disc of 34,000) against quadrature of the probe as probe_eval reads it, with its
+ * light taken out of the ladder and without, a one-pixel light against the exact vMF-convolved
+ * delta, a probe without a bright pixel bit-identical with and without lights, the three
+ * interpolation variables between levels measured on the sun in the ladder, rotation against a
  * probe built rotated, the kappa-0 level against the probe's mean radiance, finiteness for
  * extreme kappas, bad descs, and the cost on city.exr (printed, not asserted). */
 #include "harness.h"
@@ -73,6 +75,40 @@ static void quad(const prt_probe *p, const float d[3], float kappa, double out[3
 }
 
 static void quad_free(void) { free(g_q.w), free(g_q.om), g_q.w = NULL, g_q.om = NULL, g_q.p = NULL; }
+
+/* The direction at continuous latlong image position (fx, fy) (pixel (x, y)'s centre at x + 0.5, y + 0.5). */
+static void ll_dir(const prt_probe *p, double fx, double fy, float d[3]) {
+    double th = PI * fy / p->img.h, ph = 2 * PI * (fx / p->img.w - 0.5);
+    d[0] = (float)(sin(th) * sin(ph)), d[1] = (float)cos(th), d[2] = (float)(-sin(th) * cos(ph));
+}
+
+/* int L gamma(.; d, k) over the latlong probe as probe_eval reads it: quad()'s pixel centres, except
+ * that pixels with a channel above `bright` are integrated as the bilinear tents they are (radiance x
+ * int tent gamma, 16 x 16 sub-samples of the tent's 2 x 2 pixel support, weighted by sin(theta)):
+ * where the sun's pixels are not small against the lobe, the centre rule is 0.7% off at kappa 1600. */
+static void quad_bilinear(const prt_probe *p, const float d[3], float kappa, float bright, double out[3]) {
+    int w = p->img.w, h = p->img.h;
+    const int S = 8;
+    double dth = PI / h, dph = 2 * PI / w;
+    vmf_lobe v = { { d[0], d[1], d[2] }, kappa };
+    quad(p, d, kappa, out);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const float *L = p->img.data + 3 * ((size_t)y * w + x);
+            if (fmaxf(L[0], fmaxf(L[1], L[2])) <= bright) continue;
+            float c[3], om;
+            probe_pixel_dir(p, x, y, c, &om);
+            double t = 0, g0 = om * (double)vmf_eval(&v, c);
+            for (int a = 0; a < 2 * S; a++)
+                for (int b = 0; b < 2 * S; b++) {
+                    double sx = -1 + (a + 0.5) / S, sy = -1 + (b + 0.5) / S, fy = y + 0.5 + sy;
+                    float q[3];
+                    ll_dir(p, x + 0.5 + sx, fy, q);
+                    t += (1 - fabs(sx)) * (1 - fabs(sy)) * vmf_eval(&v, q) * sin(PI * fy / h) * dth * dph / (S * S);
+                }
+            for (int ch = 0; ch < 3; ch++) out[ch] += (t - g0) * L[ch];
+        }
+}
 
 /* ---- constant -------------------------------------------------------------------------- */
 
@@ -218,7 +254,7 @@ static double sun_error(const prefilter_env *e, const prt_probe *p, float k, int
         for (int a = 0; a <= 5; a++) {
             float d[3];
             off_sun(0.5 * a / sqrt(k), d);
-            quad(p, d, k, truth[a]);
+            quad_bilinear(p, d, k, 100, truth[a]);
         }
     last_k = k;
     for (int a = 0; a <= 5; a++) {
@@ -241,30 +277,134 @@ static double sun_error(const prefilter_env *e, const prt_probe *p, float k, int
     return worst;
 }
 
+/* The sun of 34,000 over a 0.5-degree disc: one light (every pixel above the threshold lies within
+ * a degree of the brightest), its power the sum of those pixels' radiance x solid angle; the lookups
+ * within 2% of the peak on the ladder and between levels, and the ladder alone (no lights) within 6%
+ * and 7%, both against quadrature of the bilinear probe. */
 static void sun(void) {
     prt_probe p;
     prt_error err;
     make_sun(&p);
-    prefilter_env *e = prefilter_create(&p, NULL, NULL, &err);
-    CHECK(e != NULL, "%s", err.msg);
+    prefilter_env *e = prefilter_create(&p, NULL, NULL, &err), *e0 = prefilter_create(&p, NULL, &(prefilter_desc){ .lights = -1 }, &err);
+    CHECK(e && e0, "%s", err.msg);
+    CHECK(prefilter_light_count(e) == 1 && prefilter_light_count(e0) == 0, "lights %d, %d", prefilter_light_count(e), prefilter_light_count(e0));
+    double mean = 0, om_sum = 0, power[3] = { 0, 0, 0 };
+    for (int pass = 0; pass < 2; pass++)    /* the mean luminance, then the pixels above the threshold x it */
+        for (int y = 0; y < p.img.h; y++)
+            for (int x = 0; x < p.img.w; x++) {
+                float w[3], om;
+                const float *L = p.img.data + 3 * ((size_t)y * p.img.w + x);
+                double lum = 0.2126 * L[0] + 0.7152 * L[1] + 0.0722 * L[2];
+                probe_pixel_dir(&p, x, y, w, &om);
+                if (pass == 0) mean += om * lum, om_sum += om;
+                else if (lum > PREFILTER_LIGHT_THRESHOLD * mean)
+                    for (int c = 0; c < 3; c++) power[c] += (double)om * L[c];
+                if (pass == 0 && y == p.img.h - 1 && x == p.img.w - 1) mean /= om_sum;
+            }
+    float dir[3][3], kap[3], pw[3];
+    prefilter_light(e, 0, dir, kap, pw);
+    for (int c = 0; c < 3; c++) CHECK_NEAR(pw[c], power[c], 1e-5 * power[c], "the light's power, channel %d", c);
+    double worst[4] = { 0, 0, 0, 0 };
     for (int l = 0; l + 1 < prefilter_level_count(e); l++) {
         float k;
         prefilter_level_info(e, l, &k, NULL);
-        double on = sun_error(e, &p, k, 0, 0), mid = sun_error(e, &p, k / sqrtf(2), 0, 0);
-        printf("  sun: kappa %7.2f error %.3g%% of the peak; kappa %7.2f (between levels) %.3g%%\n", (double)k, 100 * on, (double)k / sqrt(2), 100 * mid);
-        CHECK_LE(on, 0.06, "kappa %g", (double)k);            /* measured <= 5.1% */
-        CHECK_LE(mid, 0.07, "kappa %g", (double)k / sqrt(2)); /* measured <= 5.6% */
+        double on = sun_error(e, &p, k, 0, 0), on0 = sun_error(e0, &p, k, 0, 0);
+        double mid = sun_error(e, &p, k / sqrtf(2), 0, 0), mid0 = sun_error(e0, &p, k / sqrtf(2), 0, 0);
+        printf("  sun: kappa %7.2f error %.3g%% of the peak (ladder alone %.3g%%); kappa %7.2f (between levels) %.3g%% (%.3g%%)\n",
+               (double)k, 100 * on, 100 * on0, (double)k / sqrt(2), 100 * mid, 100 * mid0);
+        worst[0] = fmax(worst[0], on), worst[1] = fmax(worst[1], mid), worst[2] = fmax(worst[2], on0), worst[3] = fmax(worst[3], mid0);
+    }
+    CHECK_LE(worst[0], 0.02, "with the light, on the ladder");         /* measured <= 0.11% */
+    CHECK_LE(worst[1], 0.02, "with the light, between levels");        /* measured <= 0.17% */
+    CHECK_LE(worst[2], 0.06, "the ladder alone, on the ladder");       /* measured <= 4.7% */
+    CHECK_LE(worst[3], 0.07, "the ladder alone, between levels");      /* measured <= 5.6% */
+    prefilter_destroy(e), prefilter_destroy(e0);
+    probe_free(&p);
+}
+
+/* A one-pixel light (2048 x 1024, nothing else) against the exact vMF-convolved delta Phi gamma(w; d, k),
+ * Phi its radiance x solid angle: the light sits at the pixel's centre with that power, and the lookups
+ * differ from the delta only by the pixel's own bilinear tent (per-axis variance v = h^2/6, h the pixel
+ * spacing), which widens the lobe's variance 1/k to 1/k + v: at most k v of the peak (0.25% at kappa
+ * 1600), asserted 1.5 k v; above kappa_max too (the lights are exact at any kappa). */
+static void delta(void) {
+    prt_image img;
+    prt_error err;
+    CHECK(image_alloc(&img, 2048, 1024, 3, &err) == 0);
+    memset(img.data, 0, (size_t)3 * 2048 * 1024 * sizeof(float));
+    const int x0 = 700, y0 = 380;
+    const float rad[3] = { 3000, 2000, 500 };
+    memcpy(img.data + 3 * ((size_t)y0 * 2048 + x0), rad, sizeof rad);
+    prt_probe p;
+    CHECK(probe_from_image(&img, PROBE_LATLONG, "delta", &p, &err) == 0, "%s", err.msg);
+    prefilter_env *e = prefilter_create(&p, NULL, NULL, &err);
+    CHECK(e != NULL, "%s", err.msg);
+    CHECK(prefilter_light_count(e) == 1, "one light");
+    float w[3], om, dir[3][3], kap[3], pw[3];
+    probe_pixel_dir(&p, x0, y0, w, &om);
+    prefilter_light(e, 0, dir, kap, pw);
+    double h = 2 * PI / 2048, v = h * h / 6;     /* the larger (theta) spacing on both axes: an upper bound */
+    for (int c = 0; c < 3; c++) {
+        double a = dir[c][0] - w[0], b = dir[c][1] - w[1], q = dir[c][2] - w[2];   /* the chord: acos near 1 loses half the digits */
+        CHECK_LE(sqrt(a * a + b * b + q * q), 1e-6, "direction, channel %d", c);
+        CHECK_NEAR(pw[c], rad[c] * om, 1e-6 * rad[c] * om, "power, channel %d", c);
+    }
+    const float ks[] = { 1e4f, 1600, 1131, 400, 52, 6.25f, 1, 0 };
+    for (size_t q = 0; q < sizeof ks / sizeof *ks; q++) {
+        vmf_lobe at = { { w[0], w[1], w[2] }, ks[q] };
+        double worst = 0, peak = vmf_eval(&at, w);
+        for (int a = 0; a <= 5; a++)
+            for (int side = 0; side < 2; side++) {
+                double t = 0.5 * a / sqrt(ks[q] + 1), u = side ? 1 : -1;
+                float d[3], o[3];
+                unit(w[0] * cos(t) + u * sin(t) * w[2], w[1] * cos(t), w[2] * cos(t) - u * sin(t) * w[0], d);
+                vmf_lobe g = { { d[0], d[1], d[2] }, ks[q] };
+                double truth = vmf_eval(&g, w);
+                prefilter_lookup(e, d, ks[q], o);
+                for (int c = 0; c < 3; c++) worst = fmax(worst, fabs(o[c] / (pw[c] * truth) - 1) * truth / peak);
+            }
+        printf("  delta: kappa %7.2f: worst %.3g%% of the peak (bound 1.5 k v = %.3g%%)\n", (double)ks[q], 100 * worst, 150 * ks[q] * v);
+        CHECK_LE(worst, 1.5 * ks[q] * v + 1e-5, "kappa %g", (double)ks[q]);
     }
     prefilter_destroy(e);
     probe_free(&p);
 }
 
-/* The interpolation variable: measured between the top levels on the sun, where it matters. */
+/* A probe whose pixels stay below the threshold (the smooth one) has no light, and its env is the
+ * same bits with lights allowed or not: every level and every lookup (the same code on the same input). */
+static void no_light(void) {
+    prt_probe p;
+    prt_error err;
+    make_probe(smooth_fn, 512, &p);
+    prefilter_env *e = prefilter_create(&p, NULL, NULL, &err), *e0 = prefilter_create(&p, NULL, &(prefilter_desc){ .lights = -1 }, &err);
+    CHECK(e && e0, "%s", err.msg);
+    CHECK(prefilter_light_count(e) == 0, "no light in a smooth probe");
+    int diff = 0;
+    for (int l = 0; l < prefilter_level_count(e); l++) {
+        int r;
+        prefilter_level_info(e, l, NULL, &r);
+        diff += memcmp(prefilter_level_texels(e, l), prefilter_level_texels(e0, l), (size_t)18 * r * r * sizeof(float)) != 0;
+    }
+    unsigned s = 13;
+    for (int n = 0; n < 2000; n++) {
+        float d[3], a[3], b[3], k = n % 7 ? 2000 * powf(rnd(&s), 3) : 0;
+        rnd_dir(&s, d);
+        prefilter_lookup(e, d, k, a);
+        prefilter_lookup(e0, d, k, b);
+        diff += memcmp(a, b, sizeof a) != 0;
+    }
+    CHECK(diff == 0, "%d levels or lookups differ", diff);
+    prefilter_destroy(e), prefilter_destroy(e0);
+    probe_free(&p);
+}
+
+/* The interpolation variable: measured between the top levels on the sun left in the ladder, where
+ * it matters (a bright region too wide or too many to be lights stays there). */
 static void interp(void) {
     prt_probe p;
     prt_error err;
     make_sun(&p);
-    prefilter_env *e = prefilter_create(&p, NULL, NULL, &err);
+    prefilter_env *e = prefilter_create(&p, NULL, &(prefilter_desc){ .lights = -1 }, &err);   /* the sun in the ladder */
     CHECK(e != NULL, "%s", err.msg);
     const char *names[] = { "", "log kappa", "kappa", "width" };
     double sum[4] = { 0 };
@@ -313,9 +453,9 @@ static void cost(void) {
         acc += o[0];
     }
     double t3 = prt_now();
-    printf("  cost: prefilter_create %s (%dx%d, 6x128x128 base, %d levels, %d threads): %.0f ms; "
+    printf("  cost: prefilter_create %s (%dx%d, 6x128x128 base, %d levels, %d lights, %d threads): %.0f ms; "
            "rotation 0 ms (set_rotation); lookup %.0f ns (sum %g)\n", path, p.img.w, p.img.h,
-           prefilter_level_count(e), prt_thread_count(0), 1e3 * (t1 - t0), 1e9 * (t3 - t2) / n, acc);
+           prefilter_level_count(e), prefilter_light_count(e), prt_thread_count(0), 1e3 * (t1 - t0), 1e9 * (t3 - t2) / n, acc);
     CHECK(isfinite(acc));
     prefilter_destroy(e);
     probe_free(&p);
@@ -398,6 +538,20 @@ static void energy(void) {
     probe_free(&p);
 }
 
+/* The lights' part of a lookup at probe-frame d, kappa k, by vmf_product_integral (lobe.h), per channel. */
+static void lights_at(const prefilter_env *e, const float d[3], float k, double out[3]) {
+    vmf_lobe g = { { d[0], d[1], d[2] }, k };
+    out[0] = out[1] = out[2] = 0;
+    for (int i = 0; i < prefilter_light_count(e); i++) {
+        float dir[3][3], kap[3], pw[3];
+        prefilter_light(e, i, dir, kap, pw);
+        for (int c = 0; c < 3; c++) {
+            vmf_lobe l = { { dir[c][0], dir[c][1], dir[c][2] }, kap[c] };
+            out[c] += pw[c] * vmf_product_integral(&l, &g);
+        }
+    }
+}
+
 static void finite_values(void) {
     prt_probe p, c;
     prt_error err;
@@ -421,12 +575,16 @@ static void finite_values(void) {
             prefilter_lookup(eb, d, ks[k], o);
             for (int ch = 0; ch < 3; ch++) bad += o[ch] != 0;
         }
-        prefilter_lookup(e, d, 1e6f, o);        /* above the ladder: the finest level, clamped */
-        prefilter_lookup_level(e, 0, d, top);   /* exact by construction: the same level read the same way */
-        clamp_diff += memcmp(o, top, sizeof o) != 0;
+        /* above the ladder: the finest level (clamped: the same level read the same way) plus the lights
+         * at 1e6, the latter to the rounding of their float directions (ks theta 6e-8 ~ 3e-5 relative) */
+        double l[3];
+        prefilter_lookup(e, d, 1e6f, o);
+        prefilter_lookup_level(e, 0, d, top);
+        lights_at(e, d, 1e6f, l);
+        for (int ch = 0; ch < 3; ch++) clamp_diff += !(fabs(o[ch] - top[ch] - l[ch]) <= 1e-4 * fabs(o[ch]) + 1e-30);
     }
     CHECK(bad == 0, "%d non-finite, negative or (black probe) nonzero values", bad);
-    CHECK(clamp_diff == 0, "%d lookups above kappa_max differ from the finest level", clamp_diff);
+    CHECK(clamp_diff == 0, "%d lookups above kappa_max differ from the finest level plus the lights", clamp_diff);
     prefilter_destroy(e), prefilter_destroy(eb);
     probe_free(&p), probe_free(&c);
 }
@@ -437,7 +595,8 @@ static void bad_desc(void) {
     float one[3] = { 1, 1, 1 };
     CHECK(probe_make_constant(one, &p, &err) == 0);
     prefilter_desc bad[] = { { .base_res = 100 }, { .base_res = 2048 }, { .levels = 40 }, { .kappa_max = -1 },
-                             { .kappa_max = NAN }, { .ratio = 0.5f }, { .ratio = 1 } };
+                             { .kappa_max = NAN }, { .ratio = 0.5f }, { .ratio = 1 }, { .lights = PREFILTER_MAX_LIGHTS + 1 },
+                             { .light_threshold = 0.5f }, { .light_threshold = NAN } };
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         err.msg[0] = 0;
         prefilter_env *e = prefilter_create(&p, NULL, &bad[i], &err);
@@ -468,6 +627,8 @@ int main(int argc, char **argv) {
     CHECK_CASE(smooth);
     CHECK_CASE(lobe);
     CHECK_CASE(sun);
+    CHECK_CASE(delta);
+    CHECK_CASE(no_light);
     CHECK_CASE(interp);
     CHECK_CASE(rotation);
     CHECK_CASE(energy);

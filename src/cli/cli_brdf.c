@@ -19,7 +19,7 @@ static void help(void) {
          "  --res R     tabulation grid R x R per direction, 8..128 (default 48, as precompute)\n"
          "  --polar     polar parameterization (Eq. 11; default: the projected disk, Eq. 10)\n"
          "  --csv       the singular values and errors as CSV (k,sigma_r,sigma_g,sigma_b,rel_rms_error)\n"
-         "  --lobes     the vMF lobe of every view elevation\n"
+         "  --lobes     the vMF lobe of every view elevation, and the two-lobe fit where one lobe errs\n"
          "\n"
          "SPEC is a BRDF: model:key=value;key=value (values: 1 number or R,G,B; missing keys take\n"
          "the defaults kd 0.5, ks 0.5, n 50, nu = nv 100, alpha 0.2); it is echoed in canonical form\n"
@@ -35,7 +35,8 @@ static void help(void) {
          "For phong, blinn, ggx and beckmann it then fits one vMF lobe and colour to the\n"
          "specular slice f cos(theta_i) at 16 view elevations (diffuse left out) and prints\n"
          "its relative L2 error over the sphere, and the SVD's error in that same measure\n"
-         "(relative to the whole slice); --lobes prints the lobe of every elevation.");
+         "(relative to the whole slice); --lobes prints the lobe of every elevation and fits\n"
+         "two lobes where one errs by more than 5% (kept where they lower the error by 2 points).");
 }
 
 /* Mean of n floats. */
@@ -45,10 +46,19 @@ static double mean_of(const float *x, int n) {
     return n > 0 ? s / n : 0;
 }
 
-/* The vMF lobe fit's error (and with `all` its lobes) beside the SVD's in the same measure. */
+/* With `all`: the two-lobe fit's figures and, per elevation, its error where it was made. */
+static void print_two_lobes(const lobefit_table *t) {
+    int n = 0;
+    for (int v = 0; v < t->views; v++) n += t->mixed[v];
+    printf("  two lobes where one errs by more than %.0f%% (kept where %.0f points better): %d of %d views; "
+           "as used %.1f%% mean, %.1f%% max\n", 100 * LOBEFIT_MIX_THRESHOLD, 100 * LOBEFIT_MIX_GAIN, n, t->views,
+           100 * t->err_mix_mean, 100 * t->err_mix_max);
+}
+
+/* The vMF lobe fit's error (and with `all` its lobes and the two-lobe fit) beside the SVD's in the same measure. */
 static int print_lobes(const brdf_params *p, const brdf_factor *f, bool all, prt_error *err) {
     lobefit_table t;
-    if (lobefit_fit(p, NULL, &t, err)) return -1;
+    if (lobefit_fit(p, &(lobefit_desc){ .lobes = all ? 2 : 1 }, &t, err)) return -1;
     printf("vMF lobe fit: error %.1f%% mean, %.1f%% max over %d view angles (specular slice f cos, diffuse left out)\n",
            100 * t.err_mean, 100 * t.err_max, t.views);
     float e4[LOBEFIT_MAX_VIEWS], eK[LOBEFIT_MAX_VIEWS];
@@ -60,12 +70,17 @@ static int print_lobes(const brdf_params *p, const brdf_factor *f, bool all, prt
     if (f->K != K4) printf(", K = %d %.1f%% mean", f->K, 100 * mean_of(eK, t.views));
     putchar('\n');
     if (!all) return 0;
-    printf("  theta_o   kappa       axis-mirror  alpha_R    alpha_G    alpha_B    error    SVD K=%d\n", K4);
+    print_two_lobes(&t);
+    printf("  theta_o   kappa       axis-mirror  alpha_R    alpha_G    alpha_B    error    SVD K=%d  two lobes\n", K4);
     for (int v = 0; v < t.views; v++) {
         const vmf_lobe *l = &t.lobe[v];
         double th = t.theta[v], ang = atan2(l->mu[0] * cos(th) + l->mu[2] * sin(th), l->mu[2] * cos(th) - l->mu[0] * sin(th));
-        printf("  %6.2f   %-10.4g  %+8.3f deg  %-9.4g  %-9.4g  %-9.4g  %6.2f%%  %6.2f%%\n", th * 180 / 3.14159265358979,
+        printf("  %6.2f   %-10.4g  %+8.3f deg  %-9.4g  %-9.4g  %-9.4g  %6.2f%%  %6.2f%%", th * 180 / 3.14159265358979,
                l->kappa, ang * 180 / 3.14159265358979, t.alpha[v][0], t.alpha[v][1], t.alpha[v][2], 100 * t.err[v], 100 * e4[v]);
+        if (t.err_two[v] > 0)
+            printf("   %6.2f%%%s (kappa %.4g, %.4g)", 100 * t.err_two[v], t.mixed[v] ? " kept" : "", t.mixed[v] ? t.mix[v][0].kappa : 0,
+                   t.mixed[v] ? t.mix[v][1].kappa : 0);
+        putchar('\n');
     }
     return 0;
 }

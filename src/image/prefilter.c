@@ -7,9 +7,12 @@
  * image, bounded by projecting 16 points of its rim (with d and the face centre when they
  * belong, plus a texel and 5% of margin); caps over a hemisphere scan the whole face (the
  * smallest levels only); a
- * face farther than the cap radius plus the face's half-diagonal angle is skipped. */
+ * face farther than the cap radius plus the face's half-diagonal angle is skipped.
+ * Before the levels are made, the lights (prefilter.h "Lights") are taken out of a copy of the
+ * probe (pf_extract), which the cube is then resampled from; with none, the probe itself is. */
 #include "prefilter.h"
 #include "cubemap.h"
+#include "lobe.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,6 +25,8 @@
 #define PF_MIN_RES 8                   /* output levels are never coarser (bilinear on smooth maps) */
 #define PF_MIN_SRC_RES 32              /* nor sources: a wide kernel still varies by e^{kappa h} across a texel */
 #define PF_FACE_ANGLE 0.9553166181245093 /* acos(1/sqrt 3): face centre to corner */
+#define PF_LIGHT_CUT 20.0               /* a light's term below e^{-20} = 2e-9 of its peak is skipped */
+#define PF_LIGHT_RADIUS (1.0 * PF_PI / 180) /* a light's pixels lie within this of its brightest (prefilter.h) */
 
 typedef struct pf_level {
     float kappa;
@@ -29,10 +34,19 @@ typedef struct pf_level {
     float *rgb;         /* 6 res^2 x 3, unrotated probe frame */
 } pf_level;
 
+/* A light taken out of the ladder (prefilter.h "Lights"): per colour channel c, power Phi_c (radiance
+ * x solid angle) distributed as the vMF (dir[c], kappa[c]) in the unrotated probe frame; norm[c] =
+ * C(kappa[c]) (lobe.h). */
+typedef struct pf_light {
+    float dir[3][3], kappa[3], norm[3], power[3];
+} pf_light;
+
 struct prefilter_env {
     int nlevels;        /* vMF levels + the kappa-0 level */
     pf_level *lv;
     float Rt[9];        /* R^T: world direction -> probe frame */
+    int nlights;
+    pf_light light[PREFILTER_MAX_LIGHTS];
 };
 
 /* Face frames: the direction at face coordinates (sc, tc) is sc a + tc b + c (cubemap.h). */
@@ -189,6 +203,126 @@ static int pf_convolve(const float *src, int res, int out_res, double kappa, int
     return 0;
 }
 
+/* ---- lights: the brightest pixels taken out of the ladder (prefilter.h "Lights") ---------------- */
+
+typedef struct pf_cand { float lum; int idx; } pf_cand;
+
+static float pf_lum(const float *t) { return 0.2126f * t[0] + 0.7152f * t[1] + 0.0722f * t[2]; }
+
+/* Brightest first; ties by pixel index (a deterministic order for any qsort). */
+static int pf_cand_cmp(const void *a, const void *b) {
+    const pf_cand *x = a, *y = b;
+    if (x->lum != y->lum) return x->lum < y->lum ? 1 : -1;
+    return (x->idx > y->idx) - (x->idx < y->idx);
+}
+
+/* Angle between the centres of pixels (x0, y0) and (x1, y1); -1 when either is outside the layout. */
+static double pf_pixel_angle(const prt_probe *p, int x0, int y0, int x1, int y1) {
+    float a[3], b[3];
+    if (!probe_pixel_dir(p, x0, y0, a, NULL) || !probe_pixel_dir(p, x1, y1, b, NULL)) return -1;
+    double d0 = (double)a[0] - b[0], d1 = (double)a[1] - b[1], d2 = (double)a[2] - b[2];
+    return 2 * asin(fmin(1.0, 0.5 * sqrt(d0 * d0 + d1 * d1 + d2 * d2)));
+}
+
+/* Per-axis angular variance of pixel (x, y) as probe_eval reads it: a bilinear tent of half-width h
+ * (the spacing of the neighbouring centres along each image axis) has variance h^2 / 6 along that
+ * axis; the mean over the two axes is (h_x^2 + h_y^2) / 12. */
+static double pf_pixel_var(const prt_probe *p, int x, int y) {
+    double v = 0;
+    for (int ax = 0; ax < 2; ax++) {
+        int dx = ax == 0, dy = ax == 1;
+        double a = pf_pixel_angle(p, x - dx, y - dy, x, y), b = pf_pixel_angle(p, x, y, x + dx, y + dy);
+        double h = a >= 0 && b >= 0 ? 0.5 * (a + b) : fmax(fmax(a, b), 0.0);
+        v += h * h / 12;
+    }
+    return v;
+}
+
+/* The probe's mean luminance over the sphere (solid-angle weighted), and its pixels brighter than
+ * threshold x that mean, brightest first (*cand malloc'd, NULL when none). -1 and err when out of memory. */
+static int pf_candidates(const prt_probe *p, float threshold, pf_cand **cand, int *n, prt_error *err) {
+    int w = p->img.w, h = p->img.h;
+    double pw = 0, om = 0;
+    *cand = NULL, *n = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            float d[3], o;
+            if (!probe_pixel_dir(p, x, y, d, &o)) continue;
+            pw += (double)o * pf_lum(p->img.data + 3 * ((size_t)y * w + x)), om += o;
+        }
+    double cut = om > 0 ? threshold * pw / om : 0;
+    if (!(cut > 0)) return 0;
+    int m = 0;
+    for (size_t i = 0; i < (size_t)w * h; i++) m += pf_lum(p->img.data + 3 * i) > cut;
+    if (m == 0) return 0;
+    if (!(*cand = malloc((size_t)m * sizeof **cand))) return prt_fail(err, "prefilter: out of memory");
+    for (size_t i = 0; i < (size_t)w * h; i++) {
+        float l = pf_lum(p->img.data + 3 * i), d[3];
+        if (l > cut && probe_pixel_dir(p, (int)(i % w), (int)(i / w), d, NULL)) (*cand)[(*n)++] = (pf_cand){ l, (int)i };
+    }
+    qsort(*cand, (size_t)*n, sizeof **cand, pf_cand_cmp);
+    return 0;
+}
+
+/* Groups the candidates into at most max_lights lights: each joins the first light whose seed (its
+ * brightest pixel) is within PF_LIGHT_RADIUS, else seeds a new one while there is room, else stays in
+ * the ladder. A light's power is the sum of its pixels' (radiance x solid angle) per channel, and its
+ * vMF per channel the merge of the pixels' own (Eq. 4 weighted by that channel's power, each pixel a
+ * vMF of its tent's variance), so its spread holds both the pixels' extent and their scatter; per
+ * channel because a sun's pixels differ in colour (sunrise.exr's blue centroid is a third of a pixel
+ * from its luminance's). Taken pixels are zeroed in rest. */
+static void pf_group(const prt_probe *p, const pf_cand *cand, int n, int max_lights, float *rest, prefilter_env *e) {
+    vmf_accum acc[PREFILTER_MAX_LIGHTS][3];
+    float seed[PREFILTER_MAX_LIGHTS][3];
+    double cos_r = cos(PF_LIGHT_RADIUS);
+    memset(acc, 0, sizeof acc);
+    e->nlights = 0;
+    for (int c = 0; c < n; c++) {
+        int x = cand[c].idx % p->img.w, y = cand[c].idx / p->img.w, s = 0;
+        float d[3], o;
+        probe_pixel_dir(p, x, y, d, &o);
+        while (s < e->nlights && dot3(d, seed[s]) < cos_r) s++;
+        if (s == e->nlights) {
+            if (s == max_lights) continue;
+            memcpy(seed[s], d, sizeof seed[s]), e->nlights++;
+        }
+        float *t = rest + 3 * (size_t)cand[c].idx;
+        double var = pf_pixel_var(p, x, y);
+        vmf_lobe v = { { d[0], d[1], d[2] }, (float)(var > 0 ? fmin(1 / var, VMF_KAPPA_MAX) : VMF_KAPPA_MAX) };
+        for (int k = 0; k < 3; k++) vmf_accum_add(&acc[s][k], &v, (double)o * t[k]), e->light[s].power[k] += o * t[k], t[k] = 0;
+    }
+    for (int s = 0; s < e->nlights; s++)
+        for (int k = 0; k < 3; k++) {
+            vmf_lobe v;
+            vmf_accum_result(&acc[s][k], &v);
+            double l = sqrt(dot3(v.mu, v.mu));
+            for (int m = 0; m < 3; m++) e->light[s].dir[k][m] = (float)(v.mu[m] / l);
+            e->light[s].kappa[k] = v.kappa, e->light[s].norm[k] = (float)vmf_norm(v.kappa);
+        }
+}
+
+/* Takes the lights out of p (o->lights at most, pixels above o->light_threshold x the mean): *rest is
+ * then a copy of p without them (its image malloc'd; the caller frees it), or p itself when nothing
+ * was taken (rest->img.data == p->img.data). -1 and err when out of memory. */
+static int pf_extract(const prt_probe *p, const prefilter_desc *o, prefilter_env *e, prt_probe *rest, prt_error *err) {
+    *rest = *p;
+    e->nlights = 0;
+    if (o->lights <= 0) return 0;
+    pf_cand *cand;
+    int n;
+    if (pf_candidates(p, o->light_threshold, &cand, &n, err)) return -1;
+    if (n == 0) return 0;
+    size_t bytes = (size_t)3 * p->img.w * p->img.h * sizeof(float);
+    float *copy = malloc(bytes);
+    if (!copy) { free(cand); return prt_fail(err, "prefilter: out of memory for the probe's copy"); }
+    memcpy(copy, p->img.data, bytes);
+    pf_group(p, cand, n, o->lights, copy, e);
+    free(cand);
+    rest->img.data = copy, rest->max_value = 0;
+    for (size_t i = 0; i < bytes / sizeof(float); i++) rest->max_value = fmaxf(rest->max_value, copy[i]);
+    return 0;
+}
+
 /* ---- creation ------------------------------------------------------------------------------ */
 
 /* The power of two nearest to x in log (x >= 1). */
@@ -212,6 +346,12 @@ static int pf_resolve(const prefilter_desc *d, prefilter_desc *o, prt_error *err
     if (!(o->kappa_max > 0 && o->kappa_max <= 1e6f))
         return prt_fail(err, "prefilter: kappa_max %g is not in (0, 1e6]", (double)o->kappa_max);
     if (!(o->ratio > 1 && o->ratio < 1e6f)) return prt_fail(err, "prefilter: ratio %g is not above 1", (double)o->ratio);
+    if (!o->lights) o->lights = PREFILTER_LIGHTS;
+    if (o->light_threshold == 0) o->light_threshold = PREFILTER_LIGHT_THRESHOLD;
+    if (o->lights > PREFILTER_MAX_LIGHTS)
+        return prt_fail(err, "prefilter: %d lights is above %d", o->lights, PREFILTER_MAX_LIGHTS);
+    if (!(o->light_threshold >= 1 && o->light_threshold < 1e30f))
+        return prt_fail(err, "prefilter: light threshold %g is not a multiple >= 1 of the mean", (double)o->light_threshold);
     return 0;
 }
 
@@ -280,7 +420,13 @@ prefilter_env *prefilter_create(const prt_probe *p, const float R[9], const pref
     }
     e->nlevels = o.levels + 1;
     prefilter_set_rotation(e, R);
-    probe_to_cube(p, o.base_res, NULL, o.ss, cube);     /* unrotated: R applies at lookup */
+    prt_probe rest;
+    if (pf_extract(p, &o, e, &rest, err)) {
+        free(cube), prefilter_destroy(e);
+        return NULL;
+    }
+    probe_to_cube(&rest, o.base_res, NULL, o.ss, cube);     /* unrotated: R applies at lookup */
+    if (rest.img.data != p->img.data) free(rest.img.data);
     if (pf_build(e, &o, cube, err)) {
         prefilter_destroy(e);
         return NULL;
@@ -304,6 +450,14 @@ void prefilter_set_rotation(prefilter_env *e, const float R[9]) {
 }
 
 int prefilter_level_count(const prefilter_env *e) { return e->nlevels; }
+
+int prefilter_light_count(const prefilter_env *e) { return e->nlights; }
+
+void prefilter_light(const prefilter_env *e, int i, float dir[3][3], float kappa[3], float power[3]) {
+    PRT_CHECK(i >= 0 && i < e->nlights);
+    const pf_light *L = &e->light[i];
+    memcpy(dir, L->dir, sizeof L->dir), memcpy(kappa, L->kappa, sizeof L->kappa), memcpy(power, L->power, sizeof L->power);
+}
 
 void prefilter_level_info(const prefilter_env *e, int l, float *kappa, int *res) {
     PRT_CHECK(l >= 0 && l < e->nlevels);
@@ -363,10 +517,32 @@ void prefilter_lookup_level(const prefilter_env *e, int l, const float dir[3], f
     pf_bilinear(&e->lv[l], d, rgb);
 }
 
-void prefilter_lookup(const prefilter_env *e, const float dir[3], float kappa, float rgb[3]) {
-    PRT_CHECK(!isnan(kappa));
-    float d[3];
-    pf_to_probe(e, dir, d);
+/* C(k) of lobe.h (vmf_norm), without its expm1 where 1 - e^{-2k} is 1 in float (k > 10). */
+static float pf_norm(float k) { return k > 10 ? k * (float)(0.5 / PF_PI) : (float)vmf_norm(k); }
+
+/* rgb += sum_s Phi_s int gamma_s gamma(.; d, kappa) per channel: each light's vMF convolved exactly with
+ * the lookup's (lobe.h vmf_product_integral: C(k) C(ks) / C(km) e^{km - k - ks}, km = |k d + ks w_s|, the
+ * exponent as -2 k ks (1 - cos) / (k + ks + km) with 1 - cos = |d - w_s|^2 / 2, C(k) / C(km) first so that
+ * nothing overflows), in float as glrt's GLSL does it (the exponent's rounding, 20 x 6e-8, is below what
+ * the test sees); d in the probe frame, kappa clamped to [0, VMF_KAPPA_MAX]. */
+static void pf_add_lights(const prefilter_env *e, const float d[3], float kappa, float rgb[3]) {
+    float k = kappa > 0 ? fminf(kappa, (float)VMF_KAPPA_MAX) : 0, ck = (float)vmf_norm(k);
+    double sum[3] = { 0, 0, 0 };
+    for (int i = 0; i < e->nlights; i++) {
+        const pf_light *L = &e->light[i];
+        for (int ch = 0; ch < 3; ch++) {
+            const float *w = L->dir[ch], ks = L->kappa[ch];
+            float a = d[0] - w[0], b = d[1] - w[1], c = d[2] - w[2], omc = 0.5f * (a * a + b * b + c * c);
+            if (k * ks * omc > (float)PF_LIGHT_CUT * (k + ks)) continue;   /* km <= k + ks: the exponent is below -PF_LIGHT_CUT */
+            float km = sqrtf(fmaxf(0.f, (k + ks) * (k + ks) - 2 * k * ks * omc));
+            sum[ch] += (double)(ck / pf_norm(km) * L->norm[ch] * expf(-2 * k * ks * omc / (k + ks + km))) * L->power[ch];
+        }
+    }
+    for (int ch = 0; ch < 3; ch++) rgb[ch] += (float)sum[ch];
+}
+
+/* The ladder's part of prefilter_lookup (the probe less its lights), d in the probe frame. */
+static void pf_ladder(const prefilter_env *e, const float d[3], float kappa, float rgb[3]) {
     int last = e->nlevels - 1;      /* the kappa-0 level */
     if (kappa >= e->lv[0].kappa) { pf_bilinear(&e->lv[0], d, rgb); return; }
     if (kappa <= 0) { pf_bilinear(&e->lv[last], d, rgb); return; }
@@ -380,4 +556,12 @@ void prefilter_lookup(const prefilter_env *e, const float dir[3], float kappa, f
     pf_bilinear(&e->lv[l], d, a);
     pf_bilinear(&e->lv[l + 1], d, b);
     for (int c = 0; c < 3; c++) rgb[c] = (1 - t) * a[c] + t * b[c];
+}
+
+void prefilter_lookup(const prefilter_env *e, const float dir[3], float kappa, float rgb[3]) {
+    PRT_CHECK(!isnan(kappa));
+    float d[3];
+    pf_to_probe(e, dir, d);
+    pf_ladder(e, d, kappa, rgb);
+    if (e->nlights) pf_add_lights(e, d, kappa, rgb);
 }
