@@ -40,12 +40,12 @@ static const char *k_vc_vs =
     "layout(location = 0) in vec3 a_pos;\n"
     "layout(location = 1) in vec3 a_col;\n"
     "uniform mat4 u_mvp;\n"
-    "out vec3 v_col;\n"
+    "centroid out vec3 v_col;\n"
     "void main() { v_col = a_col; gl_Position = u_mvp * vec4(a_pos, 1.0); }\n";
 
 static const char *k_vc_fs =
     "#version 330 core\n"
-    "in vec3 v_col;\n"
+    "centroid in vec3 v_col;\n"   /* multisampled: interpolated inside the triangle, never beyond its corners */
     "out vec4 o_color;\n"
     "void main() { o_color = vec4(v_col, 1.0); }\n";
 
@@ -67,6 +67,7 @@ static const char *k_present_fs =
 int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err) {
     memset(d, 0, sizeof *d);
     d->gl = gl;
+    d->samples = 1;
     if (!(d->prog_bg = glctx_program(gl, k_fullscreen_vs, k_bg_fs, "background", err))) return -1;
     if (!(d->prog_vc = glctx_program(gl, k_vc_vs, k_vc_fs, "vertex colours", err))) return -1;
     if (!(d->prog_present = glctx_program(gl, k_fullscreen_vs, k_present_fs, "present", err))) return -1;
@@ -174,7 +175,55 @@ int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err) {
     return glctx_check(gl, "mesh upload", err);
 }
 
-/* Sizes (if needed), binds and clears the float FBO; -1 with err. */
+/* The sample count of later targets, clamped to [1, GL_MAX_SAMPLES]; returns it. */
+int gldraw_set_samples(gldraw *d, int n) {
+    GLint most = 1;
+    d->gl->GetIntegerv(GL_MAX_SAMPLES, &most);
+    d->samples = n < 1 ? 1 : n > most ? (most > 1 ? most : 1) : n;
+    return d->samples;
+}
+
+/* The multisampled float target (colour and depth renderbuffers) at w x h and d->samples, made or
+ * remade when the size or the count changed; -1 with err. */
+static int gldraw_ms_target(gldraw *d, int w, int h, prt_error *err) {
+    const gl_api *gl = d->gl;
+    if (d->ms_fbo && d->ms_w == w && d->ms_h == h && d->ms_samples == d->samples) return 0;
+    if (!d->ms_fbo) {
+        gl->GenFramebuffers(1, &d->ms_fbo);
+        gl->GenRenderbuffers(1, &d->ms_color);
+        gl->GenRenderbuffers(1, &d->ms_depth);
+    }
+    gl->BindRenderbuffer(GL_RENDERBUFFER, d->ms_color);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, d->samples, GL_RGBA32F, w, h);
+    gl->BindRenderbuffer(GL_RENDERBUFFER, d->ms_depth);
+    gl->RenderbufferStorageMultisample(GL_RENDERBUFFER, d->samples, GL_DEPTH_COMPONENT32F, w, h);
+    gl->BindRenderbuffer(GL_RENDERBUFFER, 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, d->ms_fbo);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, d->ms_color);
+    gl->FramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, d->ms_depth);
+    GLenum st = gl->CheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (glctx_check(gl, "multisampled framebuffer allocation", err)) return -1;
+    if (st != GL_FRAMEBUFFER_COMPLETE)
+        return prt_fail(err, "GL float framebuffer %dx%d with %d samples incomplete (status 0x%x)", w, h, d->samples, st);
+    d->ms_w = w;
+    d->ms_h = h;
+    d->ms_samples = d->samples;
+    return 0;
+}
+
+/* Resolves the multisampled target into fbo (each pixel the mean of its samples: linear radiance
+ * averaged, as a box filter over the pixel), once per drawing; nothing without samples. */
+static void gldraw_resolve(gldraw *d) {
+    const gl_api *gl = d->gl;
+    if (d->resolved || !d->ms_fbo || d->ms_samples <= 1) return;
+    gl->BindFramebuffer(GL_READ_FRAMEBUFFER, d->ms_fbo);
+    gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, d->fbo);
+    gl->BlitFramebuffer(0, 0, d->fbo_w, d->fbo_h, 0, 0, d->fbo_w, d->fbo_h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
+    d->resolved = true;
+}
+
+/* Sizes (if needed), binds and clears the float FBO (or the multisampled one); -1 with err. */
 int gldraw_target(gldraw *d, int w, int h, prt_error *err) {
     const gl_api *gl = d->gl;
     if (w != d->fbo_w || h != d->fbo_h || !d->fbo) {
@@ -207,7 +256,10 @@ int gldraw_target(gldraw *d, int w, int h, prt_error *err) {
         d->fbo_w = w;
         d->fbo_h = h;
     }
-    gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
+    bool ms = d->samples > 1;
+    if (ms && gldraw_ms_target(d, w, h, err)) return -1;
+    d->resolved = !ms;
+    gl->BindFramebuffer(GL_FRAMEBUFFER, ms ? d->ms_fbo : d->fbo);
     gl->Viewport(0, 0, w, h);
     gl->ClearColor(0, 0, 0, 1);
     gl->ClearDepth(1.0);
@@ -452,6 +504,7 @@ int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
     float *rgba = prt_calloc((size_t)w * h * 4, sizeof(float), err);
     if (!rgba) return -1;
     if (image_alloc(out, w, h, 3, err)) { free(rgba); return -1; }
+    gldraw_resolve(d);
     gl->BindFramebuffer(GL_FRAMEBUFFER, d->fbo);
     gl->ReadBuffer(GL_COLOR_ATTACHMENT0);
     gl->PixelStorei(GL_PACK_ALIGNMENT, 4);
@@ -474,6 +527,7 @@ int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
 /* Tone-mapped blit of the FBO to the window framebuffer. */
 void gldraw_present(gldraw *d, int win_w, int win_h, float exposure_stops) {
     const gl_api *gl = d->gl;
+    gldraw_resolve(d);
     gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
     gl->Viewport(0, 0, win_w, win_h);
     gl->Disable(GL_DEPTH_TEST);
@@ -503,6 +557,11 @@ void gldraw_free(gldraw *d) {
         gl->DeleteFramebuffers(1, &d->fbo);
         gl->DeleteTextures(1, &d->fbo_color);
         gl->DeleteRenderbuffers(1, &d->fbo_depth);
+    }
+    if (d->ms_fbo) {
+        gl->DeleteFramebuffers(1, &d->ms_fbo);
+        gl->DeleteRenderbuffers(1, &d->ms_color);
+        gl->DeleteRenderbuffers(1, &d->ms_depth);
     }
     if (d->mesh_vao) {
         gl->DeleteVertexArrays(1, &d->mesh_vao);

@@ -38,6 +38,10 @@ typedef struct gldraw {
     bool has_probe;
     GLuint fbo, fbo_color, fbo_depth;
     int fbo_w, fbo_h;
+    int samples;                 /* samples per pixel the next targets take (gldraw_set_samples; 1: none) */
+    GLuint ms_fbo, ms_color, ms_depth; /* samples > 1: the multisampled target drawn into, resolved into fbo */
+    int ms_w, ms_h, ms_samples;
+    bool resolved;               /* fbo holds what was drawn into the multisampled target */
     GLuint mesh_vao, mesh_pos, mesh_col, mesh_ebo;
     int nverts, ntris;
     float bmin[3], bmax[3];      /* mesh bounds, for the clip planes */
@@ -52,7 +56,12 @@ int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err);
 int gldraw_set_probe(gldraw *d, const prt_probe *p, prt_error *err);
 /* Uploads positions and triangles (colours come per draw). */
 int gldraw_set_mesh(gldraw *d, const prt_mesh *m, prt_error *err);
-/* Makes sure the float FBO is w x h, binds it, sets the viewport and clears colour and depth. */
+/* Antialiasing of the targets gldraw_target makes from now on: n samples per pixel (multisampling;
+ * 0 or 1: one sample at the pixel centre), at most what the context allows (GL_MAX_SAMPLES).
+ * Returns the count that will be used. */
+int gldraw_set_samples(gldraw *d, int n);
+/* Makes sure the float FBO is w x h, binds it (with samples: the multisampled target it resolves
+ * from), sets the viewport and clears colour and depth. */
 int gldraw_target(gldraw *d, int w, int h, prt_error *err);
 /* Draws the probe (or nothing when none is set) behind everything; R row-major 3x3 or NULL. */
 void gldraw_background(gldraw *d, const prt_camera *cam, int w, int h, const float R[9]);
@@ -63,7 +72,8 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float aspect, float *zn
 void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]);
 /* Uploads rgb[3*nverts] (non-finite -> 0) and draws the mesh with Gouraud colours. */
 int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
-/* Reads the bound FBO's colour into out (allocated here, 3 channels, top row first, finite). */
+/* Reads the FBO's colour into out (allocated here, 3 channels, top row first, finite); a multisampled
+ * target is resolved first: each pixel the mean of its samples' linear radiance. */
 int gldraw_read(gldraw *d, prt_image *out, prt_error *err);
 /* Draws the FBO's colour into the default framebuffer (win_w x win_h) with exposure 2^stops,
  * clamp and sRGB encoding (the same tone curve as image_write's PNG output). */

@@ -175,12 +175,12 @@ static const char *k_view_vs =
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
     "uniform int u_kmax;\n"
-    "#if PER_VERTEX\n"
-    "out vec3 v_col;\n"
+    "#if PER_VERTEX\n"   /* centroid: multisampled, a pixel on a silhouette reads inside the triangle */
+    "centroid out vec3 v_col;\n"
     "#else\n"
-    "out vec3 v_pos, v_nrm, v_add;\n"
-    "out float v_pix, v_tva;\n"
-    "out vec3 v_g[KMAX];\n"
+    "centroid out vec3 v_pos, v_nrm, v_add;\n"
+    "centroid out float v_pix, v_tva;\n"
+    "centroid out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
     "#endif\n"
     "void main() {\n"
@@ -201,12 +201,12 @@ static const char *k_view_fs =
     "uniform int u_kmax, u_tri0, u_tv_perm;\n"
     "out vec4 o_color;\n"
     "#if PER_VERTEX\n"
-    "in vec3 v_col;\n"
+    "centroid in vec3 v_col;\n"
     "void main() { o_color = vec4(v_col, 1.0); }\n"
     "#else\n"
-    "in vec3 v_pos, v_nrm, v_add;\n"
-    "in float v_pix, v_tva;\n"
-    "in vec3 v_g[KMAX];\n"
+    "centroid in vec3 v_pos, v_nrm, v_add;\n"
+    "centroid in float v_pix, v_tva;\n"
+    "centroid in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
     "void main() {\n"
     "    vec3 g[KMAX];\n"
@@ -1173,6 +1173,11 @@ int glrt_draw_vertex_colors(glrt *rt, const prt_camera *cam, int w, int h, const
     return rc;
 }
 
+/* The sample count of the next draws' target (the context current: the next draw makes it so). */
+void glrt_set_samples(glrt *rt, int n) {
+    if (current(rt, NULL) == 0) gldraw_set_samples(&rt->draw, n);
+}
+
 /* The float target as a new image (caller frees); -1 with err. */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err) {
     if (current(rt, err)) return -1;
@@ -1244,8 +1249,10 @@ int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc 
     if (!rt) return -1;
     int rc = -1;
     if ((!rd->direct_only || !rt->tr->direct.nvecs || glrt_use_direct(rt, true, err) == 0) && glrt_set_light(rt, L, err) == 0 &&
-        glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0)
+        glrt_set_background(rt, rd->background, rd->background_rotation, err) == 0) {
+        glrt_set_samples(rt, rd->samples);
         rc = glrt_render(rt, &rd->camera, w, h, kmax, out, err);
+    }
     glrt_destroy(rt);
     return rc;
 }

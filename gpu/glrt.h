@@ -152,6 +152,8 @@ int glrt_set_prefilter(glrt *rt, const struct prefilter_env *env, prt_error *err
 bool glrt_shades_per_pixel(const glrt *rt, const prt_transfer *tr);
 /* Takes env's rotation for the ladder uploaded last (same probe, turned): no upload. */
 void glrt_set_prefilter_rotation(glrt *rt, const struct prefilter_env *env);
+/* Antialiasing of the next draws' target: n samples per pixel (gldraw_set_samples; 0 or 1: none). */
+void glrt_set_samples(glrt *rt, int n);
 /* Reads the target back (linear RGB, top row first; allocated here). */
 int glrt_read(glrt *rt, prt_image *out, prt_error *err);
 /* glrt_draw + glrt_read. */

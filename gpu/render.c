@@ -30,8 +30,10 @@ int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc 
     if (!ctx) return -1;
     gldraw gd;
     int rc = -1;
-    if (gldraw_init(&gd, &ctx->gl, err) == 0 && gldraw_set_mesh(&gd, m, err) == 0 &&
-        gldraw_set_probe(&gd, d->background, err) == 0 && gldraw_target(&gd, w, h, err) == 0) {
+    bool ready = gldraw_init(&gd, &ctx->gl, err) == 0;
+    if (ready) gldraw_set_samples(&gd, d->samples);
+    if (ready && gldraw_set_mesh(&gd, m, err) == 0 && gldraw_set_probe(&gd, d->background, err) == 0 &&
+        gldraw_target(&gd, w, h, err) == 0) {
         gldraw_background(&gd, &d->camera, w, h, d->background_rotation);
         if (gldraw_vertex_colors(&gd, &d->camera, w, h, rgb, err) == 0) rc = gldraw_read(&gd, out, err);
     }
@@ -98,6 +100,7 @@ static int vc_draw(void *self, const render_desc *rd, const float *rgb, prt_erro
         r->bg_pixels = p ? p->img.data : NULL;
     }
     int w = rd->width, h = rd->height;
+    gldraw_set_samples(&r->draw, rd->samples);
     if (gldraw_target(&r->draw, w, h, err)) return -1;
     gldraw_background(&r->draw, &rd->camera, w, h, rd->background_rotation);
     if (gldraw_vertex_colors(&r->draw, &rd->camera, w, h, rgb, err)) return -1;

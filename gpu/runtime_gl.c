@@ -216,6 +216,7 @@ static int gl_render(void *self, const render_desc *rd, int kmax, prt_error *err
         g->add_used = g->nonlinear || hl;
     }
     double t_add = 1e3 * (prt_now() - t0);
+    glrt_set_samples(g->rt, rd->samples);
     if (glrt_draw(g->rt, &rd->camera, rd->width, rd->height, kmax, err)) return -1;
     glrt_timing t;
     glrt_get_timing(g->rt, &t);

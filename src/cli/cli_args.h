@@ -145,6 +145,13 @@ void cli_indirect_resolve(const cli_indirect *in, const prt_data *d, bool quiet,
     "  --highlights            their indirect highlights (32 rays per glossy vertex, on the CPU; gl adds them);\n" \
     "                          default: as the file's effects plan decided (--no-highlights: off)\n" \
     "  --highlight-samples N   the same with N rays (1..1024)\n"
+/* --aa N (render, view, bench): antialiasing samples per pixel (render_desc.samples: multisampled, averaged
+ * in linear radiance); CLI_AA_DEFAULT when not given, 1 turns it off. */
+#define CLI_AA_DEFAULT 4
+#define CLI_AA_MAX 16
+#define CLI_AA_HELP \
+    "  --aa N                  antialiasing: N samples per pixel (multisampling; default 4, 1: off; at most\n" \
+    "                          16, or what the GL implementation allows)\n"
 /* The help lines of those flags. */
 #define CLI_LIGHT_HELP \
     "  --light SPEC            add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n" \

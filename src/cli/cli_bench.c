@@ -110,6 +110,22 @@ static int time_light(prt_runtime *rt, const prt_probe *probe, int frames, doubl
     return 0;
 }
 
+/* The light vector alone of the probe turned by yaw 0, 90, 180, 270 in turn, n times: the mean into
+ * *ms. The rotated cube is made from the probe itself unless a prepared probe is lent (runtime.h). */
+static int time_light_vector(prt_runtime *rt, const prt_probe *probe, int n, double *ms, prt_error *err) {
+    double sum = 0;
+    for (int f = 0; f < n; f++) {
+        float R[9];
+        probe_rotation(90.0 * (f % 4), 0, R);
+        if (runtime_set_light(rt, probe, R, err)) return -1;
+        runtime_timing tm;
+        runtime_get_timing(rt, &tm);
+        sum += tm.light_vector_ms;
+    }
+    *ms = sum / n;
+    return 0;
+}
+
 /* View changes orbiting the eye once around the scene's centre: as time_light. */
 static int time_view(prt_runtime *rt, const prt_data *d, const render_desc *rd0, int frames, double *t, double ms[4],
                      prt_error *err) {
@@ -173,7 +189,7 @@ static const char *fps(char *buf, double ms) {
 /* Prints the results: the same lines for every backend (tools/bench.sh parses "light change" and
  * "view change"; tools/bench_gl.sh the "bench:" line). */
 static void report(const bench_args *a, const prt_data *d, const runtime_timing *tm, const double lm[4], const double vm[4],
-                   const double km[4]) {
+                   const double km[4], const double lv[2], const runtime_probe *rp) {
     int K = 0;
     for (int m = 0; m < d->scene.nmaterials; m++) K = d->factors[m].K > K ? d->factors[m].K : K;
     int kuse = a->kmax && a->kmax < K ? a->kmax : K;
@@ -188,7 +204,9 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     }
     printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
            tm->detail, tm->detail[0] ? ")" : "");
-    printf("light vector (probe -> cube -> light vector): %.1f ms\n", lm[1]);
+    printf("light vector (probe -> cube -> light vector): %.1f ms\n", lv[0]);
+    printf("light vector of a turning probe (its fine cube, made once in %.0f ms -> cube -> light vector): %.1f ms\n", rp->ms,
+           lm[1]);
     char f[3][32];
     printf("light change: %.2f ms median (%s), min %.2f ms\n", lm[0], fps(f[0], lm[0]), lm[2]);
     printf("view change:  %.2f ms median (%s), min %.2f ms\n", vm[0], fps(f[1], vm[0]), vm[2]);
@@ -219,16 +237,20 @@ static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     if (rt) cli_camera(k_cmd, &d->scene, (float)a->size[0] / a->size[1], NULL, &cam); /* no --camera: cannot fail */
     render_desc rd = { .width = a->size[0], .height = a->size[1], .camera = cam, .background = probe };
     bool local = d->scene.lights.count > 0;
-    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 &&
+    runtime_probe rp = { 0 };
+    double lv[2] = { 0 };
+    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 && time_light_vector(rt, probe, 8, &lv[0], &err) == 0 &&
+        runtime_probe_prepare(d, probe, a->nthreads, &rp, &err) == 0 && (runtime_lend_probe(rt, &rp), 1) &&
         (!local || runtime_set_local_lights(rt, &d->scene.lights, &err) == 0) && runtime_render(rt, &rd, NULL, &err) == 0 &&
         time_light(rt, probe, a->frames, t, lm, &err) == 0 && time_view(rt, d, &rd, a->frames, t, vm, &err) == 0 &&
         (!local || time_local(rt, d, a->frames, t, km, &err) == 0)) {
         runtime_timing tm;
         runtime_get_timing(rt, &tm);
-        report(a, d, &tm, lm, vm, km);
+        report(a, d, &tm, lm, vm, km, lv, &rp);
         rc = 0;
     } else cli_error(k_cmd, "%s", err.msg);
     runtime_destroy(rt);
+    runtime_probe_free(&rp);
     free(t);
     return rc;
 }

@@ -33,7 +33,8 @@ static void help(void) {
          "  --exposure E            exposure in stops for PNG output (default: from the probe, so that a\n"
          "                          white surface facing up shows as white; the same rule as prt reference)\n"
          "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
-         "  --terms K               use only the first K BRDF terms (default: all)\n", stdout);
+         "  --terms K               use only the first K BRDF terms (default: all)\n"
+         CLI_AA_HELP, stdout);
     cli_backend_help(26, 0, runtime_backend_at(0)->name);
     puts("  --no-background         black background instead of the probe\n"
          "  --direct-only           direct lighting only (files with bounces need precompute --keep-direct)\n"
@@ -58,7 +59,7 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
 typedef struct render_args {
     const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *backend;
     const runtime_backend_info *be;   /* --backend's table entry */
-    int w, h, kmax, nthreads, tonemap;
+    int w, h, kmax, nthreads, tonemap, aa;
     float exposure, R[9];
     bool background, direct_only;
     int hl_samples;          /* --highlights / --highlight-samples (0: none) */
@@ -73,12 +74,14 @@ static int parse_args(int argc, char **argv, render_args *a) {
     memset(a, 0, sizeof *a);
     a->backend = runtime_backend_at(0)->name;
     a->exposure = NAN;   /* not given: from the probe (probe_exposure) */
+    a->aa = CLI_AA_DEFAULT;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
         CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
         CLI_B("--no-background", &no_background), CLI_B("--direct-only", &a->direct_only), CLI_WH("--size", size),
         CLI_F("--exposure", &a->exposure, -64, 64), CLI_S("--tonemap", &tonemap_s), CLI_I("--terms", &a->kmax, 1, 64),
-        CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--backend", &a->backend), CLI_END,
+        CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--backend", &a->backend), CLI_I("--aa", &a->aa, 1, CLI_AA_MAX),
+        CLI_END,
     };
     int npos = 0, pr = cli_parse(k_cmd, argc, argv, opts, &a->in, 1, &npos);
     if (pr == 1) { help(); return 0; }
@@ -134,7 +137,7 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
                           .kernel = a->be->quick_kernel, .highlight_samples = a->hl_samples, .local_bounce = a->bounce };
     const float *R = a->rot_s ? a->R : NULL;
     render_desc rd = { .width = a->w, .height = a->h, .camera = *cam, .background = a->background ? probe : NULL,
-                       .background_rotation = R };
+                       .background_rotation = R, .samples = a->aa };
     prt_image img = { 0 };
     float *rgb = NULL;
     int rc = 1;

@@ -40,6 +40,8 @@
 #include <GLFW/glfw3.h>
 #include <dirent.h>
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
@@ -47,6 +49,26 @@
 
 #define VIEW_MAX_PROBES 64
 #define VIEW_MAX_RUNTIMES 8     /* at least runtime_backend_count() */
+#define VIEW_KEEP 8             /* probes kept prepared (~6 MB each with a prefiltered ladder) */
+
+/* A probe prepared on a worker thread (runtime_probe_prepare: its fine cube and, for a vMF file, its
+ * prefiltered ladder, seconds) while the window keeps drawing with the light it has. Ownership: the
+ * worker reads the file and the probe, which nothing writes while the viewer runs, and writes only
+ * out, rc and err, then sets done (release); the UI thread reads them after seeing done (acquire) and
+ * joining the thread, and only then lends out to the runtimes, so every runtime's state changes on
+ * the UI thread alone. */
+typedef struct view_prep {
+    pthread_t thread;
+    bool running;               /* UI thread: started and not joined yet */
+    int probe;                  /* which probe */
+    const prt_data *d;
+    const prt_probe *p;
+    int threads;
+    runtime_probe out;          /* the worker's: its result, rc and err ... */
+    int rc;
+    prt_error err;
+    atomic_bool done;           /* ... published by this */
+} view_prep;
 
 static const char *k_view = "view";
 
@@ -111,7 +133,8 @@ static void view_help(void) {
            "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: framed as prt render)\n"
            "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
            "  --exposure E           exposure in stops (default: from the first probe, as prt render)\n"
-           "  --terms K              BRDF terms used (default: all)\n");
+           "  --terms K              BRDF terms used (default: all)\n"
+           "  --aa N                 antialiasing: N samples per pixel (multisampling; default %d, 1: off)\n", CLI_AA_DEFAULT);
     cli_backend_help(25, RUNTIME_CAP_WINDOW, start >= 0 ? runtime_backend_at(start)->name : "none");
     printf("                         (on a software GL renderer, such as Mesa's llvmpipe, the default is a\n"
            "                         backend that runs on the CPU: it is many times faster there)\n"
@@ -146,6 +169,7 @@ typedef struct viewer {
     float lyaw, lpitch, lyaw0, lpitch0, R[9];
     bool vertex_model, help, quit, direct;
     int kmax, kfile, nthreads;
+    int aa;                 /* --aa: samples per pixel */
     float exposure;
     bool light_dirty, view_dirty, present_dirty;
     double lightvec_ms, light_ms, view_ms, frame_ms;
@@ -167,6 +191,14 @@ typedef struct viewer {
     bool bounce;                /* key o: the local lights' one bounce (VSGLs) */
     int hl_on, hl_samples;      /* key i: rays per glossy vertex when on (--highlight-samples or 32), now (0: off) */
     const char *no_bounce, *no_hl;   /* why the effects plan has no such effect (NULL: it has) */
+    runtime_probe prepared[VIEW_MAX_PROBES];   /* probe i prepared (ready[i]), lent to the runtimes */
+    bool ready[VIEW_MAX_PROBES];
+    long used[VIEW_MAX_PROBES], uses;          /* when each was last shown, for keeping VIEW_KEEP */
+    view_prep prep;
+    int want;                   /* the probe asked for while it is prepared (-1: none) */
+    double prep_t0, prep_ms;    /* when the preparation started, how long the last one took */
+    int prep_frames;            /* frames drawn while a probe was prepared, and the longest */
+    double prep_longest;
 } viewer;
 
 /* Shows msg on screen for a few seconds and on stderr. */
@@ -201,6 +233,7 @@ static int light_change(viewer *v, prt_error *err) {
         v->light_dirty = false;
     }
     prt_runtime *rt = current(v);
+    runtime_lend_probe(rt, v->ready[v->probe] ? &v->prepared[v->probe] : NULL);
     if (runtime_set_light(rt, &v->probes[v->probe], rotated(v) ? v->R : NULL, err)) return -1;
     runtime_timing t;
     runtime_get_timing(rt, &t);
@@ -233,7 +266,7 @@ static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
     prt_runtime *rt = current(v);
     render_desc rd = { .width = v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
-                       .background_rotation = rotated(v) ? v->R : NULL };
+                       .background_rotation = rotated(v) ? v->R : NULL, .samples = v->aa };
     runtime_set_terms(rt, v->kmax);
     if (runtime_render(rt, &rd, NULL, err)) return -1;
     v->view_ms = 1e3 * (prt_now() - t0);
@@ -285,6 +318,9 @@ static void overlay(viewer *v) {
         n += overlay_effects(v, buf + n, sizeof buf - (size_t)n);
     }
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
+    if (v->want >= 0 && n < (int)sizeof buf)
+        n += snprintf(buf + n, sizeof buf - n, "preparing probe %d: %s... (%.1f s; showing probe %d meanwhile)\n", v->want + 1,
+                      v->names[v->want], prt_now() - v->prep_t0, v->probe + 1);
     char keys[4096];
     if (n < (int)sizeof buf) snprintf(buf + n, sizeof buf - n, "%s", v->help ? keys_help(keys, sizeof keys) : "h: help");
     size_t len = strlen(buf);
@@ -473,6 +509,79 @@ static void on_scroll(GLFWwindow *w, double dx, double dy) {
     zoom(v, (float)dy);
 }
 
+/* The worker: prepares its probe, then publishes the result. */
+static void *prep_main(void *arg) {
+    view_prep *j = arg;
+    j->rc = runtime_probe_prepare(j->d, j->p, j->threads, &j->out, &j->err);
+    atomic_store_explicit(&j->done, true, memory_order_release);
+    return NULL;
+}
+
+/* Starts preparing probe i on a worker thread with all cores but the one the frames need. */
+static void prep_start(viewer *v, int i) {
+    view_prep *j = &v->prep;
+    memset(&j->out, 0, sizeof j->out);
+    j->probe = i;
+    j->d = &v->d;
+    j->p = &v->probes[i];
+    j->threads = prt_thread_count(v->nthreads) > 1 ? prt_thread_count(v->nthreads) - 1 : 1;
+    j->rc = 0;
+    atomic_store_explicit(&j->done, false, memory_order_relaxed);
+    v->prep_t0 = prt_now();
+    j->running = pthread_create(&j->thread, NULL, prep_main, j) == 0;
+    if (!j->running) prep_main(j);   /* no thread: prepared here, taken in at the next poll */
+}
+
+/* Frees the prepared probes beyond VIEW_KEEP, the least recently shown first (never the one shown,
+ * nor the one asked for: the runtimes hold only the probe shown, lent again at each light change). */
+static void prep_keep(viewer *v) {
+    for (;;) {
+        int n = 0, old = -1;
+        for (int i = 0; i < v->nprobes; i++)
+            if (v->ready[i]) {
+                n++;
+                if (i != v->probe && i != v->want && (old < 0 || v->used[i] < v->used[old])) old = i;
+            }
+        if (n <= VIEW_KEEP || old < 0) return;
+        for (int r = 0; r < VIEW_MAX_RUNTIMES; r++)
+            if (v->rts[r]) runtime_lend_probe(v->rts[r], NULL);
+        runtime_probe_free(&v->prepared[old]);
+        v->ready[old] = false;
+    }
+}
+
+/* Takes in the worker's probe when it is done (wait: blocks until it is), shows the probe asked for
+ * once it is ready, and starts the next preparation it needs. */
+static void prep_poll(viewer *v, bool wait) {
+    view_prep *j = &v->prep;
+    bool started = j->running || atomic_load_explicit(&j->done, memory_order_acquire);
+    if (started && (wait || atomic_load_explicit(&j->done, memory_order_acquire))) {
+        if (j->running) pthread_join(j->thread, NULL);
+        j->running = false;
+        atomic_store_explicit(&j->done, false, memory_order_relaxed);
+        if (j->rc == 0) {
+            v->prep_ms = j->out.ms;
+            v->prepared[j->probe] = j->out;
+            v->ready[j->probe] = true;
+        } else {
+            char msg[1200];
+            snprintf(msg, sizeof msg, "cannot prepare probe %d: %s", j->probe + 1, j->err.msg);
+            set_status(v, msg);
+            if (v->want == j->probe) v->want = -1;
+        }
+    }
+    if (v->want >= 0 && v->ready[v->want]) {
+        v->probe = v->want;
+        v->used[v->probe] = ++v->uses;
+        v->want = -1;
+        v->light_dirty = true;
+        prep_keep(v);
+    } else if (v->want >= 0 && !j->running) {
+        prep_start(v, v->want);
+        if (wait) prep_poll(v, true);
+    }
+}
+
 /* Switches to probe i (a light change) or says there is no such probe. */
 static void select_probe(viewer *v, int i) {
     char msg[160];
@@ -482,8 +591,16 @@ static void select_probe(viewer *v, int i) {
         set_status(v, msg);
         return;
     }
+    v->want = -1;
     if (i == v->probe) return;
+    if (!v->ready[i]) {   /* drawn with the light it has until the worker is done (prep_poll) */
+        v->want = i;
+        if (!v->prep.running) prep_start(v, i);
+        v->present_dirty = true;
+        return;
+    }
     v->probe = i;
+    v->used[i] = ++v->uses;
     v->light_dirty = true;
 }
 
@@ -679,9 +796,14 @@ static int add_probe_dir(viewer *v, const char *dir, const char *layout) {
 
 /* Releases everything the viewer holds (not v itself). */
 static void viewer_free(viewer *v) {
+    if (v->prep.running) {   /* a preparation still running is waited for, then dropped */
+        pthread_join(v->prep.thread, NULL);
+        if (v->prep.rc == 0) runtime_probe_free(&v->prep.out);
+    }
     if (v->ctx) glctx_make_current(v->ctx, NULL);
     gltext_free(&v->text);
     for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) runtime_destroy(v->rts[i]);
+    for (int i = 0; i < VIEW_MAX_PROBES; i++) runtime_probe_free(&v->prepared[i]);
     glctx_destroy(v->ctx);
     for (int i = 0; i < v->nprobes; i++) probe_free(&v->probes[i]);
     prt_data_free(&v->d);
@@ -719,6 +841,7 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
     OPT_V("--exposure") return cli_float(k_view, "--exposure", val, -64, 64, &v->exposure) ? 1 : -1;
     OPT_V("--terms") return cli_int(k_view, "--terms", val, 1, 64, &v->kmax) ? 1 : -1;
     OPT_V("--threads") return cli_int(k_view, "--threads", val, 1, 64, &v->nthreads) ? 1 : -1;
+    OPT_V("--aa") return cli_int(k_view, "--aa", val, 1, CLI_AA_MAX, &v->aa) ? 1 : -1;
     OPT_V("--frames") return cli_int(k_view, "--frames", val, 1, 1000000, &a->frames) ? 1 : -1;
     OPT_V("--backend") {
         if (!cli_backend(k_view, val, RUNTIME_CAP_WINDOW, "draw into a window")) return -1;
@@ -786,6 +909,7 @@ static int parse_args(int argc, char **argv, viewer *v, view_args *a) {
     a->w = 1024;
     a->h = 768;
     v->exposure = NAN;   /* not given: from the first probe (cli_exposure) */
+    v->aa = CLI_AA_DEFAULT;
     PRT_CHECK(runtime_backend_count() <= VIEW_MAX_RUNTIMES);
     v->cur = start_backend();
     if (v->cur < 0) return cli_error(k_view, "no backend of this build draws into a window"), 2;
@@ -831,6 +955,10 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->lyaw0 = v->lyaw;
     v->lpitch0 = v->lpitch;
     update_rotation(v);
+    v->want = -1;
+    if (runtime_probe_prepare(&v->d, &v->probes[v->probe], v->nthreads, &v->prepared[v->probe], &err))
+        return cli_error(k_view, "%s", err.msg);
+    v->ready[v->probe] = true;
     v->exposure = cli_exposure(v->exposure, v->nprobes ? &v->probes[v->probe] : NULL, rotated(v) ? v->R : NULL, NULL);
     return 0;
 }
@@ -902,8 +1030,15 @@ static int run_scripted(viewer *v, int frames) {
     for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
         glfwPollEvents();
         if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
+        prep_poll(v, f == frames - 1);   /* the last frame shows every key's probe */
         v->window_shot_now = v->window_shot && f == frames - 1;
+        bool preparing = v->want >= 0;
+        double t0 = prt_now();
         if (frame(v, true, &err)) return cli_error(k_view, "%s", err.msg);
+        if (preparing) {
+            v->prep_frames++;
+            v->prep_longest = fmax(v->prep_longest, 1e3 * (prt_now() - t0));
+        }
         if (f > 0 || frames == 1) sum_view += v->view_ms;
     }
     if (v->shot_path && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
@@ -911,6 +1046,9 @@ static int run_scripted(viewer *v, int frames) {
            "mean%s%s\n",
            frames, v->fbw, v->fbh, current_info(v)->title, v->light_ms, v->lightvec_ms,
            sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
+    if (v->prep_ms > 0)
+        printf("view: probe prepared on a worker thread in %.1f ms; %d frames drawn meanwhile, the longest %.1f ms\n",
+               v->prep_ms, v->prep_frames, v->prep_longest);
     return 0;
 }
 
@@ -921,7 +1059,9 @@ static int run_interactive(viewer *v) {
     while (!glfwWindowShouldClose(win) && !v->quit) {
         bool busy = v->light_dirty || v->view_dirty || v->drag;
         if (busy) glfwPollEvents();
-        else glfwWaitEventsTimeout(0.25);
+        else glfwWaitEventsTimeout(v->want >= 0 ? 0.05 : 0.25);   /* a probe being prepared: look for it often */
+        prep_poll(v, false);
+        if (v->want >= 0) v->present_dirty = true;   /* the overlay counts its seconds */
         bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;
         if (v->light_dirty || v->view_dirty || v->present_dirty || v->stale[v->cur] || status_visible)
             if (frame(v, false, &err)) return cli_error(k_view, "%s", err.msg);

@@ -17,5 +17,7 @@ typedef struct render_desc {
     const prt_probe *background; /* may be NULL */
     const float *background_rotation; /* 3x3 applied to the probe (as in probe_to_cube), may be NULL */
     bool direct_only;            /* GL runtime (glrt_render_image): light with the file's direct-only set */
+    int samples;                 /* antialiasing: samples per pixel, multisampled and averaged in linear
+                                  * radiance (0 or 1: one per pixel; at most what the GL context allows) */
 } render_desc;
 #endif

@@ -10,6 +10,7 @@
 #include "cubemap.h"
 #include "lights.h"
 #include "prefilter.h"
+#include "probecube.h"
 #include "transfer.h"
 #include <stdlib.h>
 #include <string.h>
@@ -34,6 +35,8 @@ struct prt_runtime {
     prefilter_env *env;         /* the last probe prefiltered (non-linear transfers), or NULL */
     const prt_probe *env_probe; /* which probe (pointer and pixels) env was made from */
     const float *env_pixels;
+    runtime_probe *lent;        /* runtime_lend_probe's, or NULL */
+    const prefilter_env *env_shown; /* the env the backend got last (another one is new to it), or NULL */
 };
 
 /* See runtime.h. */
@@ -123,24 +126,44 @@ static int rt_light_vectors(const prt_runtime *rt, const float *cube, runtime_li
     return 0;
 }
 
-/* light->env when some transfer shades with the prefiltered probe: made for a new probe (pointer or
- * pixels), else only rotated. -1 with err. */
-static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], runtime_light *light, prt_error *err) {
+/* See runtime.h: a transfer shades with the prefiltered probe. */
+bool runtime_needs_prefilter(const prt_data *d) {
     bool need = false;
-    for (int i = 0; i < rt->d->ntransfers; i++) need |= rt->d->transfers[i].ops->kind == TRANSFER_VIEW;
-    if (!need) return 0;
-    if (rt->env && rt->env_probe == p && rt->env_pixels == p->img.data) {
-        prefilter_set_rotation(rt->env, R);
+    for (int i = 0; i < d->ntransfers; i++) need |= d->transfers[i].ops->kind == TRANSFER_VIEW;
+    return need;
+}
+
+/* The lent probe when it is p (pointer and pixels), else NULL. */
+static runtime_probe *rt_lent(const prt_runtime *rt, const prt_probe *p) {
+    return rt->lent && p && rt->lent->probe == p && rt->lent->pixels == p->img.data ? rt->lent : NULL;
+}
+
+/* light->env when some transfer shades with the prefiltered probe: the lent one's, else made for a new
+ * probe (pointer or pixels), else only rotated; new to the backend when it is not the one it got last.
+ * -1 with err. */
+static int rt_prefilter(prt_runtime *rt, const prt_probe *p, const float R[9], runtime_light *light, prt_error *err) {
+    if (!runtime_needs_prefilter(rt->d)) return 0;
+    runtime_probe *lp = rt_lent(rt, p);
+    if (lp && lp->env) {
+        prefilter_destroy(rt->env);   /* the lent one serves this probe: the runtime's own is not needed */
+        rt->env = NULL;
+        rt->env_probe = NULL;
+        light->env = lp->env;
+    } else if (rt->env && rt->env_probe == p && rt->env_pixels == p->img.data) {
+        light->env = rt->env;
     } else {
         prefilter_destroy(rt->env);
         rt->env_probe = NULL;
+        rt->env_shown = NULL;
         rt->env = prefilter_create(p, R, &(prefilter_desc){ 0 }, err);
         if (!rt->env) return -1;
         rt->env_probe = p;
         rt->env_pixels = p->img.data;
-        light->env_new = true;
+        light->env = rt->env;
     }
-    light->env = rt->env;
+    prefilter_set_rotation((prefilter_env *)light->env, R);
+    light->env_new = light->env != rt->env_shown;
+    rt->env_shown = light->env;
     return 0;
 }
 
@@ -163,7 +186,9 @@ int runtime_set_light(prt_runtime *rt, const prt_probe *p, const float R[9], prt
     double t0 = prt_now();
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     if (!cube) return prt_fail(err, "out of memory");
-    probe_to_cube(p, CUBE_RES, R, 0, cube);
+    const runtime_probe *lp = rt_lent(rt, p);
+    if (lp && lp->cube) probe_cube_resample(lp->cube, R, cube);
+    else probe_to_cube(p, CUBE_RES, R, 0, cube);
     int rc = rt_set_light(rt, cube, p, R, t0, err);
     free(cube);
     return rc;
@@ -191,6 +216,38 @@ int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRA
     }
     rt->light_vector_ms = 0;   /* made by the caller */
     return rt->be->set_light(rt->self, &light, err);
+}
+
+/* The fine cube and, when d needs it, the prefiltered probe of p, timed; -1 with err. */
+int runtime_probe_prepare(const prt_data *d, const prt_probe *p, int threads, runtime_probe *out, prt_error *err) {
+    PRT_CHECK(d != NULL && p != NULL && out != NULL);
+    memset(out, 0, sizeof *out);
+    double t0 = prt_now();
+    out->probe = p;
+    out->pixels = p->img.data;
+    out->cube = probe_cube_create(p, &(probe_cube_desc){ .res = CUBE_RES, .threads = threads }, err);
+    if (!out->cube) return -1;
+    if (runtime_needs_prefilter(d) && !(out->env = prefilter_create(p, NULL, &(prefilter_desc){ .threads = threads }, err))) {
+        runtime_probe_free(out);
+        return -1;
+    }
+    out->ms = 1e3 * (prt_now() - t0);
+    return 0;
+}
+
+/* Frees the fine cube and the prefiltered probe. */
+void runtime_probe_free(runtime_probe *rp) {
+    if (!rp) return;
+    probe_cube_destroy(rp->cube);
+    prefilter_destroy(rp->env);
+    memset(rp, 0, sizeof *rp);
+}
+
+/* Lends rp (NULL: none) for its probe's light changes. */
+void runtime_lend_probe(prt_runtime *rt, runtime_probe *rp) {
+    PRT_CHECK(rt != NULL);
+    if (rp != rt->lent) rt->env_shown = NULL;   /* another probe's env: the backend takes it as new */
+    rt->lent = rp;
 }
 
 /* Vertex colours toward eye with the current term count; -1 with err when the backend has none. */

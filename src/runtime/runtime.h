@@ -198,6 +198,35 @@ int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err);
  * without the projection, for many files whose transfers share configurations (the fuzz harness
  * keeps one vector per configuration). Only read during the call. -1 with err as runtime_set_light_cube. */
 int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRANSFERS])[4], prt_error *err);
+/* ---------------------------------------------------------------- probes prepared once
+ * What runtime_set_light makes of a probe before any rotation can be made once per probe, apart:
+ * runtime_probe_prepare (slow: the probe's fine cube, probecube.h, ~0.1-0.2 s; the prefiltered
+ * probe, prefilter.h, 1-3 s, when the file has a transfer that shades with it) touches no runtime,
+ * so it may run on a worker thread while the runtime keeps drawing; runtime_lend_probe then hands
+ * it to a runtime on the runtime's thread. While it is lent, runtime_set_light of that probe (pointer
+ * and pixels) resamples the light cube from the fine cube under R (probe_cube_resample: ~2 ms on two
+ * cores where probe_to_cube takes ~30 ms; a filter one fine texel wider, probecube.h) and rotates the
+ * prefiltered probe instead of making it. Without a lent probe runtime_set_light resamples the probe
+ * itself (probe_to_cube), as a single light change should. */
+typedef struct runtime_probe {
+    const prt_probe *probe;         /* the probe it was made from: lent, it serves this probe only */
+    const float *pixels;            /* ... with these pixels */
+    struct probe_cube *cube;        /* the fine cube rotations are resampled from */
+    struct prefilter_env *env;      /* prefiltered by vMF lobes (runtime_needs_prefilter), else NULL */
+    double ms;                      /* the wall time runtime_probe_prepare took */
+} runtime_probe;
+
+/* Whether a light change of d needs the probe prefiltered (a transfer of kind TRANSFER_VIEW). */
+bool runtime_needs_prefilter(const prt_data *d);
+/* Prepares p for d's runtimes into out (threads 0: all cores); reads d and p only, so any thread may
+ * run it while other threads read them. -1 with err (out of memory). */
+int runtime_probe_prepare(const prt_data *d, const prt_probe *p, int threads, runtime_probe *out, prt_error *err);
+/* Frees what out holds (no runtime may hold it lent any more) and zeroes it. */
+void runtime_probe_free(runtime_probe *rp);
+/* Lends rp to rt for the light changes of rp->probe (NULL: none); rp stays the caller's and must
+ * outlive the lending (until another runtime_lend_probe or runtime_destroy). Call it on rt's thread. */
+void runtime_lend_probe(prt_runtime *rt, runtime_probe *rp);
+
 /* View change as vertex colours: rgb[3*nverts] = radiance of every vertex toward eye, clamped >= 0. */
 int runtime_shade_vertices(prt_runtime *rt, const float eye[3], float *rgb, prt_error *err);
 /* View change as a frame rd->width x rd->height (0 x 0: 800 x 600) into the target; out non-NULL:
