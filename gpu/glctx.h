@@ -83,7 +83,8 @@
 
 /* Entry points that only 4.3+ contexts must have (NULL otherwise). */
 #define GLCTX_FUNCS_43(X) \
-    X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute) X(PFNGLMEMORYBARRIERPROC, MemoryBarrier)
+    X(PFNGLDISPATCHCOMPUTEPROC, DispatchCompute) X(PFNGLMEMORYBARRIERPROC, MemoryBarrier) \
+    X(PFNGLMINSAMPLESHADINGPROC, MinSampleShading)
 
 typedef struct gl_api {
 #define GLCTX_MEMBER_(type, name) type name;

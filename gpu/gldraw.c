@@ -40,14 +40,19 @@ static const char *k_vc_vs =
     "layout(location = 0) in vec3 a_pos;\n"
     "layout(location = 1) in vec3 a_col;\n"
     "uniform mat4 u_mvp;\n"
-    "centroid out vec3 v_col;\n"
+    "out vec3 v_col;\n"
     "void main() { v_col = a_col; gl_Position = u_mvp * vec4(a_pos, 1.0); }\n";
 
+/* Multisampled, a fragment is shaded once per pixel at its centre, which may lie beyond the triangle on
+ * a silhouette: the colours extrapolated there are clamped at 0 (radiance). Not `centroid`: llvmpipe
+ * then evaluates off the centre on every edge a pixel straddles, the mesh's inner edges too, which
+ * biases the Gouraud colours along them (the paper-phong sphere against a 1024-spp reference at
+ * 400x300: rel_rmse 0.0472 with centroid, 0.0445 without). */
 static const char *k_vc_fs =
     "#version 330 core\n"
-    "centroid in vec3 v_col;\n"   /* multisampled: interpolated inside the triangle, never beyond its corners */
+    "in vec3 v_col;\n"
     "out vec4 o_color;\n"
-    "void main() { o_color = vec4(v_col, 1.0); }\n";
+    "void main() { o_color = vec4(max(v_col, 0.0), 1.0); }\n";
 
 /* Exposure, clamp, sRGB (IEC 61966-2-1) like image_write's 8-bit output. */
 static const char *k_present_fs =

@@ -7,6 +7,7 @@
  *     gldraw gd;
  *     if (gldraw_init(&gd, &ctx->gl, &err)) ...
  *     gldraw_set_mesh(&gd, &mesh, &err);  gldraw_set_probe(&gd, probe, &err);
+ *     gldraw_set_samples(&gd, 4);                     // optional: multisampled targets
  *     gldraw_target(&gd, w, h, &err);                // float FBO, bound and cleared
  *     gldraw_background(&gd, &cam, w, h, R);          // probe seen through the camera
  *     gldraw_vertex_colors(&gd, &cam, w, h, rgb, &err);
@@ -19,6 +20,12 @@
  * latlong, else resampled once with probe_eval), rotated by R^T so that a
  * light at d appears at R d (as probe_to_cube rotates it). Then the mesh is drawn
  * with the depth test. No culling: a floor seen from below is still drawn.
+ *
+ * Antialiasing: with samples > 1 the passes draw into a multisampled float target (colour and depth
+ * renderbuffers) that gldraw_read and gldraw_present resolve into the float FBO first: each pixel the
+ * mean of its samples' linear radiance (a box filter over the pixel), so read-back images stay
+ * linear HDR. Fragments are shaded once per pixel (a caller may ask for per-sample shading, glrt.c);
+ * silhouettes, where the samples of one pixel see different surfaces, are what it smooths.
  *
  * Ownership: all GL objects belong to the gldraw; gldraw_free deletes them
  * (the context must be current). Errors: -1 with one line in err. */

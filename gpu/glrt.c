@@ -175,12 +175,12 @@ static const char *k_view_vs =
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
     "uniform int u_kmax;\n"
-    "#if PER_VERTEX\n"   /* centroid: multisampled, a pixel on a silhouette reads inside the triangle */
-    "centroid out vec3 v_col;\n"
+    "#if PER_VERTEX\n"
+    "out vec3 v_col;\n"
     "#else\n"
-    "centroid out vec3 v_pos, v_nrm, v_add;\n"
-    "centroid out float v_pix, v_tva;\n"
-    "centroid out vec3 v_g[KMAX];\n"
+    "out vec3 v_pos, v_nrm, v_add;\n"
+    "out float v_pix, v_tva;\n"
+    "out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
     "#endif\n"
     "void main() {\n"
@@ -201,12 +201,12 @@ static const char *k_view_fs =
     "uniform int u_kmax, u_tri0, u_tv_perm;\n"
     "out vec4 o_color;\n"
     "#if PER_VERTEX\n"
-    "centroid in vec3 v_col;\n"
-    "void main() { o_color = vec4(v_col, 1.0); }\n"
+    "in vec3 v_col;\n"
+    "void main() { o_color = vec4(max(v_col, 0.0), 1.0); }\n"   /* beyond a silhouette when multisampled (gldraw.c) */
     "#else\n"
-    "centroid in vec3 v_pos, v_nrm, v_add;\n"
-    "centroid in float v_pix, v_tva;\n"
-    "centroid in vec3 v_g[KMAX];\n"
+    "in vec3 v_pos, v_nrm, v_add;\n"
+    "in float v_pix, v_tva;\n"
+    "in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
     "void main() {\n"
     "    vec3 g[KMAX];\n"
@@ -1061,6 +1061,15 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     gl->DrawElements(GL_TRIANGLES, n * 3, GL_UNSIGNED_INT, (const void *)(3 * sizeof(uint32_t) * (size_t)first));
 }
 
+/* Whether a multisampled frame shades every sample: multisampling alone shades once per pixel, so an
+ * edge inside a triangle stays stair-stepped, and per pixel the local lights' shadow maps draw such
+ * edges (the view maps' and the vertex radiance vary smoothly across a triangle). GL 4.0's sample
+ * shading; about as costly as rendering at samples times the pixels. */
+static bool per_sample(const glrt *rt) {
+    return rt->draw.samples > 1 && rt->view_mode == GLRT_VIEW_PIXEL && rt->lights.count > 0 && rt->ctx->major >= 4 &&
+           rt->gl->MinSampleShading;
+}
+
 /* View change into the float target, finished and timed; -1 with err. */
 int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error *err) {
     const gl_api *gl = rt->gl;
@@ -1071,6 +1080,8 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
     float mvp[16];
     gldraw_mvp(&rt->draw, cam, w, h, mvp);
     gl->BeginQuery(GL_TIME_ELAPSED, rt->query);
+    bool ssx = per_sample(rt);
+    if (ssx) { gl->Enable(GL_SAMPLE_SHADING); gl->MinSampleShading(1.0f); }
     gl->Enable(GL_DEPTH_TEST);
     gl->DepthFunc(GL_LESS);
     gl->BindVertexArray(rt->vao);
@@ -1083,6 +1094,7 @@ int glrt_draw(glrt *rt, const prt_camera *cam, int w, int h, int kmax, prt_error
         for (int c = 0, first = 0; c < 3; first += rt->tv_tris[c++])
             draw_tris(rt, rt->prog_view[c == 0 ? 2 : c == 1 ? 3 : 0], mvp, cam, kmax, first, rt->tv_tris[c]);
     gl->BindVertexArray(0);
+    if (ssx) gl->Disable(GL_SAMPLE_SHADING);
     gl->Disable(GL_DEPTH_TEST);
     gl->BindTexture(GL_TEXTURE_BUFFER, 0);
     gl->ActiveTexture(GL_TEXTURE0);

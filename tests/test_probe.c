@@ -3,10 +3,15 @@
  * from the documented pixel -> direction maps, written as EXR and loaded
  * back), pixel directions and solid angles, resampling to the cube (constant
  * stays constant, power is preserved, the sun survives and rotates), the sky's
- * sun power at any disc size, and rotation parsing. */
+ * sun power at any disc size, rotation parsing, and the rotated cube resampled from the probe's
+ * fine cube (probecube.h) against the function, the sun's power and probe_to_cube's light vector. */
 #include "harness.h"
 #include "cubemap.h"
+#include "haar.h"
+#include "light.h"
 #include "probe.h"
+#include "probecube.h"
+#include "transfer.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -440,6 +445,183 @@ static void exposure(void) {
     probe_free(&sky);
 }
 
+/* E[k][c] = sum_j T_j L_j with T_j = max(0, n_k . w_j) Omega_j / pi, the radiance of an unshadowed white
+ * Lambert receiver of normal n_k (the 6 axes), from a light vector L (light.h, wavelet order) through the
+ * transports' own Haar vectors (orthonormal: the texels' sum, but for L's quantization). sums[0]: the
+ * largest sum_j T_j (each unit of change of every texel changes E by at most that); sums[1]: the
+ * largest sum_k |T^_k| over the Haar coefficients (a rounding of every coefficient by at most s changes
+ * E by at most s times that). */
+static void lambert_from_light(const float (*L)[4], double E[6][3], double sums[2]) {
+    float *t = malloc(sizeof(float) * CUBE_TEXELS), *w = malloc(sizeof(float) * CUBE_TEXELS);
+    float *tmp = malloc(sizeof(float) * CUBE_TEXELS);
+    sums[0] = sums[1] = 0;
+    for (int k = 0; k < 6; k++) {
+        float n[3] = { 0, 0, 0 }, d[3];
+        n[k / 2] = k % 2 ? -1.f : 1.f;
+        double s = 0, a = 0;
+        for (int j = 0; j < CUBE_TEXELS; j++) {
+            cube_texel_dir(CUBE_RES, j, d);
+            int r = j % (CUBE_RES * CUBE_RES);
+            double om = cube_texel_solid_angle(CUBE_RES, r % CUBE_RES, r / CUBE_RES);
+            t[j] = (float)(fmax(0, n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) * om / PI);
+            s += t[j];
+        }
+        haar_cube_forward(t, CUBE_RES, w, tmp);
+        for (int j = 0; j < CUBE_TEXELS; j++) a += fabs(w[j]);
+        sums[0] = fmax(sums[0], s);
+        sums[1] = fmax(sums[1], a);
+        for (int c = 0; c < 3; c++) {
+            E[k][c] = 0;
+            for (int j = 0; j < CUBE_TEXELS; j++) E[k][c] += (double)w[j] * L[j][c];
+        }
+    }
+    free(t);
+    free(w);
+    free(tmp);
+}
+
+/* The largest |E_a - E_b| of the Lambert receivers lit by the light vectors of cubes a and b (quantized
+ * to 16 bits each), and into *bound what the cubes' largest texel difference dtex and the two
+ * quantizations allow: dtex sum_j T_j + (step_a + step_b) / 2 sum_k |T^_k|. */
+static double lambert_diff(const float *a, const float *b, double dtex, double *bound) {
+    float (*La)[4] = transfer_light_alloc(), (*Lb)[4] = transfer_light_alloc();
+    light_stats sa, sb;
+    light_from_cube(a, NULL, La, &sa);
+    light_from_cube(b, NULL, Lb, &sb);
+    double Ea[6][3], Eb[6][3], sums[2], worst = 0, step = 0;
+    lambert_from_light((const float (*)[4])La, Ea, sums);
+    lambert_from_light((const float (*)[4])Lb, Eb, sums);
+    for (int c = 0; c < 3; c++) step = fmax(step, 0.5 * (sa.step[c] + sb.step[c]));
+    for (int k = 0; k < 6; k++)
+        for (int c = 0; c < 3; c++) worst = fmax(worst, fabs(Ea[k][c] - Eb[k][c]));
+    *bound = dtex * sums[0] + step * sums[1];
+    free(La);
+    free(Lb);
+    return worst;
+}
+
+/* Mean squared angle (radians^2, both axes) of the filters a resampled texel sees, at the face centre
+ * where texels are widest (h = 2 / res radians): the texel's box (h^2 / 6), the probe's bilinear tent
+ * (p^2 / 3, p its pixel), and with a fine cube of texels h / 2 the bilinear tent and box of one fine
+ * texel more (2 (h/2)^2 (1/6 + 1/12) = h^2 / 8). A smooth f = a + b.d + d^T C d averaged over such a
+ * footprint differs from its centre value by at most (|b| / 2 + 2 |C|) times this (the mean of unit
+ * vectors shrinks by 1 - sigma^2 / 2; the quadratic adds its curvature). */
+static double filter_sigma2(int res, double p, bool fine) {
+    double h = 2.0 / res;
+    return h * h / 6 + p * p / 3 + (fine ? h * h / 8 : 0);
+}
+
+/* probecube.h: a rotation resampled from the probe's fine cube. A constant stays constant (weights
+ * normalized); a smooth function's texels are within their filter's bound of the rotated function;
+ * a Lambert receiver sees from its light vector what it sees from probe_to_cube's to what those texel
+ * bounds and the quantization allow; a sun keeps its power, stays in its texel (or the next), and lights
+ * a Lambert receiver as probe_to_cube's does to what the filters' reach allows. */
+static void cube_rotate(void) {
+    prt_error err;
+    float R[9], *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), *old = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    probe_parse_rotation("37,-12", R);
+    const float rgb[3] = { 0.7f, 1.3f, 2.5f };
+    prt_probe p;
+    CHECK(probe_make_constant(rgb, &p, &err) == 0, "%s", err.msg);
+    probe_cube *pc = probe_cube_create(&p, &(probe_cube_desc){ .res = 16 }, &err);
+    CHECK(pc != NULL, "%s", err.msg);
+    double e = 0;
+    for (int pass = 0; pc && pass < 2; pass++) {
+        probe_cube_resample(pc, pass ? R : NULL, cube);
+        for (int t = 0; t < 6 * 16 * 16; t++)
+            for (int ch = 0; ch < 3; ch++) e = fmax(e, fabs(cube[3 * t + ch] / rgb[ch] - 1));
+    }
+    CHECK_LE(e, 64 * 6e-8, "constant probe: a mean of at most 64 float terms with weights summing to one");
+    probe_cube_destroy(pc);
+    probe_free(&p);
+
+    /* The layouts' smooth function (|b| / 2 + 2 |C| at most 0.85, channel R) on a 256 x 128 latlong. */
+    prt_image im = make_layout_image(PROBE_LATLONG, 256, 128);
+    CHECK(probe_from_image(&im, PROBE_LATLONG, "fn", &p, &err) == 0, "%s", err.msg);
+    const double pix = 2 * PI / 256;
+    pc = probe_cube_create(&p, &(probe_cube_desc){ .res = 16 }, &err);
+    double en = 0, eo = 0;
+    probe_cube_resample(pc, R, cube);
+    probe_to_cube(&p, 16, R, 0, old);
+    for (int t = 0; t < 6 * 16 * 16; t++) {
+        float d[3], want[3];
+        cube_texel_dir(16, t, d);
+        double q[3] = { R[0] * d[0] + R[3] * d[1] + R[6] * d[2], R[1] * d[0] + R[4] * d[1] + R[7] * d[2],
+                        R[2] * d[0] + R[5] * d[1] + R[8] * d[2] };   /* R^T d: where the rotated probe shows */
+        env_fn(q, want);
+        for (int ch = 0; ch < 3; ch++) {
+            en = fmax(en, fabs(cube[3 * t + ch] - want[ch]));
+            eo = fmax(eo, fabs(old[3 * t + ch] - want[ch]));
+        }
+    }
+    CHECK_LE(en, 0.85 * filter_sigma2(16, pix, true), "fine cube resampled at res 16 against the rotated function");
+    CHECK_LE(eo, 0.85 * filter_sigma2(16, pix, false), "probe_to_cube at res 16 against the rotated function");
+    probe_cube_destroy(pc);
+    /* At the lighting resolution, through both light vectors. */
+    pc = probe_cube_create(&p, NULL, &err);
+    double worst = 0, bound = 0, dtex = 0.85 * (filter_sigma2(CUBE_RES, pix, true) + filter_sigma2(CUBE_RES, pix, false));
+    for (int r = 0; r < 4; r++) {
+        probe_rotation(90.0 * r + 17, 25.0 * (r % 3) - 20, R);
+        probe_cube_resample(pc, R, cube);
+        probe_to_cube(&p, CUBE_RES, R, 0, old);
+        double b, d = lambert_diff(cube, old, dtex, &b);
+        worst = fmax(worst, d / b);
+        bound = b;
+    }
+    fprintf(stderr, "cube_rotate: smooth probe: Lambert radiance differs by at most %.3g of its bound %.3g\n", worst, bound);
+    CHECK_LE(worst, 1.0, "smooth probe: Lambert receivers from the two light vectors");
+    probe_cube_destroy(pc);
+    probe_free(&p);
+    free(cube);
+    free(old);
+}
+
+/* cube_rotate's suns: the sub-pixel one of the sky case on a 2048-wide probe, and the default 1.5-degree
+ * one, under 8 rotations. */
+static void cube_rotate_suns(void) {
+    prt_error err;
+    prt_probe p;
+    probe_cube *pc;
+    float R[9], *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), *old = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    for (int k = 0; k < 2; k++) {
+        sky_desc sd = { .width = 2048, .sun_dir = { 0.05f, 0.99f, 0.1f }, .sun_radius_deg = 0.02f, .sun_radiance = 5e5f,
+                        .sky_zenith = { 0.5f, 0.5f, 0.5f }, .sky_horizon = { 0.5f, 0.5f, 0.5f }, .ground = { 0.5f, 0.5f, 0.5f } };
+        if (k) sd = (sky_desc){ .width = 1024 };
+        CHECK(probe_make_sky(&sd, &p, &err) == 0, "%s", err.msg);
+        double pl[3], pn[3], po[3], dp = 0, dl = 0, far = 0;
+        latlong_power(&p, pl);
+        pc = probe_cube_create(&p, NULL, &err);
+        /* Each path puts a unit of light within its reach of where the probe has it: the texel's half
+         * diagonal h / sqrt 2 and the probe's bilinear p sqrt 2, and the fine cube's bilinear and box
+         * (h_s sqrt 2 + h_s / sqrt 2, h_s = h / 2); a Lambert receiver's radiance is 1/pi-Lipschitz in
+         * the light's direction, so the two differ by at most the power times the reaches, over pi,
+         * plus the power errors (at most 2% each, the resampling's bound: probe.c). */
+        const double h = 2.0 / CUBE_RES, pp = 2 * PI / sd.width, reach = 2 * (h / sqrt(2) + pp * sqrt(2)) + 1.5 * h / sqrt(2);
+        for (int r = 0; r < 8; r++) {
+            probe_rotation(45.0 * r + 7, 11.0 * r - 40, R);
+            probe_cube_resample(pc, R, cube);
+            probe_to_cube(&p, CUBE_RES, R, 0, old);
+            cube_power(cube, CUBE_RES, pn);
+            cube_power(old, CUBE_RES, po);
+            dp = fmax(dp, fabs(pn[0] / pl[0] - 1));
+            double b, d = lambert_diff(cube, old, 0, &b);
+            dl = fmax(dl, d / (b + pl[0] * (reach + 0.04) / PI));
+            float tn[3], to[3];
+            cube_texel_dir(CUBE_RES, brightest(cube, CUBE_TEXELS), tn);
+            cube_texel_dir(CUBE_RES, brightest(old, CUBE_TEXELS), to);
+            far = fmax(far, acos(fmin(1.0, tn[0] * to[0] + tn[1] * to[1] + tn[2] * to[2])));
+        }
+        fprintf(stderr, "cube_rotate: sun %d: power %.3g%% off, Lambert radiance differs by %.3g of its bound\n", k, 100 * dp, dl);
+        CHECK_LE(dp, 0.02, "sun %d: the fine cube's resample keeps the probe's power (as probe_to_cube: 2%%)", k);
+        CHECK_LE(dl, 1.0, "sun %d: Lambert receivers from the two light vectors", k);
+        CHECK_LE(far, 1.5 * sqrt(2) * h, "sun %d: the brightest texels are the same or neighbours", k);
+        probe_cube_destroy(pc);
+        probe_free(&p);
+    }
+    free(cube);
+    free(old);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(parse);
@@ -448,5 +630,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(constant);
     CHECK_CASE(sky);
     CHECK_CASE(exposure);
+    CHECK_CASE(cube_rotate);
+    CHECK_CASE(cube_rotate_suns);
     return check_summary();
 }

@@ -4,7 +4,8 @@
  * perspective-correct barycentric interpolation obtained by intersecting
  * camera_ray with the triangles on the CPU, the background with an analytic
  * function of the ray direction that the probe texels sample, and the camera
- * matrices with the pixel coordinates camera_ray was built from. */
+ * matrices with the pixel coordinates camera_ray was built from; multisampling's
+ * resolve against the sample counts its coverage allows (antialias). */
 #include "harness.h"
 #include "glctx.h"
 #include "render.h"
@@ -229,6 +230,63 @@ static void raster(void) {
     image_free(&ref);
 }
 
+/* Multisampling (render_desc.samples): a square of constant radiance 8 (beyond 1: the resolve must
+ * average linear floats, not clamped or 8-bit codes), turned 20 degrees in its plane so its edges cross
+ * the pixel grid obliquely, over black. With one sample every pixel is 0 or 8; with 4, every pixel is
+ * 8 k / 4 for the k of its 4 samples the square covers (2, 4 and 6 are exact floats), the pixels whose
+ * 3 x 3 neighbourhood of the one-sample image is uniform keep their value (multisampling changes
+ * edges only), pixels strictly between 0 and 8 exist and each lies next to a one-sample edge, and
+ * samples 0 is samples 1. */
+static void antialias(void) {
+    const int w = 64, h = 48;
+    const float a = 20 * (float)M_PI / 180, c = cosf(a), sn = sinf(a);
+    const float corners[4][2] = { { -1, -1 }, { 1, -1 }, { 1, 1 }, { -1, 1 } };
+    float pos[12], rgb[12];
+    uint32_t tris[6] = { 0, 1, 2, 0, 2, 3 };
+    for (int i = 0; i < 4; i++) {
+        pos[3 * i] = c * corners[i][0] - sn * corners[i][1];
+        pos[3 * i + 1] = sn * corners[i][0] + c * corners[i][1];
+        pos[3 * i + 2] = 0;
+        rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = 8;
+    }
+    prt_mesh m = { .nverts = 4, .ntris = 2, .pos = pos, .tris = tris };
+    prt_camera cam = { .eye = { 0, 0, 4 }, .target = { 0, 0, 0 }, .up = { 0, 1, 0 }, .fov_deg = 40 };
+    prt_image img[3];
+    prt_error err = { { 0 } };
+    const int samples[3] = { 1, 4, 0 };
+    for (int k = 0; k < 3; k++) {
+        render_desc d = { .width = w, .height = h, .camera = cam, .samples = samples[k] };
+        CHECK(render_vertex_colors(&m, rgb, &d, &img[k], &err) == 0, "samples %d: %s", samples[k], err.msg);
+    }
+    int odd1 = 0, odd4 = 0, mixed = 0, moved = 0, lone = 0;
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            const size_t i = 3 * ((size_t)y * w + x);
+            const float v1 = img[0].data[i], v4 = img[1].data[i];
+            odd1 += v1 != 0 && v1 != 8;
+            odd4 += v4 != 0 && v4 != 2 && v4 != 4 && v4 != 6 && v4 != 8;
+            bool uniform = true, edge_near = false;
+            for (int dy = -1; dy <= 1; dy++)
+                for (int dx = -1; dx <= 1; dx++) {
+                    int xx = x + dx, yy = y + dy;
+                    if (xx < 0 || yy < 0 || xx >= w || yy >= h) continue;
+                    uniform &= img[0].data[3 * ((size_t)yy * w + xx)] == v1;
+                }
+            edge_near = !uniform;
+            moved += uniform && v4 != v1;
+            if (v4 > 0 && v4 < 8) {
+                mixed++;
+                lone += !edge_near;
+            }
+        }
+    CHECK(odd1 == 0, "one sample: %d pixels neither 0 nor 8", odd1);
+    CHECK(odd4 == 0, "4 samples: %d pixels not a multiple of 8 / 4", odd4);
+    CHECK(moved == 0, "4 samples changed %d pixels away from every edge", moved);
+    CHECK(mixed > 2 * (w + h) / 4 && lone == 0, "4 samples: %d edge pixels mixed, %d of them away from an edge", mixed, lone);
+    CHECK(memcmp(img[0].data, img[2].data, sizeof(float) * 3 * w * h) == 0, "samples 0 is one sample");
+    for (int k = 0; k < 3; k++) image_free(&img[k]);
+}
+
 /* Two vertical unit squares facing +z, centred at (0, 1), the back one (green) a gap g behind the front
  * one (red) and listed first, on a grey floor y = 0 tessellated over [-50, 50]^2. */
 static void make_gap_scene(prt_mesh *m, float **rgb, float g) {
@@ -424,6 +482,7 @@ int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(camera);
     CHECK_CASE(raster);
+    CHECK_CASE(antialias);
     CHECK_CASE(clip_planes);
     CHECK_CASE(background);
     CHECK_CASE(background_angular);

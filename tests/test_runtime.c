@@ -34,7 +34,9 @@
  *   - a Lambert-only file shades bit for bit by Eq. 5 alone, max(h_m (T x L), 0) per vertex;
  *   - a light change from probe_to_cube's cube (runtime_set_light_cube), and from that cube's light
  *     vectors (runtime_set_light_vectors), equals the probe's, bit for bit, on both backends, and a
- *     vmf file, which needs the probe, refuses both (light_cube).
+ *     vmf file, which needs the probe, refuses both (light_cube);
+ *   - a prepared probe lent to a runtime: its fine cube's resample, bit for bit, and only for its own
+ *     probe; its prefiltered ladder gives what the runtime's own gives, bit for bit (lent_probe).
  * The backend table: it lists cpu, gl (when built with GL) and null, in that order, with their
  * capabilities, names and kernels; an unknown name lists every known one (table). The null backend
  * takes and refuses every runtime call exactly as the cpu backend does, computes the light vector,
@@ -44,6 +46,7 @@
 #include "linear.h"
 #include "light.h"
 #include "prefilter.h"
+#include "probecube.h"
 #include "transfer.h"
 #include "vmf.h"
 #include "mesh.h"
@@ -1106,6 +1109,49 @@ static void null_vmf(void) {
  * with that cube's light vectors (each transfer's project_light), shade exactly as runtime_set_light
  * on both backends (the same light vectors); a file with a vmf transfer, which needs the probe
  * itself, refuses both with one line. */
+/* lent_probe's vmf part: the prepared ladders of the smooth sky and of the rotated one, lent without
+ * their fine cubes, against runtimes that prefilter each probe themselves (see lent_probe). */
+static void lent_ladder(void) {
+    prt_error err = { { 0 } };
+    const prt_probe *probes[2] = { &g_smooth, &g_smooth_rot };
+    runtime_probe rp[2];
+    CHECK(runtime_needs_prefilter(&g_v), "the vmf file shades with the prefiltered probe");
+    for (int i = 0; i < 2; i++) {
+        CHECK(runtime_probe_prepare(&g_v, probes[i], 1, &rp[i], &err) == 0 && rp[i].env, "%s", err.msg);
+        probe_cube_destroy(rp[i].cube);   /* the ladder alone: the cube then comes from probe_to_cube */
+        rp[i].cube = NULL;
+    }
+    int n = g_v.scene.mesh.nverts;
+    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n);
+    for (int k = 0; k < 2; k++) {
+        const char *be = k ? "gl" : "cpu";
+        runtime_view view = k ? RUNTIME_VIEW_PIXEL : RUNTIME_VIEW_DEFAULT;
+        prt_runtime *lent = runtime_create(&g_v, &(runtime_desc){ .backend = be, .view = view, .kernel = k ? "fragment" : NULL }, &err);
+        CHECK(lent != NULL, "%s: %s", be, err.msg);
+        for (int i = 0; lent && i < 2; i++) {
+            prt_runtime *own = lit_kernel(&g_v, be, view, probes[i], i ? NULL : g_R, k ? "fragment" : NULL);
+            runtime_lend_probe(lent, &rp[i]);
+            CHECK(runtime_set_light(lent, probes[i], i ? NULL : g_R, &err) == 0, "%s: %s", be, err.msg);
+            runtime_shade_vertices(lent, g_cam.eye, a, &err);
+            if (own) runtime_shade_vertices(own, g_cam.eye, b, &err);
+            CHECK(own && memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s, probe %d: the lent ladder's colours", be, i);
+#ifndef PRT_NO_GL
+            render_desc rd = { .width = W, .height = H, .camera = g_cam };
+            prt_image ia = { 0 }, ib = { 0 };
+            if (k && own && runtime_render(lent, &rd, &ia, &err) == 0 && runtime_render(own, &rd, &ib, &err) == 0)
+                CHECK(memcmp(ia.data, ib.data, sizeof(float) * 3 * W * H) == 0, "gl per pixel, probe %d: the lent ladder's image", i);
+            image_free(&ia);
+            image_free(&ib);
+#endif
+            runtime_destroy(own);
+        }
+        runtime_destroy(lent);
+    }
+    for (int i = 0; i < 2; i++) runtime_probe_free(&rp[i]);
+    free(a);
+    free(b);
+}
+
 static void light_cube(void) {
     if (!g_ok) return;
     const char *backends[2] = { "cpu", "gl" };
@@ -1154,6 +1200,58 @@ static void light_cube(void) {
     free(a);
     free(b);
     free(c);
+}
+
+/* Prepared probes (runtime_probe_prepare, runtime_lend_probe). Lent, a light change of its probe is
+ * the light change of its fine cube's resample (probecube.h), bit for bit, on both backends; a probe
+ * that is not the lent one, or no lent probe, is resampled with probe_to_cube as before lending. On the
+ * vmf file the prepared probe holds the prefiltered ladder: lent with its fine cube left out, the
+ * colours and the per-pixel image equal those of a runtime that prefilters the probe itself, bit for
+ * bit (the ladder is the same deterministic computation, and the gl runtime uploads the lent one),
+ * and a second probe lent after it is uploaded in turn (its image equals that probe's own). */
+static void lent_probe(void) {
+    if (!g_ok) return;
+    prt_error err = { { 0 } };
+    const char *backends[2] = { "cpu", "gl" };
+    int n = g_d.scene.mesh.nverts;
+    float *a = malloc(sizeof(float) * 3 * n), *b = malloc(sizeof(float) * 3 * n), *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    runtime_probe rp;
+    CHECK(!runtime_needs_prefilter(&g_d), "a Haar + SVD file needs no prefiltered probe");
+    CHECK(runtime_probe_prepare(&g_d, &g_sky, 0, &rp, &err) == 0 && rp.cube && !rp.env && rp.probe == &g_sky, "%s", err.msg);
+    probe_cube_resample(rp.cube, g_R, cube);
+    for (int k = 0; k < 2; k++) {
+        prt_runtime *lent = runtime_create(&g_d, &(runtime_desc){ .backend = backends[k], .view = RUNTIME_VIEW_VERTEX, .kernel = k ? "fragment" : NULL }, &err);
+        prt_runtime *ref = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky_rot, NULL, k ? "fragment" : NULL);
+        prt_runtime *plain = lit_kernel(&g_d, backends[k], RUNTIME_VIEW_VERTEX, &g_sky, g_R, k ? "fragment" : NULL);
+        CHECK(lent && ref && plain, "%s: %s", backends[k], err.msg);
+        if (!lent || !ref || !plain) { runtime_destroy(lent); runtime_destroy(ref); runtime_destroy(plain); continue; }
+        runtime_lend_probe(lent, &rp);
+        CHECK(runtime_set_light(lent, &g_sky, g_R, &err) == 0 && runtime_set_light_cube(ref, cube, &err) == 0, "%s", err.msg);
+        runtime_shade_vertices(lent, g_cam.eye, a, &err);
+        runtime_shade_vertices(ref, g_cam.eye, b, &err);
+        CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: the lent probe's light is its fine cube's resample", backends[k]);
+        runtime_shade_vertices(plain, g_cam.eye, b, &err);
+        CHECK(memcmp(a, b, sizeof(float) * 3 * n) != 0, "%s: ... which is not probe_to_cube's", backends[k]);
+        runtime_set_light(lent, &g_sky_rot, NULL, &err);   /* another probe: probe_to_cube */
+        runtime_set_light(ref, &g_sky_rot, NULL, &err);
+        runtime_shade_vertices(lent, g_cam.eye, a, &err);
+        runtime_shade_vertices(ref, g_cam.eye, b, &err);
+        CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: a probe other than the lent one is resampled itself", backends[k]);
+        runtime_lend_probe(lent, NULL);
+        runtime_set_light(lent, &g_sky, g_R, &err);
+        runtime_shade_vertices(lent, g_cam.eye, a, &err);
+        runtime_shade_vertices(plain, g_cam.eye, b, &err);
+        CHECK(memcmp(a, b, sizeof(float) * 3 * n) == 0, "%s: no lent probe: probe_to_cube", backends[k]);
+        runtime_destroy(lent);
+        runtime_destroy(ref);
+        runtime_destroy(plain);
+    }
+    runtime_probe_free(&rp);
+    CHECK(rp.cube == NULL && rp.env == NULL);
+    if (g_vok) lent_ladder();
+    free(a);
+    free(b);
+    free(cube);
 }
 
 /* A shared coefficient budget (transport.h, docs/design/shadows.md): a Lambert box over a floor under the
@@ -1248,7 +1346,7 @@ int main(int argc, char **argv) {
     CHECK_CASE_GL(shared_budget);
     if (check_wants("vmf_sum") || check_wants("vmf_backends") || check_wants("vmf_file") || check_wants("vmf_rotation") ||
         check_wants("vmf_pixel") || check_wants("vmf_point_vertex") || check_wants("vmf_pixel_point") || check_wants("vmf_layout") ||
-        check_wants("light_cube") || check_wants("null_vmf"))
+        check_wants("light_cube") || check_wants("null_vmf") || check_wants("lent_probe"))
         setup_vmf();
     CHECK_CASE(vmf_sum);
     CHECK_CASE_GL(vmf_backends);
@@ -1260,6 +1358,7 @@ int main(int argc, char **argv) {
     CHECK_CASE_GL(vmf_pixel_point);
     CHECK_CASE(null_vmf);
     CHECK_CASE_GL(light_cube);
+    CHECK_CASE_GL(lent_probe);
     prt_data_free(&g_v);
     probe_free(&g_smooth);
     probe_free(&g_smooth_rot);

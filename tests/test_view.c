@@ -358,6 +358,54 @@ static void bench(void) {
     CHECK(check_run(cmd, out, sizeof out) == 2 && strstr(out, "unknown command 'glbench'"), "glbench still there: %s", out);
 }
 
+/* A probe switch prepares the new probe on a worker thread (its fine cube and, for a vMF file, its
+ * prefiltered ladder, seconds) while the window keeps drawing with the old light: on a vMF scene, key
+ * n after the first frame, and every frame until the last (which waits for the probe) is drawn while
+ * the worker runs, each in less time than the preparation took, i.e. none waited for it; the last
+ * frame is the one a viewer started on that probe draws, code for code (the same prepared probe,
+ * made by the same deterministic code), on both runtimes, and it differs from the first probe's. */
+static void probe_switch(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir(), *backends[2] = { "cpu", "gl" };
+    char vmf[512], cmd[8192], args[8192], out[16384], shot[512], ref[512], first[512];
+    snprintf(vmf, sizeof vmf, "%s/vmf.prt", dir);
+    snprintf(cmd, sizeof cmd,
+             "%s precompute %s --material 'phong:kd=0.5,0.3,0.2;ks=0.4;n=20' --floor 400 --coeffs 64 --vis-res 64 "
+             "--bounces 0 --glossy vmf --quiet -o %s", check_prt_bin(), g_obj, vmf);
+    int rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "precompute --glossy vmf failed (%d): %s", rc, out);
+    for (int b = 0; b < 2 && rc == 0; b++) {
+        const int frames = 12;
+        snprintf(shot, sizeof shot, "%s/switch_%s.png", dir, backends[b]);
+        snprintf(ref, sizeof ref, "%s/switch_ref_%s.png", dir, backends[b]);
+        snprintf(first, sizeof first, "%s/switch_first_%s.png", dir, backends[b]);
+        snprintf(args, sizeof args, "%s --probe %s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s --frames %d "
+                 "--keys n --screenshot %s", vmf, g_sky, g_sky2, k_cam, W, H, backends[b], frames, shot);
+        rc = run_view(args, out, sizeof out);
+        double prep = -1, longest = -1;
+        int during = -1;
+        const char *line = strstr(out, "probe prepared on a worker thread in ");
+        CHECK(rc == 0 && line && sscanf(line, "probe prepared on a worker thread in %lf ms; %d frames drawn meanwhile, the longest %lf",
+                                        &prep, &during, &longest) == 3, "view --keys n (%s) failed (%d): %s", backends[b], rc, out);
+        fprintf(stderr, "test_view: %s: probe prepared in %.0f ms, %d frames meanwhile, the longest %.1f ms\n", backends[b], prep,
+                during, longest);
+        CHECK(during == frames - 2, "%s: frames 2 to %d drawn while the probe was prepared (%d)", backends[b], frames - 1, during);
+        CHECK(longest < prep, "%s: no frame waited for the preparation (longest %.1f ms, preparation %.1f ms)", backends[b], longest,
+              prep);
+        for (int k = 0; k < 2; k++) {
+            snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --backend %s --frames 2 --screenshot %s",
+                     vmf, k ? g_sky : g_sky2, k_cam, W, H, backends[b], k ? first : ref);
+            rc = run_view(args, out, sizeof out);
+            CHECK(rc == 0, "view (%s) failed (%d): %s", backends[b], rc, out);
+        }
+        double mean, worst = compare_png(shot, ref, &mean);
+        CHECK(worst == 0, "%s: after the switch the frame is that of the probe from the start (max %g, mean %.4f codes)",
+              backends[b], worst, mean);
+        worst = compare_png(shot, first, &mean);
+        CHECK(worst > 20, "%s: the switch changed the image (max %g codes)", backends[b], worst);
+    }
+}
+
 /* Under Xvfb the GL renderer is Mesa's llvmpipe: without --backend the viewer starts on the CPU
  * backend and says why; --backend gl keeps the GL one. */
 static void software_default(void) {
@@ -385,5 +433,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(local_effects);
     CHECK_CASE(bench);
     CHECK_CASE(software_default);
+    CHECK_CASE(probe_switch);
     return check_summary();
 }

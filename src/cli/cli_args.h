@@ -149,9 +149,11 @@ void cli_indirect_resolve(const cli_indirect *in, const prt_data *d, bool quiet,
  * in linear radiance); CLI_AA_DEFAULT when not given, 1 turns it off. */
 #define CLI_AA_DEFAULT 4
 #define CLI_AA_MAX 16
+#define CLI_STR_(x) #x
+#define CLI_XSTR(x) CLI_STR_(x)
 #define CLI_AA_HELP \
-    "  --aa N                  antialiasing: N samples per pixel (multisampling; default 4, 1: off; at most\n" \
-    "                          16, or what the GL implementation allows)\n"
+    "  --aa N                  antialiasing: N samples per pixel (multisampling; default " CLI_XSTR(CLI_AA_DEFAULT) ", 1: off;\n" \
+    "                          at most " CLI_XSTR(CLI_AA_MAX) ", or what the GL implementation allows)\n"
 /* The help lines of those flags. */
 #define CLI_LIGHT_HELP \
     "  --light SPEC            add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n" \

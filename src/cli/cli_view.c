@@ -23,9 +23,22 @@
  * runtimes), where the effects plan has them (view_effects_plan); the overlay shows each
  * effect's time (the bounce's part of the light move, the highlights' of the view change).
  *
+ * Probes: each is prepared once (runtime_probe_prepare: its fine cube, from which every rotation of
+ * the light is resampled in a few milliseconds, and for a vMF file its prefiltered ladder, seconds)
+ * and lent to the runtimes. The first at start; another on a worker thread when it is asked for (keys
+ * 1-9, n, p), while the window keeps drawing with the light it has and the overlay says "preparing
+ * probe"; the switch happens at the first frame after the worker is done (view_prep says who owns
+ * what). The last VIEW_KEEP probes shown stay prepared.
+ *
+ * Antialiasing: frames are multisampled (--aa, render_desc.samples), but for the frames of a mouse
+ * drag, which take one sample per pixel (on a software GL, 4 samples cost the CPU backend's frame
+ * about twice its time); the still frame after the drag takes them all.
+ *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
- * image_write, the same tone curve `prt render` uses for PNG). */
+ * image_write, the same tone curve `prt render` uses for PNG). A probe asked for by --keys is waited
+ * for before the last frame, so the last frame shows it; the summary then says how long it took and
+ * how many frames were drawn meanwhile. */
 #include "cli.h"
 #include "check.h"
 #include "cli_args.h"
@@ -134,7 +147,8 @@ static void view_help(void) {
            "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
            "  --exposure E           exposure in stops (default: from the first probe, as prt render)\n"
            "  --terms K              BRDF terms used (default: all)\n"
-           "  --aa N                 antialiasing: N samples per pixel (multisampling; default %d, 1: off)\n", CLI_AA_DEFAULT);
+           "  --aa N                 antialiasing: N samples per pixel (multisampling; default %d, 1: off); the\n"
+           "                         frames of a mouse drag take one sample, the still frame after it N\n", CLI_AA_DEFAULT);
     cli_backend_help(25, RUNTIME_CAP_WINDOW, start >= 0 ? runtime_backend_at(start)->name : "none");
     printf("                         (on a software GL renderer, such as Mesa's llvmpipe, the default is a\n"
            "                         backend that runs on the CPU: it is many times faster there)\n"
@@ -266,7 +280,7 @@ static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
     prt_runtime *rt = current(v);
     render_desc rd = { .width = v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
-                       .background_rotation = rotated(v) ? v->R : NULL, .samples = v->aa };
+                       .background_rotation = rotated(v) ? v->R : NULL, .samples = v->drag ? 1 : v->aa };
     runtime_set_terms(rt, v->kmax);
     if (runtime_render(rt, &rd, NULL, err)) return -1;
     v->view_ms = 1e3 * (prt_now() - t0);
@@ -299,13 +313,13 @@ static void overlay(viewer *v) {
     const char *slash = strrchr(v->file, '/');
     int n = snprintf(buf, sizeof buf,
                      "%s   %s runtime%s%s%s   [%.40s, %s]\n"
-                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f%s\n"
+                     "probe %d/%d: %s   light yaw %.0f pitch %.0f   K %d of %d   exposure %+.1f   AA %dx%s\n"
                      "frame %.1f ms (%.0f fps)   light change %.1f ms = light vector %.1f + T x L %.1f %s   view change %.1f ms %s\n",
                      slash ? slash + 1 : v->file, current_info(v)->title, pixel ? " (light kernel " : "",
                      pixel ? t.kernel : "", pixel ? (v->vertex_model ? ", per-vertex view)" : ", per-pixel view)") : "",
                      v->ctx->renderer, glctx_kind_name(v->ctx->kind),
                      v->probe + 1, v->nprobes, v->names[v->probe], v->lyaw, v->lpitch, v->kmax ? v->kmax : v->kfile,
-                     v->kfile, v->exposure,
+                     v->kfile, v->exposure, v->drag ? 1 : v->aa,
                      prt_data_transfer(&v->d)->direct.nvecs == 0 ? "" : v->direct ? "   direct only" : "   direct + bounces", v->frame_ms, v->frame_ms > 0 ? 1e3 / v->frame_ms : 0.0,
                      v->lightvec_ms + v->light_ms, v->lightvec_ms, v->light_ms, v->light_backend ? v->light_backend : "", v->view_ms,
                      v->view_backend ? v->view_backend : "");
@@ -471,7 +485,11 @@ static void pick_light(viewer *v) {
 /* Starts a drag: left orbit, shift/ctrl-left light rotation, right/middle pan. */
 static void on_mouse_button(GLFWwindow *w, int button, int action, int mods) {
     viewer *v = glfwGetWindowUserPointer(w);
-    if (action == GLFW_RELEASE) { v->drag = 0; return; }
+    if (action == GLFW_RELEASE) {   /* a drag's frames take one sample per pixel: the still one takes --aa */
+        v->view_dirty |= v->drag && v->aa > 1;
+        v->drag = 0;
+        return;
+    }
     glfwGetCursorPos(w, &v->mx, &v->my);
     bool move = v->lights.count > 0 && ((mods & GLFW_MOD_ALT) || v->move_mode);
     if (button == GLFW_MOUSE_BUTTON_LEFT) v->drag = move ? 4 : (mods & (GLFW_MOD_SHIFT | GLFW_MOD_CONTROL)) ? 3 : 1;
