@@ -88,7 +88,8 @@ static int parse_args(int argc, char **argv, bench_args *a) {
 }
 
 /* Light changes under the probe yawed by 0, 90, 180, 270 degrees in turn: medians into ms[0] (light
- * change) and ms[1] (light vector, mean), the minimum into ms[2], the mean GPU time into ms[3]. */
+ * change) and ms[1] (light vector), the minimum into ms[2], the mean GPU time into ms[3]; t holds
+ * 2 frames. */
 static int time_light(prt_runtime *rt, const prt_probe *probe, int frames, double *t, double ms[4], prt_error *err) {
     float R[4][9];
     for (int i = 0; i < 4; i++) {
@@ -96,36 +97,38 @@ static int time_light(prt_runtime *rt, const prt_probe *probe, int frames, doubl
         snprintf(rot, sizeof rot, "%d", 90 * i);
         probe_parse_rotation(rot, R[i]);
     }
-    double lv = 0, gpu = 0;
+    double gpu = 0, *lv = t + frames;
     for (int f = 0; f < frames; f++) {
         if (runtime_set_light(rt, probe, R[f % 4], err)) return -1;
         runtime_timing tm;
         runtime_get_timing(rt, &tm);
         t[f] = tm.light_ms;
-        lv += tm.light_vector_ms;
+        lv[f] = tm.light_vector_ms;
         gpu += tm.light_gpu_ms;
     }
     qsort(t, frames, sizeof(double), cmp_double);
+    qsort(lv, frames, sizeof(double), cmp_double);
     ms[0] = t[frames / 2];
-    ms[1] = lv / frames;
+    ms[1] = lv[frames / 2];
     ms[2] = t[0];
     ms[3] = gpu / frames;
     return 0;
 }
 
-/* The light vector alone of the probe turned by yaw 0, 90, 180, 270 in turn, n times: the mean into
+/* The light vector alone of the probe turned by yaw 0, 90, 180, 270 in turn, 8 times: the median into
  * *ms. The rotated cube is made from the probe itself unless a prepared probe is lent (runtime.h). */
-static int time_light_vector(prt_runtime *rt, const prt_probe *probe, int n, double *ms, prt_error *err) {
-    double sum = 0;
-    for (int f = 0; f < n; f++) {
+static int time_light_vector(prt_runtime *rt, const prt_probe *probe, double *ms, prt_error *err) {
+    double t[8];
+    for (int f = 0; f < 8; f++) {
         float R[9];
         probe_rotation(90.0 * (f % 4), 0, R);
         if (runtime_set_light(rt, probe, R, err)) return -1;
         runtime_timing tm;
         runtime_get_timing(rt, &tm);
-        sum += tm.light_vector_ms;
+        t[f] = tm.light_vector_ms;
     }
-    *ms = sum / n;
+    qsort(t, 8, sizeof(double), cmp_double);
+    *ms = t[4];
     return 0;
 }
 
@@ -207,9 +210,9 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     }
     printf("backend %s: %s; light kernel %s%s%s%s\n", tm->backend, tm->device, tm->kernel, tm->detail[0] ? " (" : "",
            tm->detail, tm->detail[0] ? ")" : "");
-    printf("light vector (probe -> cube -> light vector): %.1f ms\n", lv[0]);
-    printf("light vector of a turning probe (its fine cube, made once in %.0f ms -> cube -> light vector): %.1f ms\n", rp->ms,
-           lm[1]);
+    printf("light vector (probe -> cube -> light vector): %.1f ms median\n", lv[0]);
+    printf("light vector of a turning probe (its fine cube, made once in %.0f ms -> cube -> light vector): %.1f ms median\n",
+           rp->ms, lm[1]);
     char f[3][32];
     printf("light change: %.2f ms median (%s), min %.2f ms\n", lm[0], fps(f[0], lm[0]), lm[2]);
     printf("view change:  %.2f ms median (%s), min %.2f ms\n", vm[0], fps(f[1], vm[0]), vm[2]);
@@ -242,7 +245,7 @@ static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     prt_error err = { { 0 } };
     runtime_desc desc = { .backend = a->backend, .threads = a->nthreads, .terms = a->kmax, .kernel = a->kernel,
                           .highlight_samples = a->hl_samples, .local_bounce = a->bounce };
-    double *t = malloc(sizeof(double) * a->frames), lm[4] = { 0 }, vm[4] = { 0 }, km[4] = { 0 };
+    double *t = malloc(sizeof(double) * 2 * a->frames), lm[4] = { 0 }, vm[4] = { 0 }, km[4] = { 0 };
     prt_runtime *rt = t ? runtime_create(d, &desc, &err) : NULL;
     if (!t) prt_fail(&err, "out of memory");
     int rc = 1;
@@ -252,7 +255,7 @@ static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     bool local = d->scene.lights.count > 0;
     runtime_probe rp = { 0 };
     double lv[2] = { 0 };
-    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 && time_light_vector(rt, probe, 8, &lv[0], &err) == 0 &&
+    if (rt && runtime_set_light(rt, probe, NULL, &err) == 0 && time_light_vector(rt, probe, &lv[0], &err) == 0 &&
         prepare_lend(rt, d, probe, a->nthreads, &rp, &err) == 0 &&
         (!local || runtime_set_local_lights(rt, &d->scene.lights, &err) == 0) && runtime_render(rt, &rd, NULL, &err) == 0 &&
         time_light(rt, probe, a->frames, t, lm, &err) == 0 && time_view(rt, d, &rd, a->frames, t, vm, &err) == 0 &&

@@ -13,17 +13,20 @@
 #include "check.h"
 #include "cubemap.h"
 #include <math.h>
+#include <smmintrin.h>
 #include <stdlib.h>
 #include <string.h>
 
 #define PC_FINE 4          /* a bright texel's sub-samples per source texel side */
+#define PC_ROW_MAX 4096    /* sub-samples of a target row (res ss^2), taken four at a time */
 #define PC_BRIGHT_MEAN 16  /* a source texel is bright above this times the mean (probe.c's rule)... */
 #define PC_BRIGHT_PEAK 1e-3f /* ... and this share of the brightest texel */
 
 struct probe_cube {
     int res, S, ss, threads;
     float *src;            /* [6 S^2][3] the unrotated source cube */
-    float *dirs;           /* [6 res^2 ss^2][3] unit sub-sample directions of every target texel */
+    float *dirs;           /* per target row (face * res + j): x[n], y[n], z[n] of its n = res ss^2 unit
+                            * sub-sample directions, texel by texel (SoA: four at a time in pc_taps) */
     float *wts;            /* [res^2 ss^2] their weights, summing to one per texel (every face alike) */
     int nbright;
     float *bright;         /* [9 nbright][3] bright source texels' centres and neighbours, unit */
@@ -34,8 +37,8 @@ static double pc_area(double x, double y) { return atan2(x * y, sqrt(x * x + y *
 
 /* w[n * n] for texel (i, j) of a res cube split n x n: each sub-square's solid angle over the texel's. */
 static void pc_weights(int res, int i, int j, int n, float *w) {
-    double A[(4 * 16 + 1) * (4 * 16 + 1)], sum = 0;
-    PRT_CHECK(n <= 4 * 16);
+    double A[(PC_FINE * 8 + 1) * (PC_FINE * 8 + 1)], sum = 0;
+    PRT_CHECK(n <= PC_FINE * 8);
     for (int b = 0; b <= n; b++)
         for (int a = 0; a <= n; a++)
             A[b * (n + 1) + a] = pc_area(2.0 * (i * n + a) / (res * n) - 1.0, 2.0 * (j * n + b) / (res * n) - 1.0);
@@ -55,12 +58,15 @@ static int pc_tables(probe_cube *pc, prt_error *err) {
     pc->wts = pc->dirs ? prt_calloc((size_t)res * res * n2, sizeof(float), err) : NULL;
     if (!pc->wts) return -1;
     for (int t = 0; t < res * res; t++) pc_weights(res, t % res, t / res, ss, pc->wts + (size_t)t * n2);
-    for (int f = 0; f < 6; f++)
-        for (int t = 0; t < res * res; t++)
-            for (int s = 0; s < n2; s++)
-                cube_dir(res, f, (float)(t % res) + ((float)(s % ss) + 0.5f) / (float)ss,
-                         (float)(t / res) + ((float)(s / ss) + 0.5f) / (float)ss,
-                         pc->dirs + 3 * (((size_t)f * res * res + t) * n2 + s));
+    const size_t n = (size_t)res * n2;
+    for (int row = 0; row < 6 * res; row++)
+        for (int i = 0; i < res; i++)
+            for (int s = 0; s < n2; s++) {
+                float d[3];
+                cube_dir(res, row / res, (float)i + ((float)(s % ss) + 0.5f) / (float)ss,
+                         (float)(row % res) + ((float)(s / ss) + 0.5f) / (float)ss, d);
+                for (int c = 0; c < 3; c++) pc->dirs[3 * n * row + c * n + (size_t)i * n2 + s] = d[c];
+            }
     return 0;
 }
 
@@ -104,8 +110,10 @@ probe_cube *probe_cube_create(const prt_probe *p, const probe_cube_desc *desc, p
     probe_cube_desc d = desc ? *desc : (probe_cube_desc){ 0 };
     if (d.res <= 0) d.res = CUBE_RES;
     if (d.src_res <= 0) d.src_res = 2 * d.res;
-    if (d.src_res % d.res || d.src_res / d.res > 16)
-        return prt_fail(err, "probe cube: source resolution %d is not 1 to 16 times %d", d.src_res, d.res), NULL;
+    const int ss = d.src_res / d.res;
+    if (d.src_res % d.res || ss > 8 || d.res * ss * ss > PC_ROW_MAX || d.res * ss * ss % 4)
+        return prt_fail(err, "probe cube: source resolution %d is not 1 to 8 times %d (or a row's %d sub-samples are not a "
+                        "multiple of 4 up to %d)", d.src_res, d.res, d.res * ss * ss, PC_ROW_MAX), NULL;
     probe_cube *pc = prt_calloc(1, sizeof *pc, err);
     if (!pc) return NULL;
     pc->res = d.res;
@@ -133,22 +141,12 @@ void probe_cube_destroy(probe_cube *pc) {
 int probe_cube_res(const probe_cube *pc) { return pc->res; }
 
 /* Bilinear radiance of the source cube at direction d (any length), clamped to the edge of its face. */
-static inline void pc_lookup(const probe_cube *pc, const float d[3], float rgb[3]) {
-    const int S = pc->S;
+static void pc_tap(const probe_cube *pc, int f, float u, float v, float rgb[3]);
+static void pc_lookup(const probe_cube *pc, const float d[3], float rgb[3]) {
     int f;
     float x, y;
-    cube_lookup(S, d, &f, &x, &y);
-    x -= 0.5f;
-    y -= 0.5f;
-    const float x0f = floorf(x), y0f = floorf(y), fx = x - x0f, fy = y - y0f;
-    const int x0 = (int)x0f, y0 = (int)y0f;
-    const int xa = x0 < 0 ? 0 : x0, xb = x0 + 1 > S - 1 ? S - 1 : x0 + 1;
-    const int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 > S - 1 ? S - 1 : y0 + 1;
-    const float *face = pc->src + (size_t)3 * f * S * S;
-    const float *t00 = face + 3 * (ya * S + xa), *t10 = face + 3 * (ya * S + xb);
-    const float *t01 = face + 3 * (yb * S + xa), *t11 = face + 3 * (yb * S + xb);
-    const float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
-    for (int c = 0; c < 3; c++) rgb[c] = w00 * t00[c] + w10 * t10[c] + w01 * t01[c] + w11 * t11[c];
+    cube_lookup(pc->S, d, &f, &x, &y);
+    pc_tap(pc, f, x - 0.5f, y - 0.5f, rgb);
 }
 
 typedef struct pc_job {
@@ -161,7 +159,7 @@ typedef struct pc_job {
 /* Texel t (face f, (i, j)) from PC_FINE x finer sub-samples, weights computed here (few texels). */
 static void pc_fine_texel(const pc_job *J, int f, int i, int j, float *o) {
     const int n = J->pc->ss * PC_FINE;
-    float w[(4 * 16) * (4 * 16)];
+    float w[(PC_FINE * 8) * (PC_FINE * 8)];
     pc_weights(J->pc->res, i, j, n, w);
     double acc[3] = { 0, 0, 0 };
     for (int b = 0; b < n; b++)
@@ -177,26 +175,71 @@ static void pc_fine_texel(const pc_job *J, int f, int i, int j, float *o) {
     for (int c = 0; c < 3; c++) o[c] = (float)acc[c];
 }
 
-/* prt_parallel_for body: target rows [begin, end) (face * res + j). */
+/* Four sub-samples at once (SSE): the directions R^T w of x[k], y[k], z[k] (k < 4) and where they fall in
+ * the source cube, as cube_lookup finds it (the major axis, ties to x then y; GL's sc, tc): face[k] and
+ * the continuous texel coordinates less a half, u[k], v[k] in [-0.5, S - 0.5] (bilinear taps' origin). */
+static void pc_taps(const float Rt[9], const float *x, const float *y, const float *z, float S, int32_t *face, float *u,
+                    float *v) {
+    const __m128 wx = _mm_loadu_ps(x), wy = _mm_loadu_ps(y), wz = _mm_loadu_ps(z);
+#define PC_ROW(r) _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(Rt[3 * (r)]), wx), _mm_mul_ps(_mm_set1_ps(Rt[3 * (r) + 1]), wy)), \
+                             _mm_mul_ps(_mm_set1_ps(Rt[3 * (r) + 2]), wz))
+    const __m128 X = PC_ROW(0), Y = PC_ROW(1), Z = PC_ROW(2), zero = _mm_setzero_ps(), sign = _mm_set1_ps(-0.0f);
+#undef PC_ROW
+    const __m128 ax = _mm_andnot_ps(sign, X), ay = _mm_andnot_ps(sign, Y), az = _mm_andnot_ps(sign, Z);
+    const __m128 bx = _mm_and_ps(_mm_cmpge_ps(ax, ay), _mm_cmpge_ps(ax, az)), by = _mm_andnot_ps(bx, _mm_cmpge_ps(ay, az));
+    const __m128 xge = _mm_cmpge_ps(X, zero), yge = _mm_cmpge_ps(Y, zero), zge = _mm_cmpge_ps(Z, zero);
+    const __m128 nX = _mm_xor_ps(X, sign), nY = _mm_xor_ps(Y, sign), nZ = _mm_xor_ps(Z, sign);
+    const __m128 ma = _mm_blendv_ps(_mm_blendv_ps(az, ay, by), ax, bx);
+    const __m128 sc = _mm_blendv_ps(_mm_blendv_ps(_mm_blendv_ps(nX, X, zge), X, by), _mm_blendv_ps(Z, nZ, xge), bx);
+    const __m128 tc = _mm_blendv_ps(_mm_blendv_ps(nY, _mm_blendv_ps(nZ, Z, yge), by), nY, bx);
+    const __m128 one = _mm_set1_ps(1.f), half = _mm_set1_ps(0.5f), hs = _mm_set1_ps(0.5f * S);
+    const __m128 f = _mm_blendv_ps(_mm_blendv_ps(_mm_blendv_ps(_mm_set1_ps(5), _mm_set1_ps(4), zge),
+                                                 _mm_blendv_ps(_mm_set1_ps(3), _mm_set1_ps(2), yge), by),
+                                   _mm_blendv_ps(one, zero, xge), bx);
+    const __m128 inv = _mm_div_ps(one, ma), lo = _mm_set1_ps(-0.5f), hi = _mm_set1_ps(S - 0.5f);
+    const __m128 U = _mm_sub_ps(_mm_mul_ps(_mm_add_ps(_mm_mul_ps(sc, inv), one), hs), half);
+    const __m128 V = _mm_sub_ps(_mm_mul_ps(_mm_add_ps(_mm_mul_ps(tc, inv), one), hs), half);
+    _mm_storeu_ps(u, _mm_min_ps(_mm_max_ps(U, lo), hi));
+    _mm_storeu_ps(v, _mm_min_ps(_mm_max_ps(V, lo), hi));
+    _mm_storeu_si128((__m128i *)face, _mm_cvtps_epi32(f));
+}
+
+/* Bilinear radiance of face f of the source at taps origin (u, v) (pc_taps), clamped to the face's edge. */
+static inline void pc_tap(const probe_cube *pc, int f, float u, float v, float rgb[3]) {
+    const int S = pc->S;
+    const float x0f = floorf(u), y0f = floorf(v), fx = u - x0f, fy = v - y0f;
+    const int x0 = (int)x0f, y0 = (int)y0f;
+    const int xa = x0 < 0 ? 0 : x0, xb = x0 + 1 > S - 1 ? S - 1 : x0 + 1;
+    const int ya = y0 < 0 ? 0 : y0, yb = y0 + 1 > S - 1 ? S - 1 : y0 + 1;
+    const float *face = pc->src + (size_t)3 * f * S * S;
+    const float *t00 = face + 3 * (ya * S + xa), *t10 = face + 3 * (ya * S + xb);
+    const float *t01 = face + 3 * (yb * S + xa), *t11 = face + 3 * (yb * S + xb);
+    const float w00 = (1 - fx) * (1 - fy), w10 = fx * (1 - fy), w01 = (1 - fx) * fy, w11 = fx * fy;
+    for (int c = 0; c < 3; c++) rgb[c] = w00 * t00[c] + w10 * t10[c] + w01 * t01[c] + w11 * t11[c];
+}
+
+/* prt_parallel_for body: target rows [begin, end) (face * res + j): every sub-sample's taps four at a
+ * time, then each texel the weighted sum of its sub-samples' bilinear lookups. */
 static void pc_rows(void *ctx, int begin, int end, int thread) {
     const pc_job *J = ctx;
     const probe_cube *pc = J->pc;
-    const int res = pc->res, n2 = pc->ss * pc->ss;
-    const float *R = J->Rt;
+    const int res = pc->res, n2 = pc->ss * pc->ss, n = res * n2;   /* a multiple of 4 (probe_cube_create) */
+    int32_t face[PC_ROW_MAX];
+    float u[PC_ROW_MAX], v[PC_ROW_MAX];
+    PRT_CHECK(n <= PC_ROW_MAX && n % 4 == 0);
     (void)thread;
     for (int row = begin; row < end; row++) {
         const int f = row / res, j = row % res;
+        const float *dx = pc->dirs + (size_t)3 * n * row, *dy = dx + n, *dz = dy + n;
+        for (int k = 0; k < n; k += 4) pc_taps(J->Rt, dx + k, dy + k, dz + k, (float)pc->S, face + k, u + k, v + k);
         for (int i = 0; i < res; i++) {
             const size_t t = (size_t)row * res + i;
             float *o = J->out + 3 * t;
             if (J->fine && J->fine[t]) { pc_fine_texel(J, f, i, j, o); continue; }
-            const float *dw = pc->dirs + 3 * t * n2, *w = pc->wts + (size_t)(j * res + i) * n2;
-            float acc[3] = { 0, 0, 0 };
-            for (int s = 0; s < n2; s++, dw += 3) {
-                const float d[3] = { R[0] * dw[0] + R[1] * dw[1] + R[2] * dw[2], R[3] * dw[0] + R[4] * dw[1] + R[5] * dw[2],
-                                     R[6] * dw[0] + R[7] * dw[1] + R[8] * dw[2] };
-                float rgb[3];
-                pc_lookup(pc, d, rgb);
+            const float *w = pc->wts + (size_t)(j * res + i) * n2;
+            float acc[3] = { 0, 0, 0 }, rgb[3];
+            for (int s = 0, k = i * n2; s < n2; s++, k++) {
+                pc_tap(pc, face[k], u[k], v[k], rgb);
                 for (int c = 0; c < 3; c++) acc[c] += w[s] * rgb[c];
             }
             for (int c = 0; c < 3; c++) o[c] = acc[c];

@@ -27,7 +27,7 @@
  * every texel's light comes from at most one source texel beyond its footprint (tests/test_probe.c
  * bounds light functionals by that distance).
  *
- * Errors: out of memory or a bad desc (src_res not a positive multiple of res): NULL and one line in
+ * Errors: out of memory or a bad desc (src_res not 1 to 8 times res): NULL and one line in
  * err. Thread safety: probe_cube_resample only reads pc, so several threads may resample one cube
  * at once. Ownership: pc owns its texels and tables; the probe may be freed after create. */
 #ifndef PRT_PROBECUBE_H
@@ -38,7 +38,7 @@
 /* Zero fields mean the defaults. */
 typedef struct probe_cube_desc {
     int res;        /* target cube resolution (default CUBE_RES, the lighting cube) */
-    int src_res;    /* source cube resolution, a multiple of res (default 2 res) */
+    int src_res;    /* source cube resolution, 1 to 8 times res (default 2 res; res (src_res/res)^2 a multiple of 4) */
     int threads;    /* resample threads (0: prt_thread_count(0)); create uses all */
 } probe_cube_desc;
 
