@@ -62,7 +62,8 @@ static int relight(const args *a, prt_error *err) {
     float R[9], b0[3], b1[3];
     int rc = -1;
     probe_rotation(a->angle, 0, R);
-    render_desc rd = { .width = a->w, .height = a->h, .background = &probe, .background_rotation = R };
+    /* 4 samples per pixel (multisampled, averaged in linear radiance), as prt render's default --aa */
+    render_desc rd = { .width = a->w, .height = a->h, .background = &probe, .background_rotation = R, .samples = 4 };
     if (prtfile_read(a->in, &d, err)) goto done;
     if (strcmp(a->probe, "none") ? probe_load(a->probe, PROBE_AUTO, &probe, err) : probe_make_constant(black, &probe, err))
         goto done;

@@ -87,7 +87,7 @@ int cli_demo(int argc, char **argv) {
      * the image about a third of the way down and the sky fills the upper third (at the default
      * 25 degrees up even the top row would look below the horizon: a flat ground colour). */
     camera_lower(&cam, 16, 8, 55);
-    render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky };
+    render_desc rd = { .width = w, .height = h, .camera = cam, .background = &sky, .samples = CLI_AA_DEFAULT };
     if (!(rt = runtime_create(&d, NULL, &err)) || runtime_set_light(rt, &sky, NULL, &err) ||
         runtime_render(rt, &rd, &img, &err)) {
         cli_error(k_cmd, "%s", err.msg);
