@@ -9,7 +9,9 @@
  * OBJ support: v / f (triangles and polygons, fan-triangulated), the v, v/vt,
  * v//vn and v/vt/vn forms, negative (relative) indices, comments, CRLF, blank
  * lines; other statements (vt, vn, o, g, s, usemtl, mtllib) are accepted and
- * ignored, because prt computes its own smooth normals on the welded mesh.
+ * ignored, because prt computes its own smooth normals on the welded mesh. The
+ * first `mtllib` line is reported (stats->mtllib_line): scene_load then reads
+ * the file through asset.h instead, for its materials and textures.
  * Positions are welded (exactly equal coordinates become one vertex) so that
  * normals are smooth across seams. Degenerate triangles (repeated or collinear
  * vertices, zero area) are dropped and counted. Vertices no triangle uses are
@@ -40,6 +42,7 @@ typedef struct mesh_load_stats {
     int welded;            /* vertices merged by welding */
     int degenerate;        /* triangles dropped as degenerate */
     int unused;            /* vertices dropped because no triangle uses them */
+    int mtllib_line;       /* the first line naming an MTL library (0: none; not stored in .prt files) */
 } mesh_load_stats;
 
 /* Loads an OBJ file. stats may be NULL. Returns 0, or -1 with err set. */

@@ -45,8 +45,18 @@
 #include "mesh.h"
 #include "brdf.h"
 #include "lights.h"
+#include "camera.h"
 
 #define PRT_MAX_MATERIALS 64
+#define SCENE_MAX_CAMERAS 16
+#define SCENE_NOTES_BYTES 4096
+
+/* A camera the scene names (a glTF camera, asset.h): render, view and reference take the first as
+ * their default and `--camera-name NAME` picks one. */
+typedef struct scene_camera {
+    char name[64];      /* the camera's node name, printable ASCII, NUL-terminated */
+    prt_camera cam;     /* world space; fov_deg is the vertical field */
+} scene_camera;
 
 /* The JSON's "refine" (refine.h): how the scene asks to be refined where visibility
  * changes before its transport; precompute applies it unless its command line says otherwise.
@@ -63,12 +73,18 @@ typedef struct prt_scene {
     int nmaterials;
     brdf_params materials[PRT_MAX_MATERIALS];
     char material_spec[PRT_MAX_MATERIALS][256];   /* the spec string each came from */
+    char material_from[PRT_MAX_MATERIALS][192];   /* where: "--material", "models[1].material",
+                                                   * "box.glb material 'red' (glTF metallic-roughness...)" */
     int floor_first_vertex;    /* first vertex of the floor, or -1 when there is none */
     float bmin[3], bmax[3];    /* bounds of everything, floor included */
     mesh_load_stats load_stats; /* summed over OBJ models */
     prt_lights lights;         /* local lights: the JSON's "lights", plus --light flags */
     char light_prior[8192];    /* the JSON's "light_prior" probes, resolved and comma-joined ("": none) */
     scene_refine refine;       /* the JSON's "refine" (all zero: not asked for) */
+    int ncameras;              /* the assets' cameras (asset.h), in file order */
+    scene_camera cameras[SCENE_MAX_CAMERAS];
+    char notes[SCENE_NOTES_BYTES]; /* what loading left out or changed, one "FILE: what" a line
+                                    * (asset.h: a skinned mesh at rest, an ignored extension); "" none */
 } prt_scene;
 #define SCENE_MAX_PRIOR_PROBES 16   /* prior.h's PRIOR_MAX_PROBES */
 
@@ -98,6 +114,13 @@ int scene_add_floor(prt_scene *s, int verts, float size, const char *material, p
 
 /* Adds (or finds) a material by spec; returns its index or -1 with err set. */
 int scene_material(prt_scene *s, const char *spec, prt_error *err);
+/* scene_material, recording `from` (where the spec came from; truncated to fit) when the material
+ * is new, so the effects plan can say where each material came from. */
+int scene_material_from(prt_scene *s, const char *spec, const char *from, prt_error *err);
+
+/* Appends one line "text" to s->notes (printf-style; a line that does not fit is dropped, the last
+ * kept line then says "..."). */
+void scene_note(prt_scene *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
 /* The range of scene coordinates prt computes with (docs/design/scale.md): every position of
  * the mesh (floor included) and of the local lights within +-SCENE_MAX_COORD, and a mesh at

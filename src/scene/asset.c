@@ -1,0 +1,635 @@
+/* asset.c - glTF 2.0, PLY and OBJ + MTL models through assimp's C API (see asset.h).
+ *
+ * assimp reads the file into an aiScene; this file walks its node tree, copies each triangle
+ * mesh instance into prt's one mesh in world space, maps the materials onto prt's BRDFs and
+ * converts lights and cameras. Two things assimp does not tell are read from the glTF's own
+ * JSON (cJSON): the extensions it uses (so an ignored KHR_materials_* is named) and how many
+ * triangles its accessors hold (assimp drops a triangle with an index out of range with only a
+ * log line; prt refuses the file instead, the count telling). */
+#include "asset.h"
+#include "vec3.h"
+#include <assimp/cimport.h>
+#include <assimp/postprocess.h>
+#include <assimp/scene.h>
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define ASSET_DEFAULT_MATERIAL "lambert:kd=0.8"
+#define ASSET_DEGENERATE_REL 1e-12    /* mesh.c's MESH_DEGENERATE_REL */
+#define ASSET_MAX_ELEMS (1 << 28)     /* mesh.c's MESH_MAX_ELEMS */
+#define ASSET_MAX_JSON (256 << 20)    /* a glTF's JSON read to inspect it */
+#define ASSET_ALPHA_MIN 0.001f        /* brdf.h's smallest alpha */
+
+typedef enum asset_format { FMT_GLTF, FMT_PLY, FMT_OBJ } asset_format;
+
+/* What the glTF's JSON says beside assimp: its triangle count (-1: not counted). */
+typedef struct gltf_info {
+    long long triangles;
+} gltf_info;
+
+/* One load: the file's name for errors, its format, the caller's choices and the outputs. */
+typedef struct loader {
+    const char *name;
+    asset_format fmt;
+    const asset_desc *desc;
+    prt_scene *s;
+    asset_model *out;
+    prt_error *err;
+    const struct aiScene *ai;
+    int *mat_index;             /* [mNumMaterials]: the scene material of each, -1 not made yet */
+    size_t cap_v, cap_t;        /* capacity of out->mesh's arrays */
+    bool need_normals;          /* some vertex had no usable normal: computed for those */
+    unsigned char *bad_normal;  /* [cap_v]: 1 where the normal is computed */
+    int skipped_prims, skinned, morphed;
+} loader;
+
+void asset_model_free(asset_model *m) {
+    mesh_free(&m->mesh);
+    memset(m, 0, sizeof *m);
+}
+
+bool asset_handles(const char *path) {
+    char ext[16];
+    prt_path_ext(path, ext);
+    return !strcmp(ext, "gltf") || !strcmp(ext, "glb") || !strcmp(ext, "ply");
+}
+
+/* The file's base name (errors name the path; notes the base, to stay short). */
+static const char *base_name(const char *p) {
+    const char *sl = strrchr(p, '/');
+    return sl ? sl + 1 : p;
+}
+
+/* ---------------------------------------------------------------- the glTF's JSON */
+
+/* The JSON text of a glTF held in buf[len]: all of a .gltf, the first chunk of a .glb (its
+ * 12-byte header, then chunk length, type "JSON", bytes). NULL when the bytes are no glTF. */
+static const char *gltf_json(const unsigned char *buf, size_t len, size_t *jlen) {
+    if (len >= 20 && !memcmp(buf, "glTF", 4)) {
+        uint32_t cl = (uint32_t)buf[12] | (uint32_t)buf[13] << 8 | (uint32_t)buf[14] << 16 | (uint32_t)buf[15] << 24;
+        if (memcmp(buf + 16, "JSON", 4) || cl > len - 20) return NULL;
+        *jlen = cl;
+        return (const char *)buf + 20;
+    }
+    *jlen = len;
+    return (const char *)buf;
+}
+
+/* Triangles one primitive's accessors hold: indices (or POSITION) count by mode (4: n/3; 5, 6
+ * strips and fans: n - 2); 0 for points and lines (modes 0-3). */
+static long long prim_triangles(const cJSON *prim, const cJSON *accessors) {
+    const cJSON *mode = cJSON_GetObjectItemCaseSensitive(prim, "mode");
+    int md = cJSON_IsNumber(mode) ? mode->valueint : 4;
+    if (md < 4 || md > 6) return 0;
+    const cJSON *ix = cJSON_GetObjectItemCaseSensitive(prim, "indices");
+    if (!cJSON_IsNumber(ix)) ix = cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(prim, "attributes"), "POSITION");
+    const cJSON *acc = cJSON_IsNumber(ix) ? cJSON_GetArrayItem(accessors, ix->valueint) : NULL;
+    const cJSON *cnt = cJSON_GetObjectItemCaseSensitive(acc, "count");
+    long long n = cJSON_IsNumber(cnt) && cnt->valuedouble >= 0 && cnt->valuedouble < 1e15 ? (long long)cnt->valuedouble : 0;
+    return md == 4 ? n / 3 : n >= 3 ? n - 2 : 0;
+}
+
+/* Why prt ignores a glTF extension that changes the lobe ("" for one it takes or that needs no word). */
+static const char *extension_note(const char *ext) {
+    static const char *const k[][2] = {
+        { "KHR_materials_clearcoat", "a clear-coat layer over the lobe; prt has one GGX lobe" },
+        { "KHR_materials_sheen", "a sheen lobe; prt has one GGX lobe" },
+        { "KHR_materials_transmission", "transmission; prt's surfaces are opaque" },
+        { "KHR_materials_volume", "a volume; prt's surfaces are opaque" },
+        { "KHR_materials_ior", "the index of refraction; F0 stays 0.04 for dielectrics" },
+        { "KHR_materials_specular", "a specular strength and colour; F0 stays mix(0.04, baseColor, metallic)" },
+        { "KHR_materials_iridescence", "thin-film iridescence; prt's Fresnel term is Schlick's" },
+        { "KHR_materials_anisotropy", "anisotropy; prt's GGX is isotropic" },
+        { "KHR_materials_pbrSpecularGlossiness", "the specular-glossiness model; the metallic-roughness values are used" },
+        { "KHR_materials_unlit", "unlit shading; the surface is lit as metallic-roughness" },
+        { "KHR_materials_emissive_strength", "emission; prt's surfaces do not emit" },
+        { "KHR_texture_transform", "texture transforms; UVs are used as stored" },
+    };
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; i++)
+        if (!strcmp(ext, k[i][0])) return k[i][1];
+    if (!strcmp(ext, "KHR_lights_punctual")) return "";
+    return !strncmp(ext, "KHR_materials_", 14) ? "a material extension prt does not know" : "an extension prt does not read";
+}
+
+/* Reads the glTF's JSON text[len]: notes each ignored extension in s and counts its triangles.
+ * A JSON that does not parse is left to assimp (its message is the better one). */
+static void gltf_inspect(const char *name, const char *text, size_t len, prt_scene *s, gltf_info *gi) {
+    gi->triangles = -1;
+    cJSON *root = len <= ASSET_MAX_JSON ? cJSON_ParseWithLength(text, len) : NULL;
+    if (!root) return;
+    const cJSON *e;
+    cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, "extensionsUsed")) {
+        const char *why = cJSON_IsString(e) ? extension_note(e->valuestring) : "";
+        if (*why) scene_note(s, "%s: %.60s ignored: %s", base_name(name), e->valuestring, why);
+    }
+    const cJSON *acc = cJSON_GetObjectItemCaseSensitive(root, "accessors"), *m, *p;
+    long long tri = 0;
+    cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "meshes"))
+        cJSON_ArrayForEach(p, cJSON_GetObjectItemCaseSensitive(m, "primitives")) tri += prim_triangles(p, acc);
+    gi->triangles = tri;
+    cJSON_Delete(root);
+}
+
+/* Reads the JSON part of the glTF file at path and inspects it (see gltf_inspect). */
+static void gltf_inspect_file(const char *path, prt_scene *s, gltf_info *gi) {
+    gi->triangles = -1;
+    FILE *f = fopen(path, "rb");
+    if (!f) return;
+    unsigned char head[20];
+    size_t n = fread(head, 1, sizeof head, f), want = 0;
+    if (n == 20 && !memcmp(head, "glTF", 4))
+        want = 20 + ((size_t)head[12] | (size_t)head[13] << 8 | (size_t)head[14] << 16 | (size_t)head[15] << 24);
+    else if (!fseek(f, 0, SEEK_END)) {
+        long sz = ftell(f);
+        want = sz > 0 ? (size_t)sz : 0;
+    }
+    unsigned char *buf = want > 0 && want <= ASSET_MAX_JSON + 20 ? malloc(want) : NULL;
+    if (buf && !fseek(f, 0, SEEK_SET) && fread(buf, 1, want, f) == want) {
+        size_t jl = 0;
+        const char *js = gltf_json(buf, want, &jl);
+        if (js) gltf_inspect(path, js, jl, s, gi);
+    }
+    free(buf);
+    fclose(f);
+}
+
+/* ---------------------------------------------------------------- transforms */
+
+/* Row-major 4x4 of an aiMatrix4x4 (column vectors: p' = M p, translation in the last column). */
+static void mat_from_ai(double M[16], const struct aiMatrix4x4 *a) {
+    const double v[16] = { a->a1, a->a2, a->a3, a->a4, a->b1, a->b2, a->b3, a->b4,
+                           a->c1, a->c2, a->c3, a->c4, a->d1, a->d2, a->d3, a->d4 };
+    memcpy(M, v, sizeof v);
+}
+
+/* C = A B (4x4 row-major; C may alias neither). */
+static void mat_mul(double C[16], const double A[16], const double B[16]) {
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++) {
+            double x = 0;
+            for (int k = 0; k < 4; k++) x += A[4 * i + k] * B[4 * k + j];
+            C[4 * i + j] = x;
+        }
+}
+
+/* out = M p (w = 1) or, for a direction (w = 0), M's 3x3 times p. */
+static void mat_apply(const double M[16], const float p[3], double w, float out[3]) {
+    double r[3];
+    for (int i = 0; i < 3; i++) r[i] = M[4 * i] * p[0] + M[4 * i + 1] * p[1] + M[4 * i + 2] * p[2] + M[4 * i + 3] * w;
+    for (int i = 0; i < 3; i++) out[i] = (float)r[i];
+}
+
+/* The cofactor matrix of M's 3x3 (det times its inverse transpose: what carries normals, up to
+ * the determinant's sign and size, which the caller's normalization and sign take out); returns det. */
+static double mat_cofactor(const double M[16], double C[9]) {
+    const double a = M[0], b = M[1], c = M[2], d = M[4], e = M[5], f = M[6], g = M[8], h = M[9], i = M[10];
+    const double v[9] = { e * i - f * h, f * g - d * i, d * h - e * g, c * h - b * i, a * i - c * g,
+                          b * g - a * h, b * f - c * e, c * d - a * f, a * e - b * d };
+    memcpy(C, v, sizeof v);
+    return a * v[0] + b * v[1] + c * v[2];
+}
+
+static bool mat_finite(const double M[16]) {
+    for (int i = 0; i < 16; i++)
+        if (!isfinite(M[i])) return false;
+    return true;
+}
+
+/* The global transform of the node named name (depth-first from node under parent P), or false. */
+static bool node_find(const struct aiNode *node, const double P[16], const char *name, double out[16], int depth) {
+    double L[16], G[16];
+    mat_from_ai(L, &node->mTransformation);
+    mat_mul(G, P, L);
+    if (!strcmp(node->mName.data, name)) {
+        memcpy(out, G, sizeof G);
+        return true;
+    }
+    for (unsigned c = 0; depth < 256 && c < node->mNumChildren; c++)
+        if (node_find(node->mChildren[c], G, name, out, depth + 1)) return true;
+    return false;
+}
+
+/* ---------------------------------------------------------------- materials */
+
+/* Reads an RGB colour key (the first three of its floats); false when absent. */
+static bool mat_rgb(const struct aiMaterial *m, const char *key, float rgb[3]) {
+    struct aiColor4D c;
+    if (aiGetMaterialColor(m, key, 0, 0, &c) != aiReturn_SUCCESS) return false;
+    rgb[0] = c.r, rgb[1] = c.g, rgb[2] = c.b;
+    return true;
+}
+
+static bool mat_float(const struct aiMaterial *m, const char *key, float *x) {
+    ai_real v;
+    unsigned int n = 1;
+    if (aiGetMaterialFloatArray(m, key, 0, 0, &v, &n) != aiReturn_SUCCESS || n < 1) return false;
+    *x = (float)v;
+    return true;
+}
+
+/* The spec and plan note of glTF material m (asset.h: metallic-roughness onto GGX). */
+static void spec_gltf(const struct aiMaterial *m, const char *mname, char *spec, size_t cap, char *from, size_t fcap,
+                      const char *file) {
+    float base[3] = { 1, 1, 1 }, metal = 1, rough = 1;   /* glTF 2.0's defaults */
+    if (!mat_rgb(m, "$clr.base", base)) mat_rgb(m, "$clr.diffuse", base);
+    mat_float(m, "$mat.metallicFactor", &metal);
+    mat_float(m, "$mat.roughnessFactor", &rough);
+    float kd[3], ks[3], alpha = rough * rough;
+    for (int c = 0; c < 3; c++) {
+        kd[c] = base[c] * (1 - metal);
+        ks[c] = 0.04f * (1 - metal) + base[c] * metal;
+    }
+    if (!(alpha >= ASSET_ALPHA_MIN)) alpha = ASSET_ALPHA_MIN;   /* also a NaN: brdf_parse refuses it anyway */
+    snprintf(spec, cap, "ggx:kd=%.9g,%.9g,%.9g;ks=%.9g,%.9g,%.9g;alpha=%.9g", kd[0], kd[1], kd[2], ks[0], ks[1], ks[2], alpha);
+    snprintf(from, fcap, "%.60s material '%.40s' (glTF metallic-roughness: baseColor %.3g,%.3g,%.3g, metallic %.3g, "
+             "roughness %.3g)", file, mname, base[0], base[1], base[2], metal, rough);
+}
+
+/* The spec and plan note of MTL material m (asset.h: Kd, Ks, Ns onto Phong). */
+static void spec_mtl(const struct aiMaterial *m, const char *mname, char *spec, size_t cap, char *from, size_t fcap,
+                     const char *file) {
+    float kd[3] = { 0, 0, 0 }, ks[3] = { 0, 0, 0 }, ns = 0;
+    mat_rgb(m, "$clr.diffuse", kd);
+    mat_rgb(m, "$clr.specular", ks);
+    mat_float(m, "$mat.shininess", &ns);
+    if (ks[0] == 0 && ks[1] == 0 && ks[2] == 0) snprintf(spec, cap, "lambert:kd=%.9g,%.9g,%.9g", kd[0], kd[1], kd[2]);
+    else snprintf(spec, cap, "phong:kd=%.9g,%.9g,%.9g;ks=%.9g,%.9g,%.9g;n=%.9g", kd[0], kd[1], kd[2], ks[0], ks[1], ks[2], ns);
+    snprintf(from, fcap, "%.60s material '%.40s' (MTL Kd %.3g,%.3g,%.3g, Ks %.3g,%.3g,%.3g, Ns %.3g)", file, mname, kd[0],
+             kd[1], kd[2], ks[0], ks[1], ks[2], ns);
+}
+
+/* assimp's stand-in for faces without a material (an OBJ face before any usemtl, every PLY face). */
+static bool is_default_material(const struct aiMaterial *m, const char *mname, asset_format fmt) {
+    return fmt == FMT_PLY || (fmt == FMT_OBJ && !strcmp(mname, "DefaultMaterial"));
+}
+
+/* The scene material of the file's material mi (made on first use); -1 with L->err. */
+static int material_of(loader *L, unsigned mi) {
+    if (mi >= L->ai->mNumMaterials) return prt_fail(L->err, "%s: a mesh uses material %u of %u", L->name, mi, L->ai->mNumMaterials);
+    if (L->mat_index[mi] >= 0) return L->mat_index[mi];
+    const struct aiMaterial *m = L->ai->mMaterials[mi];
+    struct aiString nm = { 0 };
+    char mname[64] = "", spec[256], from[512], file[64];
+    if (aiGetMaterialString(m, "?mat.name", 0, 0, &nm) == aiReturn_SUCCESS) snprintf(mname, sizeof mname, "%.63s", nm.data);
+    snprintf(file, sizeof file, "%.63s", base_name(L->name));
+    const asset_desc *d = L->desc;
+    if (d && d->material) {
+        snprintf(spec, sizeof spec, "%.255s", d->material);
+        snprintf(from, sizeof from, "%.200s", d->material_from ? d->material_from : "--material");
+    } else if (is_default_material(m, mname, L->fmt)) {
+        snprintf(spec, sizeof spec, "%.255s", d && d->fallback ? d->fallback : ASSET_DEFAULT_MATERIAL);
+        snprintf(from, sizeof from, "default (%.60s gives %s no material)", file, L->fmt == FMT_PLY ? "a PLY" : "these faces");
+    } else if (L->fmt == FMT_GLTF) spec_gltf(m, mname, spec, sizeof spec, from, sizeof from, file);
+    else spec_mtl(m, mname, spec, sizeof spec, from, sizeof from, file);
+    prt_error e2;
+    int i = scene_material_from(L->s, spec, from, &e2);
+    if (i < 0) return prt_fail(L->err, "%s: material '%s': %s", L->name, mname, e2.msg);
+    return L->mat_index[mi] = i;
+}
+
+/* ---------------------------------------------------------------- meshes */
+
+/* Room for nv more vertices and nt more triangles in out->mesh (and the normal flags). */
+static int reserve(loader *L, size_t nv, size_t nt) {
+    prt_mesh *m = &L->out->mesh;
+    size_t v = (size_t)m->nverts + nv, t = (size_t)m->ntris + nt;
+    if (v > ASSET_MAX_ELEMS || t > ASSET_MAX_ELEMS)
+        return prt_fail(L->err, "%s: too large (more than %d vertices or triangles)", L->name, ASSET_MAX_ELEMS);
+    if (v > L->cap_v) {
+        size_t c = v > 2 * L->cap_v ? v : 2 * L->cap_v;
+        float *p = realloc(m->pos, 3 * c * sizeof *p);
+        if (p) m->pos = p;
+        float *n = p ? realloc(m->nrm, 3 * c * sizeof *n) : NULL;
+        if (n) m->nrm = n;
+        uint16_t *mt = n ? realloc(m->mat, c * sizeof *mt) : NULL;
+        if (mt) m->mat = mt;
+        unsigned char *b = mt ? realloc(L->bad_normal, c) : NULL;
+        if (!b) return prt_fail(L->err, "%s: out of memory", L->name);
+        L->bad_normal = b;
+        L->cap_v = c;
+    }
+    if (t > L->cap_t) {
+        size_t c = t > 2 * L->cap_t ? t : 2 * L->cap_t;
+        uint32_t *tr = realloc(m->tris, 3 * c * sizeof *tr);
+        if (!tr) return prt_fail(L->err, "%s: out of memory", L->name);
+        m->tris = tr;
+        L->cap_t = c;
+    }
+    return 0;
+}
+
+/* Copies the vertices of am into out->mesh under transform M (cofactor C, determinant det):
+ * positions, unit normals (flagged bad where absent or zero), the material. -1 on a non-finite value. */
+static int put_vertices(loader *L, const struct aiMesh *am, const double M[16], const double C[9], double det, int mat) {
+    prt_mesh *m = &L->out->mesh;
+    const float sgn = det < 0 ? -1.f : 1.f;
+    for (unsigned i = 0; i < am->mNumVertices; i++) {
+        size_t v = (size_t)m->nverts + i;
+        const float p[3] = { am->mVertices[i].x, am->mVertices[i].y, am->mVertices[i].z };
+        float *q = m->pos + 3 * v, *n = m->nrm + 3 * v;
+        mat_apply(M, p, 1, q);
+        if (!isfinite(q[0]) || !isfinite(q[1]) || !isfinite(q[2]))
+            return prt_fail(L->err, "%s: mesh '%.60s' vertex %u: non-finite coordinate (%g, %g, %g)", L->name, am->mName.data, i,
+                            (double)p[0], (double)p[1], (double)p[2]);
+        m->mat[v] = (uint16_t)mat;
+        L->bad_normal[v] = 1;
+        if (!am->mNormals) continue;
+        const double a[3] = { am->mNormals[i].x, am->mNormals[i].y, am->mNormals[i].z };
+        if (!isfinite(a[0]) || !isfinite(a[1]) || !isfinite(a[2]))
+            return prt_fail(L->err, "%s: mesh '%.60s' vertex %u: non-finite normal", L->name, am->mName.data, i);
+        double r[3], len = 0;
+        for (int k = 0; k < 3; k++) r[k] = sgn * (C[3 * k] * a[0] + C[3 * k + 1] * a[1] + C[3 * k + 2] * a[2]), len += r[k] * r[k];
+        len = sqrt(len);
+        if (!(len > 1e-30) || !isfinite(len)) continue;
+        for (int k = 0; k < 3; k++) n[k] = (float)(r[k] / len);
+        L->bad_normal[v] = 0;
+    }
+    return 0;
+}
+
+/* Appends one instance of mesh am under global transform M. Meshes without triangles (points,
+ * lines) are skipped and counted; bones and morph targets are counted (the rest pose is taken). */
+static int put_mesh(loader *L, const struct aiMesh *am, const double M[16]) {
+    if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || am->mNumFaces == 0) {
+        L->skipped_prims++;
+        return 0;
+    }
+    L->skinned += am->mNumBones > 0;
+    L->morphed += am->mNumAnimMeshes > 0;
+    int mat = material_of(L, am->mMaterialIndex);
+    if (mat < 0 || reserve(L, am->mNumVertices, am->mNumFaces)) return -1;
+    double C[9], det = mat_cofactor(M, C);
+    if (put_vertices(L, am, M, C, det, mat)) return -1;
+    prt_mesh *m = &L->out->mesh;
+    uint32_t base = (uint32_t)m->nverts, *t = m->tris + 3 * (size_t)m->ntris;
+    size_t nt = 0;
+    for (unsigned f = 0; f < am->mNumFaces; f++) {
+        const struct aiFace *fc = &am->mFaces[f];
+        if (fc->mNumIndices != 3) continue;   /* SortByPType leaves none; a stray point or line */
+        for (int k = 0; k < 3; k++) {
+            unsigned ix = fc->mIndices[det < 0 ? 2 - k : k];
+            if (ix >= am->mNumVertices)
+                return prt_fail(L->err, "%s: mesh '%.60s' face %u: index %u out of range (%u vertices)", L->name,
+                                am->mName.data, f, ix, am->mNumVertices);
+            t[3 * nt + k] = base + ix;
+        }
+        nt++;
+    }
+    m->nverts += (int)am->mNumVertices;
+    m->ntris += (int)nt;
+    L->out->stats.faces += (int)nt;
+    return 0;
+}
+
+/* Every mesh instance under node (parent transform P), depth first. */
+static int walk(loader *L, const struct aiNode *node, const double P[16], int depth) {
+    if (depth > 256) return prt_fail(L->err, "%s: the node tree is deeper than 256 (a cycle?)", L->name);
+    double Lm[16], G[16];
+    mat_from_ai(Lm, &node->mTransformation);
+    mat_mul(G, P, Lm);
+    if (!mat_finite(G)) return prt_fail(L->err, "%s: node '%.60s': non-finite transform", L->name, node->mName.data);
+    for (unsigned i = 0; i < node->mNumMeshes; i++) {
+        unsigned mi = node->mMeshes[i];
+        if (mi >= L->ai->mNumMeshes) return prt_fail(L->err, "%s: node '%.60s' names mesh %u of %u", L->name, node->mName.data, mi, L->ai->mNumMeshes);
+        if (put_mesh(L, L->ai->mMeshes[mi], G)) return -1;
+    }
+    for (unsigned c = 0; c < node->mNumChildren; c++)
+        if (walk(L, node->mChildren[c], G, depth + 1)) return -1;
+    return 0;
+}
+
+/* Twice the area of triangle abc (double). */
+static double area2(const float *a, const float *b, const float *c) {
+    double e1[3], e2[3], n[3];
+    for (int k = 0; k < 3; k++) e1[k] = (double)b[k] - a[k], e2[k] = (double)c[k] - a[k];
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+    return sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+}
+
+/* Drops degenerate triangles (mesh.c's rule) and the vertices no triangle uses, keeping order. */
+static int drop_unused(loader *L) {
+    prt_mesh *m = &L->out->mesh;
+    float lo[3], hi[3];
+    mesh_bounds(m, lo, hi);
+    double d2 = 0;
+    for (int k = 0; k < 3; k++) d2 += ((double)hi[k] - lo[k]) * ((double)hi[k] - lo[k]);
+    size_t nt = 0;
+    for (size_t t = 0; t < (size_t)m->ntris; t++) {
+        const uint32_t *x = m->tris + 3 * t;
+        if (x[0] == x[1] || x[1] == x[2] || x[0] == x[2] ||
+            area2(m->pos + 3 * (size_t)x[0], m->pos + 3 * (size_t)x[1], m->pos + 3 * (size_t)x[2]) <= ASSET_DEGENERATE_REL * d2) {
+            L->out->stats.degenerate++;
+            continue;
+        }
+        memmove(m->tris + 3 * nt, x, 3 * sizeof *x);
+        nt++;
+    }
+    if (nt == 0) return prt_fail(L->err, "%s: no triangles%s", L->name, m->ntris ? " left (all are degenerate)" : "");
+    m->ntris = (int)nt;
+    uint32_t *map = malloc((size_t)m->nverts * sizeof *map);
+    if (!map) return prt_fail(L->err, "%s: out of memory", L->name);
+    for (int v = 0; v < m->nverts; v++) map[v] = UINT32_MAX;
+    for (size_t i = 0; i < 3 * nt; i++) map[m->tris[i]] = 0;
+    uint32_t nk = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        if (map[v] == UINT32_MAX) continue;
+        if (nk != (uint32_t)v) {
+            memcpy(m->pos + 3 * (size_t)nk, m->pos + 3 * (size_t)v, 3 * sizeof(float));
+            memcpy(m->nrm + 3 * (size_t)nk, m->nrm + 3 * (size_t)v, 3 * sizeof(float));
+            m->mat[nk] = m->mat[v];
+            L->bad_normal[nk] = L->bad_normal[v];
+        }
+        map[v] = nk++;
+    }
+    for (size_t i = 0; i < 3 * nt; i++) m->tris[i] = map[m->tris[i]];
+    L->out->stats.unused = m->nverts - (int)nk;
+    m->nverts = (int)nk;
+    free(map);
+    return 0;
+}
+
+/* Normals for the vertices flagged bad: mesh_compute_normals' angle-weighted ones (the file's
+ * stay where they are usable). */
+static int fill_normals(loader *L) {
+    prt_mesh *m = &L->out->mesh;
+    int bad = 0;
+    for (int v = 0; v < m->nverts; v++) bad += L->bad_normal[v];
+    if (!bad) return 0;
+    float *keep = malloc(3 * (size_t)m->nverts * sizeof *keep);
+    if (!keep) return prt_fail(L->err, "%s: out of memory", L->name);
+    memcpy(keep, m->nrm, 3 * (size_t)m->nverts * sizeof *keep);
+    mesh_compute_normals(m);
+    for (int v = 0; v < m->nverts; v++)
+        if (!L->bad_normal[v]) memcpy(m->nrm + 3 * (size_t)v, keep + 3 * (size_t)v, 3 * sizeof *keep);
+    free(keep);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- lights and cameras */
+
+/* One assimp light into prt's (asset.h: candela / 683, colour normalized to its largest channel).
+ * Returns 1 when added, 0 when skipped with a note, -1 on error. */
+static int put_light(loader *L, const struct aiLight *al) {
+    const char *nm = al->mName.data, *file = base_name(L->name);
+    if (al->mType != aiLightSource_POINT && al->mType != aiLightSource_SPOT) {
+        scene_note(L->s, "%s: light '%.60s' skipped: prt's local lights are point and spot lights (%s)", file, nm,
+                   al->mType == aiLightSource_DIRECTIONAL ? "a directional light is the probe's job" : "another kind");
+        return 0;
+    }
+    double G[16];
+    const double I4[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1 };
+    if (!node_find(L->ai->mRootNode, I4, nm, G, 0)) memcpy(G, I4, sizeof G);
+    prt_light l = { .type = al->mType == aiLightSource_SPOT ? PRT_LIGHT_SPOT : PRT_LIGHT_POINT };
+    const float p[3] = { al->mPosition.x, al->mPosition.y, al->mPosition.z }, d[3] = { al->mDirection.x, al->mDirection.y, al->mDirection.z };
+    mat_apply(G, p, 1, l.pos);
+    const float c[3] = { al->mColorDiffuse.r, al->mColorDiffuse.g, al->mColorDiffuse.b };
+    float mx = fmaxf(c[0], fmaxf(c[1], c[2]));
+    l.intensity = (float)(mx / ASSET_LM_PER_W);
+    for (int k = 0; k < 3; k++) l.colour[k] = mx > 0 ? c[k] / mx : 1;
+    if (l.type == PRT_LIGHT_SPOT) {
+        mat_apply(G, d, 0, l.dir);
+        float n = v3_len(l.dir);
+        if (n > 0) v3_scale(l.dir, l.dir, 1 / n);
+        l.inner_deg = (float)(al->mAngleInnerCone * 180 / M_PI);
+        l.outer_deg = (float)(al->mAngleOuterCone * 180 / M_PI);
+    } else l.dir[1] = -1;
+    char what[200];
+    snprintf(what, sizeof what, "%s: light '%.60s'", L->name, nm);
+    return lights_add(&L->out->lights, &l, what, L->err) ? -1 : 1;
+}
+
+/* One assimp camera into a scene camera (asset.h); target on its axis at the model's centre's depth. */
+static int put_camera(loader *L, const struct aiCamera *ac) {
+    const char *nm = ac->mName.data;
+    if (ac->mOrthographicWidth > 0) {
+        scene_note(L->s, "%s: camera '%.60s' skipped: orthographic (prt's cameras are perspective)", base_name(L->name), nm);
+        return 0;
+    }
+    if (L->out->ncameras >= SCENE_MAX_CAMERAS)
+        return prt_fail(L->err, "%s: more than %d cameras", L->name, SCENE_MAX_CAMERAS);
+    double G[16];
+    const double I4[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1 };
+    if (!node_find(L->ai->mRootNode, I4, nm, G, 0)) memcpy(G, I4, sizeof G);
+    scene_camera *sc = &L->out->cameras[L->out->ncameras];
+    memset(sc, 0, sizeof *sc);
+    for (size_t i = 0; nm[i] && i + 1 < sizeof sc->name; i++) sc->name[i] = nm[i] >= 32 && nm[i] < 127 ? nm[i] : '?';
+    const float p[3] = { ac->mPosition.x, ac->mPosition.y, ac->mPosition.z };
+    const float f[3] = { ac->mLookAt.x, ac->mLookAt.y, ac->mLookAt.z }, u[3] = { ac->mUp.x, ac->mUp.y, ac->mUp.z };
+    float fw[3], lo[3], hi[3], ctr[3], to[3];
+    mat_apply(G, p, 1, sc->cam.eye);
+    mat_apply(G, f, 0, fw);
+    mat_apply(G, u, 0, sc->cam.up);
+    float fl = v3_len(fw);
+    double yfov = ac->mAspect > 0 ? ac->mHorizontalFOV / ac->mAspect : ac->mHorizontalFOV;
+    sc->cam.fov_deg = (float)(yfov * 180 / M_PI);
+    if (!(fl > 0) || !isfinite(fl) || !(sc->cam.fov_deg > 0 && sc->cam.fov_deg < 180) || !isfinite(v3_len(sc->cam.eye)))
+        return prt_fail(L->err, "%s: camera '%.60s': degenerate (view axis, field of view %g deg)", L->name, nm, (double)sc->cam.fov_deg);
+    v3_scale(fw, fw, 1 / fl);
+    mesh_bounds(&L->out->mesh, lo, hi);
+    for (int k = 0; k < 3; k++) ctr[k] = 0.5f * (lo[k] + hi[k]);
+    v3_sub(to, ctr, sc->cam.eye);
+    float dist = v3_dot(to, fw);
+    if (!(dist > 1e-6f * (v3_len(to) + 1e-30f))) dist = v3_len(to) > 0 ? v3_len(to) : 1;
+    for (int k = 0; k < 3; k++) sc->cam.target[k] = sc->cam.eye[k] + dist * fw[k];
+    L->out->ncameras++;
+    return 1;
+}
+
+/* ---------------------------------------------------------------- loading */
+
+/* assimp's steps per format: triangles only (points and lines sorted out to be skipped), the
+ * data structure validated; OBJ's per-corner vertices joined; normals made where the file has
+ * none (glTF: flat, its rule; PLY and OBJ: smooth). */
+static unsigned import_flags(asset_format fmt) {
+    unsigned f = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+    if (fmt == FMT_OBJ) f |= aiProcess_JoinIdenticalVertices;
+    return f | (fmt == FMT_GLTF ? aiProcess_GenNormals : aiProcess_GenSmoothNormals);
+}
+
+static asset_format format_of(const char *ext) {
+    return !strcmp(ext, "ply") ? FMT_PLY : !strcmp(ext, "obj") ? FMT_OBJ : FMT_GLTF;
+}
+
+/* The notes a load leaves (skipped primitives, skinned and morphed meshes). */
+static void load_notes(loader *L) {
+    const char *file = base_name(L->name);
+    if (L->skipped_prims)
+        scene_note(L->s, "%s: %d mesh instance(s) of points or lines skipped (prt samples surfaces)", file, L->skipped_prims);
+    if (L->skinned) scene_note(L->s, "%s: %d skinned mesh instance(s) taken at rest (bind pose, bones ignored)", file, L->skinned);
+    if (L->morphed) scene_note(L->s, "%s: %d morphed mesh instance(s) taken at their base shape (morph targets ignored)", file, L->morphed);
+}
+
+/* The aiScene into L->out: meshes, the triangle count check, normals, lights, cameras. */
+static int convert(loader *L, const gltf_info *gi) {
+    const struct aiScene *ai = L->ai;
+    if (!ai->mRootNode) return prt_fail(L->err, "%s: no scene (no root node)", L->name);
+    L->mat_index = malloc((ai->mNumMaterials + 1) * sizeof *L->mat_index);
+    if (!L->mat_index) return prt_fail(L->err, "%s: out of memory", L->name);
+    for (unsigned i = 0; i < ai->mNumMaterials; i++) L->mat_index[i] = -1;
+    if (L->fmt == FMT_GLTF && gi->triangles >= 0) {
+        long long got = 0;
+        for (unsigned i = 0; i < ai->mNumMeshes; i++)
+            if (ai->mMeshes[i]->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) got += ai->mMeshes[i]->mNumFaces;
+        if (got < gi->triangles)
+            return prt_fail(L->err, "%s: %lld of its %lld triangles refer to vertices out of range", L->name, gi->triangles - got,
+                            gi->triangles);
+    }
+    const double I4[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1 };
+    if (walk(L, ai->mRootNode, I4, 0) || drop_unused(L) || fill_normals(L)) return -1;
+    for (unsigned i = 0; i < ai->mNumLights; i++)
+        if (put_light(L, ai->mLights[i]) < 0) return -1;
+    for (unsigned i = 0; i < ai->mNumCameras; i++)
+        if (put_camera(L, ai->mCameras[i]) < 0) return -1;
+    load_notes(L);
+    return 0;
+}
+
+/* Runs convert on an imported scene (NULL: assimp's error) and releases it. */
+static int finish(loader *L, const struct aiScene *ai, const gltf_info *gi) {
+    memset(L->out, 0, sizeof *L->out);
+    if (!ai) {
+        const char *why = aiGetErrorString();
+        return prt_fail(L->err, "%s: %s", L->name, why && *why ? why : "assimp could not read it");
+    }
+    L->ai = ai;
+    int rc = convert(L, gi);
+    if (rc) asset_model_free(L->out);
+    free(L->mat_index);
+    free(L->bad_normal);
+    aiReleaseImport(ai);
+    return rc;
+}
+
+int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_model *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    struct stat sb;
+    if (stat(path, &sb) != 0) return prt_fail(err, "%s: cannot open: %s", path, strerror(errno));
+    if (!S_ISREG(sb.st_mode)) return prt_fail(err, "%s: not a regular file", path);
+    if (sb.st_size == 0) return prt_fail(err, "%s: empty file", path);
+    char ext[16];
+    prt_path_ext(path, ext);
+    loader L = { .name = path, .fmt = format_of(ext), .desc = desc, .s = s, .out = out, .err = err };
+    gltf_info gi = { -1 };
+    if (L.fmt == FMT_GLTF) gltf_inspect_file(path, s, &gi);
+    return finish(&L, aiImportFile(path, import_flags(L.fmt)), &gi);
+}
+
+int asset_load_memory(const char *name, const char *hint, const void *buf, size_t len, const asset_desc *desc,
+                      prt_scene *s, asset_model *out, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    if (len == 0) return prt_fail(err, "%s: empty file", name);
+    if (len > UINT32_MAX) return prt_fail(err, "%s: too large", name);
+    loader L = { .name = name, .fmt = format_of(hint), .desc = desc, .s = s, .out = out, .err = err };
+    gltf_info gi = { -1 };
+    size_t jl = 0;
+    const char *js = L.fmt == FMT_GLTF ? gltf_json(buf, len, &jl) : NULL;
+    if (js) gltf_inspect(name, js, jl, s, &gi);
+    return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
+}
