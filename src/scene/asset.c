@@ -520,7 +520,10 @@ static int put_camera(loader *L, const struct aiCamera *ac) {
     scene_camera *sc = &L->out->cameras[L->out->ncameras];
     memset(sc, 0, sizeof *sc);
     for (size_t i = 0; nm[i] && i + 1 < sizeof sc->name; i++) sc->name[i] = nm[i] >= 32 && nm[i] < 127 ? nm[i] : '?';
-    const float p[3] = { ac->mPosition.x, ac->mPosition.y, ac->mPosition.z };
+    /* A glTF camera sits at its node's origin; assimp 5.2 also copies the node's translation into
+     * mPosition, which the node transform then applies a second time. */
+    const float p[3] = { L->fmt == FMT_GLTF ? 0 : ac->mPosition.x, L->fmt == FMT_GLTF ? 0 : ac->mPosition.y,
+                         L->fmt == FMT_GLTF ? 0 : ac->mPosition.z };
     const float f[3] = { ac->mLookAt.x, ac->mLookAt.y, ac->mLookAt.z }, u[3] = { ac->mUp.x, ac->mUp.y, ac->mUp.z };
     float fw[3], lo[3], hi[3], ctr[3], to[3];
     mat_apply(G, p, 1, sc->cam.eye);

@@ -126,6 +126,26 @@ void scene_note(prt_scene *s, const char *fmt, ...) {
         snprintf(s->notes + at, sizeof s->notes - at, "...\n");
 }
 
+/* Whether the MTL library named on line `line` of the OBJ at path (relative to its folder) can be
+ * read; its path into lib[cap]. */
+static bool obj_mtllib(const char *path, int line, char *lib, size_t cap) {
+    FILE *f = fopen(path, "rb");
+    char buf[4096] = "";
+    for (int i = 0; f && i < line && fgets(buf, sizeof buf, f); i++) {}
+    if (f) fclose(f);
+    char *name = strstr(buf, "mtllib");
+    name = name ? name + 6 : buf + strlen(buf);
+    name += strspn(name, " \t");
+    name[strcspn(name, "\r\n#")] = 0;
+    for (size_t n = strlen(name); n > 0 && (name[n - 1] == ' ' || name[n - 1] == '\t'); n--) name[n - 1] = 0;
+    const char *slash = strrchr(path, '/');
+    if (name[0] == '/' || !slash) snprintf(lib, cap, "%s", name);
+    else snprintf(lib, cap, "%.*s/%s", (int)(slash - path), path, name);
+    FILE *m = *name ? fopen(lib, "rb") : NULL;
+    if (m) fclose(m);
+    return m != NULL;
+}
+
 /* Reads a model file into am: an OBJ through mesh.c unless it names an MTL library, a glTF, PLY
  * or OBJ + MTL through asset.h (its materials, lights and cameras; ad says which material wins).
  * Returns 1 when am's vertices carry scene materials, 0 when the caller assigns one, -1 with err. */
@@ -136,6 +156,12 @@ static int model_file(const char *path, const asset_desc *ad, prt_scene *s, asse
     if (!strcmp(ext, "obj")) {
         if (mesh_load_obj(path, &am->stats, &am->mesh, err)) return -1;
         if (!am->stats.mtllib_line) return 0;
+        char lib[4096];
+        if (!obj_mtllib(path, am->stats.mtllib_line, lib, sizeof lib)) {
+            scene_note(s, "%s:%d: its MTL library %s cannot be read: the model takes --material or the default", path,
+                       am->stats.mtllib_line, lib);
+            return 0;
+        }
         asset_model_free(am);   /* it names materials: the asset path reads them */
     } else if (!asset_handles(path))
         return prt_fail(err, "%s: unknown model format '%s' (expected .obj, .gltf, .glb or .ply)", path,
