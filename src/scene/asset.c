@@ -94,6 +94,41 @@ static long long prim_triangles(const cJSON *prim, const cJSON *accessors) {
     return md == 4 ? n / 3 : n >= 3 ? n - 2 : 0;
 }
 
+/* Marks in used[] the meshes of node ni and its descendants (visited[] stops a cycle, and walk's
+ * depth limit a chain). */
+static void mark_meshes(const cJSON *nodes, int ni, unsigned char *used, int nmesh, unsigned char *visited, int nnode, int depth) {
+    if (ni < 0 || ni >= nnode || visited[ni] || depth > 256) return;
+    visited[ni] = 1;
+    const cJSON *node = cJSON_GetArrayItem(nodes, ni), *mesh = cJSON_GetObjectItemCaseSensitive(node, "mesh"), *c;
+    if (cJSON_IsNumber(mesh) && mesh->valueint >= 0 && mesh->valueint < nmesh) used[mesh->valueint] = 1;
+    cJSON_ArrayForEach(c, cJSON_GetObjectItemCaseSensitive(node, "children"))
+        if (cJSON_IsNumber(c)) mark_meshes(nodes, c->valueint, used, nmesh, visited, nnode, depth + 1);
+}
+
+/* Triangles of the meshes the default scene's nodes use, each mesh once (assimp imports those
+ * meshes, once each, one aiMesh per primitive); -1 when the document has no such scene. */
+static long long scene_triangles(const cJSON *root) {
+    const cJSON *scenes = cJSON_GetObjectItemCaseSensitive(root, "scenes"), *si = cJSON_GetObjectItemCaseSensitive(root, "scene");
+    const cJSON *sc = cJSON_GetArrayItem(scenes, cJSON_IsNumber(si) ? si->valueint : 0), *e, *p;
+    const cJSON *nodes = cJSON_GetObjectItemCaseSensitive(root, "nodes"), *meshes = cJSON_GetObjectItemCaseSensitive(root, "meshes");
+    const cJSON *acc = cJSON_GetObjectItemCaseSensitive(root, "accessors");
+    int nmesh = cJSON_GetArraySize(meshes), nnode = cJSON_GetArraySize(nodes);
+    if (!sc) return -1;
+    unsigned char *used = calloc((size_t)nmesh + 1, 1), *visited = calloc((size_t)nnode + 1, 1);
+    long long tri = -1;
+    if (used && visited) {
+        cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(sc, "nodes"))
+            if (cJSON_IsNumber(e)) mark_meshes(nodes, e->valueint, used, nmesh, visited, nnode, 0);
+        tri = 0;
+        for (int m = 0; m < nmesh; m++)
+            if (used[m]) cJSON_ArrayForEach(p, cJSON_GetObjectItemCaseSensitive(cJSON_GetArrayItem(meshes, m), "primitives"))
+                tri += prim_triangles(p, acc);
+    }
+    free(used);
+    free(visited);
+    return tri;
+}
+
 /* Why prt ignores a glTF extension that changes the lobe ("" for one it takes or that needs no word). */
 static const char *extension_note(const char *ext) {
     static const char *const k[][2] = {
@@ -127,11 +162,7 @@ static void gltf_inspect(const char *name, const char *text, size_t len, prt_sce
         const char *why = cJSON_IsString(e) ? extension_note(e->valuestring) : "";
         if (*why) scene_note(s, "%s: %.60s ignored: %s", base_name(name), e->valuestring, why);
     }
-    const cJSON *acc = cJSON_GetObjectItemCaseSensitive(root, "accessors"), *m, *p;
-    long long tri = 0;
-    cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "meshes"))
-        cJSON_ArrayForEach(p, cJSON_GetObjectItemCaseSensitive(m, "primitives")) tri += prim_triangles(p, acc);
-    gi->triangles = tri;
+    gi->triangles = scene_triangles(root);
     cJSON_Delete(root);
 }
 
