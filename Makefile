@@ -225,8 +225,9 @@ ifeq ($(FUZZ),1)
 # Linked by clang++ (libFuzzer and UBSan's C++ runtimes); clang 14's half-float conversions
 # (transfer_vmf.c) are in compiler-rt's builtins, not libgcc. tests/fuzz/absent.o, linked before
 # the library, stands in for the libraries no harness calls (OpenImageIO, OSMesa, EGL, GLFW,
-# Embree, LAPACKE, OpenBLAS, OpenMPI): the binaries need only FUZZ_LDLIBS (tools/fuzz_pack.sh).
-FUZZ_LDLIBS := -lcjson -lz -lm -lpthread
+# Embree, LAPACKE, OpenBLAS, OpenMPI): the binaries need only FUZZ_LDLIBS (tools/fuzz_pack.sh; assimp, not
+# instrumented, for the asset harnesses' readers).
+FUZZ_LDLIBS := -lcjson -lz -lm -lpthread $(ASSIMP_LIBS)
 build/fuzz/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/absent.o $(BUILD)/libprt.a $(FUZZ_CLI_OBJ)
 	@mkdir -p $(dir $@)
 	$(CXX) -fsanitize=fuzzer,address,undefined $< $(BUILD)/obj/tests/fuzz/absent.o $(FUZZ_CLI_OBJ) $(BUILD)/libprt.a \

@@ -30,6 +30,10 @@ typedef enum asset_format { FMT_GLTF, FMT_PLY, FMT_OBJ } asset_format;
 /* What the glTF's JSON says beside assimp: its triangle count (-1: not counted). */
 typedef struct gltf_info {
     long long triangles;
+    char external[128];   /* the first buffer or image URI that names a file ("": none) */
+    char invalid[256];    /* the first problem gltf_validate found ("": none): refused before assimp */
+    long long bin_len;    /* a .glb's BIN chunk length (-1: none) */
+    const char *path;     /* the file (its folder anchors external URIs), NULL in memory */
 } gltf_info;
 
 /* One load: the file's name for errors, its format, the caller's choices and the outputs. */
@@ -68,16 +72,32 @@ static const char *base_name(const char *p) {
 /* ---------------------------------------------------------------- the glTF's JSON */
 
 /* The JSON text of a glTF held in buf[len]: all of a .gltf, the first chunk of a .glb (its
- * 12-byte header, then chunk length, type "JSON", bytes). NULL when the bytes are no glTF. */
-static const char *gltf_json(const unsigned char *buf, size_t len, size_t *jlen) {
-    if (len >= 20 && !memcmp(buf, "glTF", 4)) {
-        uint32_t cl = (uint32_t)buf[12] | (uint32_t)buf[13] << 8 | (uint32_t)buf[14] << 16 | (uint32_t)buf[15] << 24;
-        if (memcmp(buf + 16, "JSON", 4) || cl > len - 20) return NULL;
-        *jlen = cl;
-        return (const char *)buf + 20;
-    }
+ * 12-byte header "glTF", version 2, total length; then chunk length, type "JSON", bytes; then
+ * optionally a "BIN" chunk, its length into gi->bin_len). A .glb whose lengths disagree with len
+ * is invalid (gi->invalid; assimp would allocate what a forged length says). */
+static const char *gltf_json(const unsigned char *buf, size_t len, size_t *jlen, gltf_info *gi) {
+    gi->bin_len = -1;
     *jlen = len;
-    return (const char *)buf;
+    if (len < 4 || memcmp(buf, "glTF", 4)) return (const char *)buf;
+    uint32_t h[5] = { 0 };
+    for (int i = 0; i < 5 && 4 * (size_t)i + 4 <= len; i++)
+        h[i] = (uint32_t)buf[4 * i] | (uint32_t)buf[4 * i + 1] << 8 | (uint32_t)buf[4 * i + 2] << 16 | (uint32_t)buf[4 * i + 3] << 24;
+    if (len < 20 || h[1] != 2 || h[2] != len || memcmp(buf + 16, "JSON", 4) || h[3] > len - 20) {
+        snprintf(gi->invalid, sizeof gi->invalid, "not a valid glTF 2.0 binary header (version %u, length %u of %zu bytes, "
+                 "JSON chunk %u bytes)", h[1], h[2], len, h[3]);
+        return NULL;
+    }
+    size_t at = 20 + (size_t)h[3];
+    if (len - at >= 8) {
+        uint32_t bl = (uint32_t)buf[at] | (uint32_t)buf[at + 1] << 8 | (uint32_t)buf[at + 2] << 16 | (uint32_t)buf[at + 3] << 24;
+        if (bl > len - at - 8) {
+            snprintf(gi->invalid, sizeof gi->invalid, "its BIN chunk says %u bytes, %zu follow", bl, len - at - 8);
+            return NULL;
+        }
+        if (!memcmp(buf + at + 4, "BIN", 4)) gi->bin_len = bl;
+    }
+    *jlen = h[3];
+    return (const char *)buf + 20;
 }
 
 /* Triangles one primitive's accessors hold: indices (or POSITION) count by mode (4: n/3; 5, 6
@@ -92,6 +112,88 @@ static long long prim_triangles(const cJSON *prim, const cJSON *accessors) {
     const cJSON *cnt = cJSON_GetObjectItemCaseSensitive(acc, "count");
     long long n = cJSON_IsNumber(cnt) && cnt->valuedouble >= 0 && cnt->valuedouble < 1e15 ? (long long)cnt->valuedouble : 0;
     return md == 4 ? n / 3 : n >= 3 ? n - 2 : 0;
+}
+
+/* A non-negative integer member below 2^50, or def when absent; -1 when present but not one. */
+static long long jint(const cJSON *o, const char *key, long long def) {
+    const cJSON *it = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (!it) return def;
+    double d = cJSON_IsNumber(it) ? it->valuedouble : -1;
+    return d >= 0 && d < 1125899906842624.0 && d == floor(d) ? (long long)d : -1;
+}
+
+/* Bytes buffer b can hold: the .glb's BIN chunk (no uri), a data URI's decoded payload, a file's size
+ * (file mode; -1 when it cannot be read: assimp names the missing file). */
+static long long buffer_bytes(const cJSON *b, const gltf_info *gi) {
+    const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
+    if (!cJSON_IsString(uri)) return gi->bin_len;
+    const char *u = uri->valuestring, *comma = strchr(u, ',');
+    if (!strncmp(u, "data:", 5)) return comma ? (long long)(strlen(comma + 1) / 4 * 3) : 0;
+    if (!gi->path) return -1;
+    char full[4096];
+    const char *slash = strrchr(gi->path, '/');
+    snprintf(full, sizeof full, "%.*s%s%s", slash ? (int)(slash - gi->path) : 0, gi->path, slash ? "/" : "", u);
+    struct stat sb;
+    return stat(full, &sb) == 0 && S_ISREG(sb.st_mode) ? (long long)sb.st_size : -1;
+}
+
+/* Element bytes of an accessor (component size x components), 0 when its types are unknown. */
+static long long element_bytes(const cJSON *a) {
+    static const struct { const char *t; int n; } k[] = { { "SCALAR", 1 }, { "VEC2", 2 }, { "VEC3", 3 }, { "VEC4", 4 },
+                                                         { "MAT2", 4 }, { "MAT3", 9 }, { "MAT4", 16 } };
+    long long ct = jint(a, "componentType", 0), cs = ct == 5120 || ct == 5121 ? 1 : ct == 5122 || ct == 5123 ? 2 : ct == 5125 || ct == 5126 ? 4 : 0;
+    const cJSON *ty = cJSON_GetObjectItemCaseSensitive(a, "type");
+    for (size_t i = 0; cJSON_IsString(ty) && i < sizeof k / sizeof k[0]; i++)
+        if (!strcmp(ty->valuestring, k[i].t)) return cs * k[i].n;
+    return 0;
+}
+
+/* Whether `count` elements of `elem` bytes at byte offset `off` with stride `stride` (0: packed) fit
+ * in buffer view vi; its length into *vlen. */
+static bool view_fits(const cJSON *views, long long vi, long long off, long long count, long long elem, long long stride) {
+    const cJSON *v = vi >= 0 ? cJSON_GetArrayItem(views, (int)vi) : NULL;
+    long long len = jint(v, "byteLength", -1), st = stride > 0 ? stride : elem;
+    return v && len >= 0 && off >= 0 && count >= 0 && (count == 0 || off + st * (count - 1) + elem <= len);
+}
+
+/* The checks assimp 5.2 leaves out and then reads or allocates past (a forged byteLength, count or
+ * offset): every buffer within its data, every view within its buffer, every accessor (and sparse
+ * part) within its view. The first problem goes into gi->invalid. */
+static void gltf_validate(const cJSON *root, gltf_info *gi) {
+    const cJSON *bufs = cJSON_GetObjectItemCaseSensitive(root, "buffers"), *views = cJSON_GetObjectItemCaseSensitive(root, "bufferViews"), *e;
+    char *why = gi->invalid;
+    const size_t cap = sizeof gi->invalid;
+    int i = 0;
+    cJSON_ArrayForEach(e, bufs) {
+        long long bl = jint(e, "byteLength", -1), have = buffer_bytes(e, gi);
+        if (!*why && (bl < 0 || (have >= 0 && bl > have) || (have < 0 && !cJSON_GetObjectItemCaseSensitive(e, "uri"))))
+            snprintf(why, cap, "buffer %d: byteLength %lld, but its data holds %lld bytes", i, bl, have);
+        i++;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, views) {
+        long long b = jint(e, "buffer", -1), off = jint(e, "byteOffset", 0), len = jint(e, "byteLength", -1), st = jint(e, "byteStride", 0);
+        const cJSON *buf = b >= 0 ? cJSON_GetArrayItem(bufs, (int)b) : NULL;
+        if (!*why && (!buf || off < 0 || len < 0 || off + len > jint(buf, "byteLength", -1) || (st && (st < 4 || st > 252))))
+            snprintf(why, cap, "bufferView %d: bytes %lld..%lld outside buffer %lld (or a bad stride)", i, off, off + len, b);
+        i++;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, "accessors")) {
+        long long n = jint(e, "count", -1), el = element_bytes(e), vi = jint(e, "bufferView", -2);
+        const cJSON *sp = cJSON_GetObjectItemCaseSensitive(e, "sparse");
+        const cJSON *sv = vi >= 0 ? cJSON_GetArrayItem(views, (int)vi) : NULL;
+        bool ok = n >= 1 && n <= ASSET_MAX_ELEMS && el > 0 &&
+                  (vi == -2 ? n <= (1 << 24) : view_fits(views, vi, jint(e, "byteOffset", 0), n, el, jint(sv, "byteStride", 0)));
+        if (ok && sp) {
+            const cJSON *si = cJSON_GetObjectItemCaseSensitive(sp, "indices"), *sv2 = cJSON_GetObjectItemCaseSensitive(sp, "values");
+            long long sn = jint(sp, "count", -1), ict = jint(si, "componentType", 0), isz = ict == 5121 ? 1 : ict == 5123 ? 2 : ict == 5125 ? 4 : 0;
+            ok = sn >= 1 && sn <= n && isz > 0 && view_fits(views, jint(si, "bufferView", -1), jint(si, "byteOffset", 0), sn, isz, 0) &&
+                 view_fits(views, jint(sv2, "bufferView", -1), jint(sv2, "byteOffset", 0), sn, el, 0);
+        }
+        if (!*why && !ok) snprintf(why, cap, "accessor %d: %lld elements of %lld bytes do not fit its data", i, n, el);
+        i++;
+    }
 }
 
 /* Marks in used[] the meshes of node ni and its descendants (visited[] stops a cycle, and walk's
@@ -163,30 +265,158 @@ static void gltf_inspect(const char *name, const char *text, size_t len, prt_sce
         if (*why) scene_note(s, "%s: %.60s ignored: %s", base_name(name), e->valuestring, why);
     }
     gi->triangles = scene_triangles(root);
+    gltf_validate(root, gi);
+    const char *const arrays[2] = { "buffers", "images" };
+    for (int a = 0; a < 2; a++)
+        cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, arrays[a])) {
+            const cJSON *uri = cJSON_GetObjectItemCaseSensitive(e, "uri");
+            if (cJSON_IsString(uri) && strncmp(uri->valuestring, "data:", 5) && !gi->external[0])
+                snprintf(gi->external, sizeof gi->external, "%.100s", uri->valuestring);
+        }
     cJSON_Delete(root);
 }
 
-/* Reads the JSON part of the glTF file at path and inspects it (see gltf_inspect). */
-static void gltf_inspect_file(const char *path, prt_scene *s, gltf_info *gi) {
+/* Reads the glTF file at path (size bytes) and inspects it (see gltf_inspect, gltf_json). */
+static void gltf_inspect_file(const char *path, size_t size, prt_scene *s, gltf_info *gi) {
     gi->triangles = -1;
+    gi->path = path;
     FILE *f = fopen(path, "rb");
-    if (!f) return;
-    unsigned char head[20];
-    size_t n = fread(head, 1, sizeof head, f), want = 0;
-    if (n == 20 && !memcmp(head, "glTF", 4))
-        want = 20 + ((size_t)head[12] | (size_t)head[13] << 8 | (size_t)head[14] << 16 | (size_t)head[15] << 24);
-    else if (!fseek(f, 0, SEEK_END)) {
-        long sz = ftell(f);
-        want = sz > 0 ? (size_t)sz : 0;
-    }
-    unsigned char *buf = want > 0 && want <= ASSET_MAX_JSON + 20 ? malloc(want) : NULL;
-    if (buf && !fseek(f, 0, SEEK_SET) && fread(buf, 1, want, f) == want) {
+    unsigned char *buf = f ? malloc(size) : NULL;
+    if (buf && fread(buf, 1, size, f) == size) {
         size_t jl = 0;
-        const char *js = gltf_json(buf, want, &jl);
+        const char *js = gltf_json(buf, size, &jl, gi);
         if (js) gltf_inspect(path, js, jl, s, gi);
     }
     free(buf);
-    fclose(f);
+    if (f) fclose(f);
+}
+
+/* ---------------------------------------------------------------- OBJ */
+
+/* The keyword of the line at p (end e): its first blank-separated word, skipping leading blanks. */
+static size_t obj_keyword(const char **p, const char *e) {
+    while (*p < e && (**p == ' ' || **p == '\t')) (*p)++;
+    const char *k = *p;
+    while (*p < e && **p != ' ' && **p != '\t') (*p)++;
+    return (size_t)(*p - k);
+}
+
+/* Whether every index of a face, line or point statement (p..e: "1/2/3 -1//2 ...") names a v, vt or
+ * vn that exists: 1..total, or -1..-(those read so far) (seen). */
+static bool obj_indices_ok(const char *p, const char *e, const long long total[3], const long long seen[3]) {
+    while (p < e) {
+        while (p < e && (*p == ' ' || *p == '\t' || *p == '\r' || *p == '\\')) p++;
+        for (int part = 0; p < e && *p != ' ' && *p != '\t' && *p != '\r'; part++) {
+            if (part > 2) return false;
+            char *end;
+            errno = 0;
+            long long ix = *p == '/' ? 0 : strtoll(p, &end, 10);
+            if (*p != '/') {
+                if (end == p || end > e || errno || ix == 0 || ix > total[part] || (ix < 0 && -ix > seen[part])) return false;
+                p = end;
+            }
+            if (p < e && *p == '/') p++;
+            else if (p < e && *p != ' ' && *p != '\t' && *p != '\r') return false;
+        }
+    }
+    return true;
+}
+
+/* Whether p..e holds between lo and hi numbers (strtod's syntax) and nothing else. */
+static bool obj_numbers_ok(const char *p, const char *e, int lo, int hi) {
+    int n = 0;
+    while (p < e) {
+        while (p < e && (*p == ' ' || *p == '\t' || *p == '\r')) p++;
+        if (p >= e) break;
+        char *end;
+        strtod(p, &end);
+        if (end == p || end > e || (end < e && *end != ' ' && *end != '\t' && *end != '\r')) return false;
+        p = end;
+        n++;
+    }
+    return n >= lo && n <= hi;
+}
+
+/* The statements the assimp path takes and how many numbers each vertex statement has: v 3-7
+ * (with a colour), vt 1-3, vn 3, vp 1-3; face, line and point statements, o, g, s, usemtl, mtllib
+ * and comments. Returns the kind (0 v, 1 vt, 2 vn, 3 vp, 4 f/l/p, 5 other known, 6 blank), -1 refused. */
+static int obj_statement(const char *k, size_t kn, const char *p, const char *e) {
+    static const char *const names[] = { "v", "vt", "vn", "vp" };
+    static const int lo[] = { 3, 1, 3, 1 }, hi[] = { 7, 3, 3, 3 };
+    if (kn == 0 || k[0] == '#') return 6;
+    for (int i = 0; i < 4; i++)
+        if (strlen(names[i]) == kn && !memcmp(k, names[i], kn)) return obj_numbers_ok(p, e, lo[i], hi[i]) ? i : -1;
+    if (kn == 1 && (k[0] == 'f' || k[0] == 'l' || k[0] == 'p')) return 4;
+    static const char *const other[] = { "o", "g", "s", "usemtl", "mtllib" };
+    for (int i = 0; i < 5; i++)
+        if (strlen(other[i]) == kn && !memcmp(k, other[i], kn)) return 5;
+    return -1;
+}
+
+/* assimp 5.2's OBJ reader follows vt and vn indices without checking them (a read out of bounds) and
+ * takes material statements (map_Ke) outside a material (a null dereference): every statement and
+ * index of text[len] is checked first against what the assimp path takes. 0, or -1 with one line
+ * naming the line. */
+static int obj_check_text(const char *name, const char *text, size_t len, prt_error *err) {
+    long long total[3] = { 0, 0, 0 }, seen[3] = { 0, 0, 0 };
+    for (int pass = 0; pass < 2; pass++) {
+        int line = 0;
+        for (const char *p = text, *end = text + len; p < end; line++) {
+            const char *nl = p;   /* a line ends at LF or CR (assimp's reader splits at either) */
+            while (nl < end && *nl != '\n' && *nl != '\r') {
+                if ((unsigned char)*nl < 32 && *nl != '\t')   /* a NUL or control byte: assimp's reader ends a line there too */
+                    return prt_fail(err, "%s:%d: a control byte (0x%02x) in the text", name, line + 1, (unsigned char)*nl);
+                nl++;
+            }
+            const char *e = nl;
+            if (nl + 1 < end && nl[0] == '\r' && nl[1] == '\n') nl++;   /* CRLF: one line end */
+            nl = nl < end ? nl : NULL;
+            const char *hash = memchr(p, '#', (size_t)(e - p));
+            size_t kn = obj_keyword(&p, hash ? hash : e);
+            const char *k = p - kn;
+            int which = obj_statement(k, kn, p, hash ? hash : e);
+            if (which < 0) {
+                char kw[24];
+                size_t n = kn < sizeof kw - 1 ? kn : sizeof kw - 1;
+                for (size_t i = 0; i < n; i++) kw[i] = k[i] > 32 && k[i] < 127 ? k[i] : '?';
+                kw[n] = 0;
+                return prt_fail(err, "%s:%d: a statement the OBJ + MTL reader does not take ('%s', or its numbers)", name,
+                                line + 1, kw);
+            }
+            if (which < 3) (pass ? seen : total)[which]++;
+            bool ref = which == 4;
+            if (pass && ref && !obj_indices_ok(p, hash ? hash : e, total, seen))
+                return prt_fail(err, "%s:%d: an index out of range (the file has %lld v, %lld vt, %lld vn)", name, line + 1,
+                                total[0], total[1], total[2]);
+            p = nl ? nl + 1 : end;
+        }
+    }
+    return 0;
+}
+
+/* obj_check_text on a NUL-terminated copy of text[len] (strtod reads up to a terminator). */
+static int obj_check(const char *name, const char *text, size_t len, prt_error *err) {
+    char *copy = malloc(len + 1);
+    if (!copy) return prt_fail(err, "%s: out of memory", name);
+    memcpy(copy, text, len);
+    copy[len] = 0;
+    int rc = obj_check_text(name, copy, len, err);
+    free(copy);
+    return rc;
+}
+
+static int obj_check_file(const char *path, prt_error *err) {
+    size_t n = 0;
+    FILE *f = fopen(path, "rb");
+    char *buf = NULL;
+    long sz = f && !fseek(f, 0, SEEK_END) ? ftell(f) : -1;
+    if (sz >= 0 && !fseek(f, 0, SEEK_SET) && (buf = malloc((size_t)sz + 1))) n = fread(buf, 1, (size_t)sz, f);
+    if (f) fclose(f);
+    if (!buf) return prt_fail(err, "%s: cannot read", path);
+    buf[n] = 0;
+    int rc = obj_check_text(path, buf, n, err);
+    free(buf);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- transforms */
@@ -650,8 +880,10 @@ int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_mod
     char ext[16];
     prt_path_ext(path, ext);
     loader L = { .name = path, .fmt = format_of(ext), .desc = desc, .s = s, .out = out, .err = err };
-    gltf_info gi = { -1 };
-    if (L.fmt == FMT_GLTF) gltf_inspect_file(path, s, &gi);
+    gltf_info gi = { .triangles = -1 };
+    if (L.fmt == FMT_GLTF) gltf_inspect_file(path, (size_t)sb.st_size, s, &gi);
+    if (gi.invalid[0]) return prt_fail(err, "%s: %s", path, gi.invalid);
+    if (L.fmt == FMT_OBJ && obj_check_file(path, err)) return -1;
     return finish(&L, aiImportFile(path, import_flags(L.fmt)), &gi);
 }
 
@@ -661,9 +893,13 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
     if (len == 0) return prt_fail(err, "%s: empty file", name);
     if (len > UINT32_MAX) return prt_fail(err, "%s: too large", name);
     loader L = { .name = name, .fmt = format_of(hint), .desc = desc, .s = s, .out = out, .err = err };
-    gltf_info gi = { -1 };
+    gltf_info gi = { .triangles = -1 };
     size_t jl = 0;
-    const char *js = L.fmt == FMT_GLTF ? gltf_json(buf, len, &jl) : NULL;
+    const char *js = L.fmt == FMT_GLTF ? gltf_json(buf, len, &jl, &gi) : NULL;
     if (js) gltf_inspect(name, js, jl, s, &gi);
+    if (gi.external[0])
+        return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
+    if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
+    if (L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }

@@ -69,6 +69,7 @@ typedef struct asset_desc {
     const char *material;      /* replaces every material of the file (NULL: the file's) */
     const char *material_from; /* where that came from, for the plan ("--material") */
     const char *fallback;      /* for faces the file gives no material (NULL: "lambert:kd=0.8") */
+    bool no_texture_pixels;    /* textures are named but not decoded (the fuzz harnesses) */
 } asset_desc;
 
 typedef struct asset_model {
@@ -88,7 +89,8 @@ bool asset_handles(const char *path);
 int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_model *out, prt_error *err);
 
 /* asset_load on bytes in memory (the fuzz harnesses' path): hint is the format's extension
- * ("glb", "gltf", "ply", "obj"); files the bytes name (a .bin, an .mtl) cannot be opened. */
+ * ("glb", "gltf", "ply", "obj"); a glTF naming another file (a buffer or image URI that is not a
+ * data: URI) is refused, since bytes in memory have no folder to find it in. */
 int asset_load_memory(const char *name, const char *hint, const void *buf, size_t len, const asset_desc *desc,
                       prt_scene *s, asset_model *out, prt_error *err);
 
