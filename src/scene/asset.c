@@ -7,6 +7,7 @@
  * triangles its accessors hold (assimp drops a triangle with an index out of range with only a
  * log line; prt refuses the file instead, the count telling). */
 #include "asset.h"
+#include "image.h"
 #include "vec3.h"
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
@@ -46,6 +47,9 @@ typedef struct loader {
     prt_error *err;
     const struct aiScene *ai;
     int *mat_index;             /* [mNumMaterials]: the scene material of each, -1 not made yet */
+    unsigned *mat_uv;           /* [mNumMaterials]: the UV channel its texture reads */
+    bool textured;              /* some material has a texture: the mesh keeps its UVs */
+    bool from_memory;           /* asset_load_memory: no folder to open files in */
     size_t cap_v, cap_t;        /* capacity of out->mesh's arrays */
     bool need_normals;          /* some vertex had no usable normal: computed for those */
     unsigned char *bad_normal;  /* [cap_v]: 1 where the normal is computed */
@@ -529,6 +533,78 @@ static bool is_default_material(const struct aiMaterial *m, const char *mname, a
     return fmt == FMT_PLY || (fmt == FMT_OBJ && !strcmp(mname, "DefaultMaterial"));
 }
 
+/* An embedded texture (a .glb's or data URI's image: compressed bytes, or raw BGRA texels) into t. */
+static int embedded_texture(loader *L, const struct aiTexture *at, const char *name, scene_texture *t) {
+    prt_error e2;
+    if (at->mHeight == 0) {   /* a PNG or JPEG file's bytes: OpenImageIO decodes them */
+        char mem[200];
+        snprintf(mem, sizeof mem, "%.128s.%.8s", name, at->achFormatHint[0] ? at->achFormatHint : "png");
+        prt_image im;
+        if (image_read_memory(mem, at->pcData, at->mWidth, &im, &e2))
+            return prt_fail(L->err, "%s: texture '%s': %s", L->name, name, e2.msg);
+        int rc = texture_from_image(t, name, &im, &e2);
+        image_free(&im);
+        return rc ? prt_fail(L->err, "%s: %s", L->name, e2.msg) : 0;
+    }
+    if (at->mWidth > TEXTURE_MAX_SIDE || at->mHeight > TEXTURE_MAX_SIDE)
+        return prt_fail(L->err, "%s: texture '%s': %ux%u too large", L->name, name, at->mWidth, at->mHeight);
+    size_t n = (size_t)at->mWidth * at->mHeight;
+    uint8_t *b = malloc(3 * n);
+    if (!b) return prt_fail(L->err, "%s: out of memory", L->name);
+    for (size_t i = 0; i < n; i++) b[3 * i] = at->pcData[i].r, b[3 * i + 1] = at->pcData[i].g, b[3 * i + 2] = at->pcData[i].b;
+    int rc = texture_from_srgb(t, name, (int)at->mWidth, (int)at->mHeight, b, &e2);
+    free(b);
+    return rc ? prt_fail(L->err, "%s: %s", L->name, e2.msg) : 0;
+}
+
+/* An external texture file (relative to the model's folder) into t. */
+static int file_texture(loader *L, const char *ref, scene_texture *t) {
+    if (L->from_memory) return prt_fail(L->err, "%s: names the texture file '%.100s' (bytes in memory have no folder)", L->name, ref);
+    char full[4096];
+    const char *slash = strrchr(L->name, '/');
+    if (ref[0] == '/' || !slash) snprintf(full, sizeof full, "%s", ref);
+    else snprintf(full, sizeof full, "%.*s/%s", (int)(slash - L->name), L->name, ref);
+    prt_image im;
+    prt_error e2;
+    if (image_read(full, &im, &e2)) return prt_fail(L->err, "%s: texture: %s", L->name, e2.msg);
+    int rc = texture_from_image(t, ref, &im, &e2);
+    image_free(&im);
+    return rc ? prt_fail(L->err, "%s: %s", L->name, e2.msg) : 0;
+}
+
+/* The base-colour (glTF) or map_Kd (MTL) texture of material m in the scene, made once per
+ * reference; its UV channel into *uvch. Returns its index, -1 when m has none, -2 with L->err. */
+static int texture_of(loader *L, const struct aiMaterial *m, unsigned *uvch) {
+    struct aiString path = { 0 };
+    unsigned uvi = 0;
+    if (aiGetMaterialTexture(m, aiTextureType_BASE_COLOR, 0, &path, NULL, &uvi, NULL, NULL, NULL, NULL) != aiReturn_SUCCESS &&
+        aiGetMaterialTexture(m, aiTextureType_DIFFUSE, 0, &path, NULL, &uvi, NULL, NULL, NULL, NULL) != aiReturn_SUCCESS)
+        return -1;
+    if (!path.data[0]) return -1;
+    *uvch = uvi;
+    prt_scene *s = L->s;
+    char name[128];
+    long emb = -1;
+    if (path.data[0] == '*') {
+        char *end;
+        emb = strtol(path.data + 1, &end, 10);
+        if (*end || emb < 0 || emb >= (long)L->ai->mNumTextures)
+            return prt_fail(L->err, "%s: a material names embedded texture '%.20s' of %u", L->name, path.data, L->ai->mNumTextures), -2;
+        snprintf(name, sizeof name, "%.100s image %ld", base_name(L->name), emb);
+    } else snprintf(name, sizeof name, "%.127s", path.data);
+    for (int t = 0; t < s->ntextures; t++)
+        if (!strcmp(s->textures[t].name, name)) return t;
+    if (s->ntextures >= SCENE_MAX_TEXTURES) return prt_fail(L->err, "%s: more than %d textures", L->name, SCENE_MAX_TEXTURES), -2;
+    scene_texture *t = &s->textures[s->ntextures];
+    static const uint8_t white[3] = { 255, 255, 255 };
+    prt_error e2;
+    int rc = L->desc && L->desc->no_texture_pixels ? (texture_from_srgb(t, name, 1, 1, white, &e2) ? prt_fail(L->err, "%s", e2.msg) : 0)
+             : emb >= 0 ? embedded_texture(L, L->ai->mTextures[emb], name, t) : file_texture(L, path.data, t);
+    if (rc) return -2;
+    if (emb < 0) snprintf(t->name, sizeof t->name, "%.127s", name);
+    return s->ntextures++;
+}
+
 /* The scene material of the file's material mi (made on first use); -1 with L->err. */
 static int material_of(loader *L, unsigned mi) {
     if (mi >= L->ai->mNumMaterials) return prt_fail(L->err, "%s: a mesh uses material %u of %u", L->name, mi, L->ai->mNumMaterials);
@@ -547,8 +623,15 @@ static int material_of(loader *L, unsigned mi) {
         snprintf(from, sizeof from, "default (%.60s gives %s no material)", file, L->fmt == FMT_PLY ? "a PLY" : "these faces");
     } else if (L->fmt == FMT_GLTF) spec_gltf(m, mname, spec, sizeof spec, from, sizeof from, file);
     else spec_mtl(m, mname, spec, sizeof spec, from, sizeof from, file);
+    int tex = d && d->material ? -1 : texture_of(L, m, &L->mat_uv[mi]);
+    if (tex == -2) return -1;
+    if (tex >= 0) {
+        size_t at = strlen(from);
+        snprintf(from + at, sizeof from - at, "; texture '%.60s' multiplies kd", L->s->textures[tex].name);
+        L->textured = true;
+    }
     prt_error e2;
-    int i = scene_material_from(L->s, spec, from, &e2);
+    int i = scene_material_textured(L->s, spec, from, tex, &e2);
     if (i < 0) return prt_fail(L->err, "%s: material '%s': %s", L->name, mname, e2.msg);
     return L->mat_index[mi] = i;
 }
@@ -569,7 +652,9 @@ static int reserve(loader *L, size_t nv, size_t nt) {
         if (n) m->nrm = n;
         uint16_t *mt = n ? realloc(m->mat, c * sizeof *mt) : NULL;
         if (mt) m->mat = mt;
-        unsigned char *b = mt ? realloc(L->bad_normal, c) : NULL;
+        float *uv = mt ? realloc(m->uv, 2 * c * sizeof *uv) : NULL;
+        if (uv) m->uv = uv;
+        unsigned char *b = uv ? realloc(L->bad_normal, c) : NULL;
         if (!b) return prt_fail(L->err, "%s: out of memory", L->name);
         L->bad_normal = b;
         L->cap_v = c;
@@ -598,6 +683,12 @@ static int put_vertices(loader *L, const struct aiMesh *am, const double M[16], 
             return prt_fail(L->err, "%s: mesh '%.60s' vertex %u: non-finite coordinate (%g, %g, %g)", L->name, am->mName.data, i,
                             (double)p[0], (double)p[1], (double)p[2]);
         m->mat[v] = (uint16_t)mat;
+        const struct aiVector3D *tc = am->mTextureCoords[L->mat_uv[am->mMaterialIndex] < AI_MAX_NUMBER_OF_TEXTURECOORDS ?
+                                                         L->mat_uv[am->mMaterialIndex] : 0];
+        m->uv[2 * v] = tc ? tc[i].x : 0;
+        m->uv[2 * v + 1] = tc ? tc[i].y : 0;
+        if (!isfinite(m->uv[2 * v]) || !isfinite(m->uv[2 * v + 1]))
+            return prt_fail(L->err, "%s: mesh '%.60s' vertex %u: non-finite texture coordinate", L->name, am->mName.data, i);
         L->bad_normal[v] = 1;
         if (!am->mNormals) continue;
         const double a[3] = { am->mNormals[i].x, am->mNormals[i].y, am->mNormals[i].z };
@@ -705,6 +796,7 @@ static int drop_unused(loader *L) {
             memcpy(m->pos + 3 * (size_t)nk, m->pos + 3 * (size_t)v, 3 * sizeof(float));
             memcpy(m->nrm + 3 * (size_t)nk, m->nrm + 3 * (size_t)v, 3 * sizeof(float));
             m->mat[nk] = m->mat[v];
+            memcpy(m->uv + 2 * (size_t)nk, m->uv + 2 * (size_t)v, 2 * sizeof(float));
             L->bad_normal[nk] = L->bad_normal[v];
         }
         map[v] = nk++;
@@ -835,7 +927,8 @@ static int convert(loader *L, const gltf_info *gi) {
     const struct aiScene *ai = L->ai;
     if (!ai->mRootNode) return prt_fail(L->err, "%s: no scene (no root node)", L->name);
     L->mat_index = malloc((ai->mNumMaterials + 1) * sizeof *L->mat_index);
-    if (!L->mat_index) return prt_fail(L->err, "%s: out of memory", L->name);
+    L->mat_uv = calloc(ai->mNumMaterials + 1, sizeof *L->mat_uv);
+    if (!L->mat_index || !L->mat_uv) return prt_fail(L->err, "%s: out of memory", L->name);
     for (unsigned i = 0; i < ai->mNumMaterials; i++) L->mat_index[i] = -1;
     if (L->fmt == FMT_GLTF && gi->triangles >= 0) {
         long long got = 0;
@@ -847,6 +940,10 @@ static int convert(loader *L, const gltf_info *gi) {
     }
     const double I4[16] = { 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1 };
     if (walk(L, ai->mRootNode, I4, 0) || drop_unused(L) || fill_normals(L)) return -1;
+    if (!L->textured) {   /* coordinates only where a texture reads them */
+        free(L->out->mesh.uv);
+        L->out->mesh.uv = NULL;
+    }
     for (unsigned i = 0; i < ai->mNumLights; i++)
         if (put_light(L, ai->mLights[i]) < 0) return -1;
     for (unsigned i = 0; i < ai->mNumCameras; i++)
@@ -866,6 +963,7 @@ static int finish(loader *L, const struct aiScene *ai, const gltf_info *gi) {
     int rc = convert(L, gi);
     if (rc) asset_model_free(L->out);
     free(L->mat_index);
+    free(L->mat_uv);
     free(L->bad_normal);
     aiReleaseImport(ai);
     return rc;
@@ -892,7 +990,7 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
     memset(out, 0, sizeof *out);
     if (len == 0) return prt_fail(err, "%s: empty file", name);
     if (len > UINT32_MAX) return prt_fail(err, "%s: too large", name);
-    loader L = { .name = name, .fmt = format_of(hint), .desc = desc, .s = s, .out = out, .err = err };
+    loader L = { .name = name, .fmt = format_of(hint), .desc = desc, .s = s, .out = out, .err = err, .from_memory = true };
     gltf_info gi = { .triangles = -1 };
     size_t jl = 0;
     const char *js = L.fmt == FMT_GLTF ? gltf_json(buf, len, &jl, &gi) : NULL;

@@ -562,6 +562,14 @@ int mesh_append(prt_mesh *a, const prt_mesh *b, prt_error *err) {
     if (tris) a->tris = tris;
     if (!pos || !nrm || !mat || !tris) return prt_fail(err, "out of memory appending a mesh");
     size_t v0 = (size_t)a->nverts;
+    if (a->uv || b->uv) {   /* coordinates for all when either has them (0 for the other's vertices) */
+        float *uv = realloc(a->uv, 2 * nv * sizeof(float));
+        if (!uv) return prt_fail(err, "out of memory appending a mesh");
+        if (!a->uv) memset(uv, 0, 2 * v0 * sizeof(float));
+        a->uv = uv;
+        if (b->uv) memcpy(uv + 2 * v0, b->uv, 2 * (size_t)b->nverts * sizeof(float));
+        else memset(uv + 2 * v0, 0, 2 * (size_t)b->nverts * sizeof(float));
+    }
     memcpy(a->pos + 3 * v0, b->pos, 3 * (size_t)b->nverts * sizeof(float));
     for (size_t v = 0; v < (size_t)b->nverts; v++) {
         float *n = a->nrm + 3 * (v0 + v);
@@ -601,6 +609,7 @@ void mesh_free(prt_mesh *m) {
     free(m->nrm);
     free(m->tris);
     free(m->mat);
+    free(m->uv);
     memset(m, 0, sizeof *m);
 }
 

@@ -34,6 +34,7 @@ typedef struct prt_mesh {
     float *nrm;        /* [3*nverts] unit smooth normals (angle weighted) */
     uint32_t *tris;    /* [3*ntris] counter-clockwise vertex indices */
     uint16_t *mat;     /* [nverts] material index per vertex (0 after loading) */
+    float *uv;         /* [2*nverts] texture coordinates, v up (NULL: none; asset.h, texture.h) */
 } prt_mesh;
 
 typedef struct mesh_load_stats {

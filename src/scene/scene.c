@@ -34,6 +34,7 @@
 
 void scene_free(prt_scene *s) {
     mesh_free(&s->mesh);
+    for (int t = 0; t < s->ntextures && t < SCENE_MAX_TEXTURES; t++) texture_free(&s->textures[t]);
     memset(s, 0, sizeof *s);
     s->floor_first_vertex = -1;
 }
@@ -109,9 +110,61 @@ int scene_material(prt_scene *s, const char *spec, prt_error *err) {
 }
 
 int scene_material_from(prt_scene *s, const char *spec, const char *from, prt_error *err) {
-    int had = s->nmaterials, i = scene_material(s, spec, err);
-    if (i >= had && from) snprintf(s->material_from[i], sizeof s->material_from[i], "%.191s", from);
+    return scene_material_textured(s, spec, from, -1, err);
+}
+
+int scene_material_textured(prt_scene *s, const char *spec, const char *from, int tex, prt_error *err) {
+    if (tex < -1 || tex >= s->ntextures) return prt_fail(err, "texture %d of %d", tex, s->ntextures);
+    brdf_params p;
+    if (spec && brdf_parse(spec, &p, err)) return -1;
+    int i = -1;
+    for (int m = 0; m < s->nmaterials && i < 0 && spec; m++) {   /* the same BRDF (canonical forms) and texture */
+        char a[512], b[512];
+        brdf_format(&p, a, sizeof a);
+        brdf_format(&s->materials[m], b, sizeof b);
+        if (!strcmp(a, b) && s->material_texture[m] == tex + 1) i = m;
+    }
+    if (i >= 0) return i;
+    int had = s->nmaterials;
+    if (tex < 0) i = scene_material(s, spec, err);
+    else {   /* a new slot, even when an untextured material has this spec */
+        char canon[256];
+        size_t len = spec ? strlen(spec) : 0;
+        if (!spec || len >= sizeof canon) return scene_material(s, spec, err);
+        if (s->nmaterials >= PRT_MAX_MATERIALS)
+            return prt_fail(err, "too many materials (at most %d): '%s'", PRT_MAX_MATERIALS, spec);
+        i = s->nmaterials++;
+        s->materials[i] = p;
+        memcpy(s->material_spec[i], spec, len + 1);
+    }
+    if (i >= had && i >= 0) {
+        if (from) snprintf(s->material_from[i], sizeof s->material_from[i], "%.191s", from);
+        s->material_texture[i] = (uint8_t)(tex + 1);
+    }
     return i;
+}
+
+const scene_texture *scene_material_tex(const prt_scene *s, int m) {
+    int t = m >= 0 && m < s->nmaterials ? s->material_texture[m] - 1 : -1;
+    return t >= 0 && t < s->ntextures && s->mesh.uv ? &s->textures[t] : NULL;
+}
+
+void scene_vertex_albedo(const prt_scene *s, int v, float rgb[3]) {
+    const scene_texture *t = s->mesh.mat ? scene_material_tex(s, s->mesh.mat[v]) : NULL;
+    if (t) texture_sample(t, s->mesh.uv[2 * (size_t)v], s->mesh.uv[2 * (size_t)v + 1], rgb);
+    else rgb[0] = rgb[1] = rgb[2] = 1;
+}
+
+void scene_triangle_albedo(const prt_scene *s, int t, float rgb[3]) {
+    const uint32_t *x = s->mesh.tris + 3 * (size_t)t;
+    const scene_texture *tx = s->mesh.mat ? scene_material_tex(s, s->mesh.mat[x[0]]) : NULL;
+    if (!tx) {
+        rgb[0] = rgb[1] = rgb[2] = 1;
+        return;
+    }
+    float uv[6];
+    for (int k = 0; k < 3; k++) memcpy(uv + 2 * k, s->mesh.uv + 2 * (size_t)x[k], 2 * sizeof(float));
+    texture_mean_triangle(tx, uv, rgb);
 }
 
 void scene_note(prt_scene *s, const char *fmt, ...) {

@@ -46,8 +46,10 @@
 #include "brdf.h"
 #include "lights.h"
 #include "camera.h"
+#include "texture.h"
 
 #define PRT_MAX_MATERIALS 64
+#define SCENE_MAX_TEXTURES 32
 #define SCENE_MAX_CAMERAS 16
 #define SCENE_NOTES_BYTES 4096
 
@@ -85,6 +87,10 @@ typedef struct prt_scene {
     scene_camera cameras[SCENE_MAX_CAMERAS];
     char notes[SCENE_NOTES_BYTES]; /* what loading left out or changed, one "FILE: what" a line
                                     * (asset.h: a skinned mesh at rest, an ignored extension); "" none */
+    int ntextures;             /* base-colour textures (texture.h); the mesh's uv then holds coordinates */
+    scene_texture textures[SCENE_MAX_TEXTURES];
+    uint8_t material_texture[PRT_MAX_MATERIALS]; /* 0: none; t + 1: textures[t] multiplies the material's
+                                                  * diffuse albedo (kd) at each point */
 } prt_scene;
 #define SCENE_MAX_PRIOR_PROBES 16   /* prior.h's PRIOR_MAX_PROBES */
 
@@ -117,6 +123,18 @@ int scene_material(prt_scene *s, const char *spec, prt_error *err);
 /* scene_material, recording `from` (where the spec came from; truncated to fit) when the material
  * is new, so the effects plan can say where each material came from. */
 int scene_material_from(prt_scene *s, const char *spec, const char *from, prt_error *err);
+
+/* scene_material_from for a material whose diffuse albedo texture tex (index into s->textures, -1:
+ * none) multiplies: shared only with a material of the same spec and texture. */
+int scene_material_textured(prt_scene *s, const char *spec, const char *from, int tex, prt_error *err);
+
+/* The texture multiplying material m's diffuse albedo, or NULL. */
+const scene_texture *scene_material_tex(const prt_scene *s, int m);
+/* The albedo multiplier at vertex v: its material's texture at its UV, (1,1,1) without one. */
+void scene_vertex_albedo(const prt_scene *s, int v, float rgb[3]);
+/* The texture's mean over triangle t (its first vertex's material; (1,1,1) without one): the
+ * multiplier of light leaving the triangle in interreflection passes. */
+void scene_triangle_albedo(const prt_scene *s, int t, float rgb[3]);
 
 /* Appends one line "text" to s->notes (printf-style; a line that does not fit is dropped, the last
  * kept line then says "..."). */

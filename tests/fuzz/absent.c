@@ -26,6 +26,7 @@ static void absent(const char *name) {
 
 /* image_oiio.o (OpenImageIO) */
 ABSENT(image_read)
+ABSENT(image_read_memory)
 ABSENT(image_write)
 ABSENT(image_tonemapped)
 /* glctx.o (OSMesa, EGL, GLFW) */
