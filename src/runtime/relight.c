@@ -56,6 +56,7 @@ struct relight_ctx {
     relight_vert *verts;          /* [nverts] */
     float lambert_h[PRT_MAX_MATERIALS][3];   /* constant view map of Lambertian factors */
     float *albedo;                /* [3 * nverts] textured vertices' albedo multiplier (texture.h); NULL: none */
+    bool no_albedo;               /* relight_apply_albedo(false): leave it out */
 };
 
 /* Validates d and precomputes frames; returns a context (free with relight_destroy) or NULL with err set. */
@@ -206,7 +207,7 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
     float acc[3] = { 0, 0, 0 };
     for (int p = 0; p < rc->nparts; p++)
         if ((rc->part[p].tr->materials >> mi) & 1) shade_part(rc, &rc->part[p], v, mi, wl, kmax, acc);
-    const float *a = rc->albedo ? rc->albedo + 3 * (size_t)v : NULL;   /* the texture: stored transport has none */
+    const float *a = rc->albedo && !rc->no_albedo ? rc->albedo + 3 * (size_t)v : NULL;   /* the texture: stored transport has none */
     for (int c = 0; c < 3; c++) rgb[c] = acc[c] > 0 && isfinite(acc[c]) ? (a ? a[c] * acc[c] : acc[c]) : 0.f;
 }
 
@@ -250,6 +251,9 @@ void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb) {
     view_job j = { rc, { eye[0], eye[1], eye[2] }, kmax, rgb };
     prt_parallel_for(rc->nverts, 4096, rc->nthreads, view_chunk, &j);
 }
+
+void relight_apply_albedo(relight_ctx *rc, bool apply) { rc->no_albedo = !apply; }
+const float *relight_albedo(const relight_ctx *rc) { return rc->albedo; }
 
 /* Copies externally computed K-vectors into the cache. */
 void relight_set_gvec(relight_ctx *rc, const float *g) {
