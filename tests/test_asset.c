@@ -7,6 +7,7 @@
  * assimp-testmodels is installed, its BoxTextured variants must load to one mesh. */
 #include "harness.h"
 #include "asset.h"
+#include "image.h"
 #include "brdf.h"
 #include "lights.h"
 #include "scene.h"
@@ -351,6 +352,17 @@ static void bad_inputs(void) {
     write_gltf(tmp_path("nobin.gltf"), &g, rest, false, "nobin.bin");
     remove(tmp_path("nobin.bin"));
     CHECK(load(tmp_path("nobin.gltf"), NULL, &s, &am, &err) == -1 && strstr(err.msg, "nobin.gltf") && strstr(err.msg, "nobin.bin"), "%s", err.msg);
+    /* a texture that is not there */
+    memset(&g, 0, sizeof g);
+    const float uvs[8] = { 0, 0, 1, 0, 1, 1, 0, 1 };
+    int pp = gb_add(&g, k_quad, sizeof k_quad, 5126, 4, "VEC3"), tc = gb_add(&g, uvs, sizeof uvs, 5126, 4, "VEC2");
+    int pi = gb_add(&g, k_quad_idx, sizeof k_quad_idx, 5125, 6, "SCALAR");
+    snprintf(rest, sizeof rest, "\"images\":[{\"uri\":\"absent.png\"}],\"textures\":[{\"source\":0}],\"materials\":[{"
+             "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+             "{\"POSITION\":%d,\"TEXCOORD_0\":%d},\"indices\":%d,\"material\":0}]}],\"nodes\":[{\"mesh\":0}],"
+             "\"scenes\":[{\"nodes\":[0]}],\"scene\":0", pp, tc, pi);
+    write_gltf(tmp_path("notex.gltf"), &g, rest, false, NULL);
+    CHECK(load(tmp_path("notex.gltf"), NULL, &s, &am, &err) == -1 && strstr(err.msg, "notex.gltf") && strstr(err.msg, "absent.png"), "%s", err.msg);
     /* an index out of range (9 of 4 vertices) */
     memset(&g, 0, sizeof g);
     const uint32_t bad_idx[6] = { 0, 3, 2, 0, 2, 9 };
@@ -415,8 +427,18 @@ static void testmodels_box_textured(void) {
         CHECK(!memcmp(am[i].mesh.nrm, am[0].mesh.nrm, 12 * (size_t)am[0].mesh.nverts), "%s normals", v[i]);
         CHECK(!memcmp(am[i].mesh.tris, am[0].mesh.tris, 12 * (size_t)am[0].mesh.ntris), "%s triangles", v[i]);
         CHECK(!strcmp(s[i].material_spec[0], s[0].material_spec[0]), "%s", s[i].material_spec[0]);
+        /* one PNG: beside the file, in the .glb's buffer, in a data URI; decoded alike */
+        CHECK(s[i].ntextures == 1 && s[0].ntextures == 1 && s[i].material_texture[0] == 1);
+        if (s[i].ntextures == 1 && s[0].ntextures == 1) {
+            const scene_texture *a = &s[i].textures[0], *b = &s[0].textures[0];
+            CHECK(a->w == b->w && a->h == b->h && !memcmp(a->srgb, b->srgb, 3 * (size_t)a->w * a->h), "%s texels", v[i]);
+            CHECK(!memcmp(am[i].mesh.uv, am[0].mesh.uv, 8 * (size_t)am[0].mesh.nverts), "%s coordinates", v[i]);
+        }
     }
-    for (int i = 0; i < 3; i++) asset_model_free(&am[i]);
+    for (int i = 0; i < 3; i++) {
+        asset_model_free(&am[i]);
+        scene_free(&s[i]);
+    }
 }
 
 /* The file keeps the glTF's camera: prt info lists it, --camera-name picks it or says which exist. */
@@ -435,6 +457,151 @@ static void cli_cameras(void) {
     CHECK(check_run(cmd, out, sizeof out) == 2 && strstr(out, "no camera of that name (the file's: 'cam')"), "%s", out);
 }
 
+
+/* ---------------------------------------------------------------- textures */
+
+/* The 8-bit sRGB code of linear x and its linear value again (IEC 61966-2-1, written out here). */
+static double srgb8_linear(double x) {
+    double e = x <= 0.0031308 ? 12.92 * x : 1.055 * pow(x, 1 / 2.4) - 0.055;
+    double c = floor(255 * e + 0.5) / 255;
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+static const double k_check[2][3] = { { 0.8, 0.25, 0.1 }, { 0.1, 0.3, 0.7 } };   /* the checker's two albedos */
+
+/* An 8 x 8 checker PNG (texel (x, y) colour (x + y) & 1), a quad OBJ of 9 x 9 vertices over [0,1]^2
+ * (y = 0, facing +y) whose vertex (i, j) has uv ((i + 0.5) / 8, (j + 0.5) / 8) ... at texel centres
+ * for i, j < 8, and two MTLs: Kd 1 with map_Kd, and Kd 1 alone. */
+static void checker_files(void) {
+    prt_image im;
+    prt_error err;
+    CHECK(image_alloc(&im, 8, 8, 3, &err) == 0);
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 8; x++)
+            for (int c = 0; c < 3; c++) im.data[3 * (8 * y + x) + c] = (float)k_check[(x + y) & 1][c];
+    image_desc d = { 0 };
+    CHECK(image_write(tmp_path("checker.png"), &im, &d, &err) == 0, "%s", err.msg);
+    image_free(&im);
+    write_text(tmp_path("tex.mtl"), "newmtl t\nKd 1 1 1\nmap_Kd checker.png\n");
+    write_text(tmp_path("plain.mtl"), "newmtl t\nKd 1 1 1\n");
+    for (int f = 0; f < 2; f++) {
+        FILE *o = fopen(tmp_path(f ? "plainquad.obj" : "texquad.obj"), "w");
+        fprintf(o, "mtllib %s\n", f ? "plain.mtl" : "tex.mtl");
+        for (int j = 0; j < 9; j++)
+            for (int i = 0; i < 9; i++) fprintf(o, "v %g 0 %g\nvt %.9g %.9g\n", i / 8.0, j / 8.0, (i + 0.5) / 8, (j + 0.5) / 8);
+        fprintf(o, "usemtl t\n");
+        for (int j = 0; j < 8; j++)
+            for (int i = 0; i < 8; i++) {
+                int a = 9 * j + i + 1;
+                fprintf(o, "f %d/%d %d/%d %d/%d\nf %d/%d %d/%d %d/%d\n", a, a, a + 9, a + 9, a + 10, a + 10, a, a, a + 10, a + 10, a + 1, a + 1);
+            }
+        fclose(o);
+    }
+}
+
+/* The texture loads texel for texel, each vertex at a texel centre reads that texel, and the
+ * triangle means of the whole quad average to the checker's mean. */
+static void texture_checker(void) {
+    checker_files();
+    prt_scene s;
+    prt_error err;
+    CHECK(scene_load(tmp_path("texquad.obj"), NULL, &s, &err) == 0, "%s", err.msg);
+    CHECK(s.ntextures == 1 && s.textures[0].w == 8 && s.textures[0].h == 8 && s.mesh.uv, "%d textures", s.ntextures);
+    CHECK(s.nmaterials == 1 && s.material_texture[0] == 1 && strstr(s.material_from[0], "checker.png"), "%s", s.material_from[0]);
+    if (s.ntextures != 1 || !s.mesh.uv) { scene_free(&s); return; }
+    int checked = 0;
+    for (int v = 0; v < s.mesh.nverts; v++) {
+        int i = (int)lrint(s.mesh.pos[3 * v] * 8), j = (int)lrint(s.mesh.pos[3 * v + 2] * 8);
+        if (i > 7 || j > 7) continue;
+        float a[3];
+        scene_vertex_albedo(&s, v, a);
+        /* v = (j + 0.5) / 8 is texel row 7 - j (row 0 at v = 1), column i: the PNG's texel ((i + 7 - j) & 1) */
+        for (int c = 0; c < 3; c++) CHECK_NEAR(a[c], srgb8_linear(k_check[(i + 7 - j) & 1][c]), 1e-6, "vertex %d (%d, %d)", v, i, j);
+        checked++;
+    }
+    CHECK(checked == 64, "%d vertices at texel centres", checked);
+    /* the bilinear, repeat-wrapped checker averages to its texel mean over the whole square; each
+     * triangle mean is a quadrature of 1 sample a texel (texture.h) but the 128 triangles together
+     * sample every texel's neighbourhood alike: their mean within 1/64 of the contrast */
+    double mean[3] = { 0, 0, 0 };
+    for (int t = 0; t < s.mesh.ntris; t++) {
+        float a[3];
+        scene_triangle_albedo(&s, t, a);
+        for (int c = 0; c < 3; c++) mean[c] += a[c] / s.mesh.ntris;
+    }
+    for (int c = 0; c < 3; c++) {
+        double c0 = srgb8_linear(k_check[0][c]), c1 = srgb8_linear(k_check[1][c]);
+        CHECK_NEAR(mean[c], 0.5 * (c0 + c1), fabs(c0 - c1) / 64, "channel %d", c);
+    }
+    scene_free(&s);
+}
+
+/* Mean of channel c of an EXR's pixels. */
+static double image_mean(const char *path, int c) {
+    prt_image im;
+    prt_error err;
+    if (image_read(path, &im, &err)) return NAN;
+    double m = 0;
+    for (int i = 0; i < im.w * im.h; i++) m += im.data[3 * i + c];
+    m /= im.w * im.h;
+    image_free(&im);
+    return m;
+}
+
+/* Through the CLI under a constant probe: the textured quad's vertex radiance is its untextured
+ * twin's times the texel (the transport is the same: the texture multiplies at shading), and its
+ * per-pixel image over the middle 6 x 6 texels averages to the checker's mean times the twin's. */
+static void texture_constant_probe(void) {
+    checker_files();
+    prt_image pr;
+    prt_error err;
+    CHECK(image_alloc(&pr, 64, 32, 3, &err) == 0);
+    for (int i = 0; i < 64 * 32 * 3; i++) pr.data[i] = 1;
+    image_desc d = { 0 };
+    CHECK(image_write(tmp_path("white.exr"), &pr, &d, &err) == 0, "%s", err.msg);
+    image_free(&pr);
+    char cmd[4000], out[8192];
+    const char *names[2] = { "texquad", "plainquad" };
+    for (int f = 0; f < 2; f++) {
+        snprintf(cmd, sizeof cmd, "%s precompute %s/%s.obj --no-bounces -o %s/%s.prt && %s render %s/%s.prt --probe %s "
+                 "--vertices %s/%s.csv --camera 0.5,2,0.5,0.5,0,0.5,21.2397 --size 60x60 --no-background -o %s/%s.exr",
+                 check_prt_bin(), check_tmpdir(), names[f], check_tmpdir(), names[f], check_prt_bin(), check_tmpdir(), names[f],
+                 tmp_path("white.exr"), check_tmpdir(), names[f], check_tmpdir(), names[f]);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+    }
+    snprintf(cmd, sizeof cmd, "%s info %s/texquad.prt", check_prt_bin(), check_tmpdir());
+    CHECK(check_run(cmd, out, sizeof out) == 0 && strstr(out, "textures     'checker.png' 8x8"), "%s", out);
+    /* vertex CSVs: id, then r, g, b (prt render --vertices) */
+    char *ct = check_read_file(tmp_path("texquad.csv"), NULL), *cp = check_read_file(tmp_path("plainquad.csv"), NULL);
+    prt_scene s;   /* the vertex order of the files (no floor, no refinement) */
+    CHECK(scene_load(tmp_path("texquad.obj"), NULL, &s, &err) == 0, "%s", err.msg);
+    CHECK(ct && cp);
+    int n = 0;
+    const char *a = ct ? strchr(ct, '\n') : NULL, *b = cp ? strchr(cp, '\n') : NULL;   /* past the header */
+    for (; a && b && a[1] && b[1]; a = strchr(a + 1, '\n'), b = strchr(b + 1, '\n')) {
+        int va, vb;
+        double x[3], y[3];
+        if (sscanf(a + 1, "%d,%lf,%lf,%lf", &va, &x[0], &x[1], &x[2]) != 4 || sscanf(b + 1, "%d,%lf,%lf,%lf", &vb, &y[0], &y[1], &y[2]) != 4) continue;
+        n++;
+        CHECK(va == vb && va >= 0 && va < s.mesh.nverts);
+        if (va != vb || va < 0 || va >= s.mesh.nverts) continue;
+        /* vertex (i, j) samples texel column i mod 8, row 7 - j mod 8 (repeat), at its centre */
+        int i = (int)lrint(s.mesh.pos[3 * va] * 8) % 8, j = (int)lrint(s.mesh.pos[3 * va + 2] * 8) % 8;
+        /* the same transport both sides; the CSV's 8 digits and a float product: 1e-6 relative */
+        for (int c = 0; c < 3; c++) CHECK_NEAR(x[c], srgb8_linear(k_check[(i + 7 - j) & 1][c]) * y[c], 1e-6 * y[c] + 1e-7, "vertex %d", va);
+    }
+    scene_free(&s);
+    CHECK(n >= 81, "%d vertex rows", n);
+    free(ct), free(cp);
+    for (int c = 0; c < 3; c++) {
+        double c0 = srgb8_linear(k_check[0][c]), c1 = srgb8_linear(k_check[1][c]);
+        double mt = image_mean(tmp_path("texquad.exr"), c), mp = image_mean(tmp_path("plainquad.exr"), c);
+        /* 10 pixels a texel, uniform in uv: the bilinear checker averages to its texel mean; GL's
+         * filter weights have 8 fractional bits (1/256 of the contrast) */
+        CHECK_NEAR(mt / mp, 0.5 * (c0 + c1), fabs(c0 - c1) / 256 + 1e-6, "channel %d: %g / %g", c, mt, mp);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(gltf_metallic_roughness);
@@ -449,5 +616,7 @@ int main(int argc, char **argv) {
     if (stat(TESTMODELS "/BoxTextured-glTF-Binary/BoxTextured.glb", &st) == 0) CHECK_CASE(testmodels_box_textured);
     else check_skip("testmodels_box_textured", "assimp-testmodels is not installed (" TESTMODELS ")");
     CHECK_CASE(cli_cameras);
+    CHECK_CASE(texture_checker);
+    CHECK_CASE_GL(texture_constant_probe);
     return check_summary();
 }
