@@ -423,6 +423,91 @@ static int obj_check_file(const char *path, prt_error *err) {
     return rc;
 }
 
+/* ---------------------------------------------------------------- PLY */
+
+/* Whether word w (n bytes) is one of PLY's scalar types. */
+static bool ply_type(const char *w, size_t n) {
+    static const char *const k[] = { "char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8",
+                                     "int16", "uint16", "int32", "uint32", "float32", "float64" };
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; i++)
+        if (strlen(k[i]) == n && !memcmp(k[i], w, n)) return true;
+    return false;
+}
+
+/* The words of line p..e (at most 6) into w[] / wn[]; returns their count (7: too many). */
+static int ply_words(const char *p, const char *e, const char *w[6], size_t wn[6]) {
+    int n = 0;
+    while (p < e) {
+        while (p < e && (*p == ' ' || *p == '\t' || *p == '\r')) p++;
+        if (p >= e) break;
+        if (n == 6) return 7;
+        w[n] = p;
+        while (p < e && *p != ' ' && *p != '\t' && *p != '\r') p++;
+        wn[n] = (size_t)(p - w[n]);
+        n++;
+    }
+    return n;
+}
+
+/* One header line (p..e) is well formed: printable ASCII, a known keyword with its fields. */
+static bool ply_line_ok(const char *p, const char *e) {
+    for (const char *q = p; q < e; q++)
+        if ((*q < 32 && *q != '\t' && *q != '\r') || *q > 126) return false;
+    const char *w[6];
+    size_t n[6];
+    int k = ply_words(p, e, w, n);
+    if (k == 0) return true;
+#define PLY_IS(i, s) (n[i] == strlen(s) && !memcmp(w[i], s, n[i]))
+    if (PLY_IS(0, "comment") || PLY_IS(0, "obj_info")) return true;
+    if (PLY_IS(0, "format"))
+        return k == 3 && (PLY_IS(1, "ascii") || PLY_IS(1, "binary_little_endian") || PLY_IS(1, "binary_big_endian")) && PLY_IS(2, "1.0");
+    if (PLY_IS(0, "element")) {
+        if (k != 3 || n[2] > 10) return false;
+        for (size_t i = 0; i < n[2]; i++)
+            if (w[2][i] < '0' || w[2][i] > '9') return false;
+        return true;
+    }
+    if (PLY_IS(0, "property")) return (k == 3 && ply_type(w[1], n[1])) || (k == 5 && PLY_IS(1, "list") && ply_type(w[2], n[2]) && ply_type(w[3], n[3]));
+#undef PLY_IS
+    return false;
+}
+
+/* assimp 5.2's PLY reader loops forever on some malformed headers (NUL bytes in a keyword): the
+ * header (up to end_header, within the first 64 KB of buf[len]) is checked first, and no element
+ * may count more than the file's total bytes. 0, or -1 with one line. */
+static int ply_check(const char *name, const char *buf, size_t len, size_t total, prt_error *err) {
+    size_t lim = len < (64 << 10) ? len : (64 << 10);
+    if (lim < 4 || memcmp(buf, "ply", 3) || (buf[3] != '\n' && buf[3] != '\r')) return prt_fail(err, "%s: not a PLY file (no 'ply' line)", name);
+    int line = 1;
+    for (const char *p = buf + 4, *end = buf + lim; p < end; line++) {
+        const char *nl = memchr(p, '\n', (size_t)(end - p));
+        if (!nl) break;
+        if (nl - p >= 10 && !memcmp(p, "end_header", 10)) return 0;
+        if (!ply_line_ok(p, nl)) return prt_fail(err, "%s:%d: a malformed PLY header line", name, line + 1);
+        if (nl - p > 8 && !memcmp(p, "element ", 8)) {   /* every element takes a byte at least: a forged count is refused */
+            const char *c = nl;
+            while (c > p && (c[-1] == '\r' || c[-1] == ' ' || c[-1] == '\t')) c--;
+            while (c > p && c[-1] >= '0' && c[-1] <= '9') c--;
+            if (strtoull(c, NULL, 10) > total)
+                return prt_fail(err, "%s:%d: an element count larger than the file (%zu bytes)", name, line + 1, total);
+        }
+        p = nl + 1;
+    }
+    return prt_fail(err, "%s: no end_header in its first %zu bytes", name, lim);
+}
+
+static int ply_check_file(const char *path, prt_error *err) {
+    char *buf = malloc(64 << 10);
+    FILE *f = buf ? fopen(path, "rb") : NULL;
+    size_t n = f ? fread(buf, 1, 64 << 10, f) : 0;
+    if (f) fclose(f);
+    struct stat sb;
+    size_t total = stat(path, &sb) == 0 ? (size_t)sb.st_size : n;
+    int rc = buf ? ply_check(path, buf, n, total, err) : prt_fail(err, "%s: out of memory", path);
+    free(buf);
+    return rc;
+}
+
 /* ---------------------------------------------------------------- transforms */
 
 /* Row-major 4x4 of an aiMatrix4x4 (column vectors: p' = M p, translation in the last column). */
@@ -981,7 +1066,7 @@ int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_mod
     gltf_info gi = { .triangles = -1 };
     if (L.fmt == FMT_GLTF) gltf_inspect_file(path, (size_t)sb.st_size, s, &gi);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", path, gi.invalid);
-    if (L.fmt == FMT_OBJ && obj_check_file(path, err)) return -1;
+    if ((L.fmt == FMT_OBJ && obj_check_file(path, err)) || (L.fmt == FMT_PLY && ply_check_file(path, err))) return -1;
     return finish(&L, aiImportFile(path, import_flags(L.fmt)), &gi);
 }
 
@@ -998,6 +1083,6 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
     if (gi.external[0])
         return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
-    if (L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) return -1;
+    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check(name, buf, len, len, err))) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }
