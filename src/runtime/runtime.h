@@ -13,7 +13,8 @@
  * Backends (the table in runtime.c lists every one):
  *   cpu  relight.h: sparse T x L on the CPU threads, h(view) . g per vertex
  *        (Eq. 5); images are those vertex colours rasterized (Gouraud) by OSMesa
- *        (headless; render.h) or into desc.ctx (the viewer's window). Its view
+ *        (headless; render.h) or into desc.ctx (the viewer's window), a file's
+ *        textures multiplied per pixel (runtime_raster.set_textures). Its view
  *        model is per vertex only.
  *   gl   glrt.h: the same T x L and h . g in GLSL; per pixel (default, the view
  *        maps looked up at every pixel) or per vertex (the CPU's model).

@@ -1,7 +1,8 @@
 /* scene.h - a scene: models with transforms and materials, plus an optional floor.
  *
- * A scene is what `prt precompute` reads: either one OBJ (with --material and
- * --floor flags) or a small JSON file:
+ * A scene is what `prt precompute` reads: either one model file (OBJ, glTF 2.0 .gltf/.glb, PLY;
+ * asset.h: an OBJ naming an MTL library, a glTF and a PLY are read through assimp, with their
+ * materials, textures, lights and cameras; --material and --floor flags) or a small JSON file:
  *
  *     { "models": [ { "obj": "bunny.obj",          (path relative to the JSON file)
  *                     "material": "phong:kd=0.6,0.05,0.05;ks=0.4;n=50",
@@ -17,7 +18,10 @@
  * A model has exactly one shape key, plus optional "material" (default
  * desc->material, else "lambert:kd=0.8"), "scale" (> 0), "translate", "rotate_x" and
  * "rotate_y" (degrees, right-handed; p' = scale * Ry * Rx * p + translate) and "name"
- * (ignored). Paths of OBJ models are relative to the JSON file (absolute ones are kept).
+ * (ignored). "obj" names any model file (.obj, .gltf, .glb, .ply); its lights and cameras move
+ * with the model's transform, and its own materials are used unless "material" (or --material)
+ * is given, which replaces them all. Paths of model files are relative to the JSON file (absolute
+ * ones are kept).
  * "floor" may also be true/false; a top-level "comment" is ignored.
  * "lights" (lights.h) is an array of local lights, each a spec string
  * ("spot:pos=0,2,0;dir=0,-1,0;inner=20;outer=30;intensity=10") or an object
@@ -35,10 +39,12 @@
  * (default 3), with about `vertices` vertices (default 31,000).
  *
  * Materials are BRDF spec strings (see brdf.h: brdf_parse). Identical specs
- * share one material. The scene's mesh holds every model merged; mesh.mat[v]
- * indexes scene.materials.
+ * share one material (unless their textures differ). The scene's mesh holds every model merged;
+ * mesh.mat[v] indexes scene.materials, material_from[m] says where each came from (the effects
+ * plan prints it), material_texture[m] names the texture multiplying its kd (texture.h; the mesh's
+ * uv then holds every vertex's coordinates). cameras are a glTF's, notes what loading left out.
  *
- * Ownership: scene_free frees the mesh and materials. */
+ * Ownership: scene_free frees the mesh, materials and textures. */
 #ifndef PRT_SCENE_H
 #define PRT_SCENE_H
 #include "common.h"
@@ -101,7 +107,7 @@ typedef struct scene_desc {
     const char *floor_material; /* NULL: "lambert:kd=0.7" */
 } scene_desc;
 
-/* Loads an OBJ (one model) or a .json scene. desc may be NULL. */
+/* Loads a model file (.obj, .gltf, .glb, .ply: one model) or a .json scene. desc may be NULL. */
 int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err);
 
 /* Builds a scene from JSON text held in memory (len bytes); name stands for the file in
