@@ -206,7 +206,7 @@ void cli_inputs_add_scene(cli_inputs *ins, const char *path) {
     free(text);
     const cJSON *m, *lp = cJSON_GetObjectItemCaseSensitive(root, "light_prior"), *it;
     cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "models"))
-        json_add(ins, path, "an OBJ", cJSON_GetObjectItemCaseSensitive(m, "obj"));
+        json_add(ins, path, "a model", cJSON_GetObjectItemCaseSensitive(m, "obj"));
     if (cJSON_IsArray(lp)) cJSON_ArrayForEach(it, lp) json_add(ins, path, "a light_prior probe", it);
     else json_add(ins, path, "the light_prior probe", lp);
     cJSON_Delete(root);
