@@ -28,6 +28,7 @@ static void absent(const char *name) {
 /* image_oiio.o (OpenImageIO) */
 ABSENT(image_read)
 ABSENT(image_read_memory)
+ABSENT(image_tonemapped)
 ABSENT(image_write)
 ABSENT(image_tonemapped)
 /* glctx.o (OSMesa, EGL, GLFW) */
