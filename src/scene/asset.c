@@ -23,7 +23,7 @@
 #define ASSET_DEFAULT_MATERIAL "lambert:kd=0.8"
 #define ASSET_DEGENERATE_REL 1e-12    /* mesh.c's MESH_DEGENERATE_REL */
 #define ASSET_MAX_ELEMS (1 << 28)     /* mesh.c's MESH_MAX_ELEMS */
-#define ASSET_MAX_JSON (256 << 20)    /* a glTF's JSON read to inspect it */
+#define ASSET_MAX_JSON (1 << 30)      /* a glTF's JSON read to inspect it */
 #define ASSET_ALPHA_MIN 0.001f        /* brdf.h's smallest alpha */
 
 typedef enum asset_format { FMT_GLTF, FMT_PLY, FMT_OBJ } asset_format;
@@ -34,6 +34,7 @@ typedef struct gltf_info {
     char external[128];   /* the first buffer or image URI that names a file ("": none) */
     char invalid[256];    /* the first problem gltf_validate found ("": none): refused before assimp */
     long long bin_len;    /* a .glb's BIN chunk length (-1: none) */
+    bool json_ok;         /* its JSON parsed to an object: a glTF (else assimp would try other readers) */
     const char *path;     /* the file (its folder anchors external URIs), NULL in memory */
 } gltf_info;
 
@@ -257,11 +258,13 @@ static const char *extension_note(const char *ext) {
     return !strncmp(ext, "KHR_materials_", 14) ? "a material extension prt does not know" : "an extension prt does not read";
 }
 
-/* Reads the glTF's JSON text[len]: notes each ignored extension in s and counts its triangles.
- * A JSON that does not parse is left to assimp (its message is the better one). */
+/* Reads the glTF's JSON text[len]: notes each ignored extension in s, counts its triangles and
+ * validates it (gltf_validate). Text that does not parse as a JSON object is refused by the caller:
+ * assimp would hand it to whichever of its readers takes it (its OBJ reader, unchecked). */
 static void gltf_inspect(const char *name, const char *text, size_t len, prt_scene *s, gltf_info *gi) {
     gi->triangles = -1;
     cJSON *root = len <= ASSET_MAX_JSON ? cJSON_ParseWithLength(text, len) : NULL;
+    gi->json_ok = cJSON_IsObject(root);
     if (!root) return;
     const cJSON *e;
     cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, "extensionsUsed")) {
@@ -1066,6 +1069,7 @@ int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_mod
     gltf_info gi = { .triangles = -1 };
     if (L.fmt == FMT_GLTF) gltf_inspect_file(path, (size_t)sb.st_size, s, &gi);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", path, gi.invalid);
+    if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", path);
     if ((L.fmt == FMT_OBJ && obj_check_file(path, err)) || (L.fmt == FMT_PLY && ply_check_file(path, err))) return -1;
     return finish(&L, aiImportFile(path, import_flags(L.fmt)), &gi);
 }
@@ -1083,6 +1087,7 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
     if (gi.external[0])
         return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
+    if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", name);
     if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check(name, buf, len, len, err))) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }
