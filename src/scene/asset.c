@@ -795,14 +795,16 @@ static int put_vertices(loader *L, const struct aiMesh *am, const double M[16], 
 /* Appends one instance of mesh am under global transform M. Meshes without triangles (points,
  * lines) are skipped and counted; bones and morph targets are counted (the rest pose is taken). */
 static int put_mesh(loader *L, const struct aiMesh *am, const double M[16]) {
-    if (!(am->mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || am->mNumFaces == 0) {
+    if (!(am->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON)) || am->mNumFaces == 0) {
         L->skipped_prims++;
         return 0;
     }
     L->skinned += am->mNumBones > 0;
     L->morphed += am->mNumAnimMeshes > 0;
     int mat = material_of(L, am->mMaterialIndex);
-    if (mat < 0 || reserve(L, am->mNumVertices, am->mNumFaces)) return -1;
+    size_t ntri = 0;   /* a polygon of n corners fans into n - 2 triangles (mesh.c's rule for OBJ faces) */
+    for (unsigned f = 0; f < am->mNumFaces; f++) ntri += am->mFaces[f].mNumIndices >= 3 ? am->mFaces[f].mNumIndices - 2 : 0;
+    if (mat < 0 || reserve(L, am->mNumVertices, ntri)) return -1;
     double C[9], det = mat_cofactor(M, C);
     if (put_vertices(L, am, M, C, det, mat)) return -1;
     prt_mesh *m = &L->out->mesh;
@@ -810,15 +812,14 @@ static int put_mesh(loader *L, const struct aiMesh *am, const double M[16]) {
     size_t nt = 0;
     for (unsigned f = 0; f < am->mNumFaces; f++) {
         const struct aiFace *fc = &am->mFaces[f];
-        if (fc->mNumIndices != 3) continue;   /* SortByPType leaves none; a stray point or line */
-        for (int k = 0; k < 3; k++) {
-            unsigned ix = fc->mIndices[det < 0 ? 2 - k : k];
-            if (ix >= am->mNumVertices)
+        for (unsigned i = 0; i < fc->mNumIndices; i++)
+            if (fc->mIndices[i] >= am->mNumVertices)
                 return prt_fail(L->err, "%s: mesh '%.60s' face %u: index %u out of range (%u vertices)", L->name,
-                                am->mName.data, f, ix, am->mNumVertices);
-            t[3 * nt + k] = base + ix;
+                                am->mName.data, f, fc->mIndices[i], am->mNumVertices);
+        for (unsigned i = 1; i + 1 < fc->mNumIndices; i++, nt++) {   /* a stray point or line: none */
+            const unsigned c[3] = { fc->mIndices[0], fc->mIndices[i], fc->mIndices[i + 1] };
+            for (int k = 0; k < 3; k++) t[3 * nt + k] = base + c[det < 0 ? 2 - k : k];
         }
-        nt++;
     }
     m->nverts += (int)am->mNumVertices;
     m->ntris += (int)nt;
@@ -988,11 +989,12 @@ static int put_camera(loader *L, const struct aiCamera *ac) {
 
 /* ---------------------------------------------------------------- loading */
 
-/* assimp's steps per format: triangles only (points and lines sorted out to be skipped), the
- * data structure validated; OBJ's per-corner vertices joined; normals made where the file has
+/* assimp's steps per format: points and lines sorted out to be skipped, the data structure
+ * validated (polygons are fanned into triangles here, put_mesh: assimp 5.2's triangulation asserts
+ * on faces a malformed PLY gives it, and aborts); OBJ's per-corner vertices joined; normals made where the file has
  * none (glTF: flat, its rule; PLY and OBJ: smooth). */
 static unsigned import_flags(asset_format fmt) {
-    unsigned f = aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+    unsigned f = aiProcess_SortByPType | aiProcess_ValidateDataStructure;
     if (fmt == FMT_OBJ) f |= aiProcess_JoinIdenticalVertices;
     return f | (fmt == FMT_GLTF ? aiProcess_GenNormals : aiProcess_GenSmoothNormals);
 }
