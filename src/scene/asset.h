@@ -15,7 +15,7 @@
  * UV); normals are the file's where it has them (unit, finite), else glTF's flat normals (the
  * glTF 2.0 rule) or smooth normals for PLY and OBJ (assimp's, merged by position). Degenerate
  * triangles (twice the area at most 1e-12 of the squared diagonal, mesh.c's rule) are dropped and
- * counted, unused vertices removed.
+ * counted, unused vertices removed; polygons are fanned into triangles (mesh.c's rule too).
  *
  * Materials, each added to the scene with where it came from (scene_material_from), unless
  * desc->material replaces them all (a JSON "material" or --material: that one wins):
@@ -29,6 +29,11 @@
  *     specular-glossiness, unlit, emissive strength): each is noted as ignored, one line each.
  *   - MTL Kd, Ks, Ns onto Phong (phong:kd=Kd;ks=Ks;n=Ns; Lambert when Ks is 0).
  *   - PLY has no materials; faces an OBJ leaves without `usemtl` neither: desc->fallback.
+ *
+ * Textures: a glTF material's baseColorTexture (in a .glb's buffer, a data URI, or a file beside
+ * the model) and an MTL's map_Kd become scene textures (texture.h, decoded by OpenImageIO) that
+ * multiply the material's kd, read through the vertices' UVs (the channel the material names);
+ * the mesh keeps UVs only when some material has a texture. A --material override has none.
  *
  * Lights (glTF KHR_lights_punctual) become prt's local lights (lights.h) at their node's
  * position and -z axis. Units: glTF gives point and spot intensity in candela (lm/sr); prt's
@@ -48,8 +53,11 @@
  *
  * Refused, with one line naming the file and the problem (exit 1 in the CLI): a file assimp
  * cannot read or that fails its validation (a glTF schema error, a missing .bin, a bad
- * accessor), glTF triangles that refer to vertices out of range (assimp drops them; their count
- * is checked against the file's accessors), a non-finite coordinate, normal, texture coordinate
+ * accessor), or that fails prt's own checks made before assimp sees it (asset.c: a .glb's
+ * lengths, every glTF buffer, view and accessor within its data, a .gltf that is no JSON object,
+ * an OBJ's statements and indices, a PLY header), a missing or unreadable texture, glTF
+ * triangles that refer to vertices out of range (assimp drops them; their count is checked
+ * against the file's accessors), a non-finite coordinate, normal, texture coordinate
  * or transform, no triangles at all, more than PRT_MAX_LIGHTS lights or SCENE_MAX_CAMERAS
  * cameras. Taken with a note in s->notes: points and lines (skipped: prt samples surfaces), a
  * skinned mesh (at its bind pose, untransformed by its bones) and a morphed one (its base shape),
