@@ -799,11 +799,15 @@ static int put_mesh(loader *L, const struct aiMesh *am, const double M[16]) {
         L->skipped_prims++;
         return 0;
     }
+    size_t ntri = 0;   /* a polygon of n corners fans into n - 2 triangles (mesh.c's rule for OBJ faces) */
+    for (unsigned f = 0; f < am->mNumFaces; f++) ntri += am->mFaces[f].mNumIndices >= 3 ? am->mFaces[f].mNumIndices - 2 : 0;
+    if (ntri == 0) {   /* faces of fewer than 3 corners only */
+        L->skipped_prims++;
+        return 0;
+    }
     L->skinned += am->mNumBones > 0;
     L->morphed += am->mNumAnimMeshes > 0;
     int mat = material_of(L, am->mMaterialIndex);
-    size_t ntri = 0;   /* a polygon of n corners fans into n - 2 triangles (mesh.c's rule for OBJ faces) */
-    for (unsigned f = 0; f < am->mNumFaces; f++) ntri += am->mFaces[f].mNumIndices >= 3 ? am->mFaces[f].mNumIndices - 2 : 0;
     if (mat < 0 || reserve(L, am->mNumVertices, ntri)) return -1;
     double C[9], det = mat_cofactor(M, C);
     if (put_vertices(L, am, M, C, det, mat)) return -1;
