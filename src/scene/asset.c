@@ -127,13 +127,29 @@ static long long jint(const cJSON *o, const char *key, long long def) {
     return d >= 0 && d < 1125899906842624.0 && d == floor(d) ? (long long)d : -1;
 }
 
+/* The bytes a base64 data URI decodes to, or -1 when it is not one (another encoding, a character
+ * outside base64's alphabet, a length not a multiple of 4): assimp 5.2 decodes up to the first bad
+ * character and then copies the byteLength the file declares. */
+static long long data_uri_bytes(const char *u) {
+    const char *comma = strchr(u, ','), *b64 = strstr(u, ";base64,");
+    if (!comma || b64 + 7 != comma) return -1;
+    size_t n = strlen(comma + 1), pad = 0;
+    for (size_t i = 0; i < n; i++) {
+        char c = comma[1 + i];
+        bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/';
+        if (c == '=' && i + 2 >= n) pad++;
+        else if (!ok) return -1;
+    }
+    return n % 4 ? -1 : (long long)(n / 4 * 3 - pad);
+}
+
 /* Bytes buffer b can hold: the .glb's BIN chunk (no uri), a data URI's decoded payload, a file's size
  * (file mode; -1 when it cannot be read: assimp names the missing file). */
 static long long buffer_bytes(const cJSON *b, const gltf_info *gi) {
     const cJSON *uri = cJSON_GetObjectItemCaseSensitive(b, "uri");
     if (!cJSON_IsString(uri)) return gi->bin_len;
-    const char *u = uri->valuestring, *comma = strchr(u, ',');
-    if (!strncmp(u, "data:", 5)) return comma ? (long long)(strlen(comma + 1) / 4 * 3) : 0;
+    const char *u = uri->valuestring;
+    if (!strncmp(u, "data:", 5)) return data_uri_bytes(u);
     if (!gi->path) return -1;
     char full[4096];
     const char *slash = strrchr(gi->path, '/');
@@ -171,8 +187,18 @@ static void gltf_validate(const cJSON *root, gltf_info *gi) {
     int i = 0;
     cJSON_ArrayForEach(e, bufs) {
         long long bl = jint(e, "byteLength", -1), have = buffer_bytes(e, gi);
-        if (!*why && (bl < 0 || (have >= 0 && bl > have) || (have < 0 && !cJSON_GetObjectItemCaseSensitive(e, "uri"))))
-            snprintf(why, cap, "buffer %d: byteLength %lld, but its data holds %lld bytes", i, bl, have);
+        const cJSON *uri = cJSON_GetObjectItemCaseSensitive(e, "uri");
+        bool data = cJSON_IsString(uri) && !strncmp(uri->valuestring, "data:", 5);
+        if (!*why && (bl < 0 || (have >= 0 && bl > have) || (have < 0 && (!uri || data))))
+            snprintf(why, cap, have < 0 && data ? "buffer %d: a data URI that is not base64"
+                                                : "buffer %d: byteLength %lld, but its data holds %lld bytes", i, bl, have);
+        i++;
+    }
+    i = 0;
+    cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, "images")) {
+        const cJSON *uri = cJSON_GetObjectItemCaseSensitive(e, "uri");
+        if (!*why && cJSON_IsString(uri) && !strncmp(uri->valuestring, "data:", 5) && data_uri_bytes(uri->valuestring) < 0)
+            snprintf(why, cap, "image %d: a data URI that is not base64", i);
         i++;
     }
     i = 0;
@@ -428,13 +454,49 @@ static int obj_check_file(const char *path, prt_error *err) {
 
 /* ---------------------------------------------------------------- PLY */
 
-/* Whether word w (n bytes) is one of PLY's scalar types. */
-static bool ply_type(const char *w, size_t n) {
-    static const char *const k[] = { "char", "uchar", "short", "ushort", "int", "uint", "float", "double", "int8", "uint8",
-                                     "int16", "uint16", "int32", "uint32", "float32", "float64" };
+/* The bytes of PLY scalar type w (n bytes), 0 when it is none. */
+static int ply_type(const char *w, size_t n) {
+    static const struct { const char *t; int b; } k[] = { { "char", 1 }, { "uchar", 1 }, { "short", 2 }, { "ushort", 2 },
+        { "int", 4 }, { "uint", 4 }, { "float", 4 }, { "double", 8 }, { "int8", 1 }, { "uint8", 1 }, { "int16", 2 },
+        { "uint16", 2 }, { "int32", 4 }, { "uint32", 4 }, { "float32", 4 }, { "float64", 8 } };
     for (size_t i = 0; i < sizeof k / sizeof k[0]; i++)
-        if (strlen(k[i]) == n && !memcmp(k[i], w, n)) return true;
-    return false;
+        if (strlen(k[i].t) == n && !memcmp(k[i].t, w, n)) return k[i].b;
+    return 0;
+}
+
+/* A PLY header's layout: the format and each element's count and properties' byte sizes. */
+#define PLY_MAX_ELEMENTS 16
+#define PLY_MAX_PROPS 32
+typedef struct ply_layout {
+    int format;                                   /* 0 ascii, 1 little-endian, 2 big-endian */
+    int nel;
+    bool vertex;                                  /* an element named vertex */
+    long long count[PLY_MAX_ELEMENTS];
+    int nprop[PLY_MAX_ELEMENTS];
+    uint8_t csize[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];   /* a list's count type (0: a scalar property) */
+    uint8_t size[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];    /* the scalar's, or the list items' */
+} ply_layout;
+
+/* Whether a binary body b[n] holds every element the layout declares (each list's count read and
+ * its items skipped): assimp 5.2's binary reader reads past a body shorter than its header says. */
+static bool ply_body_ok(const ply_layout *y, const unsigned char *b, size_t n) {
+    size_t at = 0;
+    for (int e = 0; e < y->nel; e++)
+        for (long long i = 0; i < y->count[e]; i++)
+            for (int p = 0; p < y->nprop[e]; p++) {
+                size_t cs = y->csize[e][p], k = 1;
+                if (cs) {   /* a list: its count, then that many items */
+                    if (n - at < cs) return false;
+                    uint64_t c = 0;
+                    for (size_t j = 0; j < cs; j++) c |= (uint64_t)b[at + (y->format == 1 ? j : cs - 1 - j)] << (8 * j);
+                    if (c > (1u << 20)) return false;
+                    at += cs;
+                    k = (size_t)c;
+                }
+                if ((n - at) / y->size[e][p] < k) return false;
+                at += k * y->size[e][p];
+            }
+    return true;
 }
 
 /* The words of line p..e (at most 6) into w[] / wn[]; returns their count (7: too many). */
@@ -452,8 +514,9 @@ static int ply_words(const char *p, const char *e, const char *w[6], size_t wn[6
     return n;
 }
 
-/* One header line (p..e) is well formed: printable ASCII, a known keyword with its fields. */
-static bool ply_line_ok(const char *p, const char *e) {
+/* One header line (p..e) is well formed (printable ASCII, a known keyword with its fields) and
+ * goes into the layout y. */
+static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
     for (const char *q = p; q < e; q++)
         if ((*q < 32 && *q != '\t' && *q != '\r') || *q > 126) return false;
     const char *w[6];
@@ -462,51 +525,69 @@ static bool ply_line_ok(const char *p, const char *e) {
     if (k == 0) return true;
 #define PLY_IS(i, s) (n[i] == strlen(s) && !memcmp(w[i], s, n[i]))
     if (PLY_IS(0, "comment") || PLY_IS(0, "obj_info")) return true;
-    if (PLY_IS(0, "format"))
-        return k == 3 && (PLY_IS(1, "ascii") || PLY_IS(1, "binary_little_endian") || PLY_IS(1, "binary_big_endian")) && PLY_IS(2, "1.0");
+    if (PLY_IS(0, "format")) {
+        y->format = k == 3 && PLY_IS(2, "1.0") ? (PLY_IS(1, "ascii") ? 0 : PLY_IS(1, "binary_little_endian") ? 1 : PLY_IS(1, "binary_big_endian") ? 2 : -1) : -1;
+        return y->format >= 0;
+    }
     if (PLY_IS(0, "element")) {
-        if (k != 3 || n[2] > 10) return false;
+        if (k != 3 || n[2] > 10 || n[2] == 0 || y->nel >= PLY_MAX_ELEMENTS) return false;
         for (size_t i = 0; i < n[2]; i++)
             if (w[2][i] < '0' || w[2][i] > '9') return false;
+        y->vertex |= PLY_IS(1, "vertex");
+        y->count[y->nel++] = strtoll(w[2], NULL, 10);
         return true;
     }
-    if (PLY_IS(0, "property")) return (k == 3 && ply_type(w[1], n[1])) || (k == 5 && PLY_IS(1, "list") && ply_type(w[2], n[2]) && ply_type(w[3], n[3]));
+    if (PLY_IS(0, "property")) {
+        int el = y->nel - 1, np = el >= 0 ? y->nprop[el] : PLY_MAX_PROPS;
+        if (np >= PLY_MAX_PROPS) return false;
+        bool list = k == 5 && PLY_IS(1, "list");
+        int cs = list ? ply_type(w[2], n[2]) : 0, sz = list ? ply_type(w[3], n[3]) : k == 3 ? ply_type(w[1], n[1]) : 0;
+        if (!sz || (list && !cs)) return false;
+        y->csize[el][np] = (uint8_t)cs;
+        y->size[el][np] = (uint8_t)sz;
+        y->nprop[el]++;
+        return true;
+    }
 #undef PLY_IS
     return false;
 }
 
-/* assimp 5.2's PLY reader loops forever on some malformed headers (NUL bytes in a keyword): the
- * header (up to end_header, within the first 64 KB of buf[len]) is checked first, and no element
- * may count more than the file's total bytes. 0, or -1 with one line. */
-static int ply_check(const char *name, const char *buf, size_t len, size_t total, prt_error *err) {
+/* assimp 5.2's PLY reader loops forever on some malformed headers (NUL bytes in a keyword) and
+ * reads past a binary body shorter than its header says: the header (up to end_header, within the
+ * first 64 KB of buf[len], len the whole file) is checked first, with a vertex element, no element
+ * counting more than the file's bytes, and a binary body that holds what the header declares.
+ * 0, or -1 with one line. */
+static int ply_check(const char *name, const char *buf, size_t len, prt_error *err) {
     size_t lim = len < (64 << 10) ? len : (64 << 10);
     if (lim < 4 || memcmp(buf, "ply", 3) || (buf[3] != '\n' && buf[3] != '\r')) return prt_fail(err, "%s: not a PLY file (no 'ply' line)", name);
+    ply_layout y = { .format = -1 };
     int line = 1;
     for (const char *p = buf + 4, *end = buf + lim; p < end; line++) {
         const char *nl = memchr(p, '\n', (size_t)(end - p));
         if (!nl) break;
-        if (nl - p >= 10 && !memcmp(p, "end_header", 10)) return 0;
-        if (!ply_line_ok(p, nl)) return prt_fail(err, "%s:%d: a malformed PLY header line", name, line + 1);
-        if (nl - p > 8 && !memcmp(p, "element ", 8)) {   /* every element takes a byte at least: a forged count is refused */
-            const char *c = nl;
-            while (c > p && (c[-1] == '\r' || c[-1] == ' ' || c[-1] == '\t')) c--;
-            while (c > p && c[-1] >= '0' && c[-1] <= '9') c--;
-            if (strtoull(c, NULL, 10) > total)
-                return prt_fail(err, "%s:%d: an element count larger than the file (%zu bytes)", name, line + 1, total);
+        if (nl - p >= 10 && !memcmp(p, "end_header", 10) && (nl - p == 10 || (nl - p == 11 && p[10] == '\r'))) {
+            if (y.format < 0 || !y.vertex) return prt_fail(err, "%s: its header has no format or no vertex element", name);
+            for (int e = 0; e < y.nel; e++)
+                if ((unsigned long long)y.count[e] > len) return prt_fail(err, "%s: an element count larger than the file", name);
+            if (y.format > 0 && !ply_body_ok(&y, (const unsigned char *)nl + 1, (size_t)(buf + len - nl - 1)))
+                return prt_fail(err, "%s: its binary body is shorter than its header says", name);
+            return 0;
         }
+        if (!ply_line_ok(p, nl, &y)) return prt_fail(err, "%s:%d: a malformed PLY header line", name, line + 1);
         p = nl + 1;
     }
     return prt_fail(err, "%s: no end_header in its first %zu bytes", name, lim);
 }
 
 static int ply_check_file(const char *path, prt_error *err) {
-    char *buf = malloc(64 << 10);
-    FILE *f = buf ? fopen(path, "rb") : NULL;
-    size_t n = f ? fread(buf, 1, 64 << 10, f) : 0;
+    size_t n = 0;
+    FILE *f = fopen(path, "rb");
+    char *buf = NULL;
+    long sz = f && !fseek(f, 0, SEEK_END) ? ftell(f) : -1;
+    if (sz >= 0 && !fseek(f, 0, SEEK_SET) && (buf = malloc((size_t)sz + 1))) n = fread(buf, 1, (size_t)sz, f);
     if (f) fclose(f);
-    struct stat sb;
-    size_t total = stat(path, &sb) == 0 ? (size_t)sb.st_size : n;
-    int rc = buf ? ply_check(path, buf, n, total, err) : prt_fail(err, "%s: out of memory", path);
+    if (!buf) return prt_fail(err, "%s: cannot read", path);
+    int rc = ply_check(path, buf, n, err);
     free(buf);
     return rc;
 }
@@ -1094,6 +1175,6 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
         return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
     if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", name);
-    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check(name, buf, len, len, err))) return -1;
+    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check(name, buf, len, err))) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }
