@@ -132,7 +132,7 @@ static long long jint(const cJSON *o, const char *key, long long def) {
  * character and then copies the byteLength the file declares. */
 static long long data_uri_bytes(const char *u) {
     const char *comma = strchr(u, ','), *b64 = strstr(u, ";base64,");
-    if (!comma || b64 + 7 != comma) return -1;
+    if (!comma || !b64 || b64 + 7 != comma) return -1;
     size_t n = strlen(comma + 1), pad = 0;
     for (size_t i = 0; i < n; i++) {
         char c = comma[1 + i];
@@ -1076,10 +1076,12 @@ static int put_camera(loader *L, const struct aiCamera *ac) {
 
 /* assimp's steps per format: points and lines sorted out to be skipped, the data structure
  * validated (polygons are fanned into triangles here, put_mesh: assimp 5.2's triangulation asserts
- * on faces a malformed PLY gives it, and aborts); OBJ's per-corner vertices joined; normals made where the file has
+ * on faces a malformed PLY gives it, and aborts; a PLY takes no step but the validation, its
+ * post-processing having crashed on malformed bodies too, and gets prt's own smooth normals); OBJ's per-corner vertices joined; normals made where the file has
  * none (glTF: flat, its rule; PLY and OBJ: smooth). */
 static unsigned import_flags(asset_format fmt) {
     unsigned f = aiProcess_SortByPType | aiProcess_ValidateDataStructure;
+    if (fmt == FMT_PLY) return aiProcess_ValidateDataStructure;   /* indexed already; normals: fill_normals */
     if (fmt == FMT_OBJ) f |= aiProcess_JoinIdenticalVertices;
     return f | (fmt == FMT_GLTF ? aiProcess_GenNormals : aiProcess_GenSmoothNormals);
 }
