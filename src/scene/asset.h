@@ -13,7 +13,8 @@
  * mirroring transform reverses the winding), so a mesh used by two nodes appears twice. The
  * vertices are the file's (no welding across UV seams: a glTF vertex is one position, normal and
  * UV); normals are the file's where it has them (unit, finite), else glTF's flat normals (the
- * glTF 2.0 rule) or smooth normals for PLY and OBJ (assimp's, merged by position). Degenerate
+ * glTF 2.0 rule), smooth ones for OBJ (assimp's, merged by position) and prt's angle-weighted ones
+ * (mesh_compute_normals) for PLY, whose vertices are shared already. Degenerate
  * triangles (twice the area at most 1e-12 of the squared diagonal, mesh.c's rule) are dropped and
  * counted, unused vertices removed; polygons are fanned into triangles (mesh.c's rule too).
  *
