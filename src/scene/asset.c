@@ -471,11 +471,39 @@ typedef struct ply_layout {
     int format;                                   /* 0 ascii, 1 little-endian, 2 big-endian */
     int nel;
     bool vertex;                                  /* an element named vertex */
+    int vxyz;                                     /* its x, y, z properties (bits 0, 1, 2) */
+    bool in_vertex;                               /* the element being declared is the vertex one */
     long long count[PLY_MAX_ELEMENTS];
     int nprop[PLY_MAX_ELEMENTS];
     uint8_t csize[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];   /* a list's count type (0: a scalar property) */
     uint8_t size[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];    /* the scalar's, or the list items' */
 } ply_layout;
+
+/* The next whitespace-separated token of an ASCII body at *p (NUL-terminated text) as a number;
+ * false at the end or on a token that is not one (a list count: a whole number up to 2^20). */
+static bool ply_token(const char **p, bool count, double *x) {
+    const char *q = *p;
+    while (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n') q++;
+    char *end;
+    *x = strtod(q, &end);
+    if (end == q || (*end && *end != ' ' && *end != '\t' && *end != '\r' && *end != '\n')) return false;
+    *p = end;
+    return !count || (*x >= 0 && *x <= (1 << 20) && *x == floor(*x));
+}
+
+/* Whether an ASCII body (NUL-terminated text at b) holds every element the layout declares, as
+ * numbers: assimp 5.2's post-processing crashed on faces a body with other tokens gave. */
+static bool ply_ascii_ok(const ply_layout *y, const char *b) {
+    for (int e = 0; e < y->nel; e++)
+        for (long long i = 0; i < y->count[e]; i++)
+            for (int p = 0; p < y->nprop[e]; p++) {
+                double x;
+                if (!ply_token(&b, y->csize[e][p] != 0, &x)) return false;
+                for (long long k = 0; y->csize[e][p] && k < (long long)x; k++)
+                    if (!ply_token(&b, false, &x)) return false;
+            }
+    return true;
+}
 
 /* Whether a binary body b[n] holds every element the layout declares (each list's count read and
  * its items skipped): assimp 5.2's binary reader reads past a body shorter than its header says. */
@@ -533,7 +561,8 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         if (k != 3 || n[2] > 10 || n[2] == 0 || y->nel >= PLY_MAX_ELEMENTS) return false;
         for (size_t i = 0; i < n[2]; i++)
             if (w[2][i] < '0' || w[2][i] > '9') return false;
-        y->vertex |= PLY_IS(1, "vertex");
+        y->in_vertex = PLY_IS(1, "vertex");
+        y->vertex |= y->in_vertex;
         y->count[y->nel++] = strtoll(w[2], NULL, 10);
         return true;
     }
@@ -545,6 +574,7 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         if (!sz || (list && !cs)) return false;
         y->csize[el][np] = (uint8_t)cs;
         y->size[el][np] = (uint8_t)sz;
+        if (y->in_vertex && !list && n[2] == 1 && w[2][0] >= 'x' && w[2][0] <= 'z') y->vxyz |= 1 << (w[2][0] - 'x');
         y->nprop[el]++;
         return true;
     }
@@ -555,8 +585,8 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
 /* assimp 5.2's PLY reader loops forever on some malformed headers (NUL bytes in a keyword) and
  * reads past a binary body shorter than its header says: the header (up to end_header, within the
  * first 64 KB of buf[len], len the whole file) is checked first, with a vertex element, no element
- * counting more than the file's bytes, and a binary body that holds what the header declares.
- * 0, or -1 with one line. */
+ * counting more than the file's bytes, and a body that holds what the header declares (buf[len] is
+ * 0: an ASCII body is read as text). 0, or -1 with one line. */
 static int ply_check(const char *name, const char *buf, size_t len, prt_error *err) {
     size_t lim = len < (64 << 10) ? len : (64 << 10);
     if (lim < 4 || memcmp(buf, "ply", 3) || (buf[3] != '\n' && buf[3] != '\r')) return prt_fail(err, "%s: not a PLY file (no 'ply' line)", name);
@@ -569,14 +599,28 @@ static int ply_check(const char *name, const char *buf, size_t len, prt_error *e
             if (y.format < 0 || !y.vertex) return prt_fail(err, "%s: its header has no format or no vertex element", name);
             for (int e = 0; e < y.nel; e++)
                 if ((unsigned long long)y.count[e] > len) return prt_fail(err, "%s: an element count larger than the file", name);
+            if (y.vxyz != 7) return prt_fail(err, "%s: its vertex element has no x, y and z", name);
             if (y.format > 0 && !ply_body_ok(&y, (const unsigned char *)nl + 1, (size_t)(buf + len - nl - 1)))
                 return prt_fail(err, "%s: its binary body is shorter than its header says", name);
+            if (y.format == 0 && !ply_ascii_ok(&y, nl + 1))
+                return prt_fail(err, "%s: its ASCII body does not hold the numbers its header declares", name);
             return 0;
         }
         if (!ply_line_ok(p, nl, &y)) return prt_fail(err, "%s:%d: a malformed PLY header line", name, line + 1);
         p = nl + 1;
     }
     return prt_fail(err, "%s: no end_header in its first %zu bytes", name, lim);
+}
+
+/* ply_check on a NUL-terminated copy of buf[len]. */
+static int ply_check_memory(const char *name, const char *buf, size_t len, prt_error *err) {
+    char *copy = malloc(len + 1);
+    if (!copy) return prt_fail(err, "%s: out of memory", name);
+    memcpy(copy, buf, len);
+    copy[len] = 0;
+    int rc = ply_check(name, copy, len, err);
+    free(copy);
+    return rc;
 }
 
 static int ply_check_file(const char *path, prt_error *err) {
@@ -587,6 +631,7 @@ static int ply_check_file(const char *path, prt_error *err) {
     if (sz >= 0 && !fseek(f, 0, SEEK_SET) && (buf = malloc((size_t)sz + 1))) n = fread(buf, 1, (size_t)sz, f);
     if (f) fclose(f);
     if (!buf) return prt_fail(err, "%s: cannot read", path);
+    buf[n] = 0;
     int rc = ply_check(path, buf, n, err);
     free(buf);
     return rc;
@@ -1068,6 +1113,12 @@ static int put_camera(loader *L, const struct aiCamera *ac) {
     float dist = v3_dot(to, fw);
     if (!(dist > 1e-6f * (v3_len(to) + 1e-30f))) dist = v3_len(to) > 0 ? v3_len(to) : 1;
     for (int k = 0; k < 3; k++) sc->cam.target[k] = sc->cam.eye[k] + dist * fw[k];
+    const prt_camera *k = &sc->cam;   /* a transform of a huge scale, or a target past float's range */
+    const float all[9] = { k->eye[0], k->eye[1], k->eye[2], k->target[0], k->target[1], k->target[2], k->up[0], k->up[1], k->up[2] };
+    for (int i = 0; i < 9; i++)
+        if (!isfinite(all[i])) return prt_fail(L->err, "%s: camera '%.60s': non-finite position or axes", L->name, nm);
+    if (k->eye[0] == k->target[0] && k->eye[1] == k->target[1] && k->eye[2] == k->target[2])
+        return prt_fail(L->err, "%s: camera '%.60s': its target is its eye", L->name, nm);
     L->out->ncameras++;
     return 1;
 }
@@ -1177,6 +1228,6 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
         return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
     if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", name);
-    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check(name, buf, len, err))) return -1;
+    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check_memory(name, buf, len, err))) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }
