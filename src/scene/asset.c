@@ -473,6 +473,7 @@ typedef struct ply_layout {
     bool vertex;                                  /* an element named vertex */
     int vxyz;                                     /* its x, y, z properties (bits 0, 1, 2) */
     bool in_vertex;                               /* the element being declared is the vertex one */
+    char name[PLY_MAX_ELEMENTS][32];              /* element names (unique) */
     long long count[PLY_MAX_ELEMENTS];
     int nprop[PLY_MAX_ELEMENTS];
     uint8_t csize[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];   /* a list's count type (0: a scalar property) */
@@ -553,7 +554,8 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
     if (k == 0) return true;
 #define PLY_IS(i, s) (n[i] == strlen(s) && !memcmp(w[i], s, n[i]))
     if (PLY_IS(0, "comment") || PLY_IS(0, "obj_info")) return true;
-    if (PLY_IS(0, "format")) {
+    if (PLY_IS(0, "format")) {   /* once, before any element */
+        if (y->format >= 0 || y->nel > 0) return false;
         y->format = k == 3 && PLY_IS(2, "1.0") ? (PLY_IS(1, "ascii") ? 0 : PLY_IS(1, "binary_little_endian") ? 1 : PLY_IS(1, "binary_big_endian") ? 2 : -1) : -1;
         return y->format >= 0;
     }
@@ -561,6 +563,11 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         if (k != 3 || n[2] > 10 || n[2] == 0 || y->nel >= PLY_MAX_ELEMENTS) return false;
         for (size_t i = 0; i < n[2]; i++)
             if (w[2][i] < '0' || w[2][i] > '9') return false;
+        if (y->format < 0 || n[1] >= sizeof y->name[0]) return false;
+        for (int i = 0; i < y->nel; i++)   /* one element of a name: assimp frees a repeated one twice */
+            if (strlen(y->name[i]) == n[1] && !memcmp(y->name[i], w[1], n[1])) return false;
+        memcpy(y->name[y->nel], w[1], n[1]);
+        y->name[y->nel][n[1]] = 0;
         y->in_vertex = PLY_IS(1, "vertex");
         y->vertex |= y->in_vertex;
         y->count[y->nel++] = strtoll(w[2], NULL, 10);
