@@ -498,10 +498,11 @@ static bool ply_ascii_ok(const ply_layout *y, const char *b) {
     for (int e = 0; e < y->nel; e++)
         for (long long i = 0; i < y->count[e]; i++)
             for (int p = 0; p < y->nprop[e]; p++) {
-                double x;
+                double x, item;
                 if (!ply_token(&b, y->csize[e][p] != 0, &x)) return false;
-                for (long long k = 0; y->csize[e][p] && k < (long long)x; k++)
-                    if (!ply_token(&b, false, &x)) return false;
+                const long long items = y->csize[e][p] ? (long long)x : 0;   /* a list's count: at most 2^20 */
+                for (long long k = 0; k < items; k++)
+                    if (!ply_token(&b, false, &item)) return false;
             }
     return true;
 }
