@@ -565,6 +565,7 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         for (size_t i = 0; i < n[2]; i++)
             if (w[2][i] < '0' || w[2][i] > '9') return false;
         if (y->format < 0 || n[1] >= sizeof y->name[0]) return false;
+        if (!PLY_IS(1, "vertex") && !PLY_IS(1, "face") && !PLY_IS(1, "edge")) return false;   /* assimp's others misread */
         for (int i = 0; i < y->nel; i++)   /* one element of a name: assimp frees a repeated one twice */
             if (strlen(y->name[i]) == n[1] && !memcmp(y->name[i], w[1], n[1])) return false;
         memcpy(y->name[y->nel], w[1], n[1]);
@@ -592,7 +593,8 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
 
 /* assimp 5.2's PLY reader loops forever on some malformed headers (NUL bytes in a keyword) and
  * reads past a binary body shorter than its header says: the header (up to end_header, within the
- * first 64 KB of buf[len], len the whole file) is checked first, with a vertex element, no element
+ * first 64 KB of buf[len], len the whole file) is checked first, with a vertex element (and only
+ * vertex, face and edge elements: assimp 5.2 allocated 2 GB for a 2-instance unknown one), no element
  * counting more than the file's bytes, and a body that holds what the header declares (buf[len] is
  * 0: an ASCII body is read as text). 0, or -1 with one line. */
 static int ply_check(const char *name, const char *buf, size_t len, prt_error *err) {
