@@ -30,7 +30,6 @@ ABSENT(image_read)
 ABSENT(image_read_memory)
 ABSENT(image_tonemapped)
 ABSENT(image_write)
-ABSENT(image_tonemapped)
 /* glctx.o (OSMesa, EGL, GLFW) */
 ABSENT(glctx_check)
 ABSENT(glctx_compute_program)
