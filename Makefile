@@ -60,7 +60,10 @@ endif
 # Debian packages the project needs; `make deps` installs the missing ones.
 DEB_PKGS := build-essential pkg-config libembree-dev libopenimageio-dev libopenexr-dev \
             liblapacke-dev libopenblas-dev $(GL_PKGS) \
-            zlib1g-dev libcjson-dev libopenmpi-dev openmpi-bin
+            zlib1g-dev libcjson-dev libopenmpi-dev openmpi-bin libassimp-dev
+# Debian packages only the tests use (tests/test_asset.c loads assimp's glTF sample models when present);
+# `make test` installs the missing ones.
+TEST_DEB_PKGS := assimp-testmodels
 
 # Library folders by pipeline stage (README "Architecture"); headers are included by name. Every folder
 # under src/transfer/ is one (a representation's, or what several share: transfer.h).
@@ -73,8 +76,10 @@ CXXFLAGS+= -std=c++17 $(OPT) -g -Wall -Wextra -pthread $(INCS) -MMD -MP $(SANFLA
 # OpenMPI (src/precompute/shard.c): asked of pkg-config when used, after `deps` has installed it.
 MPI_CFLAGS = $(shell pkg-config --cflags ompi-c)
 MPI_LIBS   = $(shell pkg-config --libs ompi-c)
+# assimp (src/scene/asset.c: glTF, PLY, OBJ + MTL): asked of pkg-config, after `deps` has installed it.
+ASSIMP_LIBS = $(shell pkg-config --libs assimp)
 LDLIBS   = -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas $(GL_LIBS) \
-           -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS)
+           -lcjson -lz -lm -lpthread -lstdc++ $(MPI_LIBS) $(ASSIMP_LIBS)
 LDFLAGS += -pthread $(SANFLAGS)
 
 # Installation. The version is common.h's; SO_ABI, the SONAME's number, changes with every change to
@@ -88,7 +93,7 @@ SO_ABI  := 0
 SONAME  := libprt.so.$(SO_ABI)
 SO_FILE := libprt.so.$(VERSION)
 # prt.pc: the libraries libprt uses, by their pkg-config names (Requires.private), and those without one
-PC_REQUIRES := OpenImageIO lapacke openblas $(GL_PC) libcjson zlib ompi-c
+PC_REQUIRES := OpenImageIO lapacke openblas $(GL_PC) libcjson zlib ompi-c assimp
 PC_LIBS     := -lembree3 -lstdc++ -lm -lpthread
 # The public headers: src/prt.h and every project header it includes, installed flat into
 # INCLUDEDIR/prt (the project includes headers by name, so no two share a name).
@@ -122,6 +127,15 @@ $(BUILD)/.deps:
 	fi
 	@touch $@
 deps: $(BUILD)/.deps
+# The tests' own packages, installed once the same way.
+$(BUILD)/.testdeps: | $(BUILD)/.deps
+	@missing=""; for p in $(TEST_DEB_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages for the tests:$$missing"; \
+	  if [ "$$(id -u)" = 0 ]; then SUDO=""; else SUDO="sudo"; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+	@touch $@
 
 $(BUILD)/obj/%.o: %.c | $(BUILD)/.deps
 	@mkdir -p $(dir $@)
@@ -182,11 +196,11 @@ uninstall:
 # T=FILTER runs only the cases whose "domain/case" name contains FILTER (tests/harness.h).
 # The fuzz harnesses' smoke run (tools/fuzz.sh --smoke: the seeds and a few seconds each) is the
 # suite's last binary; it prints a skip reason when clang's libFuzzer is missing.
-test: all $(TESTS)
+test: all $(TESTS) $(BUILD)/.testdeps
 	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) $(FUZZ_SMOKE)
 
 # The same suite under three sets of CPU-dependent code paths (tools/test_portable.sh says which).
-test-portable: all $(TESTS)
+test-portable: all $(TESTS) $(BUILD)/.testdeps
 	@T="$(T)" tools/test_portable.sh $(BUILD)/prt $(TESTS) tools/fuzz.sh
 
 # libFuzzer harnesses (tests/fuzz/fuzz_NAME.c, seeds in tests/fuzz/corpus/NAME/): built with clang,
@@ -211,8 +225,9 @@ ifeq ($(FUZZ),1)
 # Linked by clang++ (libFuzzer and UBSan's C++ runtimes); clang 14's half-float conversions
 # (transfer_vmf.c) are in compiler-rt's builtins, not libgcc. tests/fuzz/absent.o, linked before
 # the library, stands in for the libraries no harness calls (OpenImageIO, OSMesa, EGL, GLFW,
-# Embree, LAPACKE, OpenBLAS, OpenMPI): the binaries need only FUZZ_LDLIBS (tools/fuzz_pack.sh).
-FUZZ_LDLIBS := -lcjson -lz -lm -lpthread
+# Embree, LAPACKE, OpenBLAS, OpenMPI): the binaries need only FUZZ_LDLIBS (tools/fuzz_pack.sh; assimp, not
+# instrumented, for the asset harnesses' readers).
+FUZZ_LDLIBS := -lcjson -lz -lm -lpthread $(ASSIMP_LIBS)
 build/fuzz/fuzz_%: $(BUILD)/obj/tests/fuzz/fuzz_%.o $(BUILD)/obj/tests/fuzz/absent.o $(BUILD)/libprt.a $(FUZZ_CLI_OBJ)
 	@mkdir -p $(dir $@)
 	$(CXX) -fsanitize=fuzzer,address,undefined $< $(BUILD)/obj/tests/fuzz/absent.o $(FUZZ_CLI_OBJ) $(BUILD)/libprt.a \

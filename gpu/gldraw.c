@@ -54,6 +54,28 @@ static const char *k_vc_fs =
     "out vec4 o_color;\n"
     "void main() { o_color = vec4(max(v_col, 0.0), 1.0); }\n";
 
+/* Per-pixel texture: tex(u, 1 - v) * A + B (rows are uploaded top first: v = 1 is row 0, texture.h). */
+static const char *k_tex_vs =
+    "#version 330 core\n"
+    "layout(location = 0) in vec3 a_pos;\n"
+    "layout(location = 1) in vec3 a_col;\n"
+    "layout(location = 2) in vec2 a_uv;\n"
+    "layout(location = 3) in vec3 a_colb;\n"
+    "uniform mat4 u_mvp;\n"
+    "out vec3 v_col;\n"
+    "out vec3 v_colb;\n"
+    "out vec2 v_uv;\n"
+    "void main() { v_col = a_col; v_colb = a_colb; v_uv = a_uv; gl_Position = u_mvp * vec4(a_pos, 1.0); }\n";
+
+static const char *k_tex_fs =
+    "#version 330 core\n"
+    "in vec3 v_col;\n"
+    "in vec3 v_colb;\n"
+    "in vec2 v_uv;\n"
+    "uniform sampler2D u_tex;\n"
+    "out vec4 o_color;\n"
+    "void main() { o_color = vec4(texture(u_tex, vec2(v_uv.x, 1.0 - v_uv.y)).rgb * v_col + v_colb, 1.0); }\n";
+
 /* Exposure, clamp, sRGB (IEC 61966-2-1) like image_write's 8-bit output. */
 static const char *k_present_fs =
     "#version 330 core\n"
@@ -502,6 +524,102 @@ int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const f
     return glctx_check(gl, "drawing the mesh", err);
 }
 
+/* One float RGB texture: linear, repeat (texture.h's sampling). */
+static GLuint tex_upload(const gl_api *gl, int w, int h, const float *lin) {
+    GLuint t = 0;
+    gl->GenTextures(1, &t);
+    gl->BindTexture(GL_TEXTURE_2D, t);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGB32F, w, h, 0, GL_RGB, GL_FLOAT, lin);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    return t;
+}
+
+/* Triangles sorted by texture (their first vertex's material's; 0 none) into tris, the groups into d. */
+static void tex_groups(gldraw *d, const prt_scene *sc, uint32_t *tris) {
+    const prt_mesh *m = &sc->mesh;
+    int n = sc->ntextures + 1, count[SCENE_MAX_TEXTURES + 1] = { 0 };
+    for (int t = 0; t < m->ntris; t++) count[sc->material_texture[m->mat[m->tris[3 * (size_t)t]]]]++;
+    d->ngroups = n;
+    for (int g = 0, at = 0; g < n; at += count[g], g++) d->group_first[g] = at, d->group_count[g] = count[g];
+    int at[SCENE_MAX_TEXTURES + 1];
+    memcpy(at, d->group_first, sizeof(int) * (size_t)n);
+    for (int t = 0; t < m->ntris; t++) {
+        int g = sc->material_texture[m->mat[m->tris[3 * (size_t)t]]];
+        memcpy(tris + 3 * (size_t)at[g]++, m->tris + 3 * (size_t)t, 3 * sizeof(uint32_t));
+    }
+}
+
+int gldraw_set_textures(gldraw *d, const prt_scene *sc, prt_error *err) {
+    const gl_api *gl = d->gl;
+    const prt_mesh *m = &sc->mesh;
+    if (sc->ntextures < 1 || !m->uv || !m->mat || m->nverts != d->nverts) return 0;
+    uint32_t *tris = prt_calloc(3 * (size_t)m->ntris, sizeof *tris, err);
+    if (!tris || !(d->prog_tex = glctx_program(gl, k_tex_vs, k_tex_fs, "textured colours", err))) { free(tris); return -1; }
+    tex_groups(d, sc, tris);
+    const float white[3] = { 1, 1, 1 };
+    d->tex[0] = tex_upload(gl, 1, 1, white);
+    for (int t = 0; t < sc->ntextures; t++) d->tex[t + 1] = tex_upload(gl, sc->textures[t].w, sc->textures[t].h, sc->textures[t].lin);
+    gl->GenVertexArrays(1, &d->tex_vao);
+    gl->GenBuffers(1, &d->mesh_uv);
+    gl->GenBuffers(1, &d->mesh_colb);
+    gl->GenBuffers(1, &d->tex_ebo);
+    gl->BindVertexArray(d->tex_vao);
+    const GLuint bufs[4] = { d->mesh_pos, d->mesh_col, d->mesh_uv, d->mesh_colb };
+    for (int a = 0; a < 4; a++) {
+        gl->BindBuffer(GL_ARRAY_BUFFER, bufs[a]);
+        if (a == 2) gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)m->nverts * 2 * sizeof(float), m->uv, GL_STATIC_DRAW);
+        if (a == 3) gl->BufferData(GL_ARRAY_BUFFER, (GLsizeiptr)m->nverts * 3 * sizeof(float), NULL, GL_STREAM_DRAW);
+        gl->EnableVertexAttribArray((GLuint)a);
+        gl->VertexAttribPointer((GLuint)a, a == 2 ? 2 : 3, GL_FLOAT, GL_FALSE, 0, 0);
+    }
+    gl->BindBuffer(GL_ELEMENT_ARRAY_BUFFER, d->tex_ebo);
+    gl->BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)m->ntris * 3 * sizeof(uint32_t), tris, GL_STATIC_DRAW);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    free(tris);
+    return glctx_check(gl, "texture upload", err);
+}
+
+/* Uploads n floats of src (non-finite -> 0) into buffer b through d's scratch. */
+static void upload_colors(gldraw *d, GLuint b, const float *src) {
+    const gl_api *gl = d->gl;
+    for (size_t i = 0; i < (size_t)d->nverts * 3; i++) d->scratch[i] = isfinite(src[i]) ? src[i] : 0.0f;
+    gl->BindBuffer(GL_ARRAY_BUFFER, b);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)d->nverts * 3 * sizeof(float), d->scratch);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+}
+
+int gldraw_textured_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *A, const float *B, prt_error *err) {
+    const gl_api *gl = d->gl;
+    if (d->ntris == 0) return 0;
+    if (!d->prog_tex) return prt_fail(err, "drawing textures: none uploaded");
+    upload_colors(d, d->mesh_col, A);
+    upload_colors(d, d->mesh_colb, B);
+    float mvp[16];
+    gldraw_mvp(d, cam, w, h, mvp);
+    gl->UseProgram(d->prog_tex);
+    gl->UniformMatrix4fv(gl->GetUniformLocation(d->prog_tex, "u_mvp"), 1, GL_FALSE, mvp);
+    gl->Uniform1i(gl->GetUniformLocation(d->prog_tex, "u_tex"), 0);
+    gl->ActiveTexture(GL_TEXTURE0);
+    gl->Enable(GL_DEPTH_TEST);
+    gl->DepthFunc(GL_LESS);
+    gl->BindVertexArray(d->tex_vao);
+    for (int g = 0; g < d->ngroups; g++) {
+        if (!d->group_count[g]) continue;
+        gl->BindTexture(GL_TEXTURE_2D, d->tex[g]);
+        gl->DrawElements(GL_TRIANGLES, d->group_count[g] * 3, GL_UNSIGNED_INT, (const void *)((size_t)d->group_first[g] * 3 * sizeof(uint32_t)));
+    }
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->BindVertexArray(0);
+    gl->Disable(GL_DEPTH_TEST);
+    return glctx_check(gl, "drawing the textured mesh", err);
+}
+
 /* Reads the FBO into a new top-first RGB image (caller frees); -1 with err. */
 int gldraw_read(gldraw *d, prt_image *out, prt_error *err) {
     const gl_api *gl = d->gl;
@@ -554,6 +672,15 @@ void gldraw_free(gldraw *d) {
     if (!gl) return;
     if (d->prog_bg) gl->DeleteProgram(d->prog_bg);
     if (d->prog_vc) gl->DeleteProgram(d->prog_vc);
+    if (d->prog_tex) gl->DeleteProgram(d->prog_tex);
+    for (int t = 0; t <= SCENE_MAX_TEXTURES; t++)
+        if (d->tex[t]) gl->DeleteTextures(1, &d->tex[t]);
+    if (d->tex_vao) {
+        gl->DeleteVertexArrays(1, &d->tex_vao);
+        gl->DeleteBuffers(1, &d->mesh_uv);
+        gl->DeleteBuffers(1, &d->mesh_colb);
+        gl->DeleteBuffers(1, &d->tex_ebo);
+    }
     if (d->prog_present) gl->DeleteProgram(d->prog_present);
     if (d->vao_empty) gl->DeleteVertexArrays(1, &d->vao_empty);
     if (d->probe_tex) gl->DeleteTextures(1, &d->probe_tex);

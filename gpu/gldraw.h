@@ -33,6 +33,7 @@
 #define PRT_GLDRAW_H
 #include "glctx.h"
 #include "render.h"
+#include "scene.h"
 
 /* Triangles per box of gldraw_clip's view test: a box wholly inside or outside the view settles its
  * run without touching the triangles. */
@@ -56,6 +57,10 @@ typedef struct gldraw {
     uint32_t *tris;              /* GLDRAW_CHUNK triangles ([6] each: min, max) kept on the CPU: the clip */
     float *chunk_box;            /* planes of a view the bounds do not bracket (gldraw_clip) */
     float *scratch;              /* [3*nverts] sanitized colours */
+    /* textures (gldraw_set_textures): triangles grouped by texture, its coordinates, the second colour */
+    GLuint prog_tex, tex_vao, mesh_uv, mesh_colb, tex_ebo;
+    GLuint tex[SCENE_MAX_TEXTURES + 1];   /* [0]: white, for untextured triangles */
+    int ngroups, group_first[SCENE_MAX_TEXTURES + 1], group_count[SCENE_MAX_TEXTURES + 1];
 } gldraw;
 
 int gldraw_init(gldraw *d, const gl_api *gl, prt_error *err);
@@ -79,6 +84,13 @@ void gldraw_clip(const gldraw *d, const prt_camera *cam, float aspect, float *zn
 void gldraw_mvp(const gldraw *d, const prt_camera *cam, int w, int h, float mvp[16]);
 /* Uploads rgb[3*nverts] (non-finite -> 0) and draws the mesh with Gouraud colours. */
 int gldraw_vertex_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *rgb, prt_error *err);
+/* Textures (texture.h): uploads sc's textures (linear RGB floats, bilinear, repeat: texture_sample's
+ * rule), its mesh's coordinates and its triangles grouped by texture (none: 0, nothing made).
+ * Call after gldraw_set_mesh with the same mesh. -1 with err. */
+int gldraw_set_textures(gldraw *d, const prt_scene *sc, prt_error *err);
+/* Draws the mesh with per-pixel colour tex(uv) * A + B: A[3*nverts] the part a texture multiplies
+ * (untextured vertices: white), B[3*nverts] the rest, both Gouraud (needs gldraw_set_textures). */
+int gldraw_textured_colors(gldraw *d, const prt_camera *cam, int w, int h, const float *A, const float *B, prt_error *err);
 /* Reads the FBO's colour into out (allocated here, 3 channels, top row first, finite); a multisampled
  * target is resolved first: each pixel the mean of its samples' linear radiance. */
 int gldraw_read(gldraw *d, prt_image *out, prt_error *err);

@@ -14,8 +14,21 @@
 #include <stdlib.h>
 #include <string.h>
 
+static int render_frame(const prt_mesh *m, const prt_scene *sc, const float *rgb, const render_desc *d, prt_image *out,
+                        prt_error *err);
+
 /* See render.h; out is the caller's (image_free); -1 with err. */
 int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc *d, prt_image *out, prt_error *err) {
+    return render_frame(m, NULL, rgb, d, out, err);
+}
+
+int render_textured_colors(const prt_scene *sc, const float *rgb, const render_desc *d, prt_image *out, prt_error *err) {
+    return render_frame(&sc->mesh, sc, rgb, d, out, err);
+}
+
+/* One headless frame of m's colours rgb: [3n] plain, or with sc's textures [6n] (A, B). */
+static int render_frame(const prt_mesh *m, const prt_scene *sc, const float *rgb, const render_desc *d, prt_image *out,
+                        prt_error *err) {
     memset(out, 0, sizeof *out);
     int w = d->width, h = d->height;
     if (w == 0 && h == 0) { w = 800; h = 600; }
@@ -35,7 +48,9 @@ int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc 
     if (ready && gldraw_set_mesh(&gd, m, err) == 0 && gldraw_set_probe(&gd, d->background, err) == 0 &&
         gldraw_target(&gd, w, h, err) == 0) {
         gldraw_background(&gd, &d->camera, w, h, d->background_rotation);
-        if (gldraw_vertex_colors(&gd, &d->camera, w, h, rgb, err) == 0) rc = gldraw_read(&gd, out, err);
+        int dr = sc ? (gldraw_set_textures(&gd, sc, err) ? -1 : gldraw_textured_colors(&gd, &d->camera, w, h, rgb, rgb + 3 * (size_t)m->nverts, err))
+                    : gldraw_vertex_colors(&gd, &d->camera, w, h, rgb, err);
+        if (dr == 0) rc = gldraw_read(&gd, out, err);
     }
     gldraw_free(&gd);
     glctx_destroy(ctx);
@@ -49,6 +64,7 @@ int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc 
  * caller's context, a gldraw of its own whose float target present blits. */
 typedef struct vc_raster {
     const prt_mesh *m;
+    const prt_scene *sc;        /* textured (set_textures): colours are [6*nverts], A then B */
     glctx *ctx;                 /* the caller's, or NULL: headless */
     gldraw draw;                /* with ctx: the float target */
     bool draw_ready;
@@ -103,7 +119,8 @@ static int vc_draw(void *self, const render_desc *rd, const float *rgb, prt_erro
     gldraw_set_samples(&r->draw, rd->samples);
     if (gldraw_target(&r->draw, w, h, err)) return -1;
     gldraw_background(&r->draw, &rd->camera, w, h, rd->background_rotation);
-    if (gldraw_vertex_colors(&r->draw, &rd->camera, w, h, rgb, err)) return -1;
+    if (r->sc ? gldraw_textured_colors(&r->draw, &rd->camera, w, h, rgb, rgb + 3 * (size_t)r->m->nverts, err)
+              : gldraw_vertex_colors(&r->draw, &rd->camera, w, h, rgb, err)) return -1;
     r->ctx->gl.Finish();
     return glctx_check(&r->ctx->gl, "cpu runtime: drawing", err);
 }
@@ -112,7 +129,16 @@ static int vc_draw(void *self, const render_desc *rd, const float *rgb, prt_erro
 static int vc_read(void *self, const float *rgb, prt_image *out, prt_error *err) {
     vc_raster *r = self;
     if (r->ctx) return glctx_make_current(r->ctx, err) ? -1 : gldraw_read(&r->draw, out, err);
-    return render_vertex_colors(r->m, rgb, &r->frame, out, err);
+    return r->sc ? render_textured_colors(r->sc, rgb, &r->frame, out, err) : render_vertex_colors(r->m, rgb, &r->frame, out, err);
+}
+
+/* Textures: kept for the headless frames, uploaded into the caller's context. */
+static int vc_set_textures(void *self, const prt_scene *sc, prt_error *err) {
+    vc_raster *r = self;
+    if (sc->ntextures < 1 || !sc->mesh.uv || &sc->mesh != r->m) return 0;
+    if (r->ctx && (glctx_make_current(r->ctx, err) || gldraw_set_textures(&r->draw, sc, err))) return -1;
+    r->sc = sc;
+    return 0;
 }
 
 /* Tone-mapped blit of the target to the window (nothing headless). */
@@ -127,4 +153,5 @@ const runtime_raster runtime_raster_gl = {
     .draw = vc_draw,
     .read = vc_read,
     .present = vc_present,
+    .set_textures = vc_set_textures,
 };

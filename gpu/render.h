@@ -25,4 +25,8 @@
 
 /* Rasterizes m with per-vertex colours rgb[3*nverts] into a linear RGB float image. */
 int render_vertex_colors(const prt_mesh *m, const float *rgb, const render_desc *d, prt_image *out, prt_error *err);
+struct prt_scene;
+/* The same for a textured scene (texture.h): each pixel tex(uv) A + B, with A = rgb[0, 3n) the part
+ * the texture multiplies and B = rgb[3n, 6n) the rest, both Gouraud; the texture per pixel. */
+int render_textured_colors(const struct prt_scene *sc, const float *rgb, const render_desc *d, prt_image *out, prt_error *err);
 #endif

@@ -54,7 +54,7 @@ static void make_data(prt_data *d, int qbits) {
     strcpy(sc->material_spec[1], "lafortune:kd=0.1,0.2,0.3;lobe=-1,-1,1,20;lobe=-0.5,-0.5,1,5");
     sc->floor_first_vertex = 3;
     for (int k = 0; k < 3; k++) { sc->bmin[k] = -1.f - k; sc->bmax[k] = 2.f + k; }
-    sc->load_stats = (mesh_load_stats){ 10, 11, 12, 13, 14 };
+    sc->load_stats = (mesh_load_stats){ 10, 11, 12, 13, 14, 0 };
 
     int Ks[2] = { 1, 3 }, res[2] = { 4, 3 };
     for (int f = 0; f < 2; f++) {

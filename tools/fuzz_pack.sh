@@ -11,7 +11,8 @@
 #                               runs every harness to 10 M executions on 16 processes and prints
 #                               the table; T=prt selects harnesses; findings in DIR/build/fuzz/findings/
 # and prints DIR's size and the newest glibc and libstdc++ symbol versions the binaries need (the
-# machine's must be at least those). The harnesses link only libc, libstdc++, zlib and cJSON
+# machine's must be at least those). The harnesses link only libc, libstdc++, zlib and cJSON (and assimp,
+# the asset harnesses': gltf, ply, objmtl)
 # (tests/fuzz/absent.c), so DIR is a few tens of MB. ASan prints unsymbolized stacks where there
 # is no llvm-symbolizer: replay the finding here (build/fuzz/fuzz_NAME FILE) for the lines.
 set -eu

@@ -206,7 +206,7 @@ void cli_inputs_add_scene(cli_inputs *ins, const char *path) {
     free(text);
     const cJSON *m, *lp = cJSON_GetObjectItemCaseSensitive(root, "light_prior"), *it;
     cJSON_ArrayForEach(m, cJSON_GetObjectItemCaseSensitive(root, "models"))
-        json_add(ins, path, "an OBJ", cJSON_GetObjectItemCaseSensitive(m, "obj"));
+        json_add(ins, path, "a model", cJSON_GetObjectItemCaseSensitive(m, "obj"));
     if (cJSON_IsArray(lp)) cJSON_ArrayForEach(it, lp) json_add(ins, path, "a light_prior probe", it);
     else json_add(ins, path, "the light_prior probe", lp);
     cJSON_Delete(root);
@@ -300,10 +300,28 @@ int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s)
     return 0;
 }
 
-int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out) {
+/* The scene's camera named name into out; 2 after printing one line listing the names when none is. */
+static int named_camera(const char *cmd, const prt_scene *s, const char *name, prt_camera *out) {
+    for (int i = 0; i < s->ncameras; i++)
+        if (!strcmp(s->cameras[i].name, name)) {
+            *out = s->cameras[i].cam;
+            return 0;
+        }
+    char list[1200] = "";
+    for (int i = 0; i < s->ncameras; i++) {
+        size_t at = strlen(list);
+        snprintf(list + at, sizeof list - at, "%s'%s'", i ? ", " : "", s->cameras[i].name);
+    }
+    if (!s->ncameras) return cli_error(cmd, "--camera-name '%s': the file keeps no cameras (a glTF scene's are kept)", name) + 1;
+    return cli_error(cmd, "--camera-name '%s': no camera of that name (the file's: %s)", name, list) + 1;
+}
+
+int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, const char *cam_name, prt_camera *out) {
     float b0[3], b1[3];
     scene_focus_bounds(s, b0, b1);
     camera_default(b0, b1, aspect, out);
+    if (cam_name && named_camera(cmd, s, cam_name, out)) return 2;
+    if (!cam_name && s->ncameras > 0) *out = s->cameras[0].cam;
     const char *why = cam_s ? camera_parse_error(cam_s, out) : NULL;
     /* fine against a NaN target: an eye alone, on the target the framing picked */
     if (why && camera_parse_error(cam_s, &(prt_camera){ .target = { NAN, NAN, NAN }, .up = { 0, 1, 0 } }) == NULL)

@@ -108,11 +108,13 @@ int cli_check_files(const char *cmd, const cli_output *outs, int nout, cli_input
 int cli_check_output(const char *cmd, const char *path, int kind);
 /* --light-rotation: fills R from "YAW[,PITCH]" (NULL s: identity). Returns 0, or 1 after printing the error. */
 int cli_rotation(const char *cmd, const char *s, float R[9]);
-/* The camera every command uses (render, reference, view, bench): the models framed
- * (scene_focus_bounds + camera_default), overridden by --camera cam_s when given, so a
+/* The camera every command uses (render, reference, view, bench): the scene's camera named
+ * cam_name (--camera-name; NULL: the first the file keeps, a glTF's, asset.h), else the models
+ * framed (scene_focus_bounds + camera_default); overridden by --camera cam_s when given, so a
  * reference and a PRT render of one file see the same view. Returns 0, or 2 (a usage error) after
- * printing one line: bad syntax, or an eye on the target (the given one, or with an eye alone the
- * one the framing picked: "the eye and the target coincide"). */
+ * printing one line: no camera of that name (the file's names listed), bad syntax, or an eye on the
+ * target (the given one, or with an eye alone the one the framing picked: "the eye and the target
+ * coincide"). */
 #include "camera.h"
 #include "scene.h"
 #include "prtfile.h"
@@ -120,7 +122,7 @@ int cli_rotation(const char *cmd, const char *s, float R[9]);
  * layout a probe layout name, cam_s numbers as camera_parse takes them (NULL: not given).
  * Returns 0, or 2 after printing one line. */
 int cli_check_view_flags(const char *cmd, const char *layout, const char *cam_s);
-int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, prt_camera *out);
+int cli_camera(const char *cmd, const prt_scene *s, float aspect, const char *cam_s, const char *cam_name, prt_camera *out);
 /* Local lights (render, reference, bench, view): takes every "--light SPEC"
  * (lights.h: point:pos=x,y,z;intensity=I;colour=r,g,b or spot:...;dir=..;inner=..;outer=..)
  * and "--no-file-lights" out of argv (argc shrinks) into extra / no_file. --probe none is

@@ -250,7 +250,7 @@ static int run(const bench_args *a, const prt_data *d, const prt_probe *probe) {
     if (!t) prt_fail(&err, "out of memory");
     int rc = 1;
     prt_camera cam;
-    if (rt) cli_camera(k_cmd, &d->scene, (float)a->size[0] / a->size[1], NULL, &cam); /* no --camera: cannot fail */
+    if (rt) cli_camera(k_cmd, &d->scene, (float)a->size[0] / a->size[1], NULL, NULL, &cam); /* no --camera: cannot fail */
     render_desc rd = { .width = a->size[0], .height = a->size[1], .camera = cam, .background = probe };
     bool local = d->scene.lights.count > 0;
     runtime_probe rp = { 0 };

@@ -82,7 +82,7 @@ int cli_demo(int argc, char **argv) {
     prt_image img = { 0 };
     if (probe_make_sky(&sd, &sky, &err)) { cli_error(k_cmd, "%s", err.msg); goto done; }
     prt_camera cam;
-    cli_camera(k_cmd, &d.scene, (float)w / h, NULL, &cam);   /* no --camera: cannot fail */
+    cli_camera(k_cmd, &d.scene, (float)w / h, NULL, NULL, &cam);   /* no --camera: cannot fail */
     /* Lowered to 16 degrees above the objects, looking 8 down, 55-degree field: the horizon crosses
      * the image about a third of the way down and the sky fills the upper third (at the default
      * 25 degrees up even the top row would look below the horizon: a flat ground colour). */

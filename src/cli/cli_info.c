@@ -127,6 +127,22 @@ int cli_info(int argc, char **argv) {
         light_format(&d.scene.lights.light[i], spec, sizeof spec);
         printf("%s %s\n", i ? "             " : "local lights", spec);
     }
+    for (int t = 0; t < d.scene.ntextures; t++) {   /* base-colour textures (texture.h), the materials they paint */
+        char mats[300] = "";
+        for (int m = 0; m < d.scene.nmaterials; m++)
+            if (d.scene.material_texture[m] == t + 1) {
+                size_t at = strlen(mats);
+                snprintf(mats + at, sizeof mats - at, "%s%d", at ? ", " : "", m);
+            }
+        printf("%s '%s' %dx%d, multiplies the diffuse albedo of material %s\n", t ? "             " : "textures    ",
+               d.scene.textures[t].name, d.scene.textures[t].w, d.scene.textures[t].h, mats);
+    }
+    for (int i = 0; i < d.scene.ncameras; i++) {   /* the scene's named cameras (a glTF's): --camera-name */
+        const prt_camera *c = &d.scene.cameras[i].cam;
+        printf("%s '%s' eye %g,%g,%g target %g,%g,%g fov %g%s\n", i ? "             " : "cameras     ", d.scene.cameras[i].name,
+               c->eye[0], c->eye[1], c->eye[2], c->target[0], c->target[1], c->target[2], c->fov_deg,
+               i ? "" : " (the default of render, view, reference)");
+    }
     if (d.plan[0]) printf("effects plan\n%s%s", d.plan, d.plan[strlen(d.plan) - 1] == '\n' ? "" : "\n");
     prt_data_free(&d);
     return 0;

@@ -54,10 +54,14 @@ static void help(void) {
     char lin[512], view[512];
     help_names(TRANSFER_LINEAR, lin, sizeof lin);
     help_names(TRANSFER_VIEW, view, sizeof view);
-    fputs("usage: prt precompute MODEL.obj|SCENE.json -o OUT.prt [options]\n"
+    fputs("usage: prt precompute MODEL.obj|.gltf|.glb|.ply|SCENE.json -o OUT.prt [options]\n"
          "\n"
          "scene:\n"
-         "  --material SPEC        BRDF of an OBJ model (default lambert:kd=0.8); see `prt brdf --help`\n"
+         "  --material SPEC        BRDF of every model, replacing a glTF's or MTL's own materials (default: the\n"
+         "                         file's, else lambert:kd=0.8); see `prt brdf --help`\n"
+         "models: OBJ (an OBJ naming an MTL library: its materials and map_Kd textures), glTF 2.0 (.gltf,\n"
+         "  .glb: metallic-roughness materials onto GGX, base-colour textures, KHR_lights_punctual point and\n"
+         "  spot lights, cameras for render/view/reference's --camera-name), PLY; what is left out is noted\n"
          "  --floor [VERTS]        add a diffuse floor under the model (default 31000 vertices)\n"
          "  --no-floor             no floor even if the JSON scene has one\n"
          "  --floor-material SPEC  floor BRDF (default lambert:kd=0.7)\n"

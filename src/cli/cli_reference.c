@@ -40,6 +40,7 @@ static void help(void) {
          "                          default: --bounces when given, else the file's effects (1 with its local\n"
          "                          lights' one bounce, else 0)\n"
          "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera (default: framed as by prt render)\n"
+         "  --camera-name NAME      the file's camera of that name (a glTF scene's; default: its first, if any)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera with standard\n"
          "                          errors: vertex,r,g,b,stderr_r,stderr_g,stderr_b,facing (facing 0:\n"
@@ -63,7 +64,7 @@ static void help(void) {
 
 /* What the command line asked for. */
 typedef struct reference_args {
-    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *vert_list;
+    const char *in, *out, *probe_path, *layout, *cam_s, *cam_name, *rot_s, *vert_out, *vert_list;
     int w, h, spp, vspp, bounces, light_bounces, nthreads;
     unsigned long long seed;
     bool background, quiet, no_image;
@@ -82,7 +83,7 @@ static int parse_args(int argc, char **argv, reference_args *a) {
     a->seed = 1;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
-        CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
+        CLI_S("--camera", &a->cam_s), CLI_S("--camera-name", &a->cam_name), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
         CLI_S("--vertex-list", &a->vert_list),
         CLI_B("--no-background", &no_background), CLI_B("--no-image", &a->no_image), CLI_B("--quiet", &a->quiet),
         CLI_B("-q", &a->quiet), CLI_WH("--size", size), CLI_I("--spp", &a->spp, 1, 1 << 24), CLI_F("--exposure", &a->exposure, -64, 64),
@@ -244,7 +245,7 @@ int cli_reference(int argc, char **argv) {
         a.light_bounces = fx.local_bounce || fx.highlights ? 1 : 0;
     }
     if (a.bounces == REF_BOUNCES_FILE) a.bounces = d.stats.bounces;   /* its interreflection passes */
-    if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
+    if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, a.cam_name, &cam)) == 0)
         rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : trace(&a, &d, &probe, &cam);
     probe_free(&probe);
     prt_data_free(&d);

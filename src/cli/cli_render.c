@@ -27,7 +27,9 @@ static void help(void) {
          "                          (default: from the aspect ratio, 2:1 latlong, 1:1 angular, 3:4 / 4:3 cross)\n"
          "  -o OUT                  .png (tone-mapped, 8-bit sRGB) or .exr (linear radiance); also .hdr,\n"
          "                          .tif, .jpg, .ppm\n"
-         "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera position, target and vertical FOV (default: framed)\n"
+         "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  camera position, target and vertical FOV (default: the file's\n"
+         "                          first camera, a glTF scene's, else framed); over --camera-name's\n"
+         "  --camera-name NAME      the file's camera of that name (`prt info` lists them)\n"
          "  --size WxH              image size (default 800x600)\n"
          "  --light-rotation Y[,P]  rotate the lighting: yaw about +y, then pitch, in degrees (default 0)\n"
          "  --exposure E            exposure in stops for PNG output (default: from the probe, so that a\n"
@@ -57,7 +59,7 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
 
 /* What the command line asked for. */
 typedef struct render_args {
-    const char *in, *out, *probe_path, *layout, *cam_s, *rot_s, *vert_out, *backend;
+    const char *in, *out, *probe_path, *layout, *cam_s, *cam_name, *rot_s, *vert_out, *backend;
     const runtime_backend_info *be;   /* --backend's table entry */
     int w, h, kmax, nthreads, tonemap, aa;
     float exposure, R[9];
@@ -77,7 +79,7 @@ static int parse_args(int argc, char **argv, render_args *a) {
     a->aa = CLI_AA_DEFAULT;
     const cli_option opts[] = {
         CLI_S("-o", &a->out), CLI_S("--probe", &a->probe_path), CLI_S("--layout", &a->layout),
-        CLI_S("--camera", &a->cam_s), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
+        CLI_S("--camera", &a->cam_s), CLI_S("--camera-name", &a->cam_name), CLI_S("--light-rotation", &a->rot_s), CLI_S("--vertices", &a->vert_out),
         CLI_B("--no-background", &no_background), CLI_B("--direct-only", &a->direct_only), CLI_WH("--size", size),
         CLI_F("--exposure", &a->exposure, -64, 64), CLI_S("--tonemap", &tonemap_s), CLI_I("--terms", &a->kmax, 1, 64),
         CLI_I("--threads", &a->nthreads, 1, 64), CLI_S("--backend", &a->backend), CLI_I("--aa", &a->aa, 1, CLI_AA_MAX),
@@ -205,7 +207,7 @@ int cli_render(int argc, char **argv) {
     prt_camera cam;
     if (a.direct_only && d.stats.bounces > 0 && prt_data_transfer(&d) && prt_data_transfer(&d)->direct.nvecs == 0)
         cli_error(k_cmd, "%s: --direct-only: the file keeps no direct-only transport (precompute it with --keep-direct)", a.in);
-    else if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, &cam)) == 0)
+    else if ((rc = cli_camera(k_cmd, &d.scene, (float)a.w / a.h, a.cam_s, a.cam_name, &cam)) == 0)
         rc = cli_load_probe(k_cmd, a.probe_path, a.layout, &probe) ? 1 : relight(&a, &d, &probe, &cam, t_read);
     probe_free(&probe);
     prt_data_free(&d);

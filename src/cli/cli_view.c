@@ -143,7 +143,8 @@ static void view_help(void) {
            "  --probes DIR           every .exr, .hdr and .pfm probe in DIR\n"
            "  --layout L             probe layout: latlong, angular, vcross, hcross (default: auto)\n"
            "  --size WxH             window size (default 1024x768)\n"
-           "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: framed as prt render)\n"
+           "  --camera EX,EY,EZ[,TX,TY,TZ[,FOV]]  initial camera (default: as prt render)\n"
+           "  --camera-name NAME      the file's camera of that name (a glTF scene's; default: its first)\n"
            "  --light-rotation Y[,P] initial light rotation in degrees (yaw about +y, then pitch; default 0)\n"
            "  --exposure E           exposure in stops (default: from the first probe, as prt render)\n"
            "  --terms K              BRDF terms used (default: all)\n"
@@ -829,7 +830,7 @@ static void viewer_free(viewer *v) {
 
 /* The command line beyond what goes straight into the viewer. */
 typedef struct view_args {
-    const char *layout, *cam_s, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
+    const char *layout, *cam_s, *cam_name, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
     int ndirs, npaths, w, h, frames;
     bool backend_given;         /* --backend: kept even on a software renderer */
     prt_lights extra;           /* --light */
@@ -845,6 +846,7 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
 #define OPT_V(name) if ((r = cli_opt(k_view, argc, argv, i, name, &val)) < 0) return -1; else if (r)
     OPT_S("--layout", a->layout)
     OPT_S("--camera", a->cam_s)
+    OPT_S("--camera-name", a->cam_name)
     OPT_S("--light-rotation", a->rot_s)
     OPT_S("--screenshot", v->shot_path)
     OPT_S("--window-shot", v->window_shot)
@@ -961,7 +963,7 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->local_dirty = v->lights.count > 0;
     view_effects_plan(v);
     cli_indirect_resolve(&a->indirect, &v->d, false, &v->hl_samples, &v->bounce);
-    if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, &v->cam)) return 2;
+    if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, a->cam_name, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)
         if (add_probe(v, a->paths[i], a->layout)) return 1;

@@ -15,6 +15,14 @@
  *     LITE  optional: the scene's local lights (lights.h), written only when there are some,
  *           so a scene without lights writes no section and a file without one reads with no
  *           lights; read back and validated (light_validate)
+ *     CAMS  optional: the scene's named cameras (a glTF's, asset.h), written only when there are
+ *           some: count, then per camera its name (string), eye, target, up and vertical field;
+ *           validated (finite, field in (0, 180), eye off the target, printable name)
+ *     TXTR  optional: base-colour textures (texture.h), written only when there are some: count,
+ *           per texture its name, width, height and 8-bit sRGB texels (the decoded pixels, not a
+ *           path: an embedded texture has none, and the file stays whole when the model moves);
+ *           then per material its texture (0 none, t + 1), then per vertex its u, v (after MESH;
+ *           sizes, indices and finite coordinates checked)
  * Scalars are written field by field (never whole structs), so padding and
  * layout of the C structs do not leak into the format (prtio.h).
  *
@@ -48,6 +56,8 @@
 #define TAG_MESH TRANSFER_TAG('M', 'E', 'S', 'H')
 #define TAG_MATL TRANSFER_TAG('M', 'A', 'T', 'L')
 #define TAG_LITE TRANSFER_TAG('L', 'I', 'T', 'E')
+#define TAG_CAMS TRANSFER_TAG('C', 'A', 'M', 'S')
+#define TAG_TXTR TRANSFER_TAG('T', 'X', 'T', 'R')
 #define HEADER_BYTES 16
 #define MAX_RES 4096          /* vis_res, gather_res, BRDF map res: far above anything sane */
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
@@ -147,6 +157,37 @@ static void sec_lite(prt_writer *w, const prt_data *d) {
     }
 }
 
+/* CAMS: count, then per camera name, eye, target, up, fov_deg. */
+static void sec_cams(prt_writer *w, const prt_data *d) {
+    const prt_scene *sc = &d->scene;
+    prtio_put_i32(w, sc->ncameras);
+    for (int i = 0; i < sc->ncameras; i++) {
+        const scene_camera *c = &sc->cameras[i];
+        prtio_put_str(w, c->name, sizeof c->name - 1);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, c->cam.eye[k]);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, c->cam.target[k]);
+        for (int k = 0; k < 3; k++) prtio_put_f32(w, c->cam.up[k]);
+        prtio_put_f32(w, c->cam.fov_deg);
+    }
+}
+
+/* TXTR: textures (name, w, h, sRGB texels), each material's texture, each vertex's u, v. */
+static void sec_txtr(prt_writer *w, const prt_data *d) {
+    const prt_scene *sc = &d->scene;
+    prtio_put_i32(w, sc->ntextures);
+    for (int t = 0; t < sc->ntextures; t++) {
+        const scene_texture *x = &sc->textures[t];
+        prtio_put_str(w, x->name, sizeof x->name - 1);
+        prtio_put_i32(w, x->w);
+        prtio_put_i32(w, x->h);
+        prtio_put_bytes(w, x->srgb, 3 * (size_t)x->w * x->h);
+    }
+    prtio_put_i32(w, sc->nmaterials);
+    prtio_put_bytes(w, sc->material_texture, (size_t)sc->nmaterials);
+    prtio_put_i32(w, sc->mesh.nverts);
+    prtio_put_arr(w, sc->mesh.uv, 2 * (size_t)sc->mesh.nverts, 4);
+}
+
 /* One section: the fixed ones (fn) or transfer tr through its module's writer. */
 typedef struct section {
     uint32_t tag;
@@ -182,11 +223,13 @@ int prtfile_write(const char *path, const prt_data *d, prt_error *err) {
     if (!data_ok(d, why)) return prt_fail(err, "%s: cannot write: %s", path, why);
     char tmp[4200];
     if (strlen(path) > 4000) return prt_fail(err, "%.60s...: output path too long", path);
-    section secs[4 + PRT_MAX_TRANSFERS] = { { TAG_META, sec_meta, NULL }, { TAG_MESH, sec_mesh, NULL },
+    section secs[6 + PRT_MAX_TRANSFERS] = { { TAG_META, sec_meta, NULL }, { TAG_MESH, sec_mesh, NULL },
                                             { TAG_MATL, sec_matl, NULL } };
     int nsec = 3;
     for (int i = 0; i < d->ntransfers; i++) secs[nsec++] = (section){ d->transfers[i].ops->tag, NULL, &d->transfers[i] };
     if (d->scene.lights.count > 0) secs[nsec++] = (section){ TAG_LITE, sec_lite, NULL };
+    if (d->scene.ncameras > 0) secs[nsec++] = (section){ TAG_CAMS, sec_cams, NULL };
+    if (d->scene.ntextures > 0 && d->scene.mesh.uv) secs[nsec++] = (section){ TAG_TXTR, sec_txtr, NULL };
     FILE *f = prt_atomic_open(path, tmp, sizeof tmp, err);
     if (!f) return -1;
     /* Payload length: the sections, each with its 12-byte tag and length. */
@@ -255,6 +298,34 @@ static bool materials_ok(const prt_data *d, char *why) {
     return true;
 }
 
+/* The textures: a known count, each material's index below it, finite coordinates for every vertex. */
+static bool textures_ok(const prt_scene *sc, char *why) {
+    if (sc->ntextures < 0 || sc->ntextures > SCENE_MAX_TEXTURES) return BAD(why, "bad texture count %d", sc->ntextures);
+    for (int m = 0; m < sc->nmaterials; m++)
+        if (sc->material_texture[m] > sc->ntextures) return BAD(why, "material %d uses texture %d of %d", m, sc->material_texture[m] - 1, sc->ntextures);
+    for (int t = 0; t < sc->ntextures; t++)
+        if (!sc->textures[t].srgb || !sc->textures[t].lin) return BAD(why, "texture %d has no texels", t);
+    if (sc->ntextures > 0 && !sc->mesh.uv) return BAD(why, "textures without texture coordinates");
+    if (sc->mesh.uv && !prtio_all_finite(sc->mesh.uv, 2 * (size_t)sc->mesh.nverts)) return BAD(why, "non-finite texture coordinates");
+    return true;
+}
+
+/* The named cameras: a known count, finite, a field in (0, 180), the eye off the target, printable names. */
+static bool cameras_ok(const prt_scene *sc, char *why) {
+    if (sc->ncameras < 0 || sc->ncameras > SCENE_MAX_CAMERAS) return BAD(why, "bad camera count %d", sc->ncameras);
+    for (int i = 0; i < sc->ncameras; i++) {
+        const scene_camera *c = &sc->cameras[i];
+        const prt_camera *k = &c->cam;
+        float v[10] = { k->eye[0], k->eye[1], k->eye[2], k->target[0], k->target[1], k->target[2], k->up[0], k->up[1], k->up[2], k->fov_deg };
+        if (!prtio_all_finite(v, 10)) return BAD(why, "camera %d: non-finite values", i);
+        if (!(k->fov_deg > 0 && k->fov_deg < 180)) return BAD(why, "camera %d: field of view %g outside (0, 180)", i, (double)k->fov_deg);
+        if (k->eye[0] == k->target[0] && k->eye[1] == k->target[1] && k->eye[2] == k->target[2]) return BAD(why, "camera %d: eye on its target", i);
+        for (const char *p = c->name; *p; p++)
+            if (*p < 32 || *p > 126) return BAD(why, "camera %d: unprintable name", i);
+    }
+    return true;
+}
+
 /* True when everything the runtime will index or print is in range and finite; else
  * false with the first problem in why[256]. Array lengths are those the counts imply
  * (the reader has already matched them against the file). */
@@ -287,6 +358,7 @@ static bool data_ok(const prt_data *d, char *why) {
         prt_error e;
         if (light_validate(&sc->lights.light[i], "LITE", &e)) return BAD(why, "light %d: %.200s", i, e.msg);
     }
+    if (!cameras_ok(sc, why) || !textures_ok(sc, why)) return false;
     prt_error se;   /* precompute refuses such scenes; a file holding one was not written by it */
     if (scene_check_scale(sc, &se)) return BAD(why, "%.200s", se.msg);
 
@@ -419,6 +491,59 @@ static bool rd_lite(parse *P, prt_reader *r) {
     return true;
 }
 
+/* CAMS into d->scene.cameras (data_ok validates each). */
+static bool rd_cams(parse *P, prt_reader *r) {
+    prt_scene *sc = &P->d->scene;
+    int32_t n = prtio_get_i32(r);
+    if (r->bad) return BAD(P->why, "CAMS section too short");
+    if (n < 1 || n > SCENE_MAX_CAMERAS) return BAD(P->why, "bad camera count %d", n);
+    for (int i = 0; i < n; i++) {
+        scene_camera *c = &sc->cameras[i];
+        if (!prtio_get_str(r, c->name, sizeof c->name)) return BAD(P->why, "camera %d: bad name", i);
+        for (int k = 0; k < 3; k++) c->cam.eye[k] = prtio_get_f32(r);
+        for (int k = 0; k < 3; k++) c->cam.target[k] = prtio_get_f32(r);
+        for (int k = 0; k < 3; k++) c->cam.up[k] = prtio_get_f32(r);
+        c->cam.fov_deg = prtio_get_f32(r);
+    }
+    if (r->bad) return BAD(P->why, "CAMS section too short");
+    if (r->pos != r->n) return BAD(P->why, "CAMS section longer than its %d cameras", n);
+    sc->ncameras = n;
+    return true;
+}
+
+/* TXTR into d->scene (textures_ok validates the indices and coordinates). */
+static bool rd_txtr(parse *P, prt_reader *r) {
+    prt_scene *sc = &P->d->scene;
+    if (sc->mesh.nverts < 1 || sc->nmaterials < 1) return BAD(P->why, "TXTR before MESH and MATL");
+    int32_t n = prtio_get_i32(r);
+    if (r->bad || n < 1 || n > SCENE_MAX_TEXTURES) return BAD(P->why, "bad texture count %d", n);
+    for (int t = 0; t < n; t++) {
+        char name[128];
+        bool ok = prtio_get_str(r, name, sizeof name);
+        int32_t w = prtio_get_i32(r), h = prtio_get_i32(r);
+        if (!ok || r->bad || w < 1 || h < 1 || w > TEXTURE_MAX_SIDE || h > TEXTURE_MAX_SIDE)
+            return BAD(P->why, "texture %d: bad name or size %dx%d", t, w, h);
+        const uint8_t *px = prtio_peek_arr(r, 3 * (size_t)w * h, 1);
+        prt_error e;
+        if (!px) return BAD(P->why, "TXTR section too short for texture %d's %dx%d texels", t, w, h);
+        if (texture_from_srgb(&sc->textures[t], name, w, h, px, &e)) {
+            r->oom = true;
+            return BAD(P->why, "%.200s", e.msg);
+        }
+        sc->ntextures = t + 1;
+    }
+    int32_t nm = prtio_get_i32(r);
+    const uint8_t *mt = nm == sc->nmaterials ? prtio_peek_arr(r, (size_t)nm, 1) : NULL;
+    if (!mt) return BAD(P->why, "TXTR: %d material textures for %d materials", nm, sc->nmaterials);
+    memcpy(sc->material_texture, mt, (size_t)nm);
+    int32_t nv = prtio_get_i32(r);
+    if (nv != sc->mesh.nverts) return BAD(P->why, "TXTR: coordinates for %d vertices of %d", nv, sc->mesh.nverts);
+    sc->mesh.uv = prtio_get_arr(r, 2 * (size_t)nv, 4);
+    if (r->bad) return BAD(P->why, "TXTR section too short");
+    if (r->pos != r->n) return BAD(P->why, "TXTR section longer than its contents");
+    return true;
+}
+
 /* Reads a transfer section of representation ops into a new prt_transfer of P->d. */
 static bool rd_transfer(parse *P, prt_reader *r, const transfer_ops *ops) {
     prt_data *d = P->d;
@@ -482,6 +607,12 @@ static int parse_section(parse *P, const char *path, uint32_t tag, prt_reader *s
     } else if (tag == TAG_LITE) {
         if (P->d->scene.lights.count > 0) return prt_fail(err, "%s: corrupt (two LITE sections)", path);
         ok = rd_lite(P, sec);
+    } else if (tag == TAG_CAMS) {
+        if (P->d->scene.ncameras > 0) return prt_fail(err, "%s: corrupt (two CAMS sections)", path);
+        ok = rd_cams(P, sec);
+    } else if (tag == TAG_TXTR) {
+        if (P->d->scene.ntextures > 0) return prt_fail(err, "%s: corrupt (two TXTR sections)", path);
+        ok = rd_txtr(P, sec);
     } else {
         int which = -1;
         for (int i = 0; i < 3; i++)

@@ -6,8 +6,9 @@
  *   MESH, MATL (params, spec strings, factor maps and singular values), then one
  *   section per transfer representation used, under that representation's own tag
  *   and written, read and validated by its module (transfer.h: config, material
- *   mask, transport, the direct-only set inside it when kept), and finally a
- *   CRC-32 (zlib) of everything before it.
+ *   mask, transport, the direct-only set inside it when kept), the optional LITE
+ *   (local lights), CAMS (named cameras) and TXTR (textures and UVs) sections,
+ *   and finally a CRC-32 (zlib) of everything before it.
  * prtfile_read checks magic, version, every length against the file size, the
  * CRC and every index (vertex, material, block, run and coefficient counts),
  * so a corrupt, truncated or wrong-version file fails with one line, never a crash;

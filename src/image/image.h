@@ -54,6 +54,9 @@ typedef struct image_desc {
 
 int image_alloc(prt_image *im, int w, int h, int c, prt_error *err);
 int image_read(const char *path, prt_image *out, prt_error *err);
+/* image_read of an image file's bytes buf[len] (an image embedded in a .glb); name stands for the
+ * file in errors and gives the format by its extension ("car.glb#image0.png"). */
+int image_read_memory(const char *name, const void *buf, size_t len, prt_image *out, prt_error *err);
 int image_write(const char *path, const prt_image *im, const image_desc *desc, prt_error *err);
 void image_free(prt_image *im);
 /* Whether image_write writes path as 8-bit sRGB (its extension: png, jpg, tif, ppm), where the

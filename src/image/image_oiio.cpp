@@ -89,6 +89,8 @@ static bool file_is_srgb(const ImageSpec &spec) {
     return true;
 }
 
+static int image_decode(const char *path, Filesystem::IOProxy *proxy, prt_image *out, prt_error *err);
+
 /* image_read's body (may throw; the wrapper catches). */
 static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
     struct stat st;
@@ -98,10 +100,17 @@ static int image_read_impl(const char *path, prt_image *out, prt_error *err) {
     if (st.st_size == 0) return prt_fail(err, "%s: empty file", path);
     if (access(path, R_OK) != 0) return prt_fail(err, "%s: cannot read: %s", path, std::strerror(errno));
 
+    return image_decode(path, nullptr, out, err);
+}
+
+/* Opens path (through proxy when non-null: bytes in memory, path then only names the format by
+ * its extension) and reads it as linear RGB float. May throw; the wrappers catch. */
+static int image_decode(const char *path, Filesystem::IOProxy *proxy, prt_image *out, prt_error *err) {
     /* Read alpha as stored: OIIO would otherwise premultiply PNG colours by alpha. */
     ImageSpec config;
     config.attribute("oiio:UnassociatedAlpha", 1);
-    auto in = ImageInput::open(path, &config);
+    if (proxy) config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);   /* the plugins read it from here */
+    auto in = ImageInput::open(path, &config, proxy);
     if (!in) {
         std::string e = first_line(OIIO::geterror());
         return prt_fail(err, "%s: not a readable image (%s)", path, e.c_str());
@@ -152,6 +161,23 @@ extern "C" int image_read(const char *path, prt_image *out, prt_error *err) {
     } catch (...) {
         image_free(out);
         return prt_fail(err, "%s: cannot read image (unexpected error)", path);
+    }
+}
+
+/* See image.h: bytes in memory through OIIO's memory reader. */
+extern "C" int image_read_memory(const char *name, const void *buf, size_t len, prt_image *out, prt_error *err) {
+    std::memset(out, 0, sizeof *out);
+    if (!name || !*name) return prt_fail(err, "empty image name");
+    if (len == 0) return prt_fail(err, "%s: empty image", name);
+    try {
+        Filesystem::IOMemReader mem(buf, len);
+        return image_decode(name, &mem, out, err);
+    } catch (const std::exception &e) {
+        image_free(out);
+        return prt_fail(err, "%s: cannot read image: %s", name, e.what());
+    } catch (...) {
+        image_free(out);
+        return prt_fail(err, "%s: cannot read image (unexpected error)", name);
     }
 }
 

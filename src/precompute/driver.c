@@ -67,6 +67,11 @@ static int drv_scene(const precompute_job *job, precompute_desc *d, drv_rank *rk
                 scene->mesh.ntris, scene->nmaterials, scene->floor_first_vertex >= 0 ? ", with floor" : "", *t_load);
     if (!rk->quiet && scene->load_stats.degenerate)
         fprintf(stderr, "warning: %s: dropped %d degenerate triangle(s)\n", job->scene_path, scene->load_stats.degenerate);
+    for (const char *n = scene->notes; !rk->quiet && *n;) {   /* what loading left out or changed (asset.h) */
+        size_t len = strcspn(n, "\n");
+        fprintf(stderr, "note: %.*s\n", (int)len, n);
+        n += len + (n[len] == '\n');
+    }
     return 0;
 }
 

@@ -7,7 +7,9 @@
  * over the texels w of a global-frame gather cube (res 32) in x's upper
  * hemisphere whose ray hits the scene (the complement transport, Eq. 6).
  * T at the hit point x~ is the barycentric blend of the hit triangle's three
- * vertices. Because the whole expression is linear in the neighbour vectors,
+ * vertices, times the triangle's mean texture where its material has one (the
+ * transport is stored without the texture, which multiplies at shading time:
+ * texture.h, scene_triangle_albedo). Because the whole expression is linear in the neighbour vectors,
  * every ray only adds scalar weights
  *   W[y][l][k][ch] += beta_y h_l(y, -w)[ch] g_k(x, w)[ch] (n.w) dw
  * into a per-thread table keyed by neighbour vertex y (a direct-indexed
@@ -175,6 +177,7 @@ typedef struct gather_ctx {
     float *tex_dir;           /* [ntex*3] gather cube texel directions (owned by gather_pass) */
     float *tex_dw;            /* [ntex] their solid angles */
     float *frame;             /* [nverts*6]: s, t of each vertex's Eq. 10 frame */
+    float *tri_albedo;        /* [ntris*3]: textured triangles' mean texture (texture.h), NULL untextured */
     int kmax;                 /* largest vector count of any vertex */
     int slot_lanes;           /* lanes_of(kmax) rounded up to cover lanes_of(1) */
     int max_slots;
@@ -234,7 +237,7 @@ static inline int gather_cast(const gather_ctx *c, gather_thread *th, const floa
  * slot: W[y][l][lane(ch,k)] += b h_l(y, -w)[ch] gb[lane(ch,k)] (the bracket of Eq. 8).
  * Returns the slot count, grown by one when y had no slot yet. */
 static inline int gather_add_corner(const gather_ctx *c, gather_thread *th, int y, float b, const float mw[3],
-                                    const float *gb, int nk, int nslots) {
+                                    const float *gb, int nk, int nslots, const float alb[3]) {
     const prt_mesh *m = &c->d->scene.mesh;
     const int SL = c->slot_lanes;
     int nl = nvec_of(c->prev, y);
@@ -256,7 +259,7 @@ static inline int gather_add_corner(const gather_ctx *c, gather_thread *th, int 
     float *W = th->slot_w + (size_t)sl * c->kmax * SL;
     for (int l = 0; l < nl; l++) {
         float *Wl = W + (size_t)l * SL;
-        const float hb[3] = { b * hy[3 * l], b * hy[3 * l + 1], b * hy[3 * l + 2] };
+        const float hb[3] = { b * hy[3 * l] * alb[0], b * hy[3 * l + 1] * alb[1], b * hy[3 * l + 2] * alb[2] };
         if (nk == 4) {
             for (int j = 0; j < 12; j++) Wl[j] += hb[j >> 2] * gb[j];
         } else if (nk == 1) {
@@ -294,12 +297,14 @@ static inline int gather_combine(const gather_ctx *c, gather_thread *th, int x, 
         if (u > 1.f) u = 1.f;
         if (v > 1.f - u) v = 1.f - u;
         const float beta[3] = { 1.f - u - v, u, v };
-        const float mw[3] = { -w[0], -w[1], -w[2] };
+        const float mw[3] = { -w[0], -w[1], -w[2] }, one[3] = { 1, 1, 1 };
+        /* the stored transport has no texture: light leaving a textured triangle takes its mean */
+        const float *alb = c->tri_albedo ? c->tri_albedo + 3 * (size_t)h->tri : one;
         for (int corner = 0; corner < 3; corner++) {
             float b = beta[corner];
             if (!(b > 0.f)) continue;
             int y = (int)m->tris[3 * (size_t)h->tri + corner];
-            nslots = gather_add_corner(c, th, y, b, mw, gb, nk, nslots);
+            nslots = gather_add_corner(c, th, y, b, mw, gb, nk, nslots, alb);
         }
     }
     return nslots;
@@ -470,6 +475,10 @@ static int ctx_tables(gather_ctx *c, prt_error *err) {
     }
     for (int v = 0; v < m->nverts; v++)
         brdf_frame(m->nrm + 3 * (size_t)v, c->frame + 6 * (size_t)v, c->frame + 6 * (size_t)v + 3);
+    if (d->scene.ntextures > 0 && m->uv) {
+        if (!(c->tri_albedo = prt_calloc(3 * (size_t)m->ntris, sizeof(float), err))) return -1;
+        for (int t = 0; t < m->ntris; t++) scene_triangle_albedo(&d->scene, t, c->tri_albedo + 3 * (size_t)t);
+    }
     for (int i = 0; i < d->scene.nmaterials && i < PRT_MAX_MATERIALS; i++) {
         const brdf_factor *f = &d->factors[i];
         if (f->lambertian && f->K == 1) {
@@ -508,7 +517,7 @@ static int threads_alloc(gather_ctx *c, int nth, prt_error *err) {
 /* Frees what ctx_tables and threads_alloc allocated (any part may be NULL). */
 static void ctx_free(gather_ctx *c, int nth) {
     free_threads(c->th, nth);
-    free(c->tex_dir); free(c->tex_dw); free(c->frame); free(c->restored);
+    free(c->tex_dir); free(c->tex_dw); free(c->frame); free(c->restored); free(c->tri_albedo);
 }
 
 /* The vertices of this pass that the checkpoint holds, staged into next (gather_desc.ckpt).

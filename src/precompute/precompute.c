@@ -655,8 +655,10 @@ static int pc_factor(pc_run *r, prt_error *err) {
     plan_add(r->plan, r->pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
              out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", r->nthreads, r->nthreads == 1 ? "" : "s");
     plan_add(r->plan, r->pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
-    for (int i = 0; i < out->scene.nmaterials; i++)
+    for (int i = 0; i < out->scene.nmaterials; i++) {
         plan_material(r->plan, r->pcap, i, &out->scene.materials[i], &out->factors[i], r->d.max_terms, r->d.term_error);
+        if (out->scene.material_from[i][0]) plan_add(r->plan, r->pcap, "    from %s\n", out->scene.material_from[i]);
+    }
     /* A BRDF reflecting more than it receives (albedo.h): a warning, since it may be meant */
     for (int i = 0; i < out->scene.nmaterials; i++) {
         char w[700];

@@ -148,6 +148,9 @@ static int rf_grow(rf_ctx *c, int nv, prt_error *err) {
     if (nrm) c->m.nrm = nrm;
     uint16_t *mat = realloc(c->m.mat, n * sizeof(uint16_t));
     if (mat) c->m.mat = mat;
+    float *uv = c->m.uv ? realloc(c->m.uv, 2 * n * sizeof(float)) : NULL;   /* a textured mesh's coordinates */
+    if (uv) c->m.uv = uv;
+    if (c->m.uv && !uv) return prt_fail(err, "refine: out of memory for %d vertices", nv);
     uint8_t *fl = realloc(c->floor, n);
     if (fl) c->floor = fl;
     uint64_t *vis = realloc(c->vis, n * (size_t)c->W * sizeof(uint64_t));
@@ -223,6 +226,7 @@ static void rf_add_midpoints(rf_ctx *c) {
         const float s = len2 > 1e-12f ? 1.f / sqrtf(len2) : 0.f;
         for (int k = 0; k < 3; k++) c->m.nrm[3 * o + k] = s > 0 ? n[k] * s : c->m.nrm[3 * a + k];
         c->m.mat[o] = c->m.mat[a];
+        for (int k = 0; c->m.uv && k < 2; k++) c->m.uv[2 * o + k] = 0.5f * (c->m.uv[2 * a + k] + c->m.uv[2 * b + k]);
         c->floor[o] = c->floor[a];
         c->mid[e] = v++;
     }
@@ -375,7 +379,8 @@ static int rf_commit(rf_ctx *c, prt_scene *s, prt_error *err) {
         float *pos = map ? prt_calloc(3 * (size_t)nv, sizeof(float), err) : NULL;
         float *nrm = pos ? prt_calloc(3 * (size_t)nv, sizeof(float), err) : NULL;
         uint16_t *mat = nrm ? prt_calloc((size_t)nv, sizeof(uint16_t), err) : NULL;
-        if (!mat) { free(map); free(pos); free(nrm); return -1; }
+        float *uv = mat && c->m.uv ? prt_calloc(2 * (size_t)nv, sizeof(float), err) : NULL;
+        if (!mat || (c->m.uv && !uv)) { free(map); free(pos); free(nrm); free(mat); return -1; }
         uint32_t k = 0;
         for (int v = 0; v < ff; v++) map[v] = k++;
         for (int v = v0; v < nv; v++) if (!c->floor[v]) map[v] = k++;
@@ -386,12 +391,17 @@ static int rf_commit(rf_ctx *c, prt_scene *s, prt_error *err) {
             memcpy(pos + 3 * (size_t)map[v], c->m.pos + 3 * (size_t)v, 3 * sizeof(float));
             memcpy(nrm + 3 * (size_t)map[v], c->m.nrm + 3 * (size_t)v, 3 * sizeof(float));
             mat[map[v]] = c->m.mat[v];
+            if (uv) memcpy(uv + 2 * (size_t)map[v], c->m.uv + 2 * (size_t)v, 2 * sizeof(float));
         }
         for (size_t i = 0; i < 3 * (size_t)c->m.ntris; i++) c->m.tris[i] = map[c->m.tris[i]];
         free(c->m.pos); free(c->m.nrm); free(c->m.mat); free(map);
         c->m.pos = pos;
         c->m.nrm = nrm;
         c->m.mat = mat;
+        if (uv) {
+            free(c->m.uv);
+            c->m.uv = uv;
+        }
         s->floor_first_vertex = nff;
     }
     mesh_free(&s->mesh);

@@ -327,6 +327,7 @@ typedef struct ref_surf {
     float ng[3];       /* unit geometric normal, or the shading normal at a vertex */
     bool at_vertex;    /* offsets along +ns as vis_cube does, regardless of direction */
     int mat;
+    float albedo[3];   /* its material's texture here (texture.h): multiplies kd; 1,1,1 untextured */
 } ref_surf;
 
 /* Ray origin for leaving s in direction w: offset by eps along the geometric normal, on w's side. */
@@ -362,6 +363,14 @@ static void surf_from_hit(const ref_ctx *rc, const vis_hit *h, const float dir[3
     s->at_vertex = false;
     int mat = m->mat ? m->mat[t[0]] : 0;
     s->mat = mat < rc->scene->nmaterials ? mat : 0;
+    const scene_texture *tx = scene_material_tex(rc->scene, s->mat);
+    s->albedo[0] = s->albedo[1] = s->albedo[2] = 1;
+    if (tx) {   /* the texture at the hit's interpolated coordinates */
+        float uv[2] = { 0, 0 };
+        for (int k = 0; k < 3; k++)
+            for (int c = 0; c < 2; c++) uv[c] += b[k] * m->uv[2 * (size_t)t[k] + c];
+        texture_sample(tx, uv[0], uv[1], s->albedo);
+    }
 }
 
 static float max3(const float a[3]) { return fmaxf(a[0], fmaxf(a[1], a[2])); }
@@ -432,6 +441,12 @@ static long trace_path(const ref_ctx *rc, const ref_surf *s0, const float wo0[3]
     const int maxb = envb < 0 || lightb < 0 ? -1 : envb > lightb ? envb : lightb;
     for (int depth = 0; depth < REF_MAX_DEPTH; depth++) {
         const brdf_params *bp = &rc->scene->materials[s.mat];
+        brdf_params textured;
+        if (s.albedo[0] != 1 || s.albedo[1] != 1 || s.albedo[2] != 1) {   /* the texture multiplies kd here */
+            textured = *bp;
+            for (int c = 0; c < 3; c++) textured.kd[c] *= s.albedo[c];
+            bp = &textured;
+        }
         float S[3], T[3], wol[3];
         brdf_frame(s.ns, S, T);
         brdf_to_local(S, T, s.ns, wo, wol);
@@ -568,6 +583,7 @@ static void vertex_range(void *ctx, int begin, int end, int thread) {
         s.at_vertex = true;
         int mat = m->mat ? m->mat[v] : 0;
         s.mat = mat < j->rc->scene->nmaterials ? mat : 0;
+        scene_vertex_albedo(j->rc->scene, v, s.albedo);
         pcg32 rng;
         pcg32_seed(&rng, j->seed, (uint64_t)v);
         ref_acc a = { { 0 }, { 0 }, 0 };

@@ -14,7 +14,8 @@
  * resolution (probe_eval, bilinear, rotated by R: a light at d moves to R d).
  * Surfaces are one-sided as in PRT: the shading normal is the interpolated vertex
  * normal, a direction below its horizon gets no light and reflects none; the
- * geometric normal only orients ray offsets (vis_eps). Per vertex (the quantity PRT
+ * geometric normal only orients ray offsets (vis_eps). A textured material (texture.h) has its kd
+ * multiplied by the texture at each hit's interpolated UV (at a vertex: its own UV). Per vertex (the quantity PRT
  * computes, Eq. 5) the estimate is taken at the vertex position with its normal,
  * rays leaving from p + eps n as in vis_cube.
  *

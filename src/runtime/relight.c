@@ -18,6 +18,10 @@
  * would wrap in 8-bit output, so relight_view and relight_vertex clamp it to 0.
  * Non-finite results (impossible with valid data) are also written as 0.
  *
+ * Textures (texture.h): the transport is stored without a texture's albedo, so each textured
+ * vertex's sparse sum is multiplied by its material's texture sampled at its UV (the per-vertex
+ * model; images multiply per pixel: render.h).
+ *
  * Per-vertex data is packed into one 48-byte record (position and the frame s,
  * t, n) so the view loop streams a single array. */
 #include "relight.h"
@@ -51,6 +55,8 @@ struct relight_ctx {
     int nverts;
     relight_vert *verts;          /* [nverts] */
     float lambert_h[PRT_MAX_MATERIALS][3];   /* constant view map of Lambertian factors */
+    float *albedo;                /* [3 * nverts] textured vertices' albedo multiplier (texture.h); NULL: none */
+    bool no_albedo;               /* relight_apply_albedo(false): leave it out */
 };
 
 /* Validates d and precomputes frames; returns a context (free with relight_destroy) or NULL with err set. */
@@ -116,6 +122,11 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
         memcpy(rv->n, m->nrm + 3 * (size_t)v, sizeof rv->n);
         brdf_frame(rv->n, rv->s, rv->t);
     }
+    if (d->scene.ntextures > 0 && m->uv) {   /* the texture sampled at each vertex multiplies its sparse transfer */
+        rc->albedo = prt_calloc(3 * (size_t)m->nverts, sizeof *rc->albedo, err);
+        if (!rc->albedo) { relight_destroy(rc); return NULL; }
+        for (int v = 0; v < m->nverts; v++) scene_vertex_albedo(&d->scene, v, rc->albedo + 3 * (size_t)v);
+    }
     for (int k = 0; k < d->scene.nmaterials; k++) {
         const brdf_factor *f = &d->factors[k];
         if (!f->lambertian) continue;
@@ -131,6 +142,7 @@ relight_ctx *relight_create(const prt_data *d, int nthreads, prt_error *err) {
 void relight_destroy(relight_ctx *rc) {
     if (!rc) return;
     free(rc->verts);
+    free(rc->albedo);
     for (int i = 0; i < rc->nparts; i++) free(rc->part[i].g);
     free(rc);
 }
@@ -195,7 +207,8 @@ static void shade(const relight_ctx *rc, int v, const float wl[3], int kmax, flo
     float acc[3] = { 0, 0, 0 };
     for (int p = 0; p < rc->nparts; p++)
         if ((rc->part[p].tr->materials >> mi) & 1) shade_part(rc, &rc->part[p], v, mi, wl, kmax, acc);
-    for (int c = 0; c < 3; c++) rgb[c] = acc[c] > 0 && isfinite(acc[c]) ? acc[c] : 0.f;
+    const float *a = rc->albedo && !rc->no_albedo ? rc->albedo + 3 * (size_t)v : NULL;   /* the texture: stored transport has none */
+    for (int c = 0; c < 3; c++) rgb[c] = acc[c] > 0 && isfinite(acc[c]) ? (a ? a[c] * acc[c] : acc[c]) : 0.f;
 }
 
 /* Outgoing radiance of vertex v toward unit world direction wo. */
@@ -238,6 +251,9 @@ void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb) {
     view_job j = { rc, { eye[0], eye[1], eye[2] }, kmax, rgb };
     prt_parallel_for(rc->nverts, 4096, rc->nthreads, view_chunk, &j);
 }
+
+void relight_apply_albedo(relight_ctx *rc, bool apply) { rc->no_albedo = !apply; }
+const float *relight_albedo(const relight_ctx *rc) { return rc->albedo; }
 
 /* Copies externally computed K-vectors into the cache. */
 void relight_set_gvec(relight_ctx *rc, const float *g) {

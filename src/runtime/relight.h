@@ -38,6 +38,11 @@ const float *relight_gvec(const relight_ctx *rc);
 void relight_view(relight_ctx *rc, const float eye[3], int kmax, float *rgb);
 /* Outgoing radiance of vertex v toward a unit world direction wo (for tests and the reference). */
 void relight_vertex(const relight_ctx *rc, int v, const float wo[3], int kmax, float rgb[3]);
+/* Textures (texture.h): each textured vertex's sum is multiplied by its texture sample (the
+ * default, apply true) or left without it (false: the part a raster multiplies per pixel).
+ * relight_albedo gives the samples ([3 * nverts]; NULL when the scene has no texture). */
+void relight_apply_albedo(relight_ctx *rc, bool apply);
+const float *relight_albedo(const relight_ctx *rc);
 /* Replaces the cached K-vectors with g[3 * nvecs] computed elsewhere (the GL runtime's, read back),
  * so that relight_view finishes them per vertex. */
 void relight_set_gvec(relight_ctx *rc, const float *g);

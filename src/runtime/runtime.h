@@ -13,7 +13,8 @@
  * Backends (the table in runtime.c lists every one):
  *   cpu  relight.h: sparse T x L on the CPU threads, h(view) . g per vertex
  *        (Eq. 5); images are those vertex colours rasterized (Gouraud) by OSMesa
- *        (headless; render.h) or into desc.ctx (the viewer's window). Its view
+ *        (headless; render.h) or into desc.ctx (the viewer's window), a file's
+ *        textures multiplied per pixel (runtime_raster.set_textures). Its view
  *        model is per vertex only.
  *   gl   glrt.h: the same T x L and h . g in GLSL; per pixel (default, the view
  *        maps looked up at every pixel) or per vertex (the CPU's model).
@@ -312,6 +313,10 @@ typedef struct runtime_raster {
     int (*read)(void *self, const float *rgb, prt_image *out, prt_error *err);
     /* Tone-mapped blit of ctx's target to its window; nothing headless. */
     void (*present)(void *self, int win_w, int win_h, float exposure_stops);
+    /* Textures (texture.h) of sc, whose mesh the raster draws: from then on draw and read take
+     * rgb[6*nverts], the colours a texture multiplies per pixel, then the rest (A, then B: each pixel
+     * tex(uv) A + B). 0 without textures (rgb stays [3*nverts]), or -1 with err. */
+    int (*set_textures)(void *self, const struct prt_scene *sc, prt_error *err);
 } runtime_raster;
 
 extern const runtime_backend runtime_cpu;   /* src/runtime/runtime_cpu.c */

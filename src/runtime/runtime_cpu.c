@@ -47,6 +47,7 @@ typedef struct cpu_rt {
     relight_ctx *rc;
     int nthreads;
     float *rgb;                 /* [3*nverts] the last view change's colours */
+    float *rgb2;                /* textured scenes: [6*nverts] the raster's, the textured part then the rest */
     struct glctx *ctx;          /* the caller's, or NULL: headless */
     const runtime_raster *raster;   /* draws the colours (NULL: a build without GL) */
     void *draw;                 /* its state */
@@ -71,6 +72,7 @@ static void cpu_destroy(void *self) {
     indirect_destroy(c->indirect);   /* first: it borrows c->direct's BVH */
     direct_destroy(c->direct);
     free(c->rgb);
+    free(c->rgb2);
     free(c);
 }
 
@@ -101,6 +103,10 @@ static void *cpu_create(const prt_data *d, const runtime_desc *desc, prt_error *
     if (!c->rgb) { cpu_destroy(c); return NULL; }
     if (desc->direct_only && prt_data_transfer(d)->direct.nvecs > 0) relight_use_direct(c->rc, true);
     if (c->raster && !(c->draw = c->raster->create(&d->scene.mesh, c->ctx, err))) { cpu_destroy(c); return NULL; }
+    if (c->draw && relight_albedo(c->rc)) {   /* textures: the raster multiplies them per pixel */
+        if (c->raster->set_textures(c->draw, &d->scene, err) ||
+            !(c->rgb2 = prt_calloc(6 * (size_t)d->scene.mesh.nverts, sizeof(float), err))) { cpu_destroy(c); return NULL; }
+    }
     return c;
 }
 
@@ -174,6 +180,18 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     return rc;
 }
 
+/* A textured scene's raster colours: the sparse sum without the texture (A, which the raster multiplies
+ * per pixel), then what the vertex colours hold beyond their texture-sampled sum (B). */
+static void raster_split(cpu_rt *c, const float eye[3], int kmax) {
+    size_t n = 3 * (size_t)c->d->scene.mesh.nverts;
+    float *A = c->rgb2, *B = c->rgb2 + n;
+    const float *alb = relight_albedo(c->rc);
+    relight_apply_albedo(c->rc, false);
+    relight_view(c->rc, eye, kmax, A);
+    relight_apply_albedo(c->rc, true);
+    for (size_t i = 0; i < n; i++) B[i] = fmaxf(c->rgb[i] - alb[i] * A[i], 0.f);
+}
+
 /* The view change, then the raster: into the context, timed, or headless kept for read. */
 static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *err) {
     cpu_rt *c = self;
@@ -182,7 +200,8 @@ static int cpu_render(void *self, const render_desc *rd, int kmax, prt_error *er
     c->has_frame = true;
     if (!c->draw) return 0;
     double t0 = prt_now();
-    int rc = c->raster->draw(c->draw, rd, c->rgb, err);
+    if (c->rgb2) raster_split(c, rd->camera.eye, kmax);
+    int rc = c->raster->draw(c->draw, rd, c->rgb2 ? c->rgb2 : c->rgb, err);
     if (c->ctx) c->raster_ms = 1e3 * (prt_now() - t0);
     return rc;
 }
@@ -195,9 +214,9 @@ static int cpu_read(void *self, prt_image *out, prt_error *err) {
     if (!c->draw)
         return prt_fail(err, "cpu runtime: this build has no GL (NO_GL=1): images need OSMesa; vertex colours "
                              "(runtime_shade_vertices, prt render --vertices) do not");
-    if (c->ctx) return c->raster->read(c->draw, c->rgb, out, err);
+    if (c->ctx) return c->raster->read(c->draw, c->rgb2 ? c->rgb2 : c->rgb, out, err);
     double t0 = prt_now();
-    int rc = c->raster->read(c->draw, c->rgb, out, err);
+    int rc = c->raster->read(c->draw, c->rgb2 ? c->rgb2 : c->rgb, out, err);
     c->raster_ms = 1e3 * (prt_now() - t0);
     return rc;
 }

@@ -60,6 +60,7 @@ typedef struct obj_parser {
     int64_t fwd_max;        /* largest index referring past the vertices read so far (-1: none) */
     int fwd_line;
     int faces;
+    int mtllib_line;        /* first `mtllib` line (0: none) */
 } obj_parser;
 
 static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f' || c == '\r'; }
@@ -250,6 +251,7 @@ static int parse_obj_text(const char *name, const char *text, size_t len, mesh_l
             size_t kn = (size_t)(p - k);
             if (kn == 1 && k[0] == 'v') rc = obj_vertex(&P, p, e);
             else if (kn == 1 && k[0] == 'f') rc = obj_face(&P, p, e);
+            else if (kn == 6 && !memcmp(k, "mtllib", 6) && !P.mtllib_line) P.mtllib_line = P.line;
             else if (!obj_ignored_keyword(k, kn)) {
                 char tok[40];
                 token_for_msg(k, e, tok);
@@ -262,7 +264,7 @@ static int parse_obj_text(const char *name, const char *text, size_t len, mesh_l
         rc = prt_fail(err, "%s:%d: face index %lld out of range (the file has %zu vertices)", name,
                       P.fwd_line, (long long)P.fwd_max + 1, P.nv);
     if (rc == 0 && P.nidx == 0) rc = prt_fail(err, "%s: no triangles (%zu vertices, no faces)", name, P.nv);
-    mesh_load_stats st = { .obj_vertices = (int)P.nv, .faces = P.faces };
+    mesh_load_stats st = { .obj_vertices = (int)P.nv, .faces = P.faces, .mtllib_line = P.mtllib_line };
     if (rc == 0) rc = mesh_build(name, P.pos, P.nv, P.idx, P.nidx / 3, &st, out, err);
     free(P.pos);
     free(P.idx);
@@ -560,6 +562,14 @@ int mesh_append(prt_mesh *a, const prt_mesh *b, prt_error *err) {
     if (tris) a->tris = tris;
     if (!pos || !nrm || !mat || !tris) return prt_fail(err, "out of memory appending a mesh");
     size_t v0 = (size_t)a->nverts;
+    if (a->uv || b->uv) {   /* coordinates for all when either has them (0 for the other's vertices) */
+        float *uv = realloc(a->uv, 2 * nv * sizeof(float));
+        if (!uv) return prt_fail(err, "out of memory appending a mesh");
+        if (!a->uv) memset(uv, 0, 2 * v0 * sizeof(float));
+        a->uv = uv;
+        if (b->uv) memcpy(uv + 2 * v0, b->uv, 2 * (size_t)b->nverts * sizeof(float));
+        else memset(uv + 2 * v0, 0, 2 * (size_t)b->nverts * sizeof(float));
+    }
     memcpy(a->pos + 3 * v0, b->pos, 3 * (size_t)b->nverts * sizeof(float));
     for (size_t v = 0; v < (size_t)b->nverts; v++) {
         float *n = a->nrm + 3 * (v0 + v);
@@ -599,6 +609,7 @@ void mesh_free(prt_mesh *m) {
     free(m->nrm);
     free(m->tris);
     free(m->mat);
+    free(m->uv);
     memset(m, 0, sizeof *m);
 }
 

@@ -9,7 +9,9 @@
  * OBJ support: v / f (triangles and polygons, fan-triangulated), the v, v/vt,
  * v//vn and v/vt/vn forms, negative (relative) indices, comments, CRLF, blank
  * lines; other statements (vt, vn, o, g, s, usemtl, mtllib) are accepted and
- * ignored, because prt computes its own smooth normals on the welded mesh.
+ * ignored, because prt computes its own smooth normals on the welded mesh. The
+ * first `mtllib` line is reported (stats->mtllib_line): scene_load then reads
+ * the file through asset.h instead, for its materials and textures.
  * Positions are welded (exactly equal coordinates become one vertex) so that
  * normals are smooth across seams. Degenerate triangles (repeated or collinear
  * vertices, zero area) are dropped and counted. Vertices no triangle uses are
@@ -32,6 +34,7 @@ typedef struct prt_mesh {
     float *nrm;        /* [3*nverts] unit smooth normals (angle weighted) */
     uint32_t *tris;    /* [3*ntris] counter-clockwise vertex indices */
     uint16_t *mat;     /* [nverts] material index per vertex (0 after loading) */
+    float *uv;         /* [2*nverts] texture coordinates, v up (NULL: none; asset.h, texture.h) */
 } prt_mesh;
 
 typedef struct mesh_load_stats {
@@ -40,6 +43,7 @@ typedef struct mesh_load_stats {
     int welded;            /* vertices merged by welding */
     int degenerate;        /* triangles dropped as degenerate */
     int unused;            /* vertices dropped because no triangle uses them */
+    int mtllib_line;       /* the first line naming an MTL library (0: none; not stored in .prt files) */
 } mesh_load_stats;
 
 /* Loads an OBJ file. stats may be NULL. Returns 0, or -1 with err set. */

@@ -16,10 +16,12 @@
  * line and column, a key of the wrong type, an unknown key, a model that fails
  * to load). */
 #include "scene.h"
+#include "asset.h"
 #include "vec3.h"
 #include <cjson/cJSON.h>
 #include <errno.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -32,6 +34,7 @@
 
 void scene_free(prt_scene *s) {
     mesh_free(&s->mesh);
+    for (int t = 0; t < s->ntextures && t < SCENE_MAX_TEXTURES; t++) texture_free(&s->textures[t]);
     memset(s, 0, sizeof *s);
     s->floor_first_vertex = -1;
 }
@@ -106,6 +109,119 @@ int scene_material(prt_scene *s, const char *spec, prt_error *err) {
     return i;
 }
 
+int scene_material_from(prt_scene *s, const char *spec, const char *from, prt_error *err) {
+    return scene_material_textured(s, spec, from, -1, err);
+}
+
+int scene_material_textured(prt_scene *s, const char *spec, const char *from, int tex, prt_error *err) {
+    if (tex < -1 || tex >= s->ntextures) return prt_fail(err, "texture %d of %d", tex, s->ntextures);
+    brdf_params p;
+    if (spec && brdf_parse(spec, &p, err)) return -1;
+    int i = -1;
+    for (int m = 0; m < s->nmaterials && i < 0 && spec; m++) {   /* the same BRDF (canonical forms) and texture */
+        char a[512], b[512];
+        brdf_format(&p, a, sizeof a);
+        brdf_format(&s->materials[m], b, sizeof b);
+        if (!strcmp(a, b) && s->material_texture[m] == tex + 1) i = m;
+    }
+    if (i >= 0) return i;
+    int had = s->nmaterials;
+    if (tex < 0) i = scene_material(s, spec, err);
+    else {   /* a new slot, even when an untextured material has this spec */
+        char canon[256];
+        size_t len = spec ? strlen(spec) : 0;
+        if (!spec || len >= sizeof canon) return scene_material(s, spec, err);
+        if (s->nmaterials >= PRT_MAX_MATERIALS)
+            return prt_fail(err, "too many materials (at most %d): '%s'", PRT_MAX_MATERIALS, spec);
+        i = s->nmaterials++;
+        s->materials[i] = p;
+        memcpy(s->material_spec[i], spec, len + 1);
+    }
+    if (i >= had && i >= 0) {
+        if (from) snprintf(s->material_from[i], sizeof s->material_from[i], "%.191s", from);
+        s->material_texture[i] = (uint8_t)(tex + 1);
+    }
+    return i;
+}
+
+const scene_texture *scene_material_tex(const prt_scene *s, int m) {
+    int t = m >= 0 && m < s->nmaterials ? s->material_texture[m] - 1 : -1;
+    return t >= 0 && t < s->ntextures && s->mesh.uv ? &s->textures[t] : NULL;
+}
+
+void scene_vertex_albedo(const prt_scene *s, int v, float rgb[3]) {
+    const scene_texture *t = s->mesh.mat ? scene_material_tex(s, s->mesh.mat[v]) : NULL;
+    if (t) texture_sample(t, s->mesh.uv[2 * (size_t)v], s->mesh.uv[2 * (size_t)v + 1], rgb);
+    else rgb[0] = rgb[1] = rgb[2] = 1;
+}
+
+void scene_triangle_albedo(const prt_scene *s, int t, float rgb[3]) {
+    const uint32_t *x = s->mesh.tris + 3 * (size_t)t;
+    const scene_texture *tx = s->mesh.mat ? scene_material_tex(s, s->mesh.mat[x[0]]) : NULL;
+    if (!tx) {
+        rgb[0] = rgb[1] = rgb[2] = 1;
+        return;
+    }
+    float uv[6];
+    for (int k = 0; k < 3; k++) memcpy(uv + 2 * k, s->mesh.uv + 2 * (size_t)x[k], 2 * sizeof(float));
+    texture_mean_triangle(tx, uv, rgb);
+}
+
+void scene_note(prt_scene *s, const char *fmt, ...) {
+    char line[512];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    size_t at = strlen(s->notes), n = strlen(line);
+    if (at + n + 2 <= sizeof s->notes) snprintf(s->notes + at, sizeof s->notes - at, "%s\n", line);
+    else if (at + 5 <= sizeof s->notes && (at < 4 || strcmp(s->notes + at - 4, "...\n")))
+        snprintf(s->notes + at, sizeof s->notes - at, "...\n");
+}
+
+/* Whether the MTL library named on line `line` of the OBJ at path (relative to its folder) can be
+ * read; its path into lib[cap]. */
+static bool obj_mtllib(const char *path, int line, char *lib, size_t cap) {
+    FILE *f = fopen(path, "rb");
+    char buf[4096] = "";
+    for (int i = 0; f && i < line && fgets(buf, sizeof buf, f); i++) {}
+    if (f) fclose(f);
+    char *name = strstr(buf, "mtllib");
+    name = name ? name + 6 : buf + strlen(buf);
+    name += strspn(name, " \t");
+    name[strcspn(name, "\r\n#")] = 0;
+    for (size_t n = strlen(name); n > 0 && (name[n - 1] == ' ' || name[n - 1] == '\t'); n--) name[n - 1] = 0;
+    const char *slash = strrchr(path, '/');
+    if (name[0] == '/' || !slash) snprintf(lib, cap, "%s", name);
+    else snprintf(lib, cap, "%.*s/%s", (int)(slash - path), path, name);
+    FILE *m = *name ? fopen(lib, "rb") : NULL;
+    if (m) fclose(m);
+    return m != NULL;
+}
+
+/* Reads a model file into am: an OBJ through mesh.c unless it names an MTL library, a glTF, PLY
+ * or OBJ + MTL through asset.h (its materials, lights and cameras; ad says which material wins).
+ * Returns 1 when am's vertices carry scene materials, 0 when the caller assigns one, -1 with err. */
+static int model_file(const char *path, const asset_desc *ad, prt_scene *s, asset_model *am, prt_error *err) {
+    char ext[16];
+    prt_path_ext(path, ext);
+    memset(am, 0, sizeof *am);
+    if (!strcmp(ext, "obj")) {
+        if (mesh_load_obj(path, &am->stats, &am->mesh, err)) return -1;
+        if (!am->stats.mtllib_line) return 0;
+        char lib[4096];
+        if (!obj_mtllib(path, am->stats.mtllib_line, lib, sizeof lib)) {
+            scene_note(s, "%s:%d: its MTL library %s cannot be read: the model takes --material or the default", path,
+                       am->stats.mtllib_line, lib);
+            return 0;
+        }
+        asset_model_free(am);   /* it names materials: the asset path reads them */
+    } else if (!asset_handles(path))
+        return prt_fail(err, "%s: unknown model format '%s' (expected .obj, .gltf, .glb or .ply)", path,
+                        ext[0] ? ext : "no extension");
+    return asset_load(path, ad, s, am, err) ? -1 : 1;
+}
+
 static void set_material(prt_mesh *m, int mat) {
     for (int v = 0; v < m->nverts; v++) m->mat[v] = (uint16_t)mat;
 }
@@ -120,7 +236,7 @@ int scene_from_mesh(prt_mesh *mesh, const char *material, prt_scene *out, prt_er
         scene_free(out);
         return prt_fail(err, "out of memory");
     }
-    int mat = scene_material(out, material ? material : SCENE_DEFAULT_MATERIAL, err);
+    int mat = scene_material_from(out, material ? material : SCENE_DEFAULT_MATERIAL, material ? "given" : "default", err);
     if (mat < 0) { scene_free(out); return -1; }
     set_material(&out->mesh, mat);
     scene_update_bounds(out);
@@ -134,7 +250,8 @@ int scene_add_floor(prt_scene *s, int verts, float size, const char *material, p
     if (size == 0.f) size = SCENE_DEFAULT_FLOOR_SIZE;
     if (!(size > 0.f) || !isfinite(size)) return prt_fail(err, "floor: size must be positive (got %g)", (double)size);
     if (s->mesh.nverts <= 0) return prt_fail(err, "floor: the scene has no models to put a floor under");
-    int mat = scene_material(s, material ? material : SCENE_DEFAULT_FLOOR_MATERIAL, err);
+    int mat = scene_material_from(s, material ? material : SCENE_DEFAULT_FLOOR_MATERIAL,
+                                  material ? "the floor's material" : "the default floor", err);
     if (mat < 0) return -1;
     float bmin[3], bmax[3], d[3];
     mesh_bounds(&s->mesh, bmin, bmax);
@@ -252,10 +369,12 @@ static void join_path(const char *json_path, const char *rel, char *out, size_t 
 }
 
 /* Builds one model's mesh (untransformed) from its geometry key. */
-static int json_geometry(json_ctx *c, const cJSON *model, prt_mesh *m, prt_scene *s) {
+static int json_geometry(json_ctx *c, const cJSON *model, asset_model *am, prt_scene *s, const asset_desc *ad) {
     static const char *const kinds[] = { "obj", "sphere", "box", "torus", "plane" };
     const cJSON *g = NULL;
     int kind = -1;
+    memset(am, 0, sizeof *am);
+    prt_mesh *m = &am->mesh;
     for (int k = 0; k < 5; k++) {
         const cJSON *it = cJSON_GetObjectItemCaseSensitive(model, kinds[k]);
         if (!it) continue;
@@ -268,15 +387,16 @@ static int json_geometry(json_ctx *c, const cJSON *model, prt_mesh *m, prt_scene
         if (!cJSON_IsString(g) || !*g->valuestring) return jfail_type(c, "obj", "a file name");
         char objpath[4096];
         join_path(c->path, g->valuestring, objpath, sizeof objpath);
-        mesh_load_stats st;
         prt_error e2;
-        if (mesh_load_obj(objpath, &st, m, &e2) != 0) return prt_fail(c->err, "%s: %s: %s", c->path, c->where, e2.msg);
-        s->load_stats.obj_vertices += st.obj_vertices;
-        s->load_stats.faces += st.faces;
-        s->load_stats.welded += st.welded;
-        s->load_stats.degenerate += st.degenerate;
-        s->load_stats.unused += st.unused;
-        return 0;
+        int carried = model_file(objpath, ad, s, am, &e2);
+        if (carried < 0) return prt_fail(c->err, "%s: %s: %s", c->path, c->where, e2.msg);
+        const mesh_load_stats *st = &am->stats;
+        s->load_stats.obj_vertices += st->obj_vertices;
+        s->load_stats.faces += st->faces;
+        s->load_stats.welded += st->welded;
+        s->load_stats.degenerate += st->degenerate;
+        s->load_stats.unused += st->unused;
+        return carried;
     }
     if (!cJSON_IsObject(g)) return jfail_type(c, kinds[kind], "an object");
     size_t wl = strlen(c->where);
@@ -365,6 +485,37 @@ static void model_transform(prt_mesh *m, float scale, double rx, double ry, cons
     mesh_transform(m, R, scale, t);
 }
 
+/* The lights and cameras an asset carries, under the model transform p' = scale R p + t. */
+static void transform_extras(asset_model *am, float scale, double rx, double ry, const float t[3]) {
+    float R[9], Ry[9], Rx[9];
+    rot_y(Ry, ry);
+    rot_x(Rx, rx);
+    mat3_mul(R, Ry, Rx);
+    for (int i = 0; i < am->lights.count + 2 * am->ncameras; i++) {
+        bool light = i < am->lights.count;
+        const int ci = (i - am->lights.count) / 2;
+        float *p = light ? am->lights.light[i].pos : (i - am->lights.count) % 2 ? am->cameras[ci].cam.target : am->cameras[ci].cam.eye;
+        float q[3];
+        for (int k = 0; k < 3; k++) q[k] = scale * (R[3 * k] * p[0] + R[3 * k + 1] * p[1] + R[3 * k + 2] * p[2]) + t[k];
+        memcpy(p, q, sizeof q);
+        float *d = light ? am->lights.light[i].dir : (i - am->lights.count) % 2 ? am->cameras[ci].cam.up : NULL;
+        if (!d) continue;
+        for (int k = 0; k < 3; k++) q[k] = R[3 * k] * d[0] + R[3 * k + 1] * d[1] + R[3 * k + 2] * d[2];
+        memcpy(d, q, sizeof q);
+    }
+}
+
+/* Adds an asset's lights and cameras to s (what names them in errors: the model's place). */
+static int add_extras(prt_scene *s, const asset_model *am, const char *what, prt_error *err) {
+    for (int i = 0; i < am->lights.count; i++)
+        if (lights_add(&s->lights, &am->lights.light[i], what, err)) return -1;
+    if (s->ncameras + am->ncameras > SCENE_MAX_CAMERAS)
+        return prt_fail(err, "%s: more than %d cameras in the scene", what, SCENE_MAX_CAMERAS);
+    memcpy(s->cameras + s->ncameras, am->cameras, (size_t)am->ncameras * sizeof am->cameras[0]);
+    s->ncameras += am->ncameras;
+    return 0;
+}
+
 static int json_model(json_ctx *c, const cJSON *model, int index, const scene_desc *desc, prt_scene *s) {
     snprintf(c->where, sizeof c->where, "models[%d]", index);
     if (!cJSON_IsObject(model)) return prt_fail(c->err, "%s: %s: expected an object", c->path, c->where);
@@ -379,16 +530,30 @@ static int json_model(json_ctx *c, const cJSON *model, int index, const scene_de
     if (jfloat(c, model, "scale", &scale) || jvec(c, model, "translate", 3, t) || jfloat(c, model, "rotate_x", &rx) ||
         jfloat(c, model, "rotate_y", &ry)) return -1;
     if (!(scale > 0)) return jfail_type(c, "scale", "a positive number");
-    const char *spec = mat ? mat->valuestring : desc && desc->material ? desc->material : SCENE_DEFAULT_MATERIAL;
+    /* A JSON "material" wins over --material, which wins over the file's own materials (asset.h). */
+    char from[192];
+    snprintf(from, sizeof from, "%s.material", c->where);
+    asset_desc ad = { .material = mat ? mat->valuestring : desc ? desc->material : NULL,
+                      .material_from = mat ? from : "--material", .fallback = SCENE_DEFAULT_MATERIAL };
     prt_error e2;
-    int mi = scene_material(s, spec, &e2);
-    if (mi < 0) return prt_fail(c->err, "%s: %s.material: %s", c->path, c->where, e2.msg);
-    prt_mesh m;
-    if (json_geometry(c, model, &m, s)) return -1;
-    model_transform(&m, scale, rx, ry, t);
-    set_material(&m, mi);
-    int rc = mesh_append(&s->mesh, &m, c->err);
-    mesh_free(&m);
+    brdf_params bp;
+    if (ad.material && brdf_parse(ad.material, &bp, &e2)) return prt_fail(c->err, "%s: %s.material: %s", c->path, c->where, e2.msg);
+    asset_model am;
+    int carried = json_geometry(c, model, &am, s, &ad);
+    if (carried < 0) return -1;
+    int mi = carried ? 0 : scene_material_from(s, ad.material ? ad.material : SCENE_DEFAULT_MATERIAL,
+                                               ad.material ? ad.material_from : "default", &e2);
+    if (mi < 0) {
+        asset_model_free(&am);
+        return prt_fail(c->err, "%s: %s.material: %s", c->path, c->where, e2.msg);
+    }
+    if (!carried) set_material(&am.mesh, mi);
+    model_transform(&am.mesh, scale, rx, ry, t);
+    transform_extras(&am, scale, rx, ry, t);
+    char what[300];
+    snprintf(what, sizeof what, "%s: %s", c->path, c->where);
+    int rc = mesh_append(&s->mesh, &am.mesh, c->err) ? -1 : add_extras(s, &am, what, c->err);
+    asset_model_free(&am);
     return rc;
 }
 
@@ -566,32 +731,42 @@ done:
     return rc;
 }
 
+/* One model file as the scene (model_file): --material or its own materials, its lights and
+ * cameras, the floor desc asks for. Frees out on failure. */
+static int scene_load_model(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err) {
+    asset_desc ad = { .material = desc ? desc->material : NULL, .material_from = "--material", .fallback = SCENE_DEFAULT_MATERIAL };
+    asset_model am;
+    int carried = model_file(path, &ad, out, &am, err);
+    int rc = carried < 0 ? -1 : 0;
+    prt_error e2;
+    if (!rc && !carried) {
+        int mi = scene_material_from(out, ad.material ? ad.material : SCENE_DEFAULT_MATERIAL, ad.material ? "--material" : "default", err);
+        if (mi < 0) rc = -1;
+        else set_material(&am.mesh, mi);
+    }
+    if (!rc) {
+        out->mesh = am.mesh;
+        memset(&am.mesh, 0, sizeof am.mesh);
+        out->load_stats = am.stats;
+        rc = add_extras(out, &am, path, err);
+    }
+    asset_model_free(&am);
+    if (!rc && desc && desc->floor == 1 &&
+        scene_add_floor(out, desc->floor_verts > 0 ? desc->floor_verts : SCENE_DEFAULT_FLOOR_VERTS, SCENE_DEFAULT_FLOOR_SIZE,
+                        desc->floor_material, &e2) != 0)
+        rc = prt_fail(err, "%s: %s", path, e2.msg);
+    if (!rc) scene_update_bounds(out);
+    if (!rc && scene_check_scale(out, &e2) != 0) rc = prt_fail(err, "%s: %s", path, e2.msg);
+    if (rc) scene_free(out);
+    return rc;
+}
+
 int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->floor_first_vertex = -1;
     char ext[16];
     prt_path_ext(path, ext);
-    if (strcmp(ext, "obj") == 0) {
-        prt_mesh m;
-        mesh_load_stats st;
-        if (mesh_load_obj(path, &st, &m, err) != 0) return -1;
-        if (scene_from_mesh(&m, desc ? desc->material : NULL, out, err) != 0) return -1;
-        out->load_stats = st;
-        if (desc && desc->floor == 1) {
-            prt_error e2;
-            if (scene_add_floor(out, desc->floor_verts > 0 ? desc->floor_verts : SCENE_DEFAULT_FLOOR_VERTS,
-                                SCENE_DEFAULT_FLOOR_SIZE, desc->floor_material, &e2) != 0) {
-                scene_free(out);
-                return prt_fail(err, "%s: %s", path, e2.msg);
-            }
-        }
-        prt_error e3;
-        if (scene_check_scale(out, &e3) != 0) {
-            scene_free(out);
-            return prt_fail(err, "%s: %s", path, e3.msg);
-        }
-        return 0;
-    }
+    if (strcmp(ext, "obj") == 0 || asset_handles(path)) return scene_load_model(path, desc, out, err);
     if (strcmp(ext, "json") == 0) {
         size_t len = 0;
         char *text = read_text(path, &len, err);
@@ -600,7 +775,8 @@ int scene_load(const char *path, const scene_desc *desc, prt_scene *out, prt_err
         free(text);
         return rc;
     }
-    return prt_fail(err, "%s: unknown scene format '%s' (expected .obj or .json)", path, ext[0] ? ext : "no extension");
+    return prt_fail(err, "%s: unknown scene format '%s' (expected .obj, .gltf, .glb, .ply or .json)", path,
+                    ext[0] ? ext : "no extension");
 }
 
 int scene_parse_json(const char *name, const char *text, size_t len, const scene_desc *desc, prt_scene *out,

@@ -1,5 +1,6 @@
 /* absent.c - the functions a fuzz harness links but never calls, standing in for the libraries
- * behind them, so that a harness needs no shared library beyond libc, libstdc++, zlib and cJSON
+ * behind them, so that a harness needs no shared library beyond libc, libstdc++, zlib and cJSON (and
+ * assimp for the asset harnesses, whose readers they fuzz)
  * (tools/fuzz_pack.sh copies the binaries to machines without this one's packages; OpenImageIO,
  * OSMesa, Embree, OpenBLAS and OpenMPI would bring some 280 shared libraries, 590 MB, along).
  *
@@ -26,8 +27,9 @@ static void absent(const char *name) {
 
 /* image_oiio.o (OpenImageIO) */
 ABSENT(image_read)
-ABSENT(image_write)
+ABSENT(image_read_memory)
 ABSENT(image_tonemapped)
+ABSENT(image_write)
 /* glctx.o (OSMesa, EGL, GLFW) */
 ABSENT(glctx_check)
 ABSENT(glctx_compute_program)
