@@ -89,7 +89,7 @@ BINDIR     ?= $(PREFIX)/bin
 LIBDIR     ?= $(PREFIX)/lib
 INCLUDEDIR ?= $(PREFIX)/include
 VERSION := $(shell sed -n 's/^\#define PRT_VERSION_STRING "\(.*\)"/\1/p' $(wildcard src/*/common.h))
-SO_ABI  := 0
+SO_ABI  := 1
 SONAME  := libprt.so.$(SO_ABI)
 SO_FILE := libprt.so.$(VERSION)
 # prt.pc: the libraries libprt uses, by their pkg-config names (Requires.private), and those without one

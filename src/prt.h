@@ -57,7 +57,7 @@
  * core; runtime_desc.threads, precompute_desc.nthreads or $PRT_THREADS say how many.
  *
  * Link (docs/api.md):
- *     cc app.c $(pkg-config --cflags --libs prt)                     shared: libprt.so.0
+ *     cc app.c $(pkg-config --cflags --libs prt)                     shared: libprt.so.1
  *     cc app.c $(pkg-config --cflags prt) $(pkg-config --static --libs prt | sed 's/-lprt\b/-l:libprt.a/')
  * The headers are C11 (-std=c11 or later; gcc or clang) and compile as C++ too. */
 #ifndef PRT_H

@@ -29,7 +29,7 @@
 #include "error.h"
 #include "check.h"
 
-#define PRT_VERSION_STRING "0.1.0"
+#define PRT_VERSION_STRING "0.2.0"
 
 /* Monotonic wall-clock seconds. */
 double prt_now(void);
