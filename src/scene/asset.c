@@ -480,11 +480,12 @@ typedef struct ply_layout {
     uint8_t size[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];    /* the scalar's, or the list items' */
 } ply_layout;
 
-/* The next whitespace-separated token of an ASCII body at *p (NUL-terminated text) as a number;
- * false at the end or on a token that is not one (a list count: a whole number up to 2^20). */
+/* The next blank-separated token of an ASCII body's line at *p (NUL-terminated text) as a number;
+ * false at the line's end or on a token that is not one (a list count: a whole number up to 2^20). */
 static bool ply_token(const char **p, bool count, double *x) {
     const char *q = *p;
-    while (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n') q++;
+    while (*q == ' ' || *q == '\t' || *q == '\r') q++;
+    if (*q == '\n' || !*q) return false;
     char *end;
     *x = strtod(q, &end);
     if (end == q || (*end && *end != ' ' && *end != '\t' && *end != '\r' && *end != '\n')) return false;
@@ -492,11 +493,12 @@ static bool ply_token(const char **p, bool count, double *x) {
     return !count || (*x >= 0 && *x <= (1 << 20) && *x == floor(*x));
 }
 
-/* Whether an ASCII body (NUL-terminated text at b) holds every element the layout declares, as
- * numbers: assimp 5.2's post-processing crashed on faces a body with other tokens gave. */
+/* Whether an ASCII body (NUL-terminated text at b) holds every element the layout declares, one
+ * instance a line of numbers and nothing more (assimp 5.2 reads it line by line, a shifted line's
+ * number as a list count: it allocated 19 GB for one, and its post-processing crashed on others). */
 static bool ply_ascii_ok(const ply_layout *y, const char *b) {
     for (int e = 0; e < y->nel; e++)
-        for (long long i = 0; i < y->count[e]; i++)
+        for (long long i = 0; i < y->count[e]; i++) {
             for (int p = 0; p < y->nprop[e]; p++) {
                 double x, item;
                 if (!ply_token(&b, y->csize[e][p] != 0, &x)) return false;
@@ -504,6 +506,10 @@ static bool ply_ascii_ok(const ply_layout *y, const char *b) {
                 for (long long k = 0; k < items; k++)
                     if (!ply_token(&b, false, &item)) return false;
             }
+            while (*b == ' ' || *b == '\t' || *b == '\r') b++;
+            if (*b != '\n' && *b) return false;   /* more on the line than the instance */
+            if (*b) b++;
+        }
     return true;
 }
 
