@@ -553,8 +553,8 @@ static int ply_words(const char *p, const char *e, const char *w[6], size_t wn[6
 /* One header line (p..e) is well formed (printable ASCII, a known keyword with its fields) and
  * goes into the layout y. */
 static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
-    for (const char *q = p; q < e; q++)
-        if ((*q < 32 && *q != '\t' && *q != '\r') || *q > 126) return false;
+    for (const char *q = p; q < e; q++)   /* a CR only ends the line (assimp breaks lines at it) */
+        if ((*q < 32 && *q != '\t' && !(*q == '\r' && q + 1 == e)) || *q > 126) return false;
     const char *w[6];
     size_t n[6];
     int k = ply_words(p, e, w, n);
@@ -585,6 +585,7 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         int el = y->nel - 1, np = el >= 0 ? y->nprop[el] : PLY_MAX_PROPS;
         if (np >= PLY_MAX_PROPS) return false;
         bool list = k == 5 && PLY_IS(1, "list");
+        if (list && w[2][0] != 'u') return false;   /* a list's count is unsigned: assimp widens a signed one's -1 */
         int cs = list ? ply_type(w[2], n[2]) : 0, sz = list ? ply_type(w[3], n[3]) : k == 3 ? ply_type(w[1], n[1]) : 0;
         if (!sz || (list && !cs)) return false;
         y->csize[el][np] = (uint8_t)cs;
