@@ -480,11 +480,12 @@ typedef struct ply_layout {
     uint8_t size[PLY_MAX_ELEMENTS][PLY_MAX_PROPS];    /* the scalar's, or the list items' */
 } ply_layout;
 
-/* The next whitespace-separated token of an ASCII body at *p (NUL-terminated text) as a number;
- * false at the end or on a token that is not one (a list count: a whole number up to 2^20). */
+/* The next blank-separated token of an ASCII body's line at *p (NUL-terminated text) as a number;
+ * false at the line's end or on a token that is not one (a list count: a whole number up to 2^20). */
 static bool ply_token(const char **p, bool count, double *x) {
     const char *q = *p;
-    while (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n') q++;
+    while (*q == ' ' || *q == '\t' || *q == '\r') q++;
+    if (*q == '\n' || !*q) return false;
     char *end;
     *x = strtod(q, &end);
     if (end == q || (*end && *end != ' ' && *end != '\t' && *end != '\r' && *end != '\n')) return false;
@@ -492,11 +493,12 @@ static bool ply_token(const char **p, bool count, double *x) {
     return !count || (*x >= 0 && *x <= (1 << 20) && *x == floor(*x));
 }
 
-/* Whether an ASCII body (NUL-terminated text at b) holds every element the layout declares, as
- * numbers: assimp 5.2's post-processing crashed on faces a body with other tokens gave. */
+/* Whether an ASCII body (NUL-terminated text at b) holds every element the layout declares, one
+ * instance a line of numbers and nothing more (assimp 5.2 reads it line by line, a shifted line's
+ * number as a list count: it allocated 19 GB for one, and its post-processing crashed on others). */
 static bool ply_ascii_ok(const ply_layout *y, const char *b) {
     for (int e = 0; e < y->nel; e++)
-        for (long long i = 0; i < y->count[e]; i++)
+        for (long long i = 0; i < y->count[e]; i++) {
             for (int p = 0; p < y->nprop[e]; p++) {
                 double x, item;
                 if (!ply_token(&b, y->csize[e][p] != 0, &x)) return false;
@@ -504,6 +506,10 @@ static bool ply_ascii_ok(const ply_layout *y, const char *b) {
                 for (long long k = 0; k < items; k++)
                     if (!ply_token(&b, false, &item)) return false;
             }
+            while (*b == ' ' || *b == '\t' || *b == '\r') b++;
+            if (*b != '\n' && *b) return false;   /* more on the line than the instance */
+            if (*b) b++;
+        }
     return true;
 }
 
@@ -547,8 +553,8 @@ static int ply_words(const char *p, const char *e, const char *w[6], size_t wn[6
 /* One header line (p..e) is well formed (printable ASCII, a known keyword with its fields) and
  * goes into the layout y. */
 static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
-    for (const char *q = p; q < e; q++)
-        if ((*q < 32 && *q != '\t' && *q != '\r') || *q > 126) return false;
+    for (const char *q = p; q < e; q++)   /* a CR only ends the line (assimp breaks lines at it) */
+        if ((*q < 32 && *q != '\t' && !(*q == '\r' && q + 1 == e)) || *q > 126) return false;
     const char *w[6];
     size_t n[6];
     int k = ply_words(p, e, w, n);
@@ -579,6 +585,7 @@ static bool ply_line_ok(const char *p, const char *e, ply_layout *y) {
         int el = y->nel - 1, np = el >= 0 ? y->nprop[el] : PLY_MAX_PROPS;
         if (np >= PLY_MAX_PROPS) return false;
         bool list = k == 5 && PLY_IS(1, "list");
+        if (list && w[2][0] != 'u') return false;   /* a list's count is unsigned: assimp widens a signed one's -1 */
         int cs = list ? ply_type(w[2], n[2]) : 0, sz = list ? ply_type(w[3], n[3]) : k == 3 ? ply_type(w[1], n[1]) : 0;
         if (!sz || (list && !cs)) return false;
         y->csize[el][np] = (uint8_t)cs;
