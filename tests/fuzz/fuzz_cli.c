@@ -82,7 +82,7 @@ static void parse_values(const char *a) {
     if (probe_parse_layout(a, &l) == 0) FUZZ_REQUIRE(l >= PROBE_AUTO && l <= PROBE_CROSS, "layout %d", (int)l);
     prt_camera cam;
     cap_begin();
-    rc = cli_camera("fuzz", &scene, 1.5f, a, &cam);
+    rc = cli_camera("fuzz", &scene, 1.5f, a, NULL, &cam);
     out = cap_end(&len);
     if (rc) check_one_line(out, len, "cli_camera");
     cap_begin();
