@@ -797,25 +797,34 @@ int scene_parse_json(const char *name, const char *text, size_t len, const scene
 
 /* The demo scene is data: this text is byte for byte data/demo.json (tests/test_data.c
  * checks it), built in so that `prt demo` needs no file and runs from any directory.
- * Unit-ish composition on y = 0, about 2.3 wide: a sun 45 degrees up casts shadows as
- * long as each object is tall, all landing on the 3x floor. The torus stands on its rim
- * (rotate_x 90), turned 30 degrees; the box is turned -25 degrees. */
+ * Laid out for city-512.exr's sun (about 48 degrees up, from +x -z) and the demo's camera
+ * (cli_demo.c, looking from +x +z with the sun at its right): the shadows fall left, each
+ * about as long as its object is tall, onto a floor 5x the models' extent so that the
+ * picture shows floor only. The box's sunlit face looks at the floor beside it and at the
+ * chrome sphere; the torus stands on its rim (rotate_x 90), turned between the sun and the
+ * camera so that both see through it. A light prior is not read from here by `prt demo`
+ * (the built-in text has no folder): it names the probe it found (cli_demo.c). */
 static const char k_demo_json[] =
-    "{ \"comment\": \"prt demo: a glossy Phong sphere, a diffuse torus on its rim and a glossy GGX box over a Lambert floor. Built into prt (src/scene/scene.c: scene_make_demo); keep the two identical (tests/test_data.c checks).\",\n"
+    "{ \"comment\": \"prt demo: a chrome sphere mirroring its neighbours, a glossy red sphere with a crisp highlight, a diffuse orange box and a blue torus on its rim, over a light floor refined where visibility changes, for data/city-512.exr (its sun casts the sharp shadows, its overcast sky the soft ones; light from the box tints the floor). Built into prt (src/scene/scene.c: scene_make_demo); keep the two identical (tests/test_data.c checks).\",\n"
     "  \"models\": [\n"
-    "    { \"name\": \"red sphere, left\",\n"
-    "      \"sphere\": { \"center\": [-0.75, 0.45, 0.2], \"radius\": 0.45, \"rings\": 40, \"segments\": 80 },\n"
-    "      \"material\": \"phong:kd=0.55,0.07,0.05;ks=0.25;n=12\" },\n"
-    "    { \"name\": \"blue torus, behind, standing on its rim\",\n"
-    "      \"torus\": { \"center\": [0, 0, 0], \"major\": 0.35, \"minor\": 0.12, \"nu\": 64, \"nv\": 32 },\n"
-    "      \"rotate_x\": 90, \"rotate_y\": 30, \"translate\": [0.1, 0.47, -0.55],\n"
-    "      \"material\": \"lambert:kd=0.15,0.35,0.65\" },\n"
-    "    { \"name\": \"gold box, right\",\n"
-    "      \"box\": { \"min\": [-0.3, 0, -0.3], \"max\": [0.3, 0.6, 0.3], \"n\": 12 },\n"
-    "      \"rotate_y\": -25, \"translate\": [0.7, 0, 0.3],\n"
-    "      \"material\": \"ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35\" }\n"
+    "    { \"name\": \"chrome sphere, centre\",\n"
+    "      \"sphere\": { \"center\": [0, 0.5, 0], \"radius\": 0.5, \"rings\": 32, \"segments\": 64 },\n"
+    "      \"material\": \"phong:kd=0.02;ks=0.9;n=1000\" },\n"
+    "    { \"name\": \"glossy red sphere, front right\",\n"
+    "      \"sphere\": { \"center\": [0.71, 0.3, -0.59], \"radius\": 0.3, \"rings\": 24, \"segments\": 48 },\n"
+    "      \"material\": \"phong:kd=0.5,0.05,0.04;ks=0.3;n=200\" },\n"
+    "    { \"name\": \"orange box, back left, a face turned to the sun\",\n"
+    "      \"box\": { \"min\": [-0.35, 0, -0.35], \"max\": [0.35, 1.2, 0.35], \"n\": 10 },\n"
+    "      \"rotate_y\": 24, \"translate\": [-1.33, 0, 0.67],\n"
+    "      \"material\": \"lambert:kd=0.9,0.4,0.06\" },\n"
+    "    { \"name\": \"blue torus, front left, standing on its rim\",\n"
+    "      \"torus\": { \"center\": [0, 0, 0], \"major\": 0.3, \"minor\": 0.1, \"nu\": 48, \"nv\": 16 },\n"
+    "      \"rotate_x\": 90, \"rotate_y\": 17, \"translate\": [0.53, 0.4, 0.85],\n"
+    "      \"material\": \"lambert:kd=0.1,0.3,0.65\" }\n"
     "  ],\n"
-    "  \"floor\": { \"vertices\": 12000, \"size\": 3, \"material\": \"lambert:kd=0.7\" }\n"
+    "  \"floor\": { \"vertices\": 10000, \"size\": 5, \"material\": \"lambert:kd=0.65\" },\n"
+    "  \"refine\": { \"budget\": 40000 },\n"
+    "  \"light_prior\": \"city-512.exr\"\n"
     "}\n";
 
 const char *scene_demo_json(void) { return k_demo_json; }

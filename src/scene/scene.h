@@ -165,9 +165,10 @@ void scene_update_bounds(prt_scene *s);
  * there is no floor or nothing but the floor). */
 void scene_focus_bounds(const prt_scene *s, float bmin[3], float bmax[3]);
 
-/* The built-in demo scene: a glossy sphere, a diffuse torus and a glossy box over a floor
- * of about floor_verts (> 0) vertices. It is JSON (scene_demo_json), the same text as
- * data/demo.json, so that `prt demo` needs no file. */
+/* The built-in demo scene: a chrome sphere, a glossy sphere, a diffuse box and torus over a
+ * floor of about floor_verts (> 0) vertices, with its "refine" and "light_prior" keys (the
+ * prior's path is relative to the working directory: the text has no folder). It is JSON
+ * (scene_demo_json), the same text as data/demo.json, so that `prt demo` needs no file. */
 int scene_make_demo(prt_scene *out, int floor_verts, prt_error *err);
 
 /* The demo scene's JSON text (static; byte for byte data/demo.json). */
