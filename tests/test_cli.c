@@ -613,7 +613,8 @@ static void help_defaults(void) {
     const char *re = ve ? strstr(ve, "relative:") : NULL, *de = re ? strstr(re, "Default: shared up to 500,000") : NULL;
     CHECK(de && de < strstr(b, "\n  --glossy"), "precompute --help: --budget does not read in order");
     CHECK(run_here("demo --help", buf, sizeof buf) == 0, "demo --help");
-    const char *demo[] = { "(default demo.png", "(default 960x600)", "(default 12000)", "(default 1;", "(default -1)" };
+    const char *demo[] = { "(default demo.png", "(default 960x600)", "(default 10000)", "(default: as prt precompute",
+                           "(default: from the probe" };
     for (size_t i = 0; i < sizeof demo / sizeof demo[0]; i++) CHECK(strstr(buf, demo[i]), "demo --help lacks %s: %s", demo[i], buf);
     CHECK(run_here("view --help", buf, sizeof buf) == 0 && strstr(buf, "pitch; default 0)") && strstr(buf, "default: interactive"),
           "view --help: %s", buf);

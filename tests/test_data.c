@@ -349,8 +349,8 @@ static int same_scene(const char *what, const prt_scene *a, const prt_scene *b) 
     return pos && nrm && tri && mat && spec;
 }
 
-/* The demo as scene_make_demo built it in code before the demo became data (kept
- * verbatim as the truth that `prt demo`'s scene did not change). */
+/* The demo scene built in code (an independent construction of data/demo.json's scene: the mesh
+ * generators, rotations and translations its keys name, written out). */
 static void rot_y_deg(float R[9], double deg) {
     double a = deg * M_PI / 180.0;
     float cs = (float)cos(a), sn = (float)sin(a);
@@ -370,28 +370,27 @@ static int demo_in_code(prt_scene *out, int floor_verts, prt_error *err) {
     memset(out, 0, sizeof *out);
     out->floor_first_vertex = -1;
     prt_mesh m;
-    const float origin[3] = { 0, 0, 0 };
-    const float sc[3] = { -0.75f, 0.45f, 0.2f };
-    if (mesh_make_sphere(&m, sc, 0.45f, 40, 80, err) ||
-        demo_add(out, &m, "phong:kd=0.55,0.07,0.05;ks=0.25;n=12", NULL, NULL, err)) return -1;
+    const float origin[3] = { 0, 0, 0 }, chrome[3] = { 0, 0.5f, 0 }, red[3] = { 0.71f, 0.3f, -0.59f };
+    if (mesh_make_sphere(&m, chrome, 0.5f, 32, 64, err) || demo_add(out, &m, "phong:kd=0.02;ks=0.9;n=1000", NULL, NULL, err) ||
+        mesh_make_sphere(&m, red, 0.3f, 24, 48, err) || demo_add(out, &m, "phong:kd=0.5,0.05,0.04;ks=0.3;n=200", NULL, NULL, err))
+        return -1;
     float R[9], Rx[9] = { 1, 0, 0, 0, 0, -1, 0, 1, 0 }, Ry[9];
-    rot_y_deg(Ry, 30.0);
+    const float lo[3] = { -0.35f, 0.f, -0.35f }, hi[3] = { 0.35f, 1.2f, 0.35f }, bt[3] = { -1.33f, 0.f, 0.67f };
+    rot_y_deg(R, 24.0);
+    if (mesh_make_box(&m, lo, hi, 10, false, err) || demo_add(out, &m, "lambert:kd=0.9,0.4,0.06", R, bt, err)) return -1;
+    rot_y_deg(Ry, 17.0);   /* p' = Ry Rx p + t (scene.h) */
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             R[3 * i + j] = Ry[3 * i] * Rx[j] + Ry[3 * i + 1] * Rx[3 + j] + Ry[3 * i + 2] * Rx[6 + j];
-    const float tt[3] = { 0.1f, 0.47f, -0.55f };
-    if (mesh_make_torus(&m, origin, 0.35f, 0.12f, 64, 32, err) ||
-        demo_add(out, &m, "lambert:kd=0.15,0.35,0.65", R, tt, err)) return -1;
-    const float lo[3] = { -0.3f, 0.f, -0.3f }, hi[3] = { 0.3f, 0.6f, 0.3f }, bt[3] = { 0.7f, 0.f, 0.3f };
-    rot_y_deg(R, -25.0);
-    if (mesh_make_box(&m, lo, hi, 12, false, err) ||
-        demo_add(out, &m, "ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35", R, bt, err)) return -1;
-    return scene_add_floor(out, floor_verts, 3.f, "lambert:kd=0.7", err);
+    const float tt[3] = { 0.53f, 0.4f, 0.85f };
+    if (mesh_make_torus(&m, origin, 0.3f, 0.1f, 48, 16, err) || demo_add(out, &m, "lambert:kd=0.1,0.3,0.65", R, tt, err)) return -1;
+    return scene_add_floor(out, floor_verts, 5.f, "lambert:kd=0.65", err);
 }
 
 /* `prt demo` builds its scene from the built-in JSON, which is data/demo.json byte for
- * byte, and that is the demo scene as it was built in code: same vertices, normals,
- * triangles and materials, bit for bit, at the default floor and another. */
+ * byte, and that is the demo scene built in code: same vertices, normals, triangles and
+ * materials, bit for bit, at the default floor (prt demo's 10,000) and another; it asks for
+ * refinement to 40,000 vertices and names city-512.exr, which data/ holds, as its light prior. */
 static void demo(void) {
     size_t len = 0;
     char *text = check_read_file(data_path("demo.json"), &len);
@@ -402,10 +401,15 @@ static void demo(void) {
     prt_error err = { "" };
     prt_scene file, built, code;
     CHECK(scene_load(data_path("demo.json"), NULL, &file, &err) == 0, "%s", err.msg);
-    CHECK(scene_make_demo(&built, 12000, &err) == 0, "%s", err.msg);
-    CHECK(demo_in_code(&code, 12000, &err) == 0, "%s", err.msg);
+    CHECK(scene_make_demo(&built, 10000, &err) == 0, "%s", err.msg);
+    CHECK(demo_in_code(&code, 10000, &err) == 0, "%s", err.msg);
     same_scene("data/demo.json vs prt demo", &file, &built);
     same_scene("prt demo vs the demo in code", &built, &code);
+    CHECK(built.refine.on && built.refine.budget == 40000 && built.refine.threshold == 0 && !built.refine.models,
+          "demo refine: on %d budget %d threshold %g models %d", built.refine.on, built.refine.budget,
+          (double)built.refine.threshold, built.refine.models);
+    CHECK(!strcmp(built.light_prior, "city-512.exr") && exists(data_path("city-512.exr")),
+          "demo light prior '%s' (relative to the working directory for the built-in text), data/city-512.exr", built.light_prior);
     printf("  demo: %d vertices (%d models + %d floor), %d triangles, %d materials\n", built.mesh.nverts,
            built.floor_first_vertex, built.mesh.nverts - built.floor_first_vertex, built.mesh.ntris, built.nmaterials);
     scene_free(&file);

@@ -337,15 +337,24 @@ static void demo(void) {
     prt_scene s;
     prt_error err = { "" };
     CHECK(scene_make_demo(&s, 0, &err) == -1 && err.msg[0]);
-    CHECK(scene_make_demo(&s, 12000, &err) == 0, "%s", err.msg);
+    CHECK(scene_make_demo(&s, 10000, &err) == 0, "%s", err.msg);
     int nf = s.mesh.nverts - s.floor_first_vertex;
-    CHECK(nf == 110 * 110, "floor %d", nf); /* round(sqrt(12000)) = 110 */
+    CHECK(nf == 100 * 100, "floor %d", nf); /* round(sqrt(10000)) = 100 */
     CHECK(s.floor_first_vertex > 4000 && s.floor_first_vertex < 8000, "models %d vertices", s.floor_first_vertex);
-    CHECK(s.nmaterials == 4);
-    int types = 0;
-    for (int i = 0; i < s.nmaterials; i++) types |= 1 << s.materials[i].type;
-    CHECK((types & (1 << BRDF_LAMBERT)) && (types & ((1 << BRDF_PHONG) | (1 << BRDF_BLINN))) && (types & (1 << BRDF_GGX)));
-    check_floor(&s, 110, 3.f);
+    CHECK(s.nmaterials == 5);
+    /* what the demo is for: Lambert surfaces, a glossy Phong and a chrome one (a Phong lobe is about
+     * 1/sqrt(n) rad wide: under 2 degrees at n >= 1000) */
+    int types = 0, chrome = 0, glossy = 0;
+    for (int i = 0; i < s.nmaterials; i++) {
+        types |= 1 << s.materials[i].type;
+        if (s.materials[i].type == BRDF_PHONG) {
+            if (s.materials[i].n >= 1000) chrome++;
+            else glossy++;
+        }
+    }
+    CHECK((types & (1 << BRDF_LAMBERT)) && chrome == 1 && glossy == 1, "types %#x, chrome %d, glossy %d", types, chrome, glossy);
+    CHECK(s.refine.on && s.refine.budget > s.mesh.nverts, "refined to %d (from %d)", s.refine.budget, s.mesh.nverts);
+    check_floor(&s, 100, 5.f);
     /* A sun 45 degrees up casts shadows as long as an object is tall, in any
      * azimuth: every model point's shadow (its footprint pushed out by its
      * height) must land on the floor. */
