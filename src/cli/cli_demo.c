@@ -30,7 +30,7 @@ static const char *k_cmd = "demo";
 
 #define DEMO_PROBE "city-512.exr"
 #define DEMO_FLOOR 10000   /* data/demo.json's floor vertices (tests/test_data.c loads both) */
-/* The camera: 35 degrees above the models, looking toward -x -z with city's sun (about 48 degrees up,
+/* The camera: 34 degrees above the models, looking toward -x -z with city's sun (about 48 degrees up,
  * from +x -z) 105 degrees to its right, so the shadows fall left and the sunlit faces look at it; a
  * 22-degree field that holds the floor only. */
 static const prt_camera k_demo_camera = { .eye = { 6.18f, 5.05f, 2.56f }, .target = { -0.3f, 0.35f, 0.25f },
