@@ -461,6 +461,7 @@ static void energy_warning(void) {
     CHECK(brdf_energy_warning(&p, NULL, msg, sizeof msg) && strstr(msg, "lambert:kd=1.2,0.5,0.5 reflects up to 1.2 "),
           "a canonical spec when none is given: %s", msg);
     const char *fine[] = { "lambert:kd=1", "paper-phong", "paper-as", "blinn:kd=0.5;ks=0.5", "phong:kd=0.5;ks=0.5;n=5",
+                           "phong:kd=0.02;ks=0.9;n=1000", "phong:kd=0.5,0.05,0.04;ks=0.3;n=200", "lambert:kd=0.9,0.4,0.06",
                            "ggx:kd=0.45,0.35,0.15;ks=0.5,0.4,0.25;alpha=0.35", "beckmann:kd=0.5;ks=0.5;alpha=0.2",
                            "lafortune:kd=0.4;lobe=-1.0288,-1.0288,1.0288,50", "as:kd=0.5;ks=0.5;nu=5;nv=5" };
     for (size_t i = 0; i < sizeof fine / sizeof fine[0]; i++) {
