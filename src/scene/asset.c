@@ -427,31 +427,6 @@ static int obj_check_text(const char *name, const char *text, size_t len, prt_er
     return 0;
 }
 
-/* obj_check_text on a NUL-terminated copy of text[len] (strtod reads up to a terminator). */
-static int obj_check(const char *name, const char *text, size_t len, prt_error *err) {
-    char *copy = malloc(len + 1);
-    if (!copy) return prt_fail(err, "%s: out of memory", name);
-    memcpy(copy, text, len);
-    copy[len] = 0;
-    int rc = obj_check_text(name, copy, len, err);
-    free(copy);
-    return rc;
-}
-
-static int obj_check_file(const char *path, prt_error *err) {
-    size_t n = 0;
-    FILE *f = fopen(path, "rb");
-    char *buf = NULL;
-    long sz = f && !fseek(f, 0, SEEK_END) ? ftell(f) : -1;
-    if (sz >= 0 && !fseek(f, 0, SEEK_SET) && (buf = malloc((size_t)sz + 1))) n = fread(buf, 1, (size_t)sz, f);
-    if (f) fclose(f);
-    if (!buf) return prt_fail(err, "%s: cannot read", path);
-    buf[n] = 0;
-    int rc = obj_check_text(path, buf, n, err);
-    free(buf);
-    return rc;
-}
-
 /* ---------------------------------------------------------------- PLY */
 
 /* The bytes of PLY scalar type w (n bytes), 0 when it is none. */
@@ -629,18 +604,22 @@ static int ply_check(const char *name, const char *buf, size_t len, prt_error *e
     return prt_fail(err, "%s: no end_header in its first %zu bytes", name, lim);
 }
 
-/* ply_check on a NUL-terminated copy of buf[len]. */
-static int ply_check_memory(const char *name, const char *buf, size_t len, prt_error *err) {
+/* A text checker (obj_check_text, ply_check): reads text[len], NUL-terminated at len. */
+typedef int (*text_check_fn)(const char *name, const char *text, size_t len, prt_error *err);
+
+/* check on a NUL-terminated copy of text[len] (strtod and friends read up to a terminator). */
+static int check_memory(text_check_fn check, const char *name, const char *text, size_t len, prt_error *err) {
     char *copy = malloc(len + 1);
     if (!copy) return prt_fail(err, "%s: out of memory", name);
-    memcpy(copy, buf, len);
+    memcpy(copy, text, len);
     copy[len] = 0;
-    int rc = ply_check(name, copy, len, err);
+    int rc = check(name, copy, len, err);
     free(copy);
     return rc;
 }
 
-static int ply_check_file(const char *path, prt_error *err) {
+/* check on the whole file at path, read NUL-terminated. */
+static int check_file(text_check_fn check, const char *path, prt_error *err) {
     size_t n = 0;
     FILE *f = fopen(path, "rb");
     char *buf = NULL;
@@ -649,7 +628,7 @@ static int ply_check_file(const char *path, prt_error *err) {
     if (f) fclose(f);
     if (!buf) return prt_fail(err, "%s: cannot read", path);
     buf[n] = 0;
-    int rc = ply_check(path, buf, n, err);
+    int rc = check(path, buf, n, err);
     free(buf);
     return rc;
 }
@@ -1227,7 +1206,7 @@ int asset_load(const char *path, const asset_desc *desc, prt_scene *s, asset_mod
     if (L.fmt == FMT_GLTF) gltf_inspect_file(path, (size_t)sb.st_size, s, &gi);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", path, gi.invalid);
     if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", path);
-    if ((L.fmt == FMT_OBJ && obj_check_file(path, err)) || (L.fmt == FMT_PLY && ply_check_file(path, err))) return -1;
+    if ((L.fmt == FMT_OBJ && check_file(obj_check_text, path, err)) || (L.fmt == FMT_PLY && check_file(ply_check, path, err))) return -1;
     return finish(&L, aiImportFile(path, import_flags(L.fmt)), &gi);
 }
 
@@ -1245,6 +1224,7 @@ int asset_load_memory(const char *name, const char *hint, const void *buf, size_
         return prt_fail(err, "%s: names the file '%s' (a glTF read from memory has no folder to open it in)", name, gi.external);
     if (gi.invalid[0]) return prt_fail(err, "%s: %s", name, gi.invalid);
     if (L.fmt == FMT_GLTF && !gi.json_ok) return prt_fail(err, "%s: not a glTF 2.0 file (neither a .glb nor JSON)", name);
-    if ((L.fmt == FMT_OBJ && obj_check(name, buf, len, err)) || (L.fmt == FMT_PLY && ply_check_memory(name, buf, len, err))) return -1;
+    if ((L.fmt == FMT_OBJ && check_memory(obj_check_text, name, buf, len, err)) ||
+        (L.fmt == FMT_PLY && check_memory(ply_check, name, buf, len, err))) return -1;
     return finish(&L, aiImportFileFromMemory(buf, (unsigned)len, import_flags(L.fmt), hint), &gi);
 }
