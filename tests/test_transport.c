@@ -857,6 +857,102 @@ static void sun_spectrum(void) {
         CHECK_NEAR(e[l] / count[l] / F, 1.0 / F, 1e-6 / F, "level %d: mean square over sun positions", l);
 }
 
+/* Truncation cannot tint: a coloured vector, an albedo a times one transport x (what a bounce off
+ * one surface stores), with 3,000 non-zeros over every level, kept at N = 128 in 8 bits with Haar's
+ * policy at the defaults (expected selection, solid-angle corrections, smooth faces, a shared budget
+ * over 4 such vectors of different albedos) keeps the same indices in the three channels, and each kept
+ * value per channel divided by its albedo agrees with the others within the rounding: each channel's step
+ * is its largest |value| / 127, so r/a_r and g/a_g differ by at most half a step of each (M/127 with M the
+ * largest |x| kept, a_c cancelling), times 1 + 1e-5 for the float division. The relit colour of each
+ * vector under a white light (every coefficient 1) is then the albedo's hue within that bound times the
+ * number kept. */
+static void no_tint(void) {
+    enum { V = 4, NZ = 3000 };
+    static const float alb[V][3] = { { 0.9f, 0.5f, 0.2f }, { 0.2f, 0.6f, 0.9f }, { 0.7f, 0.7f, 0.7f }, { 0.05f, 0.8f, 0.3f } };
+    static float c[V][3][T];
+    memset(c, 0, sizeof c);
+    uint32_t seed = 99u;
+    prt_error err;
+    prt_transport t;
+    int nvec[V] = { 1, 1, 1, 1 };
+    CHECK(transport_init(&t, V, nvec, 128, 8, &err) == 0, "%s", err.msg);
+    CHECK(transport_share_budget(&t, TRANSPORT_BUDGET_RELATIVE, 0, &err) == 0, "%s", err.msg);
+    t.solid_angle = true;
+    t.block_level = TRANSPORT_BLOCK_LEVEL;
+    t.smooth_faces = true;
+    t.select = TRANSPORT_SELECT_EXPECTED;
+    CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
+    void *scr = malloc(transport_scratch_size());
+    for (int v = 0; v < V; v++) {
+        for (int k = 0; k < NZ; k++) {
+            uint32_t i = rnd_u(&seed) % T;
+            float x = (rnd(&seed) - 0.3f) / (1 + (float)transport_level(i));
+            for (int ch = 0; ch < 3; ch++) c[v][ch][i] = alb[v][ch] * x;
+        }
+        transport_store(&t, v, c[v][0], c[v][1], c[v][2], scr);
+    }
+    CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
+    static float d[3][T];
+    for (int v = 0; v < V; v++) {
+        transport_decode(&t, v, d[0], d[1], d[2]);
+        int kept = 0, mismatch = 0;
+        double M = 0, worst = 0, sum[3] = { 0, 0, 0 };
+        for (int i = 0; i < T; i++) {
+            bool nz[3] = { d[0][i] != 0, d[1][i] != 0, d[2][i] != 0 };
+            mismatch += nz[0] != nz[1] || nz[0] != nz[2];
+            kept += nz[0] || nz[1] || nz[2];
+            M = fmax(M, fabs(d[0][i] / alb[v][0]));
+            for (int ch = 0; ch < 3; ch++) sum[ch] += d[ch][i];
+        }
+        for (int i = 0; i < T; i++)
+            for (int ch = 1; ch < 3; ch++) worst = fmax(worst, fabs(d[ch][i] / alb[v][ch] - d[0][i] / alb[v][0]));
+        double bound = M / 127 * (1 + 1e-5);
+        CHECK(mismatch == 0, "vector %d: %d indices kept in some channels only", v, mismatch);
+        CHECK(kept > 0 && kept <= 2 * 128, "vector %d keeps %d", v, kept);
+        CHECK_LE(worst, bound, "vector %d: channels / albedo agree within the rounding", v);
+        for (int ch = 1; ch < 3; ch++)
+            CHECK_NEAR(sum[ch] / alb[v][ch], sum[0] / alb[v][0], bound * kept, "vector %d: relit under white light, channel %d / albedo", v, ch);
+    }
+    free(scr);
+    transport_free(&t);
+}
+
+/* The selection's prior by elevation (haar/select.h, transport_band): the faces' scaling coefficients
+ * lie straight down (-Y: band 0), on the horizon (+X, -X, +Z, -Z: band 6) and at the zenith (+Y: 11),
+ * exactly (their centres are the face centres). Every finest-level coefficient's band against the
+ * band of its 2 x 2 texels' mean direction (cube_texel_dir, an independent path to the same centre):
+ * the same band wherever the centre is more than 0.01 degrees from a band's edge (float directions
+ * agree to about 1e-6 rad), and one band apart at most. Every band and level the table weights holds
+ * a coefficient, and every coefficient a positive weight. */
+static void band_prior(void) {
+    enum { F = CUBE_RES * CUBE_RES };
+    static const int face_band[6] = { 6, 6, 11, 0, 6, 6 };
+    for (int f = 0; f < 6; f++) CHECK(transport_band((uint32_t)(f * F)) == face_band[f], "face %d's scaling coefficient: band %d", f, transport_band((uint32_t)(f * F)));
+    int bad = 0, far = 0, nonpos = 0;
+    for (uint32_t i = 0; i < CUBE_TEXELS; i++) {
+        nonpos += !(transport_sigma(i) > 0);
+        if (transport_level(i) != TRANSPORT_LEVELS - 1) continue;
+        uint32_t qi, qj;
+        haar_unmorton(i % F, &qi, &qj);
+        int x = (int)(qi % 32) * 2, y = (int)(qj % 32) * 2, f = (int)(i / F);
+        double m[3] = { 0, 0, 0 };
+        for (int k = 0; k < 4; k++) {
+            float d[3];
+            cube_texel_dir(CUBE_RES, f * F + (y + k / 2) * CUBE_RES + x + k % 2, d);
+            for (int c = 0; c < 3; c++) m[c] += d[c];
+        }
+        double el = asin(m[1] / sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])) * 180 / M_PI + 90;
+        int b = (int)floor(el / 15);
+        b = b > TRANSPORT_BANDS - 1 ? TRANSPORT_BANDS - 1 : b;
+        double edge = fabs(el - 15 * round(el / 15));
+        if (transport_band(i) != b && edge > 0.01) bad++;
+        if (abs(transport_band(i) - b) > 1) far++;
+    }
+    CHECK(bad == 0, "%d finest coefficients away from a band edge in another band than their texels' mean direction", bad);
+    CHECK(far == 0, "%d finest coefficients more than one band off", far);
+    CHECK(nonpos == 0, "%d coefficients without a positive weight", nonpos);
+}
+
 /* Expected-error selection (transport.h, TRANSPORT_SELECT_EXPECTED) on a small case: 12 non-zero
  * coefficients over the seven levels, N = 4, float values, no correction. Truth 1, brute force over
  * all 495 subsets: the stored set's expected error sum over dropped c^2 sigma_l^2 is the least of any
@@ -873,7 +969,7 @@ static void expected_selection(void) {
     double w2[NZ];
     for (int k = 0; k < NZ; k++) {
         c[pos[k]] = val[k];
-        double s = transport_level_sigma[transport_level((uint32_t)pos[k])];
+        double s = transport_sigma((uint32_t)pos[k]);
         w2[k] = s * s;
     }
     double best_exp = INFINITY, best_l2 = INFINITY;
@@ -961,7 +1057,7 @@ static double shared_objective(int V, int NZ, const int pos[][6], const float va
     for (int v = 0; v < V; v++) {
         double tot = 0, drop = 0;
         for (int k = 0; k < NZ; k++) {
-            double s = transport_level_sigma[transport_level((uint32_t)pos[v][k])];
+            double s = transport_sigma((uint32_t)pos[v][k]);
             double w = 3.0 * (double)val[v][k] * val[v][k] * s * s;
             tot += w;
             if (!kept[v * NZ + k]) drop += w;
@@ -1221,6 +1317,8 @@ int main(int argc, char **argv) {
     CHECK_CASE(block_integrals);
     CHECK_CASE(smooth_faces);
     CHECK_CASE(sun_spectrum);
+    CHECK_CASE(band_prior);
+    CHECK_CASE(no_tint);
     CHECK_CASE(expected_selection);
     CHECK_CASE(select_flag);
     CHECK_CASE(shared_budget);

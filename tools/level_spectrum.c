@@ -2,7 +2,8 @@
  * (docs/design/shadows.md): the prior the expected-error selection (transport.h,
  * TRANSPORT_SELECT_EXPECTED) weights each level's transport coefficients with. Not a test: it measures assets.
  *
- *     tools/level_spectrum.sh PROBE.exr...      (builds against build/libprt.a)
+ *     tools/level_spectrum.sh PROBE.exr...          (builds against build/libprt.a)
+ *     tools/level_spectrum.sh --bands PROBE.exr...  (per elevation band: transport_band_sigma)
  *
  * For each probe and each of 24 rotations (yaw 0..345 in 15-degree steps, pitch -30/0/30
  * alternating), the probe is resampled to the 6x64x64 cube, weighted by the texel solid
@@ -10,10 +11,18 @@
  * sigma_l^2 is the mean over rotations, faces, channels and level l's coefficients of c^2
  * (level 0: the faces' scaling coefficients, level l >= 1: morton indices [4^(l-1), 4^l)).
  * Printed per probe relative to its finest level, then the geometric mean over the probes,
- * and sqrt of that: the weights sigma_l. */
+ * and sqrt of that: the weights sigma_l.
+ *
+ * --bands: the same per elevation band of each coefficient's support centre (transport_band,
+ * haar/select.h) with pitch -15/0/15 (a sun stands for suns within 15 degrees of its elevation),
+ * each probe's figures relative to its own finest level over all bands, then the arithmetic mean over
+ * the probes, above the horizon from level 3 on at least a quarter of the largest band's (half in
+ * sigma), and its square root: the table transport_band_sigma. */
 #include "cubemap.h"
 #include "haar.h"
 #include "probe.h"
+#include "select.h"
+#include <string.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -32,7 +41,63 @@ static void rot(float yaw, float pitch, float R[9]) {
     probe_parse_rotation(s, R);
 }
 
+/* --bands: transport_band_sigma from the probes argv[0..n). */
+static int bands(int n, char **argv) {
+    enum { NB = TRANSPORT_BANDS };
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), w[FACE], face[FACE], tmp[FACE];
+    static double cnt[NB][NL], mean[NB][NL];
+    haar_face_solid_angle(w, RES, false);
+    memset(cnt, 0, sizeof cnt);
+    for (uint32_t i = 0; i < CUBE_TEXELS; i++) cnt[transport_band(i)][transport_level(i)] += 1;
+    for (int a = 0; a < n; a++) {
+        prt_probe p;
+        prt_error err;
+        if (probe_load(argv[a], PROBE_AUTO, &p, &err)) { fprintf(stderr, "%s\n", err.msg); return 1; }
+        static double e[NB][NL];
+        memset(e, 0, sizeof e);
+        double fin = 0;
+        for (int r = 0; r < 24; r++) {
+            float R[9];
+            probe_rotation(15.0 * r, 15.0 * (r % 3 - 1), R);
+            probe_to_cube(&p, RES, R, 4, cube);
+            for (int f = 0; f < 6; f++)
+                for (int c = 0; c < 3; c++) {
+                    for (int k = 0; k < FACE; k++) face[k] = cube[3 * (f * FACE + k) + c] * w[k];
+                    haar_forward(face, RES, tmp);
+                    for (int k = 0; k < FACE; k++) {
+                        uint32_t i = (uint32_t)(f * FACE) + haar_morton((uint32_t)(k % RES), (uint32_t)(k / RES));
+                        double x2 = (double)face[k] * face[k];
+                        e[transport_band(i)][transport_level(i)] += x2;
+                        if (transport_level(i) == NL - 1) fin += x2;
+                    }
+                }
+        }
+        fin /= 24.0 * 3 * 6 * (3 * FACE / 4);   /* the finest level's mean square: 3/4 of a face's coefficients */
+        for (int b = 0; b < NB; b++)
+            for (int l = 0; l < NL; l++)
+                if (cnt[b][l]) mean[b][l] += e[b][l] / (cnt[b][l] * 24 * 3) / fin / n;
+        probe_free(&p);
+    }
+    /* A light can stand anywhere above the horizon (a lamp overhead, a noon sun): from level 3 on, no
+     * band above it keeps less than half the largest of those bands' figures. */
+    for (int l = 3; l < NL; l++) {
+        double mx = 0;
+        for (int b = NB / 2; b < NB; b++) mx = fmax(mx, mean[b][l]);
+        for (int b = NB / 2; b < NB; b++)
+            if (cnt[b][l]) mean[b][l] = fmax(mean[b][l], 0.25 * mx);
+    }
+    printf("transport_band_sigma (rows: elevation bands from -90 degrees, columns: Haar levels 0..6)\n");
+    for (int b = 0; b < NB; b++) {
+        printf("  %4d..%3d:", -90 + 15 * b, -75 + 15 * b);
+        for (int l = 0; l < NL; l++) printf(" %9.3g", sqrt(mean[b][l]));
+        printf("\n");
+    }
+    free(cube);
+    return 0;
+}
+
 int main(int argc, char **argv) {
+    if (argc > 1 && !strcmp(argv[1], "--bands")) return bands(argc - 2, argv + 2);
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), w[FACE], face[FACE], tmp[FACE];
     double logsum[NL] = { 0 };
     haar_face_solid_angle(w, RES, false);

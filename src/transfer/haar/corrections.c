@@ -37,6 +37,7 @@ haar_tables *haar_tables_create(prt_error *err) {
     }
     float tmp[FACE];
     haar_face_solid_angle_coeffs(tb->W, CUBE_RES, tmp);
+    for (uint32_t i = 0; i < CUBE_TEXELS; i++) tb->sigma[i] = transport_sigma(i);
     return tb;
 }
 

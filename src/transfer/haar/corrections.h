@@ -29,6 +29,7 @@ typedef struct haar_tables {
     float w[CUBE_RES * CUBE_RES];                          /* the solid angle per texel (haar_face_solid_angle) */
     float W[CUBE_RES * CUBE_RES];                          /* its Haar coefficients, morton order */
     double wsum[TRANSPORT_BLOCK_LEVEL_MAX + 1][16];       /* w summed over each block of level b (row-major) */
+    float sigma[CUBE_TEXELS];                              /* the selection's prior per index (transport_sigma) */
 } haar_tables;
 
 /* The tables of a set. Returns NULL with err on OOM. */

@@ -54,7 +54,7 @@ static int haar_select(const prt_transport *t, const float *const ch[3], uint32_
     haar_scratch sc = scratch_of(scratch);
     bool want_H = t->solid_angle && t->smooth_faces && !refits(t);
     *sc.shape = t->prior || want_H ? haar_face_shapes(ch, tb->w, want_H, sc.W, sc.Hc) : 0;
-    return t->select == TRANSPORT_SELECT_EXPECTED ? haar_select_expected(ch[0], ch[1], ch[2], t, *sc.shape, idx, keys, sc.wc)
+    return t->select == TRANSPORT_SELECT_EXPECTED ? haar_select_expected(ch[0], ch[1], ch[2], t, tb->sigma, *sc.shape, idx, keys, sc.wc)
                                                   : sparse_select(ch[0], ch[1], ch[2], CUBE_TEXELS, t->N, idx, keys);
 }
 

@@ -10,8 +10,8 @@
  * Why (docs/design/shadows.md has the measurements). transport_store keeps the coefficients c_i of a vector
  * whose expected share of T.L is largest: sum over dropped i of c_i^2 E[L_i^2] is the expected
  * squared error of T.L when the light coefficients are uncorrelated. Without a prior E[L_i^2]
- * is one figure per Haar level (transport_level_sigma), the same wherever the coefficient
- * sits on the sphere, so a floor vertex at a shadow edge spends its budget along the whole
+ * is one figure per Haar level and elevation band (transport_sigma), the same at every azimuth,
+ * so a floor vertex at a shadow edge spends its budget along the whole
  * edge. Under a probe turned about the vertical (the viewer's and --light-rotation's yaw) a
  * sun stays on one ring of elevation: the coefficients whose support the ring crosses carry
  * the sun, the others only sky. With the probe named at precompute time the selection keeps

@@ -49,13 +49,13 @@
 
 /* How transport_store picks a vector's N coefficients (docs/design/shadows.md):
  *   MAGNITUDE: the N largest |c_i| (the paper's; the L2-optimal approximation of the vector).
- *   EXPECTED:  the N largest |c_i| sigma_l(i), sigma_l the RMS light coefficient of Haar level l
- *              (transport_level_sigma): the set that minimises the expected squared error of T.L,
- *              sum over dropped i of c_i^2 sigma_l(i)^2, under lights whose coefficients are
- *              uncorrelated with variance sigma_l^2 per level (rotation moves a sun over positions
- *              but keeps its level spectrum). Its prior was measured with the solid-angle measure's
- *              light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w. With
- *              prt_transport.prior the sigma is per coefficient and channel instead (prior.h). */
+ *   EXPECTED:  the N largest |c_i| sigma(i), sigma the RMS light coefficient of i's Haar level and
+ *              elevation band (transport_sigma, haar/select.h): the set that minimises the expected
+ *              squared error of T.L, sum over dropped i of c_i^2 sigma(i)^2, under lights whose
+ *              coefficients are uncorrelated with that variance (a yaw rotation moves a sun along its
+ *              band but keeps the band's spectrum). Its prior was measured with the solid-angle
+ *              measure's light (L_j w_j, transfer_haar.c), so it is meant for Haar vectors of T/w.
+ *              With prt_transport.prior the sigma is per coefficient and channel instead (prior.h). */
 typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT_EXPECTED = 1 } transport_select;
 
 /* Who shares the coefficient budget (transport_share_budget):
@@ -121,7 +121,7 @@ typedef struct prt_transport {
                              * which steadies an unoccluded floor under a turning sun; set after init) */
     int select;             /* which N coefficients transport_store keeps (transport_select; 0 = the paper's
                              * largest magnitudes) */
-    const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_level_sigma (haar/select.h); else
+    const float (*prior)[4];/* EXPECTED: NULL weighs coefficient i by transport_sigma (haar/select.h); else
                              * by prior[i][ch], [CUBE_TEXELS] per channel (prior.h: a probe's RMS light
                              * over its yaw orbit; BORROWED: the caller keeps it alive until finish) */
     const struct refit_tables *refit; /* NULL, or with a per-vector budget (budget 0) and solid_angle: each face's kept
