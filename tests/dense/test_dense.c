@@ -213,7 +213,7 @@ static void cli(void) {
     snprintf(cmd, sizeof cmd, "%s precompute data/sphere-phong.json -o %s/cli.prt --basis dense --quiet", check_prt_bin(),
              check_tmpdir());
     int rc = check_run(cmd, buf, sizeof buf);
-    CHECK(rc == 2 && strstr(buf, "--basis must be haar or sh (got 'dense')") != NULL, "exit %d: %s", rc, buf);
+    CHECK(rc == 2 && strstr(buf, "--basis must be haar, sh or cpca (got 'dense')") != NULL, "exit %d: %s", rc, buf);
 }
 
 int main(int argc, char **argv) {

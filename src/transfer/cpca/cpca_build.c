@@ -65,32 +65,60 @@ static void km_update(const km_ctx *c, float *cen, double *acc, int *cnt, double
         for (int k = 0; k < C; k++) cnorm[k] += (double)cen[t * C + k] * cen[t * C + k];
 }
 
-typedef struct kvf { float key; uint32_t t; float v; } kvf;
-static int kvf_desc(const void *a, const void *b) {
-    const kvf *x = a, *y = b;
-    return x->key > y->key ? -1 : x->key < y->key ? 1 : (x->t > y->t) - (x->t < y->t);
+/* The k-th largest of keys[0, n) (1 <= k <= n): quickselect (Hoare) on scratch[n]. */
+static float kth_largest(const float *keys, int n, int k, float *scratch) {
+    memcpy(scratch, keys, sizeof(float) * (size_t)n);
+    int lo = 0, hi = n - 1, want = k - 1;
+    while (lo < hi) {
+        float pivot = scratch[lo + (hi - lo) / 2];
+        int i = lo, j = hi;
+        while (i <= j) {
+            while (scratch[i] > pivot) i++;
+            while (scratch[j] < pivot) j--;
+            if (i <= j) { float t = scratch[i]; scratch[i++] = scratch[j]; scratch[j--] = t; }
+        }
+        if (want <= j) hi = j;
+        else if (want >= i) lo = i;
+        else break;   /* between j and i: every value there is the pivot */
+    }
+    return scratch[want];
 }
 
-/* Each vector's feature: its CPCA_FEATURE largest channel means (ties: the lower index). */
+/* Marks in keep[0, n) the k largest keys (ties at the k-th: the lower positions first). */
+static void keep_largest(const float *keys, int n, int k, float *scratch, unsigned char *keep) {
+    if (k >= n) {
+        if (n > 0) memset(keep, 1, (size_t)n);
+        return;
+    }
+    float thr = kth_largest(keys, n, k, scratch);
+    int above = 0;
+    for (int j = 0; j < n; j++) above += keys[j] > thr;
+    for (int j = 0, ties = k - above; j < n; j++) {
+        keep[j] = keys[j] > thr || (keys[j] == thr && ties > 0);
+        if (keys[j] == thr && ties > 0) ties--;
+    }
+}
+
+/* Each vector's feature: its CPCA_FEATURE largest channel means. */
 static int features(const cpca_vectors *v, uint32_t *ff, uint16_t *fi, float *fv) {
-    kvf *tmp = malloc(sizeof(kvf) * CUBE_TEXELS);
-    if (!tmp) return -1;
+    float *key = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    unsigned char *keep = malloc(CUBE_TEXELS);
+    if (!key || !keep) { free(key); free(keep); return -1; }
+    float *m = key + CUBE_TEXELS, *scratch = key + 2 * CUBE_TEXELS;
     ff[0] = 0;
     for (int i = 0; i < v->n; i++) {
-        int n = 0;
-        for (uint32_t j = v->first[i]; j < v->first[i + 1]; j++) {
-            const float *x = v->val + 3 * (size_t)j;
-            float m = (x[0] + x[1] + x[2]) / 3;
-            tmp[n++] = (kvf){ fabsf(m), v->idx[j], m };
+        int n = (int)(v->first[i + 1] - v->first[i]), c = 0;
+        for (int j = 0; j < n; j++) {
+            const float *x = v->val + 3 * (size_t)(v->first[i] + (uint32_t)j);
+            m[j] = (x[0] + x[1] + x[2]) / 3;
+            key[j] = fabsf(m[j]);
         }
-        if (n > CPCA_FEATURE) {
-            qsort(tmp, (size_t)n, sizeof *tmp, kvf_desc);
-            n = CPCA_FEATURE;
-        }
-        for (int k = 0; k < n; k++) fi[ff[i] + k] = (uint16_t)tmp[k].t, fv[ff[i] + k] = tmp[k].v;
-        ff[i + 1] = ff[i] + (uint32_t)n;
+        keep_largest(key, n, CPCA_FEATURE, scratch, keep);
+        for (int j = 0; j < n; j++)
+            if (keep[j]) fi[ff[i] + (uint32_t)c] = (uint16_t)v->idx[v->first[i] + (uint32_t)j], fv[ff[i] + (uint32_t)c++] = m[j];
+        ff[i + 1] = ff[i] + (uint32_t)c;
     }
-    free(tmp);
+    free(key); free(keep);
     return 0;
 }
 
@@ -254,42 +282,35 @@ typedef struct build_ctx {
     int failed;
 } build_ctx;
 
-typedef struct kv { float key; int t; } kv;
-static int by_key_desc(const void *a, const void *b) {
-    const kv *x = a, *y = b;
-    return x->key > y->key ? -1 : x->key < y->key ? 1 : x->t - y->t;
-}
-static int by_t(const void *a, const void *b) { return ((const kv *)a)->t - ((const kv *)b)->t; }
-
 /* Row r from dense x [D] over columns U [D]: its `coeffs` largest |x| (ties: lower index), in index
- * order, rounded to 16 bits when quantizing; the kept values back into x (the rest zero). */
-static int keep_row(const build_ctx *c, int r, double *x, const int *U, int D, kv *tmp) {
-    int n = 0;
+ * order, rounded to 16 bits when quantizing; the kept values back into x (the rest zero). tmp:
+ * 2 D floats and D bytes of scratch. */
+static int keep_row(const build_ctx *c, int r, double *x, const int *U, int D, float *tmp) {
+    float *key = tmp, *scratch = tmp + D;
+    unsigned char *keep = (unsigned char *)(tmp + 2 * D);
     double amax = 0;
-    for (int t = 0; t < D; t++)
-        if (x[t] != 0) tmp[n++] = (kv){ (float)fabs(x[t]), t };
-    if (n > c->p->coeffs) {
-        qsort(tmp, (size_t)n, sizeof *tmp, by_key_desc);
-        n = c->p->coeffs;
-        qsort(tmp, (size_t)n, sizeof *tmp, by_t);
+    for (int t = 0; t < D; t++) key[t] = (float)fabs(x[t]);
+    keep_largest(key, D, c->p->coeffs, scratch, keep);
+    int n = 0;
+    for (int t = 0; t < D; t++) {
+        keep[t] = keep[t] && x[t] != 0;
+        n += keep[t];
+        if (keep[t]) amax = fmax(amax, fabs(x[t]));
     }
-    for (int k = 0; k < n; k++) amax = fmax(amax, fabs(x[tmp[k].t]));
     float step = c->p->quantize && amax > 0 ? (float)(amax / 32767) : 0;
     c->ridx[r] = malloc(sizeof(uint16_t) * (size_t)(n ? n : 1));
     c->rval[r] = malloc(sizeof(float) * (size_t)(n ? n : 1));
     if (!c->ridx[r] || !c->rval[r]) return -1;
-    double *kept = calloc((size_t)D, sizeof *kept);
-    if (!kept) return -1;
-    for (int k = 0; k < n; k++) {
-        int t = tmp[k].t;
-        float val = (float)x[t];
-        if (step > 0) val = (float)(int)lrintf(val / step) * step;
-        c->ridx[r][k] = (uint16_t)U[t];
-        c->rval[r][k] = val;
-        kept[t] = val;
+    for (int t = 0, k = 0; t < D; t++) {
+        float val = 0;
+        if (keep[t]) {
+            val = (float)x[t];
+            if (step > 0) val = (float)(int)lrintf(val / step) * step;
+            c->ridx[r][k] = (uint16_t)U[t];
+            c->rval[r][k++] = val;
+        }
+        x[t] = val;
     }
-    memcpy(x, kept, sizeof(double) * (size_t)D);
-    free(kept);
     c->rcount[r] = n;
     c->m->step[r] = step;
     return 0;
@@ -354,7 +375,7 @@ static int columns(const build_ctx *c, int k, int *U, int *map) {
 static int build_cluster(build_ctx *c, int k) {
     int M = c->m->M, nm = c->mfirst[k + 1] - c->mfirst[k];
     int *map = malloc(sizeof(int) * CUBE_TEXELS), *U = malloc(sizeof(int) * CUBE_TEXELS);
-    kv *tmp = malloc(sizeof(kv) * CUBE_TEXELS);
+    float *tmp = malloc((2 * sizeof(float) + 1) * CUBE_TEXELS + sizeof(float));
     if (!map || !U || !tmp) { free(map); free(U); free(tmp); return -1; }
     for (int t = 0; t < CUBE_TEXELS; t++) map[t] = -1;
     int D = nm ? columns(c, k, U, map) : 0;
