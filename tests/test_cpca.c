@@ -137,6 +137,7 @@ static void energy(void) {
     tol += 1e-12 * tot;
     CHECK(D > 1e-3 * tot, "the test drops energy: %g of %g", D, tot);
     CHECK_NEAR(e, D, tol, "squared error against the dropped PCA energy");
+    CHECK_NEAR(m.err2, D, tol, "the model's own error sum (prt info's) against the dropped PCA energy");
     printf("  energy: squared error %.9g, dropped eigenvalues %.9g of %.6g (|diff| %.2e <= %.2e)\n", e, D, tot, fabs(e - D), tol);
     free(x); free(ref);
     cpca_model_free(&m);

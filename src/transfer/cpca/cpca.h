@@ -65,6 +65,8 @@ typedef struct cpca_model {
     uint16_t *idx;      /* [first[R]] ascending within a row, < CUBE_TEXELS */
     float *val;         /* [first[R]] values (q x step when quantized) */
     float *step;        /* [C (M + 1)] 16-bit step of each row (0: unquantized or empty) */
+    double err2, norm2; /* sums over the samples of |x - x^|^2 (the input's x, before the weights are
+                         * rounded to float) and of |x|^2: the model's relative L2 error, for prt info */
 } cpca_model;
 
 /* Rows of m: C (M + 1). */
@@ -80,7 +82,7 @@ void cpca_decode(const cpca_model *m, int i, int c, float *x);
 size_t cpca_bytes(const cpca_model *m);
 
 /* File layout (little-endian): i32 nvecs, C, M; u64 ncoefs; u16 cluster[nvecs]; f32 w[3 nvecs M];
- * u32 first[R + 1]; f32 step[R]; u16 idx[ncoefs]; i16 q[ncoefs] (val = q x step). The model must be
+ * u32 first[R + 1]; f32 step[R]; u16 idx[ncoefs]; i16 q[ncoefs] (val = q x step); f64 err2, norm2. The model must be
  * quantized (cpca_params.quantize). */
 void cpca_write(prt_writer *w, const cpca_model *m);
 /* Reads a model: sizes and allocation only (false with why[256] on a short or oversized one). */

@@ -279,6 +279,7 @@ typedef struct build_ctx {
     uint16_t **ridx;            /* per row its kept indices and values (merged after) */
     float **rval;
     int *rcount;
+    double *cerr;               /* [2 C] each cluster's squared error and squared norm (refit) */
     int failed;
 } build_ctx;
 
@@ -328,10 +329,12 @@ static void solve_spd(const double *G, int n, double *rhs) {
 }
 
 /* The weights of cluster k's samples against its kept rows R [M + 1][D] (least squares:
- * (R_b . R_b') w = R_b . (x - R_0)). */
-static void refit(const build_ctx *c, const cl_data *d, const double *R) {
+ * (R_b . R_b') w = R_b . (x - R_0)), and into err[2] the sums over its samples of the squared error
+ * |x - R_0 - sum_b w_b R_b|^2 = |x - R_0|^2 - w . rhs (at the least-squares solution) and of |x|^2. */
+static void refit(const build_ctx *c, const cl_data *d, const double *R, double *err) {
     int M = c->m->M, D = d->D;
-    double G[CPCA_MAX_TERMS * CPCA_MAX_TERMS], r0[CPCA_MAX_TERMS], rhs[CPCA_MAX_TERMS];
+    double G[CPCA_MAX_TERMS * CPCA_MAX_TERMS], r0[CPCA_MAX_TERMS], rhs[CPCA_MAX_TERMS], w[CPCA_MAX_TERMS], n00 = 0;
+    for (int t = 0; t < D; t++) n00 += R[t] * R[t];
     for (int a = 0; a < M; a++) {
         r0[a] = 0;
         for (int t = 0; t < D; t++) r0[a] += R[(size_t)(a + 1) * D + t] * R[t];
@@ -341,17 +344,25 @@ static void refit(const build_ctx *c, const cl_data *d, const double *R) {
             G[a * M + b] = s;
         }
     }
+    err[0] = err[1] = 0;
     for (int j = 0; j < d->nm; j++) {
         int i = d->mem[j];
         for (int ch = 0; ch < 3; ch++) {
+            double xx = 0, x0 = 0;
+            for (uint32_t q = c->v->first[i]; q < c->v->first[i + 1]; q++) {
+                double x = c->v->val[3 * (size_t)q + ch];
+                xx += x * x, x0 += x * R[d->map[c->v->idx[q]]];
+            }
             for (int a = 0; a < M; a++) {
                 double s = -r0[a];
                 for (uint32_t q = c->v->first[i]; q < c->v->first[i + 1]; q++)
                     s += c->v->val[3 * (size_t)q + ch] * R[(size_t)(a + 1) * D + d->map[c->v->idx[q]]];
-                rhs[a] = s;
+                rhs[a] = w[a] = s;
             }
-            solve_spd(G, M, rhs);
-            for (int a = 0; a < M; a++) c->m->w[((size_t)3 * i + ch) * M + a] = (float)rhs[a];
+            solve_spd(G, M, w);
+            double e = xx - 2 * x0 + n00;
+            for (int a = 0; a < M; a++) e -= w[a] * rhs[a], c->m->w[((size_t)3 * i + ch) * M + a] = (float)w[a];
+            err[0] += e > 0 ? e : 0, err[1] += xx;
         }
     }
 }
@@ -392,7 +403,7 @@ static int build_cluster(build_ctx *c, int k) {
     for (int t = 0; t < D && !rc; t++) R[t] /= d.ns;
     if (!rc && d.l > 0) rc = principal(&d, M, R + D, lam);
     for (int m = 0; m <= M && !rc; m++) rc = keep_row(c, k * (M + 1) + m, R + (size_t)m * D, U, D, tmp);
-    if (!rc) refit(c, &d, R);
+    if (!rc) refit(c, &d, R, c->cerr + 2 * k);
     free(R); free(map); free(U); free(tmp);
     return rc;
 }
@@ -448,19 +459,21 @@ int cpca_build(const cpca_vectors *v, const cpca_params *p, cpca_model *out, prt
     int C = p->clusters < v->n ? p->clusters : (v->n > 0 ? v->n : 1), M = p->terms, R = C * (M + 1);
     if (model_alloc(out, v->n, C, M, err)) return -1;
     int *mfirst = prt_calloc(2 * (size_t)C + 2, sizeof *mfirst, err), *mem = mfirst ? prt_calloc((size_t)v->n + 1, sizeof *mem, err) : NULL;
-    build_ctx c = { v, p, out, mfirst, mem, NULL, NULL, NULL, 0 };
+    build_ctx c = { v, p, out, mfirst, mem, NULL, NULL, NULL, NULL, 0 };
     c.ridx = mem ? calloc((size_t)R, sizeof *c.ridx) : NULL;
     c.rval = c.ridx ? calloc((size_t)R, sizeof *c.rval) : NULL;
     c.rcount = c.rval ? calloc((size_t)R, sizeof *c.rcount) : NULL;
-    int rc = c.rcount ? 0 : -1;
+    c.cerr = c.rcount ? calloc(2 * (size_t)C, sizeof *c.cerr) : NULL;
+    int rc = c.cerr ? 0 : -1;
     if (!rc && v->n > 0) rc = kmeans(v, C, p->nthreads, out->cluster);
     if (!rc) {
         members(out->cluster, v->n, C, mfirst, mem);
         prt_parallel_for(C, 1, p->nthreads, build_range, &c);
         rc = c.failed ? -1 : merge_rows(out, &c, err);
+        for (int k = 0; k < C; k++) out->err2 += c.cerr[2 * k], out->norm2 += c.cerr[2 * k + 1];   /* in cluster order */
     }
     for (int r = 0; c.rcount && r < R; r++) { free(c.ridx[r]); free(c.rval[r]); }
-    free(c.ridx); free(c.rval); free(c.rcount); free(mfirst); free(mem);
+    free(c.ridx); free(c.rval); free(c.rcount); free(c.cerr); free(mfirst); free(mem);
     if (rc) {
         cpca_model_free(out);
         return prt_fail(err, "cpca: out of memory building %d clusters of %d vectors", C, v->n);

@@ -85,7 +85,7 @@ void cpca_decode(const cpca_model *m, int i, int c, float *x) {
 
 size_t cpca_bytes(const cpca_model *m) {
     size_t R = (size_t)cpca_rows(m), nc = m->first ? m->first[R] : 0;
-    return 20 + 2 * (size_t)m->nvecs + 12 * (size_t)m->nvecs * m->M + 4 * (R + 1) + 4 * R + 4 * nc;
+    return 36 + 2 * (size_t)m->nvecs + 12 * (size_t)m->nvecs * m->M + 4 * (R + 1) + 4 * R + 4 * nc;
 }
 
 void cpca_write(prt_writer *w, const cpca_model *m) {
@@ -105,6 +105,8 @@ void cpca_write(prt_writer *w, const cpca_model *m) {
             int16_t v = (int16_t)(s > 0 ? lrintf(m->val[q] / s) : 0);
             prtio_put_arr(w, &v, 1, 2);
         }
+    prtio_put_f64(w, m->err2);
+    prtio_put_f64(w, m->norm2);
 }
 
 /* The values q x step of every row (rows whose offsets are broken are left zero: cpca_check refuses them). */
@@ -135,7 +137,9 @@ bool cpca_read(prt_reader *r, cpca_model *m, char *why) {
     m->first = prtio_get_arr(r, R + 1, 4);
     m->step = prtio_get_arr(r, R, 4);
     m->idx = prtio_get_arr(r, (size_t)nc, 2);
-    if (r->bad || !read_values(r, m, (size_t)nc)) return BAD(why, r->oom ? "cpca: out of memory" : "cpca section too short for %d vectors, %llu coefficients", m->nvecs, (unsigned long long)nc);
+    bool values = !r->bad && read_values(r, m, (size_t)nc);
+    m->err2 = prtio_get_f64(r), m->norm2 = prtio_get_f64(r);
+    if (r->bad || !values) return BAD(why, r->oom ? "cpca: out of memory" : "cpca section too short for %d vectors, %llu coefficients", m->nvecs, (unsigned long long)nc);
     if (m->first[R] != nc) return BAD(why, "cpca: row offsets end at %u, not at the %llu coefficients", m->first[R], (unsigned long long)nc);
     return true;
 }

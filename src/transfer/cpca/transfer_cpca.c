@@ -24,6 +24,7 @@
 #include "haar.h"
 #include "haar_run.h"
 #include "linear.h"
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -292,8 +293,9 @@ static void cpca_summary(const prt_transfer *tr, char *buf, size_t cap) {
         const cpca_model *m = &d->set[k];
         int R = cpca_rows(m);
         n += (size_t)snprintf(buf + n, cap - n, "  cpca%s: %d vectors in %d clusters, %d terms, %u coefficients in %d rows "
-                              "(%.0f per row), %.2f MB\n", k ? " (direct)" : "", m->nvecs, m->C, m->M, m->first[R], R,
-                              R ? (double)m->first[R] / R : 0, cpca_bytes(m) / 1e6);
+                              "(%.0f per row), %.2f MB; relative L2 error %.3f%% of the staged vectors\n", k ? " (direct)" : "",
+                              m->nvecs, m->C, m->M, m->first[R], R, R ? (double)m->first[R] / R : 0, cpca_bytes(m) / 1e6,
+                              m->norm2 > 0 ? 100 * sqrt(m->err2 / m->norm2) : 0);
     }
 }
 
