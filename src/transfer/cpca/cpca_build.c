@@ -4,6 +4,7 @@
 #include "cpca.h"
 #include <lapacke.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -232,8 +233,8 @@ static double omega(uint64_t s, uint64_t a) {
 }
 
 /* The M leading principal directions of d's centred samples into B [M][D] (unit, or zero beyond
- * the rank) with their eigenvalues lam [M] (Rayleigh-Ritz values). 0 or -1 (OOM). */
-static int principal(const cl_data *d, int M, double *B, double *lam) {
+ * the rank: Rayleigh-Ritz on the iterated subspace). 0 or -1 (OOM). */
+static int principal(const cl_data *d, int M, double *B) {
     int l = d->l, ns = d->ns;
     double *V = malloc(sizeof(double) * (size_t)d->D * l), *Z = malloc(sizeof(double) * (size_t)ns * l);
     double H[(CPCA_MAX_TERMS + CPCA_OVERSAMPLE) * (CPCA_MAX_TERMS + CPCA_OVERSAMPLE)], ev[CPCA_MAX_TERMS + CPCA_OVERSAMPLE];
@@ -257,7 +258,6 @@ static int principal(const cl_data *d, int M, double *B, double *lam) {
     int rc = LAPACKE_dsyev(LAPACK_ROW_MAJOR, 'V', 'U', l, H, l, ev);   /* ascending */
     for (int m = 0; m < M; m++) {
         int a = l - 1 - m;
-        lam[m] = rc == 0 && m < l ? fmax(ev[a], 0) : 0;
         double *b = B + (size_t)m * d->D;
         for (int t = 0; t < d->D; t++) {
             double s = 0;
@@ -280,7 +280,7 @@ typedef struct build_ctx {
     float **rval;
     int *rcount;
     double *cerr;               /* [2 C] each cluster's squared error and squared norm (refit) */
-    int failed;
+    atomic_int failed;
 } build_ctx;
 
 /* Row r from dense x [D] over columns U [D]: its `coeffs` largest |x| (ties: lower index), in index
@@ -394,14 +394,14 @@ static int build_cluster(build_ctx *c, int k) {
     d.l = M + CPCA_OVERSAMPLE;
     if (d.l > d.ns) d.l = d.ns;
     if (d.l > D) d.l = D;
-    double *R = calloc((size_t)(M + 1) * (D ? D : 1), sizeof *R), lam[CPCA_MAX_TERMS];
+    double *R = calloc((size_t)(M + 1) * (D ? D : 1), sizeof *R);
     int rc = R ? 0 : -1;
     d.mu = R;
     for (int j = 0; j < nm && !rc; j++)
         for (uint32_t q = c->v->first[d.mem[j]]; q < c->v->first[d.mem[j] + 1]; q++)
             for (int ch = 0; ch < 3; ch++) R[map[c->v->idx[q]]] += c->v->val[3 * (size_t)q + ch];
     for (int t = 0; t < D && !rc; t++) R[t] /= d.ns;
-    if (!rc && d.l > 0) rc = principal(&d, M, R + D, lam);
+    if (!rc && d.l > 0) rc = principal(&d, M, R + D);
     for (int m = 0; m <= M && !rc; m++) rc = keep_row(c, k * (M + 1) + m, R + (size_t)m * D, U, D, tmp);
     if (!rc) refit(c, &d, R, c->cerr + 2 * k);
     free(R); free(map); free(U); free(tmp);
@@ -412,7 +412,7 @@ static void build_range(void *ctx, int b, int e, int thread) {
     (void)thread;
     build_ctx *c = ctx;
     for (int k = b; k < e; k++)
-        if (build_cluster(c, k)) c->failed = 1;   /* any thread's failure fails the build (a plain store of 1) */
+        if (build_cluster(c, k)) atomic_store(&c->failed, 1);   /* any thread's failure fails the build */
 }
 
 /* ---- the model -------------------------------------------------------------------------------- */
@@ -460,6 +460,7 @@ int cpca_build(const cpca_vectors *v, const cpca_params *p, cpca_model *out, prt
     if (model_alloc(out, v->n, C, M, err)) return -1;
     int *mfirst = prt_calloc(2 * (size_t)C + 2, sizeof *mfirst, err), *mem = mfirst ? prt_calloc((size_t)v->n + 1, sizeof *mem, err) : NULL;
     build_ctx c = { v, p, out, mfirst, mem, NULL, NULL, NULL, NULL, 0 };
+    atomic_init(&c.failed, 0);
     c.ridx = mem ? calloc((size_t)R, sizeof *c.ridx) : NULL;
     c.rval = c.ridx ? calloc((size_t)R, sizeof *c.rval) : NULL;
     c.rcount = c.rval ? calloc((size_t)R, sizeof *c.rcount) : NULL;
@@ -469,7 +470,7 @@ int cpca_build(const cpca_vectors *v, const cpca_params *p, cpca_model *out, prt
     if (!rc) {
         members(out->cluster, v->n, C, mfirst, mem);
         prt_parallel_for(C, 1, p->nthreads, build_range, &c);
-        rc = c.failed ? -1 : merge_rows(out, &c, err);
+        rc = atomic_load(&c.failed) ? -1 : merge_rows(out, &c, err);
         for (int k = 0; k < C; k++) out->err2 += c.cerr[2 * k], out->norm2 += c.cerr[2 * k + 1];   /* in cluster order */
     }
     for (int r = 0; c.rcount && r < R; r++) { free(c.ridx[r]); free(c.rval[r]); }

@@ -99,12 +99,15 @@ void cpca_write(prt_writer *w, const cpca_model *m) {
     prtio_put_arr(w, m->first, R + 1, 4);
     prtio_put_arr(w, m->step, R, 4);
     prtio_put_arr(w, m->idx, nc, 2);
+    int16_t q[1024];   /* the values as their 16-bit codes, a chunk at a time */
+    size_t k = 0;
     for (size_t r = 0; r < R; r++)
-        for (uint32_t q = m->first[r]; q < m->first[r + 1]; q++) {
+        for (uint32_t c = m->first[r]; c < m->first[r + 1]; c++) {
             float s = m->step[r];
-            int16_t v = (int16_t)(s > 0 ? lrintf(m->val[q] / s) : 0);
-            prtio_put_arr(w, &v, 1, 2);
+            q[k++] = (int16_t)(s > 0 ? lrintf(m->val[c] / s) : 0);
+            if (k == 1024) prtio_put_arr(w, q, k, 2), k = 0;
         }
+    prtio_put_arr(w, q, k, 2);
     prtio_put_f64(w, m->err2);
     prtio_put_f64(w, m->norm2);
 }
