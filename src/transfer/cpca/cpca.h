@@ -34,8 +34,8 @@
 #include "cubemap.h"
 #include "prtio.h"
 
-#define CPCA_OVERSAMPLE 8
-#define CPCA_POWER 3
+#define CPCA_OVERSAMPLE 4
+#define CPCA_POWER 2
 #define CPCA_KMEANS_ITERS 12
 #define CPCA_MAX_TERMS 32
 

@@ -31,9 +31,9 @@
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
 
 /* Defaults: docs/design/cpca.md's measurements. */
-#define CPCA_DEFAULT_CLUSTERS 64
+#define CPCA_DEFAULT_CLUSTERS 128
 #define CPCA_DEFAULT_TERMS 8
-#define CPCA_DEFAULT_COEFFS 2048
+#define CPCA_DEFAULT_COEFFS 512
 #define CPCA_DEFAULT_STAGE 2048
 
 typedef struct cpca_config {
@@ -47,11 +47,11 @@ typedef struct cpca_data { cpca_model set[2]; } cpca_data;
 enum { OPT_CLUSTERS, OPT_TERMS, OPT_COEFFS, OPT_STAGE, NOPTS };
 static const transfer_option k_options[NOPTS + 1] = {
     [OPT_CLUSTERS] = { .key = "clusters", .kind = TRANSFER_OPT_INT, .lo = 1, .hi = 4096,
-                       .help = "clusters of vectors, each with its own mean and basis (default 64)" },
+                       .help = "clusters of vectors, each with its own mean and basis (default 128)" },
     [OPT_TERMS] = { .key = "terms", .kind = TRANSFER_OPT_INT, .lo = 1, .hi = CPCA_MAX_TERMS,
                     .help = "basis vectors per cluster: weights per vector and channel (default 8)" },
     [OPT_COEFFS] = { .key = "coeffs", .kind = TRANSFER_OPT_INT, .lo = 16, .hi = CUBE_TEXELS,
-                     .help = "Haar coefficients kept per cluster mean and basis vector, 16-bit (default 2048)" },
+                     .help = "Haar coefficients kept per cluster mean and basis vector, 16-bit (default 512)" },
     [OPT_STAGE] = { .key = "stage", .kind = TRANSFER_OPT_INT, .lo = 64, .hi = CUBE_TEXELS,
                     .help = "largest coefficients per vector kept (floats) until the clusters are built\n"
                             "(default 2048, or -N: 16 bytes each per vector while precomputing)" },
