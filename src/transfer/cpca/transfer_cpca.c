@@ -54,7 +54,7 @@ static const transfer_option k_options[NOPTS + 1] = {
                      .help = "Haar coefficients kept per cluster mean and basis vector, 16-bit (default 512)" },
     [OPT_STAGE] = { .key = "stage", .kind = TRANSFER_OPT_INT, .lo = 64, .hi = CUBE_TEXELS,
                     .help = "largest coefficients per vector kept (floats) until the clusters are built\n"
-                            "(default 2048, or -N: 16 bytes each per vector while precomputing)" },
+                            "(default 2048, or --coeffs: 16 bytes each per vector while precomputing)" },
 };
 
 static cpca_config cpca_config_of(const transfer_config *cfg) {
@@ -69,7 +69,7 @@ static int cpca_set(void *user, int i, const char *value, prt_error *err) {
     return transfer_option_int("cpca", &k_options[i], value, f[i], err);
 }
 
-/* -N gives the stage; the staging is floats (--qbits other than 32 refused); no light prior from the
+/* --coeffs (setup N) gives the stage; the staging is floats (--quant other than 32 refused); no light prior from the
  * command line (nothing here weighs by light), the scene's left out (cpca_begin says so). */
 static int cpca_configure(const transfer_setup *s, transfer_config *cfg, prt_error *err) {
     _Static_assert(sizeof(cpca_config) <= TRANSFER_CONFIG_BYTES, "cpca_config fits transfer_config");
@@ -77,7 +77,7 @@ static int cpca_configure(const transfer_setup *s, transfer_config *cfg, prt_err
     cpca_config c;
     memset(&c, 0, sizeof c);
     if (s->qbits && s->qbits != 32)
-        return prt_fail(err, "cpca: --qbits %d: it stages floats and stores its own 16-bit rows", s->qbits);
+        return prt_fail(err, "cpca: --quant %d: it stages floats and stores its own 16-bit rows", s->qbits);
     c.lin = (linear_config){ .N = s->N ? s->N : CPCA_DEFAULT_STAGE, .qbits = 32, .measure = LINEAR_MEASURE_SOLID_ANGLE };
     c.clusters = CPCA_DEFAULT_CLUSTERS, c.terms = CPCA_DEFAULT_TERMS, c.coeffs = CPCA_DEFAULT_COEFFS;
     if (transfer_parse_options("cpca", k_options, s->options, cpca_set, &c, err)) return -1;
