@@ -386,7 +386,7 @@ static void no_sh_order(void) {
 
 /* Nothing outside a representation's folder names it (transfer.h): no lookup of a representation by a
  * literal name, no test of which table it is, none of its headers, no name constant; transfer.c,
- * the table, declares their tables. Run from the repository's root (as make test does). */
+ * the table, declares their tables; cpca's folder builds on Haar's basis and may include its headers. Run from the repository's root (as make test does). */
 static void seam(void) {
     char out[8192];
     const char *cmd =

@@ -4,8 +4,9 @@
  *
  * The samples are the transport vectors' channels x_s (vector i, channel c: s = 3i + c), each a
  * sparse vector of Haar coefficients of T/w (the representation's index space, CUBE_TEXELS). The
- * vectors are clustered by their transport (k-means on the channel mean, seeded by index; every
- * channel of a vector in its vector's cluster), and each cluster k approximated as (Sloan Eq. 2)
+ * vectors are clustered by their transport (Lloyd's k-means on each vector's 256 largest channel-mean
+ * coefficients, at most CPCA_KMEANS_ITERS iterations, seeded by index; every channel of a vector in
+ * its vector's cluster), and each cluster k approximated as (Sloan Eq. 2)
  *     x_s ~ mu_k + sum_{m<M} w_sm b_km
  * with mu_k the cluster mean and b_km the M leading principal directions of its centred samples.
  * The mean and each basis vector are kept sparse (their `coeffs` largest coefficients), quantized
