@@ -1,6 +1,6 @@
 /* test_transfer.c - the transfer-representation seam (transfer.h).
  *
- * The table lists haar, sh and vmf, finds them by name, tag and kind and refuses unknown ones;
+ * The table lists haar, sh, vmf and cpca, finds them by name, tag and kind and refuses unknown ones;
  * each fills exactly its kind's table; configure parses each representation's options text (its
  * defaults from empty options, one line naming the key for each refusal); for each linear
  * representation the inner product of project_light and project_transport (the runtime's
@@ -32,23 +32,25 @@ static const transfer_ops *rep(const char *name) {
 
 /* The table: the three representations, by index, name, tag and kind; nothing else. */
 static void table(void) {
-    const transfer_ops *haar = rep("haar"), *sh = rep("sh"), *vmf = rep("vmf");
-    if (!haar || !sh || !vmf) return;
-    CHECK(transfer_count() == 3, "%d representations", transfer_count());
-    CHECK(transfer_at(0) == haar && transfer_at(1) == sh && transfer_at(2) == vmf, "haar, sh, vmf");
+    const transfer_ops *haar = rep("haar"), *sh = rep("sh"), *vmf = rep("vmf"), *cpca = rep("cpca");
+    if (!haar || !sh || !vmf || !cpca) return;
+    CHECK(transfer_count() == 4, "%d representations", transfer_count());
+    CHECK(transfer_at(0) == haar && transfer_at(1) == sh && transfer_at(2) == vmf && transfer_at(3) == cpca, "haar, sh, vmf, cpca");
     CHECK(transfer_find("sg") == NULL && transfer_find("") == NULL && transfer_find(NULL) == NULL, "unknown names refused");
     CHECK(transfer_find("HAAR") == NULL, "names are case-sensitive");
     CHECK(transfer_by_tag(haar->tag) == haar && transfer_by_tag(sh->tag) == sh && transfer_by_tag(vmf->tag) == vmf, "by tag");
     CHECK(transfer_by_tag(0) == NULL && transfer_by_tag(TRANSFER_TAG('M', 'E', 'S', 'H')) == NULL, "no section tags");
-    CHECK(haar->tag != sh->tag && vmf->tag != haar->tag && vmf->tag != sh->tag, "distinct tags");
+    CHECK(haar->tag != sh->tag && vmf->tag != haar->tag && vmf->tag != sh->tag && cpca->tag != haar->tag &&
+          cpca->tag != sh->tag && cpca->tag != vmf->tag, "distinct tags");
+    CHECK(transfer_by_tag(cpca->tag) == cpca, "cpca by tag");
     CHECK(transfer_default(TRANSFER_LINEAR) == haar && transfer_default(TRANSFER_VIEW) == vmf, "the defaults of each kind");
     char names[64];
     transfer_names(0, names, sizeof names);
-    CHECK(!strcmp(names, "haar, sh, vmf"), "names: %s", names);
+    CHECK(!strcmp(names, "haar, sh, vmf, cpca"), "names: %s", names);
     transfer_names(0, names, 6);
     CHECK(!strcmp(names, "haar,"), "truncated: %s", names);
     transfer_names(TRANSFER_LINEAR, names, sizeof names);
-    CHECK(!strcmp(names, "haar, sh"), "linear names: %s", names);
+    CHECK(!strcmp(names, "haar, sh, cpca"), "linear names: %s", names);
     transfer_names(TRANSFER_VIEW, names, sizeof names);
     CHECK(!strcmp(names, "vmf"), "view names: %s", names);
     for (int i = 0; i < transfer_count(); i++) {
@@ -59,9 +61,10 @@ static void table(void) {
               "%s fills exactly its kind's table", o->name);
         const transfer_linear *l = o->linear;
         if (l) {
-            CHECK(l->init_set && l->project_transport && l->compress && l->project_light && l->light_range && l->glsl,
+            CHECK(l->init_set && l->project_transport && l->compress && l->project_light && (l->light_range || l->light),
                   "%s fills the linear table", o->name);
-            CHECK(l->glsl->decode && l->glsl->fragment && l->glsl->buffers && l->glsl->thread && l->glsl->warp, "%s GLSL", o->name);
+            CHECK(!l->glsl || (l->glsl->decode && l->glsl->fragment && l->glsl->buffers && l->glsl->thread && l->glsl->warp),
+                  "%s GLSL", o->name);
         }
         if (o->view) CHECK(o->view->fit && o->view->precompute && o->view->shade_vertices, "%s fills the view table", o->name);
         for (const transfer_option *opt = o->options; opt && opt->key; opt++)
@@ -383,15 +386,15 @@ static void no_sh_order(void) {
 
 /* Nothing outside a representation's folder names it (transfer.h): no lookup of a representation by a
  * literal name, no test of which table it is, none of its headers, no name constant; transfer.c,
- * the table, declares their tables. Run from the repository's root (as make test does). */
+ * the table, declares their tables; cpca's folder builds on Haar's basis and may include its headers. Run from the repository's root (as make test does). */
 static void seam(void) {
     char out[8192];
     const char *cmd =
-        "grep -rnE 'transfer_find\\(\"|strcmp\\([^)]*\"(haar|sh|vmf)\"|&transfer_(haar|sh|vmf)\\b|"
+        "grep -rnE 'transfer_find\\(\"|strcmp\\([^)]*\"(haar|sh|vmf|cpca)\"|&transfer_(haar|sh|vmf|cpca)\\b|"
         "GLOSSY_VMF|PATH_VMF|have_vmf|CKPT_PASS_VMF|t_vmf|"
-        "#include \"(haar|haar_run|light|prior|refit|vmf|vmfpass|geogrid|phash|shbasis|linear)\\.h\"' "
+        "#include \"(haar|haar_run|light|prior|refit|vmf|vmfpass|geogrid|phash|shbasis|linear|cpca)\\.h\"' "
         "src gpu brdf --include='*.c' --include='*.h' --include='*.cpp' | "
-        "grep -vE '^src/transfer/(haar|sh|vmf|linear)/|^src/transfer/transfer\\.c:'";
+        "grep -vE '^src/transfer/(haar|sh|vmf|linear|cpca)/|^src/transfer/transfer\\.c:'";
     int rc = check_run(cmd, out, sizeof out);
     CHECK(rc == 1 && out[0] == 0, "a representation named outside its folder:\n%s", out);
 }

@@ -1296,6 +1296,17 @@ static void pc_finish(pc_run *r) {
     }
 }
 
+/* The linear representation's finish on its final sets (transfer.h; cpca builds its clusters), its
+ * time in the plan. 0 or -1. */
+static int pc_transfer_finish(pc_run *r, prt_error *err) {
+    if (!r->rp.lops || !r->rp.lops->linear->finish || !r->tr) return 0;
+    double t0 = prt_now();
+    if (r->rp.lops->linear->finish(r->tr, r->nthreads, err)) return -1;
+    plan_add(r->plan, r->pcap, "  %s: built from the stored vectors in %.1fs, %.1f MB\n", r->rp.lops->name, prt_now() - t0,
+             r->rp.lops->bytes(r->tr) / 1e6);
+    return 0;
+}
+
 /* Frees what the stages allocated (not out). */
 static void pc_cleanup(pc_run *r) {
     if (r->have_lock) pthread_mutex_destroy(&r->c.lock);
@@ -1351,6 +1362,7 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
     r->ck = NULL;
     if (ckpt_close(ck, err)) goto done;
     pc_finish(r);
+    if (pc_transfer_finish(r, err)) goto done;
     out->stats.t_total = prt_now() - t_start;
     out->stats.peak_rss_bytes = pc_peak_rss();
     rc = 0;

@@ -69,16 +69,22 @@ float (*transfer_light_scaled_copy(const float (*L)[4], int *shift))[4] {
 /* A light above about FLT_MAX / 2^21 would overflow the kernels' float sums and turn the vertex
  * black: it runs scaled down by a power of two (exact) and g is scaled back, clamped to the float
  * range. Out of memory for the copy: the light runs unscaled. */
+/* The representation's whole-set light when it has one, else its range kernel on the threads. */
+static void light_with(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
+    const transfer_linear *lin = tr->ops->linear;
+    if (lin->light) lin->light(tr, t, L, g, nthreads);
+    else transport_light_with(t, L, g, nthreads, lin->light_range);
+}
+
 void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads) {
     PRT_CHECK(tr->ops->kind == TRANSFER_LINEAR);
-    transport_light_fn kernel = tr->ops->linear->light_range;
     int shift;
     float (*Ls)[4] = transfer_light_scaled_copy(L, &shift);
     if (!Ls) {
-        transport_light_with(t, L, g, nthreads, kernel);
+        light_with(tr, t, L, g, nthreads);
         return;
     }
-    transport_light_with(t, (const float (*)[4])Ls, g, nthreads, kernel);
+    light_with(tr, t, (const float (*)[4])Ls, g, nthreads);
     free(Ls);
     for (size_t i = 0; i < 3 * (size_t)t->nvecs; i++) {
         float v = ldexpf(g[i], shift);

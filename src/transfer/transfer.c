@@ -11,7 +11,8 @@
 #define TRANSFER_TABLE(X) \
     X(haar)     /* Haar wavelets, N largest of 24,576, quantized (the paper) */ \
     X(sh)       /* spherical harmonics of order 3..10 (the low-frequency baseline) */ \
-    X(vmf)      /* vMF lobes per vertex and view, perfect-hashed (laurijssen-2011) */
+    X(vmf)      /* vMF lobes per vertex and view, perfect-hashed (laurijssen-2011) */ \
+    X(cpca)     /* clustered PCA of the Haar transport (Sloan 2003, Liu 2004) */
 #ifndef TRANSFER_TABLE_EXTRA
 #define TRANSFER_TABLE_EXTRA(X)
 #endif

@@ -24,7 +24,11 @@
  *                                       shared budget, corrections, refit
  *     sh    LINEAR  src/transfer/sh/    spherical harmonics of order 3..10 (the low-frequency baseline)
  *     vmf   VIEW    src/transfer/vmf/   vMF lobes per vertex and geodesic view, perfect-hashed
- * Haar and SH share their storage section, validation and kernels (src/transfer/linear/).
+ *     cpca  LINEAR  src/transfer/cpca/  clustered PCA of the Haar transport (Sloan 2003, Liu 2004):
+ *                                       per cluster a mean and M sparse basis vectors, per vector M
+ *                                       weights; built by its finish, lit by its light (CPU only)
+ * Haar and SH share their storage section, validation and kernels (src/transfer/linear/); cpca
+ * uses Haar's basis and light vector and keeps only the sets' vector offsets in them.
  *
  * Configuration. A representation's configuration is private to it: transfer_config is an opaque,
  * fixed-size value (copyable, compared and hashed as bytes) that only its own configure fills.
@@ -42,9 +46,10 @@
  *     // precompute (precompute.c), per vertex and BRDF term, per channel:
  *     ops->linear->project_transport(&cfg, texels, coeffs, scratch);
  *     ops->linear->compress(&t, vec, r, g, b, tscratch);
+ *     ops->linear->finish(tr, nthreads, &err);                // optional, once the sets are final
  *     // runtime, per light change (runtime.c, relight.c):
  *     float (*L)[4] = transfer_light_vector(tr, cube_rgb);    // ops->linear->project_light
- *     transfer_light(tr, &tr->transport, L, g, nthreads);     // ops->linear->light_range: g = T x L
+ *     transfer_light(tr, &tr->transport, L, g, nthreads);     // ops->linear->light or light_range: g = T x L
  *
  * The instances: a prt_data holds one prt_transfer per representation used (prtfile.h), each
  * with its config, the materials it shades (bit i: material i) and its data; a vertex's radiance
@@ -133,8 +138,9 @@ typedef struct prt_transfer {
     prt_transport transport;    /* LINEAR: direct + every interreflection pass (what the runtime uses) */
     prt_transport direct;       /* LINEAR, optional (nvecs 0 when absent): the direct pass alone, kept by
                                  * `precompute --keep-direct` for the direct/bounces toggle */
-    void *priv;                 /* VIEW: its own data (vmf: lobe sets in a perfect hash); made by its
-                                 * precompute or read, freed by its release; NULL else */
+    void *priv;                 /* its own data: VIEW (vmf: lobe sets in a perfect hash), made by its
+                                 * precompute; LINEAR with a finish (cpca: its clusters), made by finish;
+                                 * or by its read; freed by its release; NULL else */
 } prt_transfer;
 
 /* ---- the linear kind -------------------------------------------------------------------------- */
@@ -207,14 +213,25 @@ typedef struct transfer_linear {
     /* Stores vector i from dense coefficients r, g, b (transport_store: its N best, quantized).
      * Returns the squared L2 error of what is stored. */
     double (*compress)(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
+    /* Optional (NULL: the sets are final as the passes stored them): called once after every pass,
+     * with the transfer's final sets in tr (transport, and direct when kept), before anything else
+     * reads or writes them, for a representation that needs every vector at once (cpca: clusters of
+     * vectors). It may build its own data in tr->priv and replace the sets' coefficients (its
+     * light reads what it made). 0, or -1 with err. */
+    int (*finish)(prt_transfer *tr, int nthreads, prt_error *err);
 
     /* ---- runtime ----
      * The light vector from the probe resampled to the cube (cube_rgb [CUBE_TEXELS][3], mean
      * radiance per texel) into L [CUBE_TEXELS][4] in the same index space, so that sum_i L_i T_i
      * approximates sum_j L_j T_j (Eq. 4). */
     void (*project_light)(const transfer_config *cfg, const float *cube_rgb, float (*L)[4]);
-    /* CPU light change for vectors [first, last) of t (one of the transfer's sets): g[3i + ch]. */
+    /* CPU light change for vectors [first, last) of t (one of the transfer's sets): g[3i + ch].
+     * NULL when light is given. */
     void (*light_range)(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
+    /* Optional (NULL: light_range over ranges of vectors on the threads): the whole CPU light change
+     * g[3i + ch] of set t of tr on nthreads (0: all), for a representation with a step per light
+     * change that every vector shares (cpca: each cluster's rows projected on the light once). */
+    void (*light)(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads);
     /* GLSL light kernels (NULL: no GL runtime for this representation). */
     const transfer_glsl *glsl;
 } transfer_linear;
@@ -380,7 +397,8 @@ float (*transfer_light_vector(const prt_transfer *tr, const float *cube_rgb))[4]
  * finite sun of 1e37 would overflow to Inf; a power of two scales exactly, and the caller scales g
  * back by 2^shift. Both runtimes use it, so they compute the same g. */
 float (*transfer_light_scaled_copy(const float (*L)[4], int *shift))[4];
-/* g = T x L for every vector of t (one of linear transfer tr's sets) with tr's CPU kernel on
- * nthreads (0: all), a light near the float range run scaled (transfer_light_scaled_copy). */
+/* g = T x L for every vector of t (one of linear transfer tr's sets) with tr's CPU kernel (its light,
+ * else its light_range) on nthreads (0: all), a light near the float range run scaled
+ * (transfer_light_scaled_copy). */
 void transfer_light(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads);
 #endif

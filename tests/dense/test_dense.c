@@ -1,7 +1,7 @@
 /* test_dense.c - a fourth transfer representation, added the way the README's "Adding a
  * representation" says: its folder (this one: transfer_dense.c) and one table line (table.c, the
  * table of this binary only). Nothing else in the library knows it, yet:
- *   table:      the table lists it after haar, sh and vmf; the defaults stay haar and vmf;
+ *   table:      the table lists it after the library's (haar, sh, vmf, cpca); the defaults stay haar and vmf;
  *   unoccluded: precompute_run with basis "dense" (the library call, every texel in float) gives
  *               an unoccluded Lambert vertex under a constant light kd/pi L S, S the visibility
  *               cube's own quadrature of the cosine (computed here), within the float rounding of
@@ -32,12 +32,12 @@
 
 static void table(void) {
     const transfer_ops *d = transfer_find("dense");
-    CHECK(d != NULL && d->kind == TRANSFER_LINEAR && transfer_count() == 4 && transfer_at(3) == d, "dense is the fourth");
+    CHECK(d != NULL && d->kind == TRANSFER_LINEAR && transfer_count() == 5 && transfer_at(4) == d, "dense is the last");
     CHECK(transfer_default(TRANSFER_LINEAR) == transfer_find("haar") && transfer_default(TRANSFER_VIEW) == transfer_find("vmf"),
           "the defaults are unchanged");
     char names[64];
     transfer_names(TRANSFER_LINEAR, names, sizeof names);
-    CHECK(!strcmp(names, "haar, sh, dense"), "linear names: %s", names);
+    CHECK(!strcmp(names, "haar, sh, cpca, dense"), "linear names: %s", names);
     CHECK(d && transfer_by_tag(d->tag) == d, "by its section tag");
 }
 
@@ -213,7 +213,7 @@ static void cli(void) {
     snprintf(cmd, sizeof cmd, "%s precompute data/sphere-phong.json -o %s/cli.prt --basis dense --quiet", check_prt_bin(),
              check_tmpdir());
     int rc = check_run(cmd, buf, sizeof buf);
-    CHECK(rc == 2 && strstr(buf, "--basis must be haar or sh (got 'dense')") != NULL, "exit %d: %s", rc, buf);
+    CHECK(rc == 2 && strstr(buf, "--basis must be haar, sh or cpca (got 'dense')") != NULL, "exit %d: %s", rc, buf);
 }
 
 int main(int argc, char **argv) {
