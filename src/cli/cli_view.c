@@ -49,6 +49,7 @@
 #include "prtfile.h"
 #include "runtime.h"
 #include "vec3.h"
+#include "view_truth.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <dirent.h>
@@ -63,6 +64,7 @@
 #define VIEW_MAX_PROBES 64
 #define VIEW_MAX_RUNTIMES 8     /* at least runtime_backend_count() */
 #define VIEW_KEEP 8             /* probes kept prepared (~6 MB each with a prefiltered ladder) */
+#define VIEW_POINTS 32          /* settings the --truth plot keeps */
 
 /* A probe prepared on a worker thread (runtime_probe_prepare: its fine cube and, for a vMF file, its
  * prefiltered ladder, seconds) while the window keeps drawing with the light it has. Ownership: the
@@ -94,11 +96,13 @@ static const char *k_keys =
     "  1 .. 9                   switch to probe 1..9\n"
     "  n / p                    next / previous probe\n"
     "  + / -                    exposure up / down half a stop\n"
-    "  K / k                    use more / fewer BRDF terms\n";
+    "  K / k                    use more / fewer BRDF terms\n"
+    "  C / c                    use more / fewer wavelet coefficients per vector (doubles / halves; cpu runtime)\n"
+    "  [ / ]                    rotate the lighting 15 degrees about +y (a light change)\n";
 static const char *k_keys2 =
     "  v                        view model of the runtimes that have per pixel: per-pixel view maps / per vertex\n"
     "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
-    "  s                        screenshot (PNG, current exposure)\n"
+    "  s                        screenshot (PNG, current exposure); with --truth the three panels and their figures\n"
     "  l                        pick the next local light (point / spot lights of the file and --light)\n"
     "  alt + left drag          move the picked local light in the view plane: a light move\n"
     "  m                        mouse mode: left drag moves the picked local light / orbits\n"
@@ -164,6 +168,9 @@ static void view_help(void) {
            "  --light SPEC           add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n"
            "                         spot:pos=..;dir=..;inner=DEG;outer=DEG;... (repeatable; GL takes at most 4)\n"
            "  --no-file-lights       ignore the lights stored in the file\n"
+           "  --truth                split the window: PRT | a progressive path-traced reference (prt reference's,\n"
+           "                         with the file's bounces) | their relative error, with the error on screen\n"
+           "  --truth-spp N          with --frames: each frame waits until the reference has N samples per pixel\n"
            CLI_INDIRECT_HELP
            "\n"
            "keys:\n%s", keys_help(keys, sizeof keys));
@@ -214,6 +221,33 @@ typedef struct viewer {
     double prep_t0, prep_ms;    /* when the preparation started, how long the last one took */
     int prep_frames;            /* frames drawn while a probe was prepared, and the longest */
     double prep_longest;
+    /* --truth (view_truth.h): the PRT frame at panel size pw x ph beside the reference and the error */
+    bool truth;
+    int truth_spp;              /* --truth-spp: each scripted frame waits for it (0: none) */
+    truth_view *tv;
+    truth_state ts_last;        /* the state last handed to the reference (what a restart changed) */
+    int pw, ph;
+    float *prt_px, *ref_px, *err_e;    /* [3 pw ph], [3 pw ph], [pw ph] */
+    uint8_t *cov, *rgba;        /* [pw ph], [4 pw ph] */
+    bool prt_new;               /* the PRT frame changed since it was compared */
+    long seen_samples, seen_restarts;
+    truth_stats st;
+    cmp_result cr;
+    bool have_err;
+    double prt_ms;              /* the PRT frame's light and view change */
+    GLuint tex[2], fbo[2];      /* the reference and error panels, uploaded */
+    truth_point pts[VIEW_POINTS];
+    int npts, cur_pt;
+    float plot_ms, plot_err;
+    const char *snap_path;      /* a --truth snapshot to write at the next frame, before the swap */
+    char snap_buf[4096];
+    /* keys c / C: coefficients per vector used (0: all the file keeps, nfile at most) */
+    int ncoef, nfile;
+    prt_transport full[PRT_MAX_TRANSFERS][2];   /* the file's sets while cut ones are in d (transport, direct) */
+    bool cut;
+    long truth_restarts;        /* scripted: the restarts and spp the last frame printed */
+    int truth_spp_last;
+    truth_stats st_before;      /* scripted: the reference as the frame found it, before any wait */
 } viewer;
 
 /* Shows msg on screen for a few seconds and on stderr. */
@@ -280,7 +314,7 @@ static int local_move(viewer *v, prt_error *err) {
 static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
     prt_runtime *rt = current(v);
-    render_desc rd = { .width = v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
+    render_desc rd = { .width = v->truth ? v->pw : v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
                        .background_rotation = rotated(v) ? v->R : NULL, .samples = v->drag ? 1 : v->aa };
     runtime_set_terms(rt, v->kmax);
     if (runtime_render(rt, &rd, NULL, err)) return -1;
@@ -304,6 +338,8 @@ static int overlay_effects(const viewer *v, char *buf, size_t cap) {
     int n = snprintf(buf, cap, "o: one bounce %s   i: indirect highlights %s\n", b, h);
     return n < 0 ? 0 : n >= (int)cap ? (int)cap - 1 : n;
 }
+
+static int truth_hud(const viewer *v, char *buf, size_t cap);
 
 /* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
@@ -332,6 +368,7 @@ static void overlay(viewer *v) {
                       v->move_mode ? "   [m: drag moves the light]" : "");
         n += overlay_effects(v, buf + n, sizeof buf - (size_t)n);
     }
+    if (v->truth && n < (int)sizeof buf) n += truth_hud(v, buf + n, sizeof buf - (size_t)n);
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (v->want >= 0 && n < (int)sizeof buf)
         n += snprintf(buf + n, sizeof buf - n, "preparing probe %d: %s... (%.1f s; showing probe %d meanwhile)\n", v->want + 1,
@@ -379,6 +416,248 @@ static int window_screenshot(viewer *v, const char *path, prt_error *err) {
     return rc;
 }
 
+/* ---------------------------------------------------------------- --truth: PRT | reference | error */
+
+/* What differs between two reference states, in words (static text). */
+static const char *truth_change(const truth_state *a, const truth_state *b) {
+    if (a->w != b->w || a->h != b->h) return "window size";
+    if (memcmp(&a->cam, &b->cam, sizeof a->cam)) return "camera";
+    if (a->probe != b->probe) return "probe";
+    if (a->rotated != b->rotated || memcmp(a->R, b->R, sizeof a->R)) return "light rotation";
+    return "local lights";
+}
+
+/* The panels' buffers for the framebuffer's size (three panels side by side). -1 with err. */
+static int truth_panels(viewer *v, prt_error *err) {
+    int pw = v->fbw / 3 > 0 ? v->fbw / 3 : 1, ph = v->fbh;
+    if (pw == v->pw && ph == v->ph && v->prt_px) return 0;
+    size_t n = (size_t)pw * ph;
+    free(v->prt_px); free(v->ref_px); free(v->err_e); free(v->cov); free(v->rgba);
+    v->prt_px = calloc(3 * n, sizeof(float));
+    v->ref_px = calloc(3 * n, sizeof(float));
+    v->err_e = calloc(n, sizeof(float));
+    v->cov = calloc(n, 1);
+    v->rgba = calloc(4 * n, 1);
+    if (!v->prt_px || !v->ref_px || !v->err_e || !v->cov || !v->rgba) return prt_fail(err, "out of memory");
+    v->pw = pw;
+    v->ph = ph;
+    v->view_dirty = true;
+    return 0;
+}
+
+/* Hands the current camera, size, probe, rotation and local lights to the reference: a restart
+ * when any differs from the last. */
+static void truth_update(viewer *v) {
+    truth_state s = { .cam = v->cam, .w = v->pw, .h = v->ph, .probe = &v->probes[v->probe], .rotated = rotated(v),
+                      .lights = v->lights };
+    memcpy(s.R, v->R, sizeof s.R);
+    truth_set(v->tv, &s, v->ts_last.w ? truth_change(&v->ts_last, &s) : "start");
+    v->ts_last = s;
+}
+
+/* The PRT frame read back after a view change. -1 with err. */
+static int truth_read_prt(viewer *v, prt_error *err) {
+    prt_image img;
+    if (runtime_read(current(v), &img, err)) return -1;
+    int rc = img.w == v->pw && img.h == v->ph ? 0 : prt_fail(err, "the PRT frame is %dx%d, not %dx%d", img.w, img.h, v->pw, v->ph);
+    if (!rc) memcpy(v->prt_px, img.data, 3 * sizeof(float) * (size_t)v->pw * v->ph);
+    image_free(&img);
+    v->prt_new = true;
+    return rc;
+}
+
+/* The settings the knobs give, in words (the plot's label, the snapshot's figures). */
+static void truth_settings(const viewer *v, char *buf, size_t cap) {
+    snprintf(buf, cap, "K %d, n %d, %s%s%s", v->kmax ? v->kmax : v->kfile, v->ncoef ? v->ncoef : v->nfile,
+             v->direct ? "direct only" : "bounces", v->lights.count && v->bounce ? ", local bounce" : "",
+             v->lights.count && v->hl_samples ? ", highlights" : "");
+}
+
+/* Records the current settings' frame time and error (the plot's point; the latest of each). */
+static void truth_record(viewer *v) {
+    char label[48];
+    truth_settings(v, label, sizeof label);
+    int i = 0;
+    while (i < v->npts && strcmp(v->pts[i].label, label)) i++;
+    if (i == v->npts && v->npts == VIEW_POINTS) i = VIEW_POINTS - 1;   /* full: the last is replaced */
+    else if (i == v->npts) v->npts++;
+    v->pts[i].ms = (float)v->prt_ms;
+    v->pts[i].err = (float)v->cr.rel_rmse;
+    snprintf(v->pts[i].label, sizeof v->pts[i].label, "%s", label);
+    v->cur_pt = i;
+}
+
+/* Uploads rgba (pw x ph) as panel k's texture, attached to its framebuffer for the blit. */
+static void truth_upload(viewer *v, int k, const uint8_t *rgba) {
+    const gl_api *gl = &v->ctx->gl;
+    if (!v->tex[k]) {
+        gl->GenTextures(1, &v->tex[k]);
+        gl->GenFramebuffers(1, &v->fbo[k]);
+    }
+    gl->BindTexture(GL_TEXTURE_2D, v->tex[k]);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, v->pw, v->ph, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, v->fbo[k]);
+    gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, v->tex[k], 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+/* The reference's estimate and the error against the PRT frame, into the two panels, when either changed. */
+static void truth_refresh(viewer *v) {
+    truth_read(v->tv, v->ref_px, v->cov, &v->st);
+    if (!v->prt_new && v->st.samples == v->seen_samples && v->st.restarts == v->seen_restarts && v->tex[0]) return;
+    v->prt_new = false;
+    v->seen_samples = v->st.samples;
+    v->seen_restarts = v->st.restarts;
+    prt_error err = { { 0 } };
+    v->have_err = truth_compare(v->prt_px, v->ref_px, v->cov, v->pw, v->ph, &v->cr, v->err_e, &err) == 0;
+    if (v->have_err && v->st.covered >= 1.0) truth_record(v);
+    size_t n = (size_t)v->pw * v->ph;
+    truth_tonemap(v->ref_px, n, v->exposure, v->rgba);
+    truth_upload(v, 0, v->rgba);
+    truth_error_rgba(v->err_e, v->pw, v->ph, v->rgba);
+    truth_plot(v->rgba, v->pw, v->ph, v->pts, v->npts, v->cur_pt, &v->plot_ms, &v->plot_err);
+    truth_upload(v, 1, v->rgba);
+}
+
+/* The reference and error panels drawn right of the PRT one (texture rows top first: flipped). */
+static void truth_blit(viewer *v) {
+    const gl_api *gl = &v->ctx->gl;
+    for (int k = 0; k < 2 && v->tex[k]; k++) {
+        gl->BindFramebuffer(GL_READ_FRAMEBUFFER, v->fbo[k]);
+        gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+        gl->BlitFramebuffer(0, 0, v->pw, v->ph, (k + 1) * v->pw, v->ph, (k + 2) * v->pw, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+/* The HUD's truth lines into buf: the error, the reference's noise, samples and time, the knobs. */
+static int truth_hud(const viewer *v, char *buf, size_t cap) {
+    char err[160], set[64];
+    const truth_stats *st = &v->st;
+    if (st->error[0]) snprintf(err, sizeof err, "the reference stopped: %.120s", st->error);
+    else if (!v->have_err) snprintf(err, sizeof err, "no pixel of the reference yet");
+    else snprintf(err, sizeof err, "PRT %.2f %% off (rel_rmse over %.0f %% of the pixels)%s", 100 * v->cr.rel_rmse,
+                  100 * st->covered, st->noise >= 0 && v->cr.rel_rmse <= st->noise ? ": within the noise" : "");
+    truth_settings(v, set, sizeof set);
+    int n = snprintf(buf, cap,
+                     "truth: %s in %.1f ms; the reference: %d spp, noise %s%.2f %%, %.1f s (restarts %ld, last: %s)\n"
+                     "knobs: %s   (K/k terms, C/c coefficients, d bounces, o local bounce, i highlights)\n",
+                     err, v->prt_ms, st->spp, st->noise < 0 ? "n/a " : "", st->noise < 0 ? 0.0 : 100 * st->noise,
+                     st->seconds, st->restarts, st->why ? st->why : "-", set);
+    return n < 0 ? 0 : n >= (int)cap ? (int)cap - 1 : n;
+}
+
+/* Panel titles, the scale bar's and the plot's labels. */
+static void truth_labels(viewer *v) {
+    char t[96];
+    int y = v->ph - TRUTH_BAR_Y - 18, x2 = 2 * v->pw + 10, span = v->pw - 20;
+    gltext_draw(&v->text, v->fbw, v->fbh, 10, v->ph - 18, 1, "PRT");
+    snprintf(t, sizeof t, "reference (%d spp%s)", v->st.spp, v->st.covered < 1 ? ", refining" : "");
+    gltext_draw(&v->text, v->fbw, v->fbh, v->pw + 10, v->ph - 18, 1, t);
+    static const char *ticks[4] = { "0.1%", "1%", "10%", "100%" };
+    for (int i = 0; i < 4; i++) gltext_draw(&v->text, v->fbw, v->fbh, x2 + i * span / 3 - (i == 3 ? 24 : 0), y, 1, ticks[i]);
+    snprintf(t, sizeof t, "error vs frame: %d settings,", v->npts);
+    int px = 3 * v->pw - TRUTH_PLOT_W - 10, py = TRUTH_PLOT_Y(v->ph) + TRUTH_PLOT_H + 5;
+    gltext_draw(&v->text, v->fbw, v->fbh, px, py, 1, t);
+    snprintf(t, sizeof t, "up to %.1f ms, %.1f %%", v->plot_ms, 100 * v->plot_err);
+    gltext_draw(&v->text, v->fbw, v->fbh, px, py + 16, 1, t);
+}
+
+/* path without its extension, then suffix, into out. */
+static void sibling(const char *path, const char *suffix, char *out, size_t cap) {
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    int len = dot && (!slash || dot > slash) ? (int)(dot - path) : (int)strlen(path);
+    snprintf(out, cap, "%.*s%s", len, path, suffix);
+}
+
+/* A --truth snapshot: the window as shown (the three panels and the HUD) at path, and beside it
+ * PATH-prt.exr, PATH-ref.exr (zero where the reference has no sample) and PATH.txt (the figures). */
+static int window_screenshot(viewer *v, const char *path, prt_error *err);
+static int truth_snapshot(viewer *v, const char *path, prt_error *err) {
+    char p[4200], set[64];
+    size_t n = (size_t)v->pw * v->ph;
+    prt_image img;
+    if (window_screenshot(v, path, err) || image_alloc(&img, v->pw, v->ph, 3, err)) return -1;
+    memcpy(img.data, v->prt_px, 3 * n * sizeof(float));
+    sibling(path, "-prt.exr", p, sizeof p);
+    int rc = image_write(p, &img, &(image_desc){ 0 }, err);
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) img.data[3 * i + c] = v->cov[i] ? v->ref_px[3 * i + c] : 0.0f;
+    sibling(path, "-ref.exr", p, sizeof p);
+    if (!rc) rc = image_write(p, &img, &(image_desc){ 0 }, err);
+    image_free(&img);
+    sibling(path, ".txt", p, sizeof p);
+    FILE *f = rc ? NULL : fopen(p, "w");
+    if (!rc && !f) return prt_fail(err, "%s: cannot write", p);
+    if (rc) return -1;
+    truth_settings(v, set, sizeof set);
+    fprintf(f, "rel_rmse %.8f\nmax_rel_err %.8f\nnoise %.8f\nspp %d\ncovered %.6f\nprt_ms %.3f\nreference_s %.3f\n"
+               "restarts %ld\nsettings %s\n",
+            v->have_err ? v->cr.rel_rmse : -1, v->have_err ? v->cr.max_rel_err : -1, v->st.noise, v->st.spp, v->st.covered,
+            v->prt_ms, v->st.seconds, v->st.restarts, set);
+    return fclose(f) ? prt_fail(err, "%s: cannot write", p) : 0;
+}
+
+/* The truth side of a frame: the state handed over (scripted: waited for, the samples it had before
+ * kept for truth_line), the panels refreshed. */
+static void truth_frame(viewer *v, bool scripted) {
+    truth_update(v);
+    if (scripted) truth_peek(v->tv, &v->st_before);
+    if (scripted && v->truth_spp > 0) truth_wait(v->tv, v->truth_spp, 600);
+    truth_refresh(v);
+}
+
+/* Keys c / C: the first n coefficients per vector by importance (transport_keep_largest; 0: all the
+ * file keeps) in every sparse set the cpu runtime reads at its light changes. */
+static void set_coefficients(viewer *v, int n, bool quiet) {
+    prt_error err = { { 0 } };
+    for (int i = 0; i < v->d.ntransfers && v->cut; i++)
+        if (v->d.transfers[i].ops->kind == TRANSFER_LINEAR) {
+            transport_free(&v->d.transfers[i].transport);
+            transport_free(&v->d.transfers[i].direct);
+            v->d.transfers[i].transport = v->full[i][0];
+            v->d.transfers[i].direct = v->full[i][1];
+        }
+    v->cut = false;
+    v->ncoef = 0;
+    for (int i = 0; i < v->d.ntransfers && n > 0; i++) {
+        prt_transfer *tr = &v->d.transfers[i];
+        if (tr->ops->kind != TRANSFER_LINEAR) continue;
+        prt_transport a = { 0 }, b = { 0 };
+        if (transport_keep_largest(&tr->transport, n, &a, &err) ||
+            (tr->direct.nvecs && transport_keep_largest(&tr->direct, n, &b, &err))) {
+            transport_free(&a);
+            set_status(v, err.msg);
+            set_coefficients(v, 0, true);
+            return;
+        }
+        v->full[i][0] = tr->transport;
+        v->full[i][1] = tr->direct;
+        tr->transport = a;
+        if (tr->direct.nvecs) tr->direct = b;
+        v->cut = true;
+        v->ncoef = n;
+    }
+    v->light_dirty = true;
+    if (quiet) return;
+    char msg[160];
+    snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first%s", n ? n : v->nfile, v->nfile,
+             current_info(v)->caps & RUNTIME_CAP_GL ? " (the gl runtime keeps the file's upload: b switches to cpu)" : "");
+    set_status(v, msg);
+}
+
+/* Key c (halves) and C (doubles) the coefficients per vector used, within 1 .. the file's N. */
+static void step_coefficients(viewer *v, bool more) {
+    int cur = v->ncoef ? v->ncoef : v->nfile;
+    int n = more ? 2 * cur : cur / 2;
+    if (n < 1 || (cur >= v->nfile && more)) { set_status(v, more ? "already using every coefficient the file keeps" : "already at 1 coefficient"); return; }
+    set_coefficients(v, n >= v->nfile ? 0 : n, false);
+}
+
 /* One frame: light change if needed, view change if needed, present, text, swap. */
 static int frame(viewer *v, bool force_view, prt_error *err) {
     double t0 = prt_now();
@@ -386,6 +665,7 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     glfwGetFramebufferSize((GLFWwindow *)v->ctx->window, &w, &h);
     if (w < 1 || h < 1) return 0; /* minimized */
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
+    if (v->truth && truth_panels(v, err)) return -1;
     bool lit = v->light_dirty || v->stale[v->cur];
     if (lit && light_change(v, err)) return -1;
     if (v->local_dirty || v->local_stale[v->cur]) {
@@ -394,12 +674,21 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     }
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
-        v->frame_ms = 1e3 * (prt_now() - t0);
+        v->frame_ms = v->prt_ms = 1e3 * (prt_now() - t0);
+        if (v->truth && truth_read_prt(v, err)) return -1;
     }
     v->view_dirty = false;
-    runtime_present(current(v), v->fbw, v->fbh, v->exposure);
+    if (v->truth) truth_frame(v, force_view);
+    runtime_present(current(v), v->truth ? v->pw : v->fbw, v->fbh, v->exposure);
+    if (v->truth) truth_blit(v);
     overlay(v);
+    if (v->truth) truth_labels(v);
     if (v->window_shot_now && window_screenshot(v, v->window_shot, err)) return -1;
+    if (v->snap_path) {
+        const char *p = v->snap_path;
+        v->snap_path = NULL;
+        if (truth_snapshot(v, p, err)) return -1;
+    }
     glfwSwapBuffers((GLFWwindow *)v->ctx->window);
     v->present_dirty = false;
     if (prt_now() - v->title_at > 0.5) {
@@ -632,7 +921,12 @@ static void take_screenshot(viewer *v) {
         while (access(path, F_OK) == 0 && v->shots < 999);
     }
     prt_error err = { { 0 } };
-    if (screenshot(v, path, &err)) snprintf(msg, sizeof msg, "screenshot failed: %s", err.msg);
+    if (v->truth) {   /* the window with its figures, at the next frame (before its swap) */
+        snprintf(v->snap_buf, sizeof v->snap_buf, "%s", path);
+        v->snap_path = v->snap_buf;
+        v->present_dirty = true;
+        snprintf(msg, sizeof msg, "saved %s and its -prt.exr, -ref.exr, .txt", path);
+    } else if (screenshot(v, path, &err)) snprintf(msg, sizeof msg, "screenshot failed: %s", err.msg);
     else snprintf(msg, sizeof msg, "saved %s", path);
     set_status(v, msg);
 }
@@ -734,6 +1028,13 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         else { v->kmax = cur - 1; v->view_dirty = true; }
         break;
     }
+    case 'c': step_coefficients(v, false); break;
+    case 'C': step_coefficients(v, true); break;
+    case '[': case ']':
+        v->lyaw = fmodf(v->lyaw + (c == ']' ? 15.0f : -15.0f) + 540.0f, 360.0f) - 180.0f;
+        update_rotation(v);
+        v->light_dirty = true;
+        break;
     case 'b': case 'B': next_runtime(v); break;
     case 'v': case 'V': toggle_view_model(v); break;
     case 'd': case 'D': toggle_direct(v); break;
@@ -819,7 +1120,12 @@ static void viewer_free(viewer *v) {
         pthread_join(v->prep.thread, NULL);
         if (v->prep.rc == 0) runtime_probe_free(&v->prep.out);
     }
+    truth_destroy(v->tv);
+    if (v->cut) set_coefficients(v, 0, true);
     if (v->ctx) glctx_make_current(v->ctx, NULL);
+    for (int k = 0; k < 2 && v->ctx; k++)
+        if (v->tex[k]) { v->ctx->gl.DeleteFramebuffers(1, &v->fbo[k]); v->ctx->gl.DeleteTextures(1, &v->tex[k]); }
+    free(v->prt_px); free(v->ref_px); free(v->err_e); free(v->cov); free(v->rgba);
     gltext_free(&v->text);
     for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) runtime_destroy(v->rts[i]);
     for (int i = 0; i < VIEW_MAX_PROBES; i++) runtime_probe_free(&v->prepared[i]);
@@ -833,6 +1139,7 @@ typedef struct view_args {
     const char *layout, *cam_s, *cam_name, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
     int ndirs, npaths, w, h, frames;
     bool backend_given;         /* --backend: kept even on a software renderer */
+    bool size_given;            /* --size (--truth's default is wider: three panels) */
     prt_lights extra;           /* --light */
     bool no_file_lights;
     cli_indirect indirect;      /* --local-bounce, --highlights and their --no- forms (-1: the file's) */
@@ -857,12 +1164,14 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
         return 1;
     }
     OPT_V("--probes") { if (a->ndirs < 16) a->dirs[a->ndirs++] = val; return 1; }
-    OPT_V("--size") return cli_size(k_view, val, &a->w, &a->h) ? 1 : -1;
+    OPT_V("--size") { a->size_given = true; return cli_size(k_view, val, &a->w, &a->h) ? 1 : -1; }
     OPT_V("--exposure") return cli_float(k_view, "--exposure", val, -64, 64, &v->exposure) ? 1 : -1;
     OPT_V("--terms") return cli_int(k_view, "--terms", val, 1, 64, &v->kmax) ? 1 : -1;
     OPT_V("--threads") return cli_int(k_view, "--threads", val, 1, 64, &v->nthreads) ? 1 : -1;
     OPT_V("--aa") return cli_int(k_view, "--aa", val, 1, CLI_AA_MAX, &v->aa) ? 1 : -1;
     OPT_V("--frames") return cli_int(k_view, "--frames", val, 1, 1000000, &a->frames) ? 1 : -1;
+    OPT_V("--truth-spp") return cli_int(k_view, "--truth-spp", val, 1, 4096, &v->truth_spp) ? 1 : -1;
+    if (!strcmp(argv[*i], "--truth")) { v->truth = true; return 1; }
     OPT_V("--backend") {
         if (!cli_backend(k_view, val, RUNTIME_CAP_WINDOW, "draw into a window")) return -1;
         v->cur = runtime_backend_index(val);
@@ -907,6 +1216,7 @@ static int check_files(const viewer *v, const view_args *a) {
 static int check_args(viewer *v, const view_args *a) {
     if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
     if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
+    if (v->truth_spp && (!v->truth || !a->frames)) return cli_error(k_view, "--truth-spp needs --truth and --frames"), -1;
     if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
     if (cli_check_view_flags(k_view, a->layout, a->cam_s)) return -1;
     if (check_files(v, a)) return -1;
@@ -953,8 +1263,20 @@ static void view_effects_plan(viewer *v) {
     v->no_hl = fx.no_highlights;
 }
 
+/* The reference beside the PRT frame: the truth of the effects the file was made for, as `prt reference`
+ * defaults to (the file's interreflection passes; the local lights' one bounce where its plan has an
+ * indirect effect), whatever the knobs turn off in the PRT frame. -1 with err. */
+static int truth_start(viewer *v, prt_error *err) {
+    prt_effects fx;
+    prt_file_effects(&v->d, &fx);
+    int light_bounces = fx.local_bounce || fx.highlights ? 1 : 0;
+    truth_desc td = { .bounces = v->d.stats.bounces, .light_depth = light_bounces + 1 };
+    v->tv = truth_create(&v->d.scene, &td, err);
+    return v->tv ? 0 : -1;
+}
+
 /* Reads the file and the probes, frames the camera. Returns 0, or the exit status after printing. */
-static int load_inputs(viewer *v, const view_args *a) {
+static int load_inputs(viewer *v, view_args *a) {
     prt_error err = { { 0 } };
     if (prtfile_read(v->file, &v->d, &err)) return cli_error(k_view, "%s", err.msg);
     int lr = cli_apply_lights(k_view, &v->d.scene, &a->extra, a->no_file_lights);
@@ -963,7 +1285,9 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->local_dirty = v->lights.count > 0;
     view_effects_plan(v);
     cli_indirect_resolve(&a->indirect, &v->d, false, &v->hl_samples, &v->bounce);
-    if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, a->cam_name, &v->cam)) return 2;
+    if (v->truth && !a->size_given) { a->w = 1200; a->h = 450; }
+    float aspect = v->truth ? (float)(a->w / 3) / a->h : (float)a->w / a->h;   /* --truth: a panel's */
+    if (cli_camera(k_view, &v->d.scene, aspect, a->cam_s, a->cam_name, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)
         if (add_probe(v, a->paths[i], a->layout)) return 1;
@@ -972,6 +1296,10 @@ static int load_inputs(viewer *v, const view_args *a) {
     for (int m = 0; m < v->d.scene.nmaterials; m++)
         if (v->d.factors[m].K > v->kfile) v->kfile = v->d.factors[m].K;
     if (v->kmax >= v->kfile) v->kmax = 0;
+    for (int i = 0; i < v->d.ntransfers; i++)
+        if (v->d.transfers[i].ops->kind == TRANSFER_LINEAR && v->d.transfers[i].transport.N > v->nfile)
+            v->nfile = v->d.transfers[i].transport.N;
+    if (v->truth && truth_start(v, &err)) return cli_error(k_view, "%s", err.msg);
     v->lyaw0 = v->lyaw;
     v->lpitch0 = v->lpitch;
     update_rotation(v);
@@ -1040,6 +1368,20 @@ static int open_window(viewer *v, const view_args *a) {
     return 0;
 }
 
+/* A scripted frame's truth figures on stdout (a restart since the last frame first). */
+static void truth_line(viewer *v, int f) {
+    static const char *none = "-";
+    if (f > 0 && v->st.restarts != v->truth_restarts)
+        printf("truth: restart (%s): spp %d -> %d, then refined to %d\n", v->st.why ? v->st.why : none, v->truth_spp_last,
+               v->st_before.spp, v->st.spp);
+    printf("truth: frame %d: spp %d, covered %.4f, rel_rmse %.6f, noise %.6f, prt %.2f ms, reference %.2f s, n %d, K %d%s\n",
+           f, v->st.spp, v->st.covered, v->have_err ? v->cr.rel_rmse : -1.0, v->st.noise, v->prt_ms, v->st.seconds,
+           v->ncoef ? v->ncoef : v->nfile, v->kmax ? v->kmax : v->kfile, v->st.error[0] ? "   (the reference stopped)" : "");
+    if (v->st.error[0]) printf("truth: %s\n", v->st.error);
+    v->truth_restarts = v->st.restarts;
+    v->truth_spp_last = v->st.spp;
+}
+
 /* --frames N: the first frame is a light change, the others view changes of the same view (keys from
  * --keys pressed one before each frame from the second). 0 or 1. */
 static int run_scripted(viewer *v, int frames) {
@@ -1052,16 +1394,18 @@ static int run_scripted(viewer *v, int frames) {
         if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
         prep_poll(v, f == frames - 1);   /* the last frame shows every key's probe */
         v->window_shot_now = v->window_shot && f == frames - 1;
+        if (v->truth && v->shot_path && f == frames - 1) v->snap_path = v->shot_path;
         bool preparing = v->want >= 0;
         double t0 = prt_now();
         if (frame(v, true, &err)) return cli_error(k_view, "%s", err.msg);
+        if (v->truth) truth_line(v, f);
         if (preparing) {
             v->prep_frames++;
             v->prep_longest = fmax(v->prep_longest, 1e3 * (prt_now() - t0));
         }
         if (f > 0 || frames == 1) sum_view += v->view_ms;
     }
-    if (v->shot_path && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
+    if (v->shot_path && !v->truth && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
     printf("view: %d frames at %dx%d, %s runtime: light change %.1f ms (light vector %.1f ms), view change %.2f ms "
            "mean%s%s\n",
            frames, v->fbw, v->fbh, current_info(v)->title, v->light_ms, v->lightvec_ms,
@@ -1079,7 +1423,8 @@ static int run_interactive(viewer *v) {
     while (!glfwWindowShouldClose(win) && !v->quit) {
         bool busy = v->light_dirty || v->view_dirty || v->drag;
         if (busy) glfwPollEvents();
-        else glfwWaitEventsTimeout(v->want >= 0 ? 0.05 : 0.25);   /* a probe being prepared: look for it often */
+        else glfwWaitEventsTimeout(v->want >= 0 || v->truth ? 0.05 : 0.25);   /* a probe being prepared, the reference: often */
+        if (v->truth) v->present_dirty = true;   /* the reference refines: its panels and figures follow */
         prep_poll(v, false);
         if (v->want >= 0) v->present_dirty = true;   /* the overlay counts its seconds */
         bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;
