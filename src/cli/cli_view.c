@@ -170,7 +170,8 @@ static void view_help(void) {
            "  --no-file-lights       ignore the lights stored in the file\n"
            "  --truth                split the window: PRT | a progressive path-traced reference (prt reference's,\n"
            "                         with the file's bounces) | their relative error, with the error on screen\n"
-           "  --truth-spp N          with --frames: each frame waits until the reference has N samples per pixel\n"
+           "  --truth-spp N          with --frames: each frame waits until the reference has N samples per pixel,\n"
+           "                         and it stops there (the same reference for every frame of one state)\n"
            CLI_INDIRECT_HELP
            "\n"
            "keys:\n%s", keys_help(keys, sizeof keys));
@@ -560,6 +561,7 @@ static void truth_labels(viewer *v) {
     gltext_draw(&v->text, v->fbw, v->fbh, v->pw + 10, v->ph - 18, 1, t);
     static const char *ticks[4] = { "0.1%", "1%", "10%", "100%" };
     for (int i = 0; i < 4; i++) gltext_draw(&v->text, v->fbw, v->fbh, x2 + i * span / 3 - (i == 3 ? 24 : 0), y, 1, ticks[i]);
+    if (v->pw < TRUTH_PLOT_W + 20) return;   /* no room for the plot (truth_plot draws none) */
     snprintf(t, sizeof t, "error vs frame: %d settings,", v->npts);
     int px = 3 * v->pw - TRUTH_PLOT_W - 10, py = TRUTH_PLOT_Y(v->ph) + TRUTH_PLOT_H + 5;
     gltext_draw(&v->text, v->fbw, v->fbh, px, py, 1, t);
@@ -1270,7 +1272,7 @@ static int truth_start(viewer *v, prt_error *err) {
     prt_effects fx;
     prt_file_effects(&v->d, &fx);
     int light_bounces = fx.local_bounce || fx.highlights ? 1 : 0;
-    truth_desc td = { .bounces = v->d.stats.bounces, .light_depth = light_bounces + 1 };
+    truth_desc td = { .bounces = v->d.stats.bounces, .light_depth = light_bounces + 1, .max_spp = v->truth_spp };
     v->tv = truth_create(&v->d.scene, &td, err);
     return v->tv ? 0 : -1;
 }
