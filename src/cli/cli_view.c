@@ -65,6 +65,8 @@
 #define VIEW_MAX_RUNTIMES 8     /* at least runtime_backend_count() */
 #define VIEW_KEEP 8             /* probes kept prepared (~6 MB each with a prefiltered ladder) */
 #define VIEW_POINTS 32          /* settings the --truth plot keeps */
+#define VIEW_TRUTH_REFRESH 0.25 /* seconds between --truth panel refreshes (read back, compare, upload) while
+                                 * the frames change: the PRT panel itself is drawn at every frame */
 
 /* A probe prepared on a worker thread (runtime_probe_prepare: its fine cube and, for a vMF file, its
  * prefiltered ladder, seconds) while the window keeps drawing with the light it has. Ownership: the
@@ -235,6 +237,7 @@ typedef struct viewer {
     truth_stats st;
     cmp_result cr;
     bool have_err;
+    double refresh_at;          /* when the panels were last refreshed */
     double prt_ms;              /* the PRT frame's light and view change */
     GLuint tex[2], fbo[2];      /* the reference and error panels, uploaded */
     truth_point pts[VIEW_POINTS];
@@ -456,20 +459,25 @@ static void truth_update(viewer *v) {
     v->ts_last = s;
 }
 
-/* The PRT frame read back after a view change. -1 with err. */
+/* The PRT frame read back (after a view change). -1 with err. */
 static int truth_read_prt(viewer *v, prt_error *err) {
     prt_image img;
     if (runtime_read(current(v), &img, err)) return -1;
     int rc = img.w == v->pw && img.h == v->ph ? 0 : prt_fail(err, "the PRT frame is %dx%d, not %dx%d", img.w, img.h, v->pw, v->ph);
     if (!rc) memcpy(v->prt_px, img.data, 3 * sizeof(float) * (size_t)v->pw * v->ph);
     image_free(&img);
-    v->prt_new = true;
     return rc;
+}
+
+/* Coefficients per vector the current runtime uses: the cut sets' n on the cpu runtime, which reads
+ * them at every light change; all on a GL one, which keeps what it uploaded at start. */
+static int coefficients_used(const viewer *v) {
+    return !(current_info(v)->caps & RUNTIME_CAP_GL) && v->ncoef ? v->ncoef : v->nfile;
 }
 
 /* The settings the knobs give, in words (the plot's label, the snapshot's figures). */
 static void truth_settings(const viewer *v, char *buf, size_t cap) {
-    snprintf(buf, cap, "K %d, n %d, %s%s%s", v->kmax ? v->kmax : v->kfile, v->ncoef ? v->ncoef : v->nfile,
+    snprintf(buf, cap, "K %d, n %d, %s%s%s", v->kmax ? v->kmax : v->kfile, coefficients_used(v),
              v->direct ? "direct only" : "bounces", v->lights.count && v->bounce ? ", local bounce" : "",
              v->lights.count && v->hl_samples ? ", highlights" : "");
 }
@@ -506,14 +514,21 @@ static void truth_upload(viewer *v, int k, const uint8_t *rgba) {
     gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
-/* The reference's estimate and the error against the PRT frame, into the two panels, when either changed. */
-static void truth_refresh(viewer *v) {
-    truth_read(v->tv, v->ref_px, v->cov, &v->st);
-    if (!v->prt_new && v->st.samples == v->seen_samples && v->st.restarts == v->seen_restarts && v->tex[0]) return;
+/* The reference's estimate and the error against the PRT frame, into the two panels, when either
+ * changed: at once after a restart or when exact (--truth-spp), else at most every VIEW_TRUTH_REFRESH. */
+static void truth_refresh(viewer *v, bool exact) {
+    truth_stats peek;
+    truth_peek(v->tv, &peek);
+    v->st.seconds = peek.seconds;
+    if (!v->prt_new && peek.samples == v->seen_samples && peek.restarts == v->seen_restarts && v->tex[0]) return;
+    if (!exact && v->tex[0] && peek.restarts == v->seen_restarts && prt_now() - v->refresh_at < VIEW_TRUTH_REFRESH) return;
+    v->refresh_at = prt_now();
+    prt_error err = { { 0 } };
+    if (v->prt_new && truth_read_prt(v, &err)) set_status(v, err.msg);
     v->prt_new = false;
+    truth_read(v->tv, v->ref_px, v->cov, &v->st);
     v->seen_samples = v->st.samples;
     v->seen_restarts = v->st.restarts;
-    prt_error err = { { 0 } };
     v->have_err = truth_compare(v->prt_px, v->ref_px, v->cov, v->pw, v->ph, &v->cr, v->err_e, &err) == 0;
     if (v->have_err && v->st.covered >= 1.0) truth_record(v);
     size_t n = (size_t)v->pw * v->ph;
@@ -610,7 +625,7 @@ static void truth_frame(viewer *v, bool scripted) {
     truth_update(v);
     if (scripted) truth_peek(v->tv, &v->st_before);
     if (scripted && v->truth_spp > 0) truth_wait(v->tv, v->truth_spp, 600);
-    truth_refresh(v);
+    truth_refresh(v, (scripted && v->truth_spp > 0) || v->snap_path);   /* a snapshot shows the frame it saves */
 }
 
 /* Keys c / C: the first n coefficients per vector by importance (transport_keep_largest; 0: all the
@@ -677,7 +692,7 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
         v->frame_ms = v->prt_ms = 1e3 * (prt_now() - t0);
-        if (v->truth && truth_read_prt(v, err)) return -1;
+        v->prt_new = v->truth;
     }
     v->view_dirty = false;
     if (v->truth) truth_frame(v, force_view);
@@ -1378,7 +1393,7 @@ static void truth_line(viewer *v, int f) {
                v->st_before.spp, v->st.spp);
     printf("truth: frame %d: spp %d, covered %.4f, rel_rmse %.6f, noise %.6f, prt %.2f ms, reference %.2f s, n %d, K %d%s\n",
            f, v->st.spp, v->st.covered, v->have_err ? v->cr.rel_rmse : -1.0, v->st.noise, v->prt_ms, v->st.seconds,
-           v->ncoef ? v->ncoef : v->nfile, v->kmax ? v->kmax : v->kfile, v->st.error[0] ? "   (the reference stopped)" : "");
+           coefficients_used(v), v->kmax ? v->kmax : v->kfile, v->st.error[0] ? "   (the reference stopped)" : "");
     if (v->st.error[0]) printf("truth: %s\n", v->st.error);
     v->truth_restarts = v->st.restarts;
     v->truth_spp_last = v->st.spp;
@@ -1391,6 +1406,7 @@ static int run_scripted(viewer *v, int frames) {
     GLFWwindow *win = (GLFWwindow *)v->ctx->window;
     double sum_view = 0;
     size_t nkeys = v->keys ? strlen(v->keys) : 0;
+    double wall0 = prt_now();
     for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
         glfwPollEvents();
         if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
@@ -1412,6 +1428,9 @@ static int run_scripted(viewer *v, int frames) {
            "mean%s%s\n",
            frames, v->fbw, v->fbh, current_info(v)->title, v->light_ms, v->lightvec_ms,
            sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
+    if (v->truth && frames > 1)   /* everything a frame did, the reference's panels included: the rate a user sees */
+        printf("view: --truth: %.1f ms per frame in all (%.1f fps) over %d frames\n", 1e3 * (prt_now() - wall0) / frames,
+               frames / (prt_now() - wall0), frames);
     if (v->prep_ms > 0)
         printf("view: probe prepared on a worker thread in %.1f ms; %d frames drawn meanwhile, the longest %.1f ms\n",
                v->prep_ms, v->prep_frames, v->prep_longest);

@@ -228,6 +228,7 @@ void truth_set(truth_view *tv, const truth_state *s, const char *why) {
 
 /* The noise of the mean (header) over covered pixels with samples in both halves (lock held). */
 static double noise_locked(const truth_view *tv) {
+    if (tv->pass < 2) return -1;   /* until both halves cover every pixel it would be of some pixels only */
     double var = 0, m2 = 0;
     bool any = false;
     for (size_t i = 0; i < (size_t)tv->w * tv->h; i++) {

@@ -23,7 +23,7 @@
  * Noise: the passes alternate between two halves A and B; per pixel and channel, with n_A, n_B samples
  * and means a, b, the variance of the whole mean m is estimated as (a - b)^2 n_A n_B / (n_A + n_B)^2
  * (var(a - b) = s^2 (1/n_A + 1/n_B), var(m) = s^2 / (n_A + n_B)); noise = sqrt(sum var / sum m^2)
- * over the covered pixels with samples in both halves: the relative standard error of the estimate,
+ * over the pixels, once two passes have covered them all: the relative standard error of the estimate,
  * on the scale of compare.h's rel_rmse, so a PRT error below it is not measurable.
  *
  * Cost: the worker runs ref_render_rows on one thread at the lowest CPU priority (nice 19), so the
@@ -62,7 +62,7 @@ typedef struct truth_state {
 typedef struct truth_stats {
     int spp;            /* full-resolution passes done over every pixel */
     double covered;     /* share of the pixels with at least one sample */
-    double noise;       /* relative standard error of the mean (header); < 0 before both halves have samples */
+    double noise;       /* relative standard error of the mean (header); < 0 before two passes */
     double seconds;     /* since the last restart */
     long restarts;      /* restarts so far (the first start not counted) */
     long samples;       /* pixel samples accumulated since the last restart (changes when anything new arrives) */
