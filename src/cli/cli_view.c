@@ -99,7 +99,7 @@ static const char *k_keys =
     "  n / p                    next / previous probe\n"
     "  + / -                    exposure up / down half a stop\n"
     "  K / k                    use more / fewer BRDF terms\n"
-    "  C / c                    use more / fewer wavelet coefficients per vector (doubles / halves; cpu runtime)\n"
+    "  C / c                    use more / fewer wavelet coefficients per vector (doubles / halves; the largest first)\n"
     "  [ / ]                    rotate the lighting 15 degrees about +y (a light change)\n";
 static const char *k_keys2 =
     "  v                        view model of the runtimes that have per pixel: per-pixel view maps / per vertex\n"
@@ -469,11 +469,8 @@ static int truth_read_prt(viewer *v, prt_error *err) {
     return rc;
 }
 
-/* Coefficients per vector the current runtime uses: the cut sets' n on the cpu runtime, which reads
- * them at every light change; all on a GL one, which keeps what it uploaded at start. */
-static int coefficients_used(const viewer *v) {
-    return !(current_info(v)->caps & RUNTIME_CAP_GL) && v->ncoef ? v->ncoef : v->nfile;
-}
+/* Coefficients per vector the runtimes use (keys c / C). */
+static int coefficients_used(const viewer *v) { return v->ncoef ? v->ncoef : v->nfile; }
 
 /* The settings the knobs give, in words (the plot's label, the snapshot's figures). */
 static void truth_settings(const viewer *v, char *buf, size_t cap) {
@@ -628,8 +625,26 @@ static void truth_frame(viewer *v, bool scripted) {
     truth_refresh(v, (scripted && v->truth_spp > 0) || v->snap_path);   /* a snapshot shows the frame it saves */
 }
 
+/* The runtimes that upload the sets at creation (RUNTIME_CAP_GL) made again from d's current ones (the cpu
+ * runtime reads them at every light change); each catches up with the light and local lights. -1 with
+ * err when one cannot be made (the viewer then goes on without it, on another). */
+static prt_runtime *make_runtime(viewer *v, int i, prt_error *err);
+static int reupload(viewer *v, prt_error *err) {
+    int rc = 0;
+    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) {
+        if (!v->rts[i] || !(runtime_backend_at(i)->caps & RUNTIME_CAP_GL)) continue;
+        runtime_destroy(v->rts[i]);
+        if (!(v->rts[i] = make_runtime(v, i, err))) rc = -1;
+        v->stale[i] = true;
+        v->local_stale[i] = v->lights.count > 0;
+    }
+    while (!v->rts[v->cur]) v->cur = (v->cur + 1) % VIEW_MAX_RUNTIMES;
+    return rc;
+}
+
 /* Keys c / C: the first n coefficients per vector by importance (transport_keep_largest; 0: all the
- * file keeps) in every sparse set the cpu runtime reads at its light changes. */
+ * file keeps) in every sparse set: the cpu runtime reads them at its next light change, a GL one is
+ * made again (reupload). */
 static void set_coefficients(viewer *v, int n, bool quiet) {
     prt_error err = { { 0 } };
     for (int i = 0; i < v->d.ntransfers && v->cut; i++)
@@ -661,9 +676,9 @@ static void set_coefficients(viewer *v, int n, bool quiet) {
     }
     v->light_dirty = true;
     if (quiet) return;
-    char msg[160];
-    snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first%s", n ? n : v->nfile, v->nfile,
-             current_info(v)->caps & RUNTIME_CAP_GL ? " (the gl runtime keeps the file's upload: b switches to cpu)" : "");
+    char msg[1200];
+    if (reupload(v, &err)) snprintf(msg, sizeof msg, "cannot upload the cut sets: %s", err.msg);
+    else snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first", n ? n : v->nfile, v->nfile);
     set_status(v, msg);
 }
 
@@ -1344,6 +1359,15 @@ static void prefer_cpu_on_software(viewer *v, const view_args *a) {
     }
 }
 
+/* The runtime of backend i (one that draws into a window) for the viewer's settings. NULL with err. */
+static prt_runtime *make_runtime(viewer *v, int i, prt_error *err) {
+    const runtime_backend_info *b = runtime_backend_at(i);
+    runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = v->bounce,
+                          .highlight_samples = v->hl_samples, .direct_only = v->direct };
+    if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
+    return runtime_create(&v->d, &desc, err);
+}
+
 /* The window, both runtimes drawing into it, the text and the callbacks. 0 or 1 (error printed). */
 static int open_window(viewer *v, const view_args *a) {
     prt_error err = { { 0 } };
@@ -1357,10 +1381,7 @@ static int open_window(viewer *v, const view_args *a) {
     for (int i = 0, n = 0; i < runtime_backend_count(); i++) {
         const runtime_backend_info *b = runtime_backend_at(i);
         if (!(b->caps & RUNTIME_CAP_WINDOW)) continue;
-        runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = v->bounce,
-                              .highlight_samples = v->hl_samples };
-        if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
-        if (!(v->rts[i] = runtime_create(&v->d, &desc, &err))) return cli_error(k_view, "%s", err.msg);
+        if (!(v->rts[i] = make_runtime(v, i, &err))) return cli_error(k_view, "%s", err.msg);
         runtime_timing tm;
         runtime_get_timing(v->rts[i], &tm);
         if (n >= 0 && n < (int)sizeof kernels) n += snprintf(kernels + n, sizeof kernels - n, "%s%s %s", n ? ", " : "", b->title, tm.kernel);
