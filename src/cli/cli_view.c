@@ -34,6 +34,16 @@
  * drag, which take one sample per pixel (on a software GL, 4 samples cost the CPU backend's frame
  * about twice its time); the still frame after the drag takes them all.
  *
+ * Beside the truth (--truth, view_truth.h, docs/truth.md): the window is three panels of one camera,
+ * the PRT frame at a third of the width, the progressive reference of the same scene, probe, rotation
+ * and local lights (a worker thread at the lowest priority, restarted when any of them or the camera
+ * changes), and their per-pixel relative error with its scale and an error-vs-frame-time plot of the
+ * settings tried; the text adds rel_rmse over the pixels the reference covers, its noise, spp and
+ * time. Keys c / C cut every sparse set to its n largest coefficients per vector
+ * (transport_keep_largest): the cpu runtime reads them at its next light change, the gl runtime is
+ * made again with them. The reference and error panels are refreshed at most every
+ * VIEW_TRUTH_REFRESH while the frames change (read back, compare, upload), the PRT panel every frame.
+ *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
  * image_write, the same tone curve `prt render` uses for PNG). A probe asked for by --keys is waited
@@ -647,6 +657,7 @@ static int reupload(viewer *v, prt_error *err) {
  * made again (reupload). */
 static void set_coefficients(viewer *v, int n, bool quiet) {
     prt_error err = { { 0 } };
+    double t0 = prt_now();
     for (int i = 0; i < v->d.ntransfers && v->cut; i++)
         if (v->d.transfers[i].ops->kind == TRANSFER_LINEAR) {
             transport_free(&v->d.transfers[i].transport);
@@ -678,7 +689,8 @@ static void set_coefficients(viewer *v, int n, bool quiet) {
     if (quiet) return;
     char msg[1200];
     if (reupload(v, &err)) snprintf(msg, sizeof msg, "cannot upload the cut sets: %s", err.msg);
-    else snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first", n ? n : v->nfile, v->nfile);
+    else snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first (%.0f ms)", n ? n : v->nfile, v->nfile,
+                  1e3 * (prt_now() - t0));
     set_status(v, msg);
 }
 
