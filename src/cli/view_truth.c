@@ -43,8 +43,16 @@ struct truth_view {
     char error[1024];
     /* worker only: */
     prt_scene sc;               /* the scene with the state's lights */
-    ref_ctx *ctx;
+    ref_ctx *ctx;               /* built for ctx_of's probe, rotation and lights (a camera move keeps it) */
+    truth_state ctx_of;
 };
+
+/* Whether two states light the scene alike: the same probe, rotation and local lights (what ref_create
+ * builds from; the camera and size are each render's). */
+static bool same_lighting(const truth_state *a, const truth_state *b) {
+    if (a->probe != b->probe || a->rotated != b->rotated || (a->rotated && memcmp(a->R, b->R, sizeof a->R))) return false;
+    return a->lights.count == b->lights.count && !memcmp(a->lights.light, b->lights.light, sizeof(prt_light) * (size_t)a->lights.count);
+}
 
 /* Sizes and zeroes the accumulation for the wanted state (lock held; the worker). -1 on OOM. */
 static int restart_locked(truth_view *tv) {
@@ -69,6 +77,7 @@ static int restart_locked(truth_view *tv) {
         memset(tv->cnt[k], 0, n * sizeof(int));
     }
     if (tv->acc_gen > 0) tv->restarts++;
+    tv->error[0] = 0;   /* a new state tries again */
     tv->acc_gen = tv->want_gen;
     tv->acc_why = tv->why;
     tv->have_preview = false;
@@ -99,13 +108,15 @@ static void accumulate(truth_view *tv, int p, int y0, int rows, const float *buf
     if (tv->row >= tv->h) { tv->row = 0; tv->pass = p + 1; }
 }
 
-/* Renders the band job describes without the lock; 0, or -1 with err. */
-typedef struct band_job { truth_state st; int pass, y0, rows; bool preview, new_ctx; } band_job;
+/* Renders the band job describes without the lock (a new ref_ctx first when the lighting changed);
+ * 0, or -1 with err. */
+typedef struct band_job { truth_state st; int pass, y0, rows; bool preview; } band_job;
 static int render_band(truth_view *tv, const band_job *j, float *buf, prt_error *err) {
-    if (j->new_ctx) {
+    if (!tv->ctx || !same_lighting(&tv->ctx_of, &j->st)) {
         ref_destroy(tv->ctx);
         tv->sc = *tv->scene;
         tv->sc.lights = j->st.lights;
+        tv->ctx_of = j->st;
         tv->ctx = ref_create(&tv->sc, j->st.probe, j->st.rotated ? j->st.R : NULL, err);
         if (!tv->ctx) return -1;
     }
@@ -120,10 +131,10 @@ static int render_band(truth_view *tv, const band_job *j, float *buf, prt_error 
 }
 
 /* The next band to render into j (lock held), restarting first when asked; false: nothing to do. */
-static bool next_band(truth_view *tv, band_job *j, bool *new_ctx) {
-    if (tv->acc_gen != tv->want_gen) {
-        if (restart_locked(tv)) { snprintf(tv->error, sizeof tv->error, "out of memory"); return false; }
-        *new_ctx = true;
+static bool next_band(truth_view *tv, band_job *j) {
+    if (tv->acc_gen != tv->want_gen && restart_locked(tv)) {
+        snprintf(tv->error, sizeof tv->error, "out of memory");
+        return false;
     }
     int max = tv->d.max_spp > 0 ? tv->d.max_spp : TRUTH_MAX_SPP;
     if (tv->error[0] || tv->pass >= max || tv->w < 1) return false;
@@ -132,7 +143,6 @@ static bool next_band(truth_view *tv, band_job *j, bool *new_ctx) {
     j->pass = tv->pass;
     j->y0 = tv->row;
     j->rows = j->preview ? 0 : band_rows(tv);
-    j->new_ctx = *new_ctx;
     return true;
 }
 
@@ -142,11 +152,10 @@ static void *truth_main(void *arg) {
     (void)setpriority(PRIO_PROCESS, (id_t)syscall(SYS_gettid), 19);
     float *buf = NULL;
     size_t cap = 0;
-    bool new_ctx = true;
     pthread_mutex_lock(&tv->lock);
     while (!tv->quit) {
         band_job j;
-        if (!next_band(tv, &j, &new_ctx)) { pthread_cond_wait(&tv->cond, &tv->lock); continue; }
+        if (!next_band(tv, &j)) { pthread_cond_wait(&tv->cond, &tv->lock); continue; }
         long gen = tv->acc_gen;
         size_t need = 3 * (size_t)tv->w * (j.preview ? (size_t)tv->ph : (size_t)j.rows);
         pthread_mutex_unlock(&tv->lock);
@@ -156,7 +165,6 @@ static void *truth_main(void *arg) {
         int rc = buf ? render_band(tv, &j, buf, &err) : prt_fail(&err, "out of memory");
         double dt = prt_now() - t0;
         pthread_mutex_lock(&tv->lock);
-        new_ctx = rc != 0;
         if (rc) { snprintf(tv->error, sizeof tv->error, "%s", err.msg); continue; }
         if (gen != tv->want_gen) continue;   /* a restart was asked for: the band is of the old state */
         if (j.preview) {

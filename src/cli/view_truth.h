@@ -18,7 +18,8 @@
  * Restarts: truth_set with a state that differs from the one being rendered (camera, size, probe,
  * rotation, lights) drops every sample and starts again; the band in flight is discarded, so no
  * sample of an old state survives a restart. Bands are sized to take about TRUTH_BAND_S, which
- * bounds how long a restart waits.
+ * bounds how long a restart waits. The tracer's context (ref_create: the BVH, the environment's
+ * sampling tables) is made again only when the probe, rotation or lights change, not for a camera move.
  *
  * Noise: the passes alternate between two halves A and B; per pixel and channel, with n_A, n_B samples
  * and means a, b, the variance of the whole mean m is estimated as (a - b)^2 n_A n_B / (n_A + n_B)^2
@@ -29,8 +30,8 @@
  * Cost: the worker runs ref_render_rows on one thread at the lowest CPU priority (nice 19), so the
  * PRT frames on the other threads go first; it stops at desc.max_spp.
  *
- * Errors: truth_create -1 with err (OOM); a failing ref_create or render stops the worker and says
- * why in truth_stats.error. */
+ * Errors: truth_create NULL with err (OOM); a failing ref_create or render stops the worker until the
+ * next state and says why in truth_stats.error. */
 #ifndef PRT_VIEW_TRUTH_H
 #define PRT_VIEW_TRUTH_H
 #include "camera.h"
