@@ -248,7 +248,7 @@ typedef struct viewer {
     cmp_result cr;
     bool have_err;
     double refresh_at;          /* when the panels were last refreshed */
-    double prt_ms;              /* the PRT frame's light and view change */
+    double prt_ms;              /* the PRT frame's cost: its last T x L plus its last view change */
     GLuint tex[2], fbo[2];      /* the reference and error panels, uploaded */
     truth_point pts[VIEW_POINTS];
     int npts, cur_pt;
@@ -259,6 +259,7 @@ typedef struct viewer {
     int ncoef, nfile;
     prt_transport full[PRT_MAX_TRANSFERS][2];   /* the file's sets while cut ones are in d (transport, direct) */
     bool cut;
+    bool remake[VIEW_MAX_RUNTIMES];   /* that runtime uploaded other sets: made again when next used */
     long truth_restarts;        /* scripted: the restarts and spp the last frame printed */
     int truth_spp_last;
     truth_stats st_before;      /* scripted: the reference as the frame found it, before any wait */
@@ -635,26 +636,26 @@ static void truth_frame(viewer *v, bool scripted) {
     truth_refresh(v, (scripted && v->truth_spp > 0) || v->snap_path);   /* a snapshot shows the frame it saves */
 }
 
-/* The runtimes that upload the sets at creation (RUNTIME_CAP_GL) made again from d's current ones (the cpu
- * runtime reads them at every light change); each catches up with the light and local lights. -1 with
- * err when one cannot be made (the viewer then goes on without it, on another). */
+/* The current runtime made again from d's sets when it uploads them at creation (RUNTIME_CAP_GL) and
+ * they changed since (remake; the cpu runtime reads them at every light change): seconds on a software
+ * GL, so only the one in use, when it is used. It then catches up with the light and local lights. -1
+ * with err when it cannot be made (the viewer goes on with the next runtime). */
 static prt_runtime *make_runtime(viewer *v, int i, prt_error *err);
-static int reupload(viewer *v, prt_error *err) {
-    int rc = 0;
-    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) {
-        if (!v->rts[i] || !(runtime_backend_at(i)->caps & RUNTIME_CAP_GL)) continue;
-        runtime_destroy(v->rts[i]);
-        if (!(v->rts[i] = make_runtime(v, i, err))) rc = -1;
-        v->stale[i] = true;
-        v->local_stale[i] = v->lights.count > 0;
-    }
+static int remake_current(viewer *v, prt_error *err) {
+    int i = v->cur;
+    if (!v->remake[i]) return 0;
+    v->remake[i] = false;
+    runtime_destroy(v->rts[i]);
+    v->stale[i] = true;
+    v->local_stale[i] = v->lights.count > 0;
+    if ((v->rts[i] = make_runtime(v, i, err))) return 0;
     while (!v->rts[v->cur]) v->cur = (v->cur + 1) % VIEW_MAX_RUNTIMES;
-    return rc;
+    return -1;
 }
 
 /* Keys c / C: the first n coefficients per vector by importance (transport_keep_largest; 0: all the
  * file keeps) in every sparse set: the cpu runtime reads them at its next light change, a GL one is
- * made again (reupload). */
+ * made again when next used (remake_current). */
 static void set_coefficients(viewer *v, int n, bool quiet) {
     prt_error err = { { 0 } };
     double t0 = prt_now();
@@ -687,10 +688,10 @@ static void set_coefficients(viewer *v, int n, bool quiet) {
     }
     v->light_dirty = true;
     if (quiet) return;
-    char msg[1200];
-    if (reupload(v, &err)) snprintf(msg, sizeof msg, "cannot upload the cut sets: %s", err.msg);
-    else snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first (%.0f ms)", n ? n : v->nfile, v->nfile,
-                  1e3 * (prt_now() - t0));
+    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) v->remake[i] = v->rts[i] && (runtime_backend_at(i)->caps & RUNTIME_CAP_GL);
+    char msg[160];
+    snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first (cut in %.0f ms)", n ? n : v->nfile, v->nfile,
+             1e3 * (prt_now() - t0));
     set_status(v, msg);
 }
 
@@ -710,6 +711,8 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     if (w < 1 || h < 1) return 0; /* minimized */
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
     if (v->truth && truth_panels(v, err)) return -1;
+    prt_error rerr = { { 0 } };
+    if (remake_current(v, &rerr)) set_status(v, rerr.msg);
     bool lit = v->light_dirty || v->stale[v->cur];
     if (lit && light_change(v, err)) return -1;
     if (v->local_dirty || v->local_stale[v->cur]) {
@@ -718,7 +721,8 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     }
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
-        v->frame_ms = v->prt_ms = 1e3 * (prt_now() - t0);
+        v->frame_ms = 1e3 * (prt_now() - t0);
+        v->prt_ms = v->light_ms + v->view_ms;   /* what the knobs change: T x L and the view change */
         v->prt_new = v->truth;
     }
     v->view_dirty = false;
