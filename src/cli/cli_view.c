@@ -252,7 +252,7 @@ typedef struct viewer {
     GLuint tex[2], fbo[2];      /* the reference and error panels, uploaded */
     truth_point pts[VIEW_POINTS];
     int npts, cur_pt;
-    float plot_ms, plot_err;
+    truth_plot_range plot;      /* the plot's axes, for its labels */
     const char *snap_path;      /* a --truth snapshot to write at the next frame, before the swap */
     char snap_buf[4096];
     /* keys c / C: coefficients per vector used (0: all the file keeps, nfile at most) */
@@ -543,7 +543,7 @@ static void truth_refresh(viewer *v, bool exact) {
     truth_tonemap(v->ref_px, n, v->exposure, v->rgba);
     truth_upload(v, 0, v->rgba);
     truth_error_rgba(v->err_e, v->pw, v->ph, v->rgba);
-    truth_plot(v->rgba, v->pw, v->ph, v->pts, v->npts, v->cur_pt, &v->plot_ms, &v->plot_err);
+    truth_plot(v->rgba, v->pw, v->ph, v->pts, v->npts, v->cur_pt, &v->plot);
     truth_upload(v, 1, v->rgba);
 }
 
@@ -585,10 +585,10 @@ static void truth_labels(viewer *v) {
     static const char *ticks[4] = { "0.1%", "1%", "10%", "100%" };
     for (int i = 0; i < 4; i++) gltext_draw(&v->text, v->fbw, v->fbh, x2 + i * span / 3 - (i == 3 ? 24 : 0), y, 1, ticks[i]);
     if (v->pw < TRUTH_PLOT_W + 20) return;   /* no room for the plot (truth_plot draws none) */
-    snprintf(t, sizeof t, "error vs frame: %d settings,", v->npts);
+    snprintf(t, sizeof t, "error %.1f-%.1f %% vs", 100 * v->plot.err_min, 100 * v->plot.err_max);
     int px = 3 * v->pw - TRUTH_PLOT_W - 10, py = TRUTH_PLOT_Y(v->ph) + TRUTH_PLOT_H + 5;
     gltext_draw(&v->text, v->fbw, v->fbh, px, py, 1, t);
-    snprintf(t, sizeof t, "up to %.1f ms, %.1f %%", v->plot_ms, 100 * v->plot_err);
+    snprintf(t, sizeof t, "0-%.0f ms: %d settings", v->plot.ms_max, v->npts);
     gltext_draw(&v->text, v->fbw, v->fbh, px, py + 16, 1, t);
 }
 

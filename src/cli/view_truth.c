@@ -377,11 +377,18 @@ static void dot(uint8_t *rgba, int w, int h, int x, int y, int r, const uint8_t 
 }
 
 /* See view_truth.h. */
-void truth_plot(uint8_t *rgba, int w, int h, const truth_point *pts, int n, int cur, float *ms_max, float *err_max) {
-    float xm = 1e-3f, ym = 1e-3f;
-    for (int i = 0; i < n; i++) { xm = fmaxf(xm, pts[i].ms); ym = fmaxf(ym, pts[i].err); }
-    *ms_max = xm;
-    *err_max = ym;
+void truth_plot(uint8_t *rgba, int w, int h, const truth_point *pts, int n, int cur, truth_plot_range *r) {
+    r->ms_max = 1e-3f;
+    r->err_min = n ? pts[0].err : 0;
+    r->err_max = n ? pts[0].err : 1;
+    for (int i = 0; i < n; i++) {
+        r->ms_max = fmaxf(r->ms_max, pts[i].ms);
+        r->err_min = fminf(r->err_min, pts[i].err);
+        r->err_max = fmaxf(r->err_max, pts[i].err);
+    }
+    float pad = fmaxf(0.1f * (r->err_max - r->err_min), 0.02f * r->err_max + 1e-6f);   /* a lone value mid-height */
+    r->err_min = fmaxf(0.0f, r->err_min - pad);
+    r->err_max += pad;
     int px0 = w - TRUTH_PLOT_W - 10, py0 = TRUTH_PLOT_Y(h);
     if (px0 < 0 || py0 < 0) return;
     static const uint8_t bg[3] = { 20, 20, 20 }, axis[3] = { 160, 160, 160 }, old[3] = { 120, 200, 255 }, now[3] = { 255, 255, 255 };
@@ -390,8 +397,8 @@ void truth_plot(uint8_t *rgba, int w, int h, const truth_point *pts, int n, int 
     for (int x = px0; x < px0 + TRUTH_PLOT_W; x++) dot(rgba, w, h, x, py0 + TRUTH_PLOT_H - 1, 0, axis);
     for (int y = py0; y < py0 + TRUTH_PLOT_H; y++) dot(rgba, w, h, px0, y, 0, axis);
     for (int i = 0; i < n; i++) {
-        int x = px0 + 4 + (int)lroundf((TRUTH_PLOT_W - 8) * pts[i].ms / xm);
-        int y = py0 + TRUTH_PLOT_H - 4 - (int)lroundf((TRUTH_PLOT_H - 8) * pts[i].err / ym);
+        int x = px0 + 4 + (int)lroundf((TRUTH_PLOT_W - 8) * pts[i].ms / r->ms_max);
+        int y = py0 + TRUTH_PLOT_H - 4 - (int)lroundf((TRUTH_PLOT_H - 8) * (pts[i].err - r->err_min) / (r->err_max - r->err_min));
         dot(rgba, w, h, x, y, i == cur ? 2 : 1, i == cur ? now : old);
     }
 }

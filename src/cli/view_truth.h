@@ -110,9 +110,11 @@ void truth_tonemap(const float *rgb, size_t n, float exposure_stops, uint8_t *rg
 /* e[w h] (truth_compare) -> rgba: compare.h's error colour map (turbo over log10 e in [-3, 0]; grey where
  * not covered) and its scale bar TRUTH_BAR_Y rows above the bottom, 0.1 % at the left, 100 % at the right. */
 void truth_error_rgba(const float *e, int w, int h, uint8_t *rgba);
-/* The plot's top row in a panel of height h: above the scale bar, room for two label lines between. */
-#define TRUTH_PLOT_Y(h) ((h) - TRUTH_BAR_Y - 50 - TRUTH_PLOT_H)
+/* The plot's top row in a panel of height h: above the scale bar's labels, with two label lines below it. */
+#define TRUTH_PLOT_Y(h) ((h) - TRUTH_BAR_Y - 72 - TRUTH_PLOT_H)
+/* The plot's axes: frame time from 0 to ms_max, error from err_min to err_max (the points' range, padded). */
+typedef struct truth_plot_range { float ms_max, err_min, err_max; } truth_plot_range;
 /* The error-vs-frame-time plot of pts[n] (pts[cur] highlighted) into rgba at the right, from row
- * TRUTH_PLOT_Y (TRUTH_PLOT_W x TRUTH_PLOT_H; both axes from 0 to the largest value, returned for the labels). */
-void truth_plot(uint8_t *rgba, int w, int h, const truth_point *pts, int n, int cur, float *ms_max, float *err_max);
+ * TRUTH_PLOT_Y (TRUTH_PLOT_W x TRUTH_PLOT_H), its axes into r for the labels. */
+void truth_plot(uint8_t *rgba, int w, int h, const truth_point *pts, int n, int cur, truth_plot_range *r);
 #endif
