@@ -735,7 +735,12 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     if (v->snap_path) {
         const char *p = v->snap_path;
         v->snap_path = NULL;
-        if (truth_snapshot(v, p, err)) return -1;
+        if (truth_snapshot(v, p, err)) {   /* scripted: an error; interactive: said, the viewer goes on */
+            if (force_view) return -1;
+            char msg[1200];
+            snprintf(msg, sizeof msg, "snapshot failed: %s", err->msg);
+            set_status(v, msg);
+        }
     }
     glfwSwapBuffers((GLFWwindow *)v->ctx->window);
     v->present_dirty = false;
