@@ -12,6 +12,7 @@
  *   - the error on screen (stdout and the .txt) equals `prt compare` of those two images within
  *     1e-4 (both are compare.h's rel_rmse of the same floats, EXR being 32-bit float; the figures are
  *     printed to 6 decimals, so they agree to 1e-6);
+ *   - the reference's noise on screen agrees with `prt reference`'s own estimate at the same spp;
  *   - rotating the light (key ]) restarts the reference: the frame after the key finds it at 0 spp;
  *   - fewer coefficients per vector (key c, five times: the file's N -> N / 32), on the cpu and the gl
  *     runtime, do not lower the error against the same reference (--truth-spp stops it at S samples: every frame of one state sees the same
@@ -186,6 +187,31 @@ static void coefficients(void) {
     }
 }
 
+/* The reference's noise on screen (two halves of the passes, view_truth.h) against `prt reference`'s own
+ * (each pixel's sample standard deviation / sqrt(spp), summed the same way) at the same camera, size and
+ * spp: two estimates of one quantity from independent samples. Each sums about 84,000 pixel-channel
+ * variance estimates; a single one is a chi-square of few degrees of freedom (relative sd up to sqrt 2),
+ * so the sums agree to a few percent where many pixels weigh alike, and the sun's pixels weigh more: 15 %. */
+static void noise(void) {
+    if (!g_have_xvfb) return;
+    const char *dir = check_tmpdir();
+    char args[8192], out[16384], cmd[8192], ref[512];
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --backend cpu --truth --truth-spp 8 --frames 1",
+             g_scene, g_sky, k_cam, W, H);
+    int rc = run_view(args, out, sizeof out);
+    CHECK(rc == 0, "view --truth failed (%d): %s", rc, out);
+    double hud = figure(out, "truth: frame 0:", "noise ");
+    snprintf(ref, sizeof ref, "%s/noise_ref.exr", dir);
+    snprintf(cmd, sizeof cmd, "%s reference %s --probe %s --camera %s --size %dx%d --spp 8 -o %s", check_prt_bin(), g_scene, g_sky,
+             k_cam, PW, H, ref);
+    rc = check_run(cmd, out, sizeof out);
+    CHECK(rc == 0, "prt reference failed (%d): %s", rc, out);
+    double own = figure(out, "relative noise", "relative noise ");
+    CHECK(hud > 0 && own > 0, "noise figures: view %g, reference %g (%s)", hud, own, out);
+    CHECK_NEAR(hud / own, 1.0, 0.15, "the noise on screen (%.4f) against prt reference's (%.4f)", hud, own);
+    fprintf(stderr, "noise: %.4f on screen, %.4f by prt reference\n", hud, own);
+}
+
 /* Bad flags: one line, exit 2, no window. */
 static void bad_input(void) {
     char cmd[8192], out[4096];
@@ -200,6 +226,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(snapshot);
     CHECK_CASE(restart);
     CHECK_CASE(coefficients);
+    CHECK_CASE(noise);
     CHECK_CASE(bad_input);
     return check_summary();
 }
