@@ -276,6 +276,65 @@ static void light_product(void) {
     }
 }
 
+/* transport_keep_largest (the viewer's coefficient knob): for each quantization and n in 1, 7, 40, 200,
+ * every vector of the cut set holds min(n, m) of its m stored coefficients, in index order; they are
+ * the source's own (index and value bit for bit, through transport_foreach); no dropped one has a larger
+ * energy r^2 + g^2 + b^2 than a kept one (brute force over the pairs); and T x L over the cut set is the
+ * dense double product of the kept coefficients (the tolerance of case 5). */
+typedef struct coef_list { uint32_t idx[T]; float v[T][3]; int n; } coef_list;
+static void collect_coef(void *p, uint32_t index, float r, float g, float b) {
+    coef_list *l = p;
+    l->idx[l->n] = index;
+    l->v[l->n][0] = r; l->v[l->n][1] = g; l->v[l->n][2] = b;
+    l->n++;
+}
+static void keep_largest(void) {
+    static coef_list src, cut;
+    static const int ns[4] = { 1, 7, 40, 200 };
+    uint32_t s = 5;
+    fill_light(&s);
+    for (int q = 0; q < 3; q++)
+        for (int k = 0; k < 4; k++) {
+            const prt_transport *t = &qset_get(q)->t;
+            prt_transport o;
+            prt_error err = { { 0 } };
+            CHECK(transport_keep_largest(t, ns[k], &o, &err) == 0, "q%d n %d: %s", qb[q], ns[k], err.msg);
+            float *gv = malloc(sizeof(float) * 3 * (size_t)t->nvecs);
+            transport_light(&o, (const float (*)[4])L, gv, 2);
+            int bad_count = 0, bad_src = 0, bad_order = 0, bad_tl = 0;
+            for (int i = 0; i < t->nvecs; i++) {
+                src.n = cut.n = 0;
+                transport_foreach(t, i, collect_coef, &src);
+                transport_foreach(&o, i, collect_coef, &cut);
+                bad_count += cut.n != (src.n < ns[k] ? src.n : ns[k]);
+                uint8_t kept[T] = { 0 };
+                for (int a = 0, j = 0; a < cut.n; a++) {
+                    while (j < src.n && src.idx[j] != cut.idx[a]) j++;
+                    if (j == src.n || memcmp(src.v[j], cut.v[a], sizeof cut.v[a])) { bad_src++; break; }
+                    kept[j] = 1;
+                }
+                double emin = INFINITY, emax = -1;
+                for (int j = 0; j < src.n; j++) {
+                    double e = (double)src.v[j][0] * src.v[j][0] + (double)src.v[j][1] * src.v[j][1] + (double)src.v[j][2] * src.v[j][2];
+                    if (kept[j]) emin = fmin(emin, e); else emax = fmax(emax, e);
+                }
+                bad_order += cut.n > 0 && emax > emin;
+                for (int c = 0; c < 3; c++) {
+                    double ref = 0, mag = 0;
+                    for (int a = 0; a < cut.n; a++) { ref += (double)cut.v[a][c] * L[cut.idx[a]][c]; mag += fabs((double)cut.v[a][c] * L[cut.idx[a]][c]); }
+                    double rel = fabs(gv[3 * i + c] - ref) / (mag > 0 ? mag : 1);
+                    if (i % 6 == 2 && c == 0 && ref != 0) rel = fabs(gv[3 * i + c] - ref) / fabs(ref);
+                    bad_tl += !(rel <= 1e-5);
+                }
+            }
+            CHECK(bad_count == 0 && bad_src == 0 && bad_order == 0 && bad_tl == 0,
+                  "q%d n %d: %d counts, %d not the source's, %d not the largest, %d T x L off", qb[q], ns[k], bad_count, bad_src,
+                  bad_order, bad_tl);
+            free(gv);
+            transport_free(&o);
+        }
+}
+
 /* transport_map_to_file (a gathering pass's mapped previous pass): for each quantization, a set moved to an
  * unlinked file has the heap set's runs and coefficients byte for byte, the same T x L bits before
  * and after its pages are dropped (transport_drop_mapped; read again from the page cache), and
@@ -1325,6 +1384,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(shared_threads);
     CHECK_CASE(budget_flag);
     CHECK_CASE(measure_file);
+    CHECK_CASE(keep_largest);
     CHECK_CASE(policy_hook);
     CHECK_CASE(benchmark);
     qsets_free();

@@ -34,6 +34,16 @@
  * drag, which take one sample per pixel (on a software GL, 4 samples cost the CPU backend's frame
  * about twice its time); the still frame after the drag takes them all.
  *
+ * Beside the truth (--truth, view_truth.h, docs/truth.md): the window is three panels of one camera,
+ * the PRT frame at a third of the width, the progressive reference of the same scene, probe, rotation
+ * and local lights (a worker thread at the lowest priority, restarted when any of them or the camera
+ * changes), and their per-pixel relative error with its scale and an error-vs-frame-time plot of the
+ * settings tried; the text adds rel_rmse over the pixels the reference covers, its noise, spp and
+ * time. Keys c / C cut every sparse set to its n largest coefficients per vector
+ * (transport_keep_largest): the cpu runtime reads them at its next light change, the gl runtime is
+ * made again with them. The reference and error panels are refreshed at most every
+ * VIEW_TRUTH_REFRESH while the frames change (read back, compare, upload), the PRT panel every frame.
+ *
  * Scripted use (tests, screenshots): --frames N renders N frames and exits,
  * --screenshot OUT.png saves the last one (linear float target written with
  * image_write, the same tone curve `prt render` uses for PNG). A probe asked for by --keys is waited
@@ -49,6 +59,7 @@
 #include "prtfile.h"
 #include "runtime.h"
 #include "vec3.h"
+#include "view_truth.h"
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 #include <dirent.h>
@@ -63,6 +74,9 @@
 #define VIEW_MAX_PROBES 64
 #define VIEW_MAX_RUNTIMES 8     /* at least runtime_backend_count() */
 #define VIEW_KEEP 8             /* probes kept prepared (~6 MB each with a prefiltered ladder) */
+#define VIEW_POINTS 32          /* settings the --truth plot keeps */
+#define VIEW_TRUTH_REFRESH 0.25 /* seconds between --truth panel refreshes (read back, compare, upload) while
+                                 * the frames change: the PRT panel itself is drawn at every frame */
 
 /* A probe prepared on a worker thread (runtime_probe_prepare: its fine cube and, for a vMF file, its
  * prefiltered ladder, seconds) while the window keeps drawing with the light it has. Ownership: the
@@ -94,11 +108,13 @@ static const char *k_keys =
     "  1 .. 9                   switch to probe 1..9\n"
     "  n / p                    next / previous probe\n"
     "  + / -                    exposure up / down half a stop\n"
-    "  K / k                    use more / fewer BRDF terms\n";
+    "  K / k                    use more / fewer BRDF terms\n"
+    "  C / c                    use more / fewer wavelet coefficients per vector (doubles / halves; the largest first)\n"
+    "  [ / ]                    rotate the lighting 15 degrees about +y (a light change)\n";
 static const char *k_keys2 =
     "  v                        view model of the runtimes that have per pixel: per-pixel view maps / per vertex\n"
     "  d                        direct only vs with bounces (files precomputed with --keep-direct)\n"
-    "  s                        screenshot (PNG, current exposure)\n"
+    "  s                        screenshot (PNG, current exposure); with --truth the three panels and their figures\n"
     "  l                        pick the next local light (point / spot lights of the file and --light)\n"
     "  alt + left drag          move the picked local light in the view plane: a light move\n"
     "  m                        mouse mode: left drag moves the picked local light / orbits\n"
@@ -164,6 +180,10 @@ static void view_help(void) {
            "  --light SPEC           add a local light: point:pos=x,y,z;intensity=W/sr;colour=r,g,b or\n"
            "                         spot:pos=..;dir=..;inner=DEG;outer=DEG;... (repeatable; GL takes at most 4)\n"
            "  --no-file-lights       ignore the lights stored in the file\n"
+           "  --truth                split the window: PRT | a progressive path-traced reference (prt reference's,\n"
+           "                         with the file's bounces) | their relative error, with the error on screen\n"
+           "  --truth-spp N          with --frames: each frame waits until the reference has N samples per pixel,\n"
+           "                         and it stops there (the same reference for every frame of one state)\n"
            CLI_INDIRECT_HELP
            "\n"
            "keys:\n%s", keys_help(keys, sizeof keys));
@@ -214,6 +234,35 @@ typedef struct viewer {
     double prep_t0, prep_ms;    /* when the preparation started, how long the last one took */
     int prep_frames;            /* frames drawn while a probe was prepared, and the longest */
     double prep_longest;
+    /* --truth (view_truth.h): the PRT frame at panel size pw x ph beside the reference and the error */
+    bool truth;
+    int truth_spp;              /* --truth-spp: each scripted frame waits for it (0: none) */
+    truth_view *tv;
+    truth_state ts_last;        /* the state last handed to the reference (what a restart changed) */
+    int pw, ph;
+    float *prt_px, *ref_px, *err_e;    /* [3 pw ph], [3 pw ph], [pw ph] */
+    uint8_t *cov, *rgba;        /* [pw ph], [4 pw ph] */
+    bool prt_new;               /* the PRT frame changed since it was compared */
+    long seen_samples, seen_restarts;
+    truth_stats st;
+    cmp_result cr;
+    bool have_err;
+    double refresh_at;          /* when the panels were last refreshed */
+    double prt_ms;              /* the PRT frame's cost: its last T x L plus its last view change */
+    GLuint tex[2], fbo[2];      /* the reference and error panels, uploaded */
+    truth_point pts[VIEW_POINTS];
+    int npts, cur_pt;
+    truth_plot_range plot;      /* the plot's axes, for its labels */
+    const char *snap_path;      /* a --truth snapshot to write at the next frame, before the swap */
+    char snap_buf[4096];
+    /* keys c / C: coefficients per vector used (0: all the file keeps, nfile at most) */
+    int ncoef, nfile;
+    prt_transport full[PRT_MAX_TRANSFERS][2];   /* the file's sets while cut ones are in d (transport, direct) */
+    bool cut;
+    bool remake[VIEW_MAX_RUNTIMES];   /* that runtime uploaded other sets: made again when next used */
+    long truth_restarts;        /* scripted: the restarts and spp the last frame printed */
+    int truth_spp_last;
+    truth_stats st_before;      /* scripted: the reference as the frame found it, before any wait */
 } viewer;
 
 /* Shows msg on screen for a few seconds and on stderr. */
@@ -280,7 +329,7 @@ static int local_move(viewer *v, prt_error *err) {
 static int view_change(viewer *v, prt_error *err) {
     double t0 = prt_now();
     prt_runtime *rt = current(v);
-    render_desc rd = { .width = v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
+    render_desc rd = { .width = v->truth ? v->pw : v->fbw, .height = v->fbh, .camera = v->cam, .background = &v->probes[v->probe],
                        .background_rotation = rotated(v) ? v->R : NULL, .samples = v->drag ? 1 : v->aa };
     runtime_set_terms(rt, v->kmax);
     if (runtime_render(rt, &rd, NULL, err)) return -1;
@@ -304,6 +353,8 @@ static int overlay_effects(const viewer *v, char *buf, size_t cap) {
     int n = snprintf(buf, cap, "o: one bounce %s   i: indirect highlights %s\n", b, h);
     return n < 0 ? 0 : n >= (int)cap ? (int)cap - 1 : n;
 }
+
+static int truth_hud(const viewer *v, char *buf, size_t cap);
 
 /* Draws the status text (and the key help when toggled) over the window. */
 static void overlay(viewer *v) {
@@ -332,6 +383,7 @@ static void overlay(viewer *v) {
                       v->move_mode ? "   [m: drag moves the light]" : "");
         n += overlay_effects(v, buf + n, sizeof buf - (size_t)n);
     }
+    if (v->truth && n < (int)sizeof buf) n += truth_hud(v, buf + n, sizeof buf - (size_t)n);
     if (prt_now() < v->status_until && n < (int)sizeof buf) n += snprintf(buf + n, sizeof buf - n, "%s\n", v->status);
     if (v->want >= 0 && n < (int)sizeof buf)
         n += snprintf(buf + n, sizeof buf - n, "preparing probe %d: %s... (%.1f s; showing probe %d meanwhile)\n", v->want + 1,
@@ -379,6 +431,278 @@ static int window_screenshot(viewer *v, const char *path, prt_error *err) {
     return rc;
 }
 
+/* ---------------------------------------------------------------- --truth: PRT | reference | error */
+
+/* What differs between two reference states, in words (static text). */
+static const char *truth_change(const truth_state *a, const truth_state *b) {
+    if (a->w != b->w || a->h != b->h) return "window size";
+    if (memcmp(&a->cam, &b->cam, sizeof a->cam)) return "camera";
+    if (a->probe != b->probe) return "probe";
+    if (a->rotated != b->rotated || memcmp(a->R, b->R, sizeof a->R)) return "light rotation";
+    return "local lights";
+}
+
+/* The panels' buffers for the framebuffer's size (three panels side by side). -1 with err. */
+static int truth_panels(viewer *v, prt_error *err) {
+    int pw = v->fbw / 3 > 0 ? v->fbw / 3 : 1, ph = v->fbh;
+    if (pw == v->pw && ph == v->ph && v->prt_px) return 0;
+    size_t n = (size_t)pw * ph;
+    free(v->prt_px); free(v->ref_px); free(v->err_e); free(v->cov); free(v->rgba);
+    v->prt_px = calloc(3 * n, sizeof(float));
+    v->ref_px = calloc(3 * n, sizeof(float));
+    v->err_e = calloc(n, sizeof(float));
+    v->cov = calloc(n, 1);
+    v->rgba = calloc(4 * n, 1);
+    if (!v->prt_px || !v->ref_px || !v->err_e || !v->cov || !v->rgba) return prt_fail(err, "out of memory");
+    v->pw = pw;
+    v->ph = ph;
+    v->view_dirty = true;
+    return 0;
+}
+
+/* Hands the current camera, size, probe, rotation and local lights to the reference: a restart
+ * when any differs from the last. */
+static void truth_update(viewer *v) {
+    truth_state s = { .cam = v->cam, .w = v->pw, .h = v->ph, .probe = &v->probes[v->probe], .rotated = rotated(v),
+                      .lights = v->lights };
+    memcpy(s.R, v->R, sizeof s.R);
+    truth_set(v->tv, &s, v->ts_last.w ? truth_change(&v->ts_last, &s) : "start");
+    v->ts_last = s;
+}
+
+/* The PRT frame read back (after a view change). -1 with err. */
+static int truth_read_prt(viewer *v, prt_error *err) {
+    prt_image img;
+    if (runtime_read(current(v), &img, err)) return -1;
+    int rc = img.w == v->pw && img.h == v->ph ? 0 : prt_fail(err, "the PRT frame is %dx%d, not %dx%d", img.w, img.h, v->pw, v->ph);
+    if (!rc) memcpy(v->prt_px, img.data, 3 * sizeof(float) * (size_t)v->pw * v->ph);
+    image_free(&img);
+    return rc;
+}
+
+/* Coefficients per vector the runtimes use (keys c / C). */
+static int coefficients_used(const viewer *v) { return v->ncoef ? v->ncoef : v->nfile; }
+
+/* The settings the knobs give, in words (the plot's label, the snapshot's figures). */
+static void truth_settings(const viewer *v, char *buf, size_t cap) {
+    snprintf(buf, cap, "K %d, n %d, %s%s%s", v->kmax ? v->kmax : v->kfile, coefficients_used(v),
+             v->direct ? "direct only" : "bounces", v->lights.count && v->bounce ? ", local bounce" : "",
+             v->lights.count && v->hl_samples ? ", highlights" : "");
+}
+
+/* Records the current settings' frame time and error (the plot's point; the latest of each). */
+static void truth_record(viewer *v) {
+    char label[48];
+    truth_settings(v, label, sizeof label);
+    int i = 0;
+    while (i < v->npts && strcmp(v->pts[i].label, label)) i++;
+    if (i == v->npts && v->npts == VIEW_POINTS) i = VIEW_POINTS - 1;   /* full: the last is replaced */
+    else if (i == v->npts) v->npts++;
+    v->pts[i].ms = (float)v->prt_ms;
+    v->pts[i].err = (float)v->cr.rel_rmse;
+    snprintf(v->pts[i].label, sizeof v->pts[i].label, "%s", label);
+    v->cur_pt = i;
+}
+
+/* Uploads rgba (pw x ph) as panel k's texture, attached to its framebuffer for the blit. */
+static void truth_upload(viewer *v, int k, const uint8_t *rgba) {
+    const gl_api *gl = &v->ctx->gl;
+    if (!v->tex[k]) {
+        gl->GenTextures(1, &v->tex[k]);
+        gl->GenFramebuffers(1, &v->fbo[k]);
+    }
+    gl->BindTexture(GL_TEXTURE_2D, v->tex[k]);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl->TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl->PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    gl->TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, v->pw, v->ph, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    gl->BindTexture(GL_TEXTURE_2D, 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, v->fbo[k]);
+    gl->FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, v->tex[k], 0);
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+/* The reference's estimate and the error against the PRT frame, into the two panels, when either
+ * changed: at once after a restart or when exact (--truth-spp), else at most every VIEW_TRUTH_REFRESH. */
+static void truth_refresh(viewer *v, bool exact) {
+    truth_stats peek;
+    truth_peek(v->tv, &peek);
+    v->st.seconds = peek.seconds;
+    if (!v->prt_new && peek.samples == v->seen_samples && peek.restarts == v->seen_restarts && v->tex[0]) return;
+    if (!exact && v->tex[0] && peek.restarts == v->seen_restarts && prt_now() - v->refresh_at < VIEW_TRUTH_REFRESH) return;
+    v->refresh_at = prt_now();
+    prt_error err = { { 0 } };
+    if (v->prt_new && truth_read_prt(v, &err)) set_status(v, err.msg);
+    v->prt_new = false;
+    truth_read(v->tv, v->ref_px, v->cov, &v->st);
+    v->seen_samples = v->st.samples;
+    v->seen_restarts = v->st.restarts;
+    v->have_err = truth_compare(v->prt_px, v->ref_px, v->cov, v->pw, v->ph, &v->cr, v->err_e, &err) == 0;
+    if (v->have_err && v->st.covered >= 1.0) truth_record(v);
+    size_t n = (size_t)v->pw * v->ph;
+    truth_tonemap(v->ref_px, n, v->exposure, v->rgba);
+    truth_upload(v, 0, v->rgba);
+    truth_error_rgba(v->err_e, v->pw, v->ph, v->rgba);
+    truth_plot(v->rgba, v->pw, v->ph, v->pts, v->npts, v->cur_pt, &v->plot);
+    truth_upload(v, 1, v->rgba);
+}
+
+/* The reference and error panels drawn right of the PRT one (texture rows top first: flipped). */
+static void truth_blit(viewer *v) {
+    const gl_api *gl = &v->ctx->gl;
+    for (int k = 0; k < 2 && v->tex[k]; k++) {
+        gl->BindFramebuffer(GL_READ_FRAMEBUFFER, v->fbo[k]);
+        gl->BindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+        gl->BlitFramebuffer(0, 0, v->pw, v->ph, (k + 1) * v->pw, v->ph, (k + 2) * v->pw, 0, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
+/* The HUD's truth lines into buf: the error, the reference's noise, samples and time, the knobs. */
+static int truth_hud(const viewer *v, char *buf, size_t cap) {
+    char err[160], set[64];
+    const truth_stats *st = &v->st;
+    if (st->error[0]) snprintf(err, sizeof err, "the reference stopped: %.120s", st->error);
+    else if (!v->have_err) snprintf(err, sizeof err, "no pixel of the reference yet");
+    else snprintf(err, sizeof err, "PRT %.2f %% off (rel_rmse over %.0f %% of the pixels)%s", 100 * v->cr.rel_rmse,
+                  100 * st->covered, st->noise >= 0 && v->cr.rel_rmse <= st->noise ? ": within the noise" : "");
+    truth_settings(v, set, sizeof set);
+    int n = snprintf(buf, cap,
+                     "truth: %s in %.1f ms; the reference: %d spp, noise %s%.2f %%, %.1f s (restarts %ld, last: %s)\n"
+                     "knobs: %s   (K/k terms, C/c coefficients, d bounces, o local bounce, i highlights)\n",
+                     err, v->prt_ms, st->spp, st->noise < 0 ? "n/a " : "", st->noise < 0 ? 0.0 : 100 * st->noise,
+                     st->seconds, st->restarts, st->why ? st->why : "-", set);
+    return n < 0 ? 0 : n >= (int)cap ? (int)cap - 1 : n;
+}
+
+/* Panel titles, the scale bar's and the plot's labels. */
+static void truth_labels(viewer *v) {
+    char t[96];
+    int y = v->ph - TRUTH_BAR_Y - 18, x2 = 2 * v->pw + 10, span = v->pw - 20;
+    gltext_draw(&v->text, v->fbw, v->fbh, 10, v->ph - 18, 1, "PRT");
+    snprintf(t, sizeof t, "reference (%d spp%s)", v->st.spp, v->st.covered < 1 ? ", refining" : "");
+    gltext_draw(&v->text, v->fbw, v->fbh, v->pw + 10, v->ph - 18, 1, t);
+    static const char *ticks[4] = { "0.1%", "1%", "10%", "100%" };
+    for (int i = 0; i < 4; i++) gltext_draw(&v->text, v->fbw, v->fbh, x2 + i * span / 3 - (i == 3 ? 24 : 0), y, 1, ticks[i]);
+    if (v->pw < TRUTH_PLOT_W + 20) return;   /* no room for the plot (truth_plot draws none) */
+    snprintf(t, sizeof t, "error %.1f-%.1f %% vs", 100 * v->plot.err_min, 100 * v->plot.err_max);
+    int px = 3 * v->pw - TRUTH_PLOT_W - 10, py = TRUTH_PLOT_Y(v->ph) + TRUTH_PLOT_H + 5;
+    gltext_draw(&v->text, v->fbw, v->fbh, px, py, 1, t);
+    snprintf(t, sizeof t, "0-%.0f ms: %d settings", v->plot.ms_max, v->npts);
+    gltext_draw(&v->text, v->fbw, v->fbh, px, py + 16, 1, t);
+}
+
+/* path without its extension, then suffix, into out. */
+static void sibling(const char *path, const char *suffix, char *out, size_t cap) {
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    int len = dot && (!slash || dot > slash) ? (int)(dot - path) : (int)strlen(path);
+    snprintf(out, cap, "%.*s%s", len, path, suffix);
+}
+
+/* A --truth snapshot: the window as shown (the three panels and the HUD) at path, and beside it
+ * PATH-prt.exr, PATH-ref.exr (zero where the reference has no sample) and PATH.txt (the figures). */
+static int window_screenshot(viewer *v, const char *path, prt_error *err);
+static int truth_snapshot(viewer *v, const char *path, prt_error *err) {
+    char p[4200], set[64];
+    size_t n = (size_t)v->pw * v->ph;
+    prt_image img;
+    if (window_screenshot(v, path, err) || image_alloc(&img, v->pw, v->ph, 3, err)) return -1;
+    memcpy(img.data, v->prt_px, 3 * n * sizeof(float));
+    sibling(path, "-prt.exr", p, sizeof p);
+    int rc = image_write(p, &img, &(image_desc){ 0 }, err);
+    for (size_t i = 0; i < n; i++)
+        for (int c = 0; c < 3; c++) img.data[3 * i + c] = v->cov[i] ? v->ref_px[3 * i + c] : 0.0f;
+    sibling(path, "-ref.exr", p, sizeof p);
+    if (!rc) rc = image_write(p, &img, &(image_desc){ 0 }, err);
+    image_free(&img);
+    sibling(path, ".txt", p, sizeof p);
+    FILE *f = rc ? NULL : fopen(p, "w");
+    if (!rc && !f) return prt_fail(err, "%s: cannot write", p);
+    if (rc) return -1;
+    truth_settings(v, set, sizeof set);
+    fprintf(f, "rel_rmse %.8f\nmax_rel_err %.8f\nnoise %.8f\nspp %d\ncovered %.6f\nprt_ms %.3f\nreference_s %.3f\n"
+               "restarts %ld\nsettings %s\n",
+            v->have_err ? v->cr.rel_rmse : -1, v->have_err ? v->cr.max_rel_err : -1, v->st.noise, v->st.spp, v->st.covered,
+            v->prt_ms, v->st.seconds, v->st.restarts, set);
+    return fclose(f) ? prt_fail(err, "%s: cannot write", p) : 0;
+}
+
+/* The truth side of a frame: the state handed over (scripted: waited for, the samples it had before
+ * kept for truth_line), the panels refreshed. */
+static void truth_frame(viewer *v, bool scripted) {
+    truth_update(v);
+    if (scripted) truth_peek(v->tv, &v->st_before);
+    if (scripted && v->truth_spp > 0) truth_wait(v->tv, v->truth_spp, 600);
+    truth_refresh(v, (scripted && v->truth_spp > 0) || v->snap_path);   /* a snapshot shows the frame it saves */
+}
+
+/* The current runtime made again from d's sets when it uploads them at creation (RUNTIME_CAP_GL) and
+ * they changed since (remake; the cpu runtime reads them at every light change): seconds on a software
+ * GL, so only the one in use, when it is used. It then catches up with the light and local lights. -1
+ * with err when it cannot be made (the viewer goes on with the next runtime). */
+static prt_runtime *make_runtime(viewer *v, int i, prt_error *err);
+static int remake_current(viewer *v, prt_error *err) {
+    int i = v->cur;
+    if (!v->remake[i]) return 0;
+    v->remake[i] = false;
+    runtime_destroy(v->rts[i]);
+    v->stale[i] = true;
+    v->local_stale[i] = v->lights.count > 0;
+    if ((v->rts[i] = make_runtime(v, i, err))) return 0;
+    while (!v->rts[v->cur]) v->cur = (v->cur + 1) % VIEW_MAX_RUNTIMES;
+    return -1;
+}
+
+/* Keys c / C: the first n coefficients per vector by importance (transport_keep_largest; 0: all the
+ * file keeps) in every sparse set: the cpu runtime reads them at its next light change, a GL one is
+ * made again when next used (remake_current). */
+static void set_coefficients(viewer *v, int n, bool quiet) {
+    prt_error err = { { 0 } };
+    double t0 = prt_now();
+    for (int i = 0; i < v->d.ntransfers && v->cut; i++)
+        if (v->d.transfers[i].ops->kind == TRANSFER_LINEAR) {
+            transport_free(&v->d.transfers[i].transport);
+            transport_free(&v->d.transfers[i].direct);
+            v->d.transfers[i].transport = v->full[i][0];
+            v->d.transfers[i].direct = v->full[i][1];
+        }
+    v->cut = false;
+    v->ncoef = 0;
+    for (int i = 0; i < v->d.ntransfers && n > 0; i++) {
+        prt_transfer *tr = &v->d.transfers[i];
+        if (tr->ops->kind != TRANSFER_LINEAR) continue;
+        prt_transport a = { 0 }, b = { 0 };
+        if (transport_keep_largest(&tr->transport, n, &a, &err) ||
+            (tr->direct.nvecs && transport_keep_largest(&tr->direct, n, &b, &err))) {
+            transport_free(&a);
+            set_status(v, err.msg);
+            set_coefficients(v, 0, true);
+            return;
+        }
+        v->full[i][0] = tr->transport;
+        v->full[i][1] = tr->direct;
+        tr->transport = a;
+        if (tr->direct.nvecs) tr->direct = b;
+        v->cut = true;
+        v->ncoef = n;
+    }
+    v->light_dirty = true;
+    if (quiet) return;
+    for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) v->remake[i] = v->rts[i] && (runtime_backend_at(i)->caps & RUNTIME_CAP_GL);
+    char msg[160];
+    snprintf(msg, sizeof msg, "%d of %d coefficients per vector, the largest first (cut in %.0f ms)", n ? n : v->nfile, v->nfile,
+             1e3 * (prt_now() - t0));
+    set_status(v, msg);
+}
+
+/* Key c (halves) and C (doubles) the coefficients per vector used, within 1 .. the file's N. */
+static void step_coefficients(viewer *v, bool more) {
+    int cur = v->ncoef ? v->ncoef : v->nfile;
+    int n = more ? 2 * cur : cur / 2;
+    if (n < 1 || (cur >= v->nfile && more)) { set_status(v, more ? "already using every coefficient the file keeps" : "already at 1 coefficient"); return; }
+    set_coefficients(v, n >= v->nfile ? 0 : n, false);
+}
+
 /* One frame: light change if needed, view change if needed, present, text, swap. */
 static int frame(viewer *v, bool force_view, prt_error *err) {
     double t0 = prt_now();
@@ -386,6 +710,9 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     glfwGetFramebufferSize((GLFWwindow *)v->ctx->window, &w, &h);
     if (w < 1 || h < 1) return 0; /* minimized */
     if (w != v->fbw || h != v->fbh) { v->fbw = w; v->fbh = h; v->view_dirty = true; }
+    if (v->truth && truth_panels(v, err)) return -1;
+    prt_error rerr = { { 0 } };
+    if (remake_current(v, &rerr)) set_status(v, rerr.msg);
     bool lit = v->light_dirty || v->stale[v->cur];
     if (lit && light_change(v, err)) return -1;
     if (v->local_dirty || v->local_stale[v->cur]) {
@@ -395,11 +722,26 @@ static int frame(viewer *v, bool force_view, prt_error *err) {
     if (lit || v->view_dirty || force_view) {
         if (view_change(v, err)) return -1;
         v->frame_ms = 1e3 * (prt_now() - t0);
+        v->prt_ms = v->light_ms + v->view_ms;   /* what the knobs change: T x L and the view change */
+        v->prt_new = v->truth;
     }
     v->view_dirty = false;
-    runtime_present(current(v), v->fbw, v->fbh, v->exposure);
+    if (v->truth) truth_frame(v, force_view);
+    runtime_present(current(v), v->truth ? v->pw : v->fbw, v->fbh, v->exposure);
+    if (v->truth) truth_blit(v);
     overlay(v);
+    if (v->truth) truth_labels(v);
     if (v->window_shot_now && window_screenshot(v, v->window_shot, err)) return -1;
+    if (v->snap_path) {
+        const char *p = v->snap_path;
+        v->snap_path = NULL;
+        if (truth_snapshot(v, p, err)) {   /* scripted: an error; interactive: said, the viewer goes on */
+            if (force_view) return -1;
+            char msg[1200];
+            snprintf(msg, sizeof msg, "snapshot failed: %s", err->msg);
+            set_status(v, msg);
+        }
+    }
     glfwSwapBuffers((GLFWwindow *)v->ctx->window);
     v->present_dirty = false;
     if (prt_now() - v->title_at > 0.5) {
@@ -632,7 +974,12 @@ static void take_screenshot(viewer *v) {
         while (access(path, F_OK) == 0 && v->shots < 999);
     }
     prt_error err = { { 0 } };
-    if (screenshot(v, path, &err)) snprintf(msg, sizeof msg, "screenshot failed: %s", err.msg);
+    if (v->truth) {   /* the window with its figures, at the next frame (before its swap) */
+        snprintf(v->snap_buf, sizeof v->snap_buf, "%s", path);
+        v->snap_path = v->snap_buf;
+        v->present_dirty = true;
+        snprintf(msg, sizeof msg, "saved %s and its -prt.exr, -ref.exr, .txt", path);
+    } else if (screenshot(v, path, &err)) snprintf(msg, sizeof msg, "screenshot failed: %s", err.msg);
     else snprintf(msg, sizeof msg, "saved %s", path);
     set_status(v, msg);
 }
@@ -734,6 +1081,13 @@ static void on_char(GLFWwindow *w, unsigned int c) {
         else { v->kmax = cur - 1; v->view_dirty = true; }
         break;
     }
+    case 'c': step_coefficients(v, false); break;
+    case 'C': step_coefficients(v, true); break;
+    case '[': case ']':
+        v->lyaw = fmodf(v->lyaw + (c == ']' ? 15.0f : -15.0f) + 540.0f, 360.0f) - 180.0f;
+        update_rotation(v);
+        v->light_dirty = true;
+        break;
     case 'b': case 'B': next_runtime(v); break;
     case 'v': case 'V': toggle_view_model(v); break;
     case 'd': case 'D': toggle_direct(v); break;
@@ -819,7 +1173,12 @@ static void viewer_free(viewer *v) {
         pthread_join(v->prep.thread, NULL);
         if (v->prep.rc == 0) runtime_probe_free(&v->prep.out);
     }
+    truth_destroy(v->tv);
+    if (v->cut) set_coefficients(v, 0, true);
     if (v->ctx) glctx_make_current(v->ctx, NULL);
+    for (int k = 0; k < 2 && v->ctx; k++)
+        if (v->tex[k]) { v->ctx->gl.DeleteFramebuffers(1, &v->fbo[k]); v->ctx->gl.DeleteTextures(1, &v->tex[k]); }
+    free(v->prt_px); free(v->ref_px); free(v->err_e); free(v->cov); free(v->rgba);
     gltext_free(&v->text);
     for (int i = 0; i < VIEW_MAX_RUNTIMES; i++) runtime_destroy(v->rts[i]);
     for (int i = 0; i < VIEW_MAX_PROBES; i++) runtime_probe_free(&v->prepared[i]);
@@ -833,6 +1192,7 @@ typedef struct view_args {
     const char *layout, *cam_s, *cam_name, *rot_s, *dirs[16], *paths[VIEW_MAX_PROBES];
     int ndirs, npaths, w, h, frames;
     bool backend_given;         /* --backend: kept even on a software renderer */
+    bool size_given;            /* --size (--truth's default is wider: three panels) */
     prt_lights extra;           /* --light */
     bool no_file_lights;
     cli_indirect indirect;      /* --local-bounce, --highlights and their --no- forms (-1: the file's) */
@@ -857,12 +1217,14 @@ static int parse_option(viewer *v, view_args *a, int argc, char **argv, int *i) 
         return 1;
     }
     OPT_V("--probes") { if (a->ndirs < 16) a->dirs[a->ndirs++] = val; return 1; }
-    OPT_V("--size") return cli_size(k_view, val, &a->w, &a->h) ? 1 : -1;
+    OPT_V("--size") { a->size_given = true; return cli_size(k_view, val, &a->w, &a->h) ? 1 : -1; }
     OPT_V("--exposure") return cli_float(k_view, "--exposure", val, -64, 64, &v->exposure) ? 1 : -1;
     OPT_V("--terms") return cli_int(k_view, "--terms", val, 1, 64, &v->kmax) ? 1 : -1;
     OPT_V("--threads") return cli_int(k_view, "--threads", val, 1, 64, &v->nthreads) ? 1 : -1;
     OPT_V("--aa") return cli_int(k_view, "--aa", val, 1, CLI_AA_MAX, &v->aa) ? 1 : -1;
     OPT_V("--frames") return cli_int(k_view, "--frames", val, 1, 1000000, &a->frames) ? 1 : -1;
+    OPT_V("--truth-spp") return cli_int(k_view, "--truth-spp", val, 1, 4096, &v->truth_spp) ? 1 : -1;
+    if (!strcmp(argv[*i], "--truth")) { v->truth = true; return 1; }
     OPT_V("--backend") {
         if (!cli_backend(k_view, val, RUNTIME_CAP_WINDOW, "draw into a window")) return -1;
         v->cur = runtime_backend_index(val);
@@ -907,6 +1269,7 @@ static int check_files(const viewer *v, const view_args *a) {
 static int check_args(viewer *v, const view_args *a) {
     if (!v->file) return cli_error(k_view, "no input .prt file (see --help)"), -1;
     if ((v->window_shot || v->keys) && !a->frames) return cli_error(k_view, "--window-shot and --keys need --frames"), -1;
+    if (v->truth_spp && (!v->truth || !a->frames)) return cli_error(k_view, "--truth-spp needs --truth and --frames"), -1;
     if (!a->npaths && !a->ndirs) return cli_error(k_view, "no light probe (--probe PROBE or --probes DIR)"), -1;
     if (cli_check_view_flags(k_view, a->layout, a->cam_s)) return -1;
     if (check_files(v, a)) return -1;
@@ -953,8 +1316,20 @@ static void view_effects_plan(viewer *v) {
     v->no_hl = fx.no_highlights;
 }
 
+/* The reference beside the PRT frame: the truth of the effects the file was made for, as `prt reference`
+ * defaults to (the file's interreflection passes; the local lights' one bounce where its plan has an
+ * indirect effect), whatever the knobs turn off in the PRT frame. -1 with err. */
+static int truth_start(viewer *v, prt_error *err) {
+    prt_effects fx;
+    prt_file_effects(&v->d, &fx);
+    int light_bounces = fx.local_bounce || fx.highlights ? 1 : 0;
+    truth_desc td = { .bounces = v->d.stats.bounces, .light_depth = light_bounces + 1, .max_spp = v->truth_spp };
+    v->tv = truth_create(&v->d.scene, &td, err);
+    return v->tv ? 0 : -1;
+}
+
 /* Reads the file and the probes, frames the camera. Returns 0, or the exit status after printing. */
-static int load_inputs(viewer *v, const view_args *a) {
+static int load_inputs(viewer *v, view_args *a) {
     prt_error err = { { 0 } };
     if (prtfile_read(v->file, &v->d, &err)) return cli_error(k_view, "%s", err.msg);
     int lr = cli_apply_lights(k_view, &v->d.scene, &a->extra, a->no_file_lights);
@@ -963,7 +1338,9 @@ static int load_inputs(viewer *v, const view_args *a) {
     v->local_dirty = v->lights.count > 0;
     view_effects_plan(v);
     cli_indirect_resolve(&a->indirect, &v->d, false, &v->hl_samples, &v->bounce);
-    if (cli_camera(k_view, &v->d.scene, (float)a->w / a->h, a->cam_s, a->cam_name, &v->cam)) return 2;
+    if (v->truth && !a->size_given) { a->w = 1200; a->h = 450; }
+    float aspect = v->truth ? (float)(a->w / 3) / a->h : (float)a->w / a->h;   /* --truth: a panel's */
+    if (cli_camera(k_view, &v->d.scene, aspect, a->cam_s, a->cam_name, &v->cam)) return 2;
     v->cam0 = v->cam;
     for (int i = 0; i < a->npaths; i++)
         if (add_probe(v, a->paths[i], a->layout)) return 1;
@@ -972,6 +1349,10 @@ static int load_inputs(viewer *v, const view_args *a) {
     for (int m = 0; m < v->d.scene.nmaterials; m++)
         if (v->d.factors[m].K > v->kfile) v->kfile = v->d.factors[m].K;
     if (v->kmax >= v->kfile) v->kmax = 0;
+    for (int i = 0; i < v->d.ntransfers; i++)
+        if (v->d.transfers[i].ops->kind == TRANSFER_LINEAR && v->d.transfers[i].transport.N > v->nfile)
+            v->nfile = v->d.transfers[i].transport.N;
+    if (v->truth && truth_start(v, &err)) return cli_error(k_view, "%s", err.msg);
     v->lyaw0 = v->lyaw;
     v->lpitch0 = v->lpitch;
     update_rotation(v);
@@ -999,6 +1380,15 @@ static void prefer_cpu_on_software(viewer *v, const view_args *a) {
     }
 }
 
+/* The runtime of backend i (one that draws into a window) for the viewer's settings. NULL with err. */
+static prt_runtime *make_runtime(viewer *v, int i, prt_error *err) {
+    const runtime_backend_info *b = runtime_backend_at(i);
+    runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = v->bounce,
+                          .highlight_samples = v->hl_samples, .direct_only = v->direct };
+    if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
+    return runtime_create(&v->d, &desc, err);
+}
+
 /* The window, both runtimes drawing into it, the text and the callbacks. 0 or 1 (error printed). */
 static int open_window(viewer *v, const view_args *a) {
     prt_error err = { { 0 } };
@@ -1012,10 +1402,7 @@ static int open_window(viewer *v, const view_args *a) {
     for (int i = 0, n = 0; i < runtime_backend_count(); i++) {
         const runtime_backend_info *b = runtime_backend_at(i);
         if (!(b->caps & RUNTIME_CAP_WINDOW)) continue;
-        runtime_desc desc = { .backend = b->name, .threads = v->nthreads, .ctx = v->ctx, .local_bounce = v->bounce,
-                              .highlight_samples = v->hl_samples };
-        if (b->caps & RUNTIME_CAP_VIEW_PIXEL) desc.view = v->vertex_model ? RUNTIME_VIEW_VERTEX : RUNTIME_VIEW_PIXEL;
-        if (!(v->rts[i] = runtime_create(&v->d, &desc, &err))) return cli_error(k_view, "%s", err.msg);
+        if (!(v->rts[i] = make_runtime(v, i, &err))) return cli_error(k_view, "%s", err.msg);
         runtime_timing tm;
         runtime_get_timing(v->rts[i], &tm);
         if (n >= 0 && n < (int)sizeof kernels) n += snprintf(kernels + n, sizeof kernels - n, "%s%s %s", n ? ", " : "", b->title, tm.kernel);
@@ -1040,6 +1427,20 @@ static int open_window(viewer *v, const view_args *a) {
     return 0;
 }
 
+/* A scripted frame's truth figures on stdout (a restart since the last frame first). */
+static void truth_line(viewer *v, int f) {
+    static const char *none = "-";
+    if (f > 0 && v->st.restarts != v->truth_restarts)
+        printf("truth: restart (%s): spp %d -> %d, then refined to %d\n", v->st.why ? v->st.why : none, v->truth_spp_last,
+               v->st_before.spp, v->st.spp);
+    printf("truth: frame %d: spp %d, covered %.4f, rel_rmse %.6f, noise %.6f, prt %.2f ms, reference %.2f s, n %d, K %d%s\n",
+           f, v->st.spp, v->st.covered, v->have_err ? v->cr.rel_rmse : -1.0, v->st.noise, v->prt_ms, v->st.seconds,
+           coefficients_used(v), v->kmax ? v->kmax : v->kfile, v->st.error[0] ? "   (the reference stopped)" : "");
+    if (v->st.error[0]) printf("truth: %s\n", v->st.error);
+    v->truth_restarts = v->st.restarts;
+    v->truth_spp_last = v->st.spp;
+}
+
 /* --frames N: the first frame is a light change, the others view changes of the same view (keys from
  * --keys pressed one before each frame from the second). 0 or 1. */
 static int run_scripted(viewer *v, int frames) {
@@ -1047,25 +1448,31 @@ static int run_scripted(viewer *v, int frames) {
     GLFWwindow *win = (GLFWwindow *)v->ctx->window;
     double sum_view = 0;
     size_t nkeys = v->keys ? strlen(v->keys) : 0;
+    double wall0 = prt_now();
     for (int f = 0; f < frames && !glfwWindowShouldClose(win) && !v->quit; f++) {
         glfwPollEvents();
         if (f > 0 && (size_t)(f - 1) < nkeys) on_char(win, (unsigned char)v->keys[f - 1]);
         prep_poll(v, f == frames - 1);   /* the last frame shows every key's probe */
         v->window_shot_now = v->window_shot && f == frames - 1;
+        if (v->truth && v->shot_path && f == frames - 1) v->snap_path = v->shot_path;
         bool preparing = v->want >= 0;
         double t0 = prt_now();
         if (frame(v, true, &err)) return cli_error(k_view, "%s", err.msg);
+        if (v->truth) truth_line(v, f);
         if (preparing) {
             v->prep_frames++;
             v->prep_longest = fmax(v->prep_longest, 1e3 * (prt_now() - t0));
         }
         if (f > 0 || frames == 1) sum_view += v->view_ms;
     }
-    if (v->shot_path && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
+    if (v->shot_path && !v->truth && screenshot(v, v->shot_path, &err)) return cli_error(k_view, "%s", err.msg);
     printf("view: %d frames at %dx%d, %s runtime: light change %.1f ms (light vector %.1f ms), view change %.2f ms "
            "mean%s%s\n",
            frames, v->fbw, v->fbh, current_info(v)->title, v->light_ms, v->lightvec_ms,
            sum_view / (frames > 1 ? frames - 1 : 1), v->shot_path ? ", saved " : "", v->shot_path ? v->shot_path : "");
+    if (v->truth && frames > 1)   /* everything a frame did, the reference's panels included: the rate a user sees */
+        printf("view: --truth: %.1f ms per frame in all (%.1f fps) over %d frames\n", 1e3 * (prt_now() - wall0) / frames,
+               frames / (prt_now() - wall0), frames);
     if (v->prep_ms > 0)
         printf("view: probe prepared on a worker thread in %.1f ms; %d frames drawn meanwhile, the longest %.1f ms\n",
                v->prep_ms, v->prep_frames, v->prep_longest);
@@ -1079,7 +1486,8 @@ static int run_interactive(viewer *v) {
     while (!glfwWindowShouldClose(win) && !v->quit) {
         bool busy = v->light_dirty || v->view_dirty || v->drag;
         if (busy) glfwPollEvents();
-        else glfwWaitEventsTimeout(v->want >= 0 ? 0.05 : 0.25);   /* a probe being prepared: look for it often */
+        else glfwWaitEventsTimeout(v->want >= 0 || v->truth ? 0.05 : 0.25);   /* a probe being prepared, the reference: often */
+        if (v->truth) v->present_dirty = true;   /* the reference refines: its panels and figures follow */
         prep_poll(v, false);
         if (v->want >= 0) v->present_dirty = true;   /* the overlay counts its seconds */
         bool status_visible = v->status[0] && prt_now() < v->status_until + 0.3;

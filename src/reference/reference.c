@@ -510,7 +510,7 @@ typedef struct ref_job {
     float eye[3];
     /* image */
     const prt_camera *cam;
-    int w, h;
+    int w, h, y0;           /* image size; the first row rendered (img and se start at it) */
     float *img;
     /* outputs */
     float *rgb, *se;
@@ -603,7 +603,7 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
     if (atomic_load(&j->cancel)) return;
     for (int y = begin; y < end; y++)
         for (int x = 0; x < j->w; x++) {
-            size_t idx = (size_t)y * j->w + x;
+            size_t idx = (size_t)y * j->w + x, at = idx - (size_t)j->y0 * j->w;
             pcg32 rng;
             pcg32_seed(&rng, j->seed, (uint64_t)idx);
             ref_acc a = { { 0 }, { 0 }, 0 };
@@ -634,9 +634,15 @@ static void image_rows(void *ctx, int begin, int end, int thread) {
                 if (isfinite(xr[0]) && isfinite(xr[1]) && isfinite(xr[2])) acc_add(&a, xr);
                 else j->dropped[thread]++;
             }
-            acc_out(&a, j->spp, j->img + 3 * idx, j->se ? j->se + 3 * idx : NULL);
+            acc_out(&a, j->spp, j->img + 3 * at, j->se ? j->se + 3 * at : NULL);
         }
     job_progress(j, (long)(end - begin) * j->w);
+}
+
+/* image_rows over rows offset by the job's first row (prt_parallel_for counts from 0). */
+static void image_rows_from(void *ctx, int begin, int end, int thread) {
+    const ref_job *j = ctx;
+    image_rows(ctx, begin + j->y0, end + j->y0, thread);
 }
 
 static void job_init(ref_job *j, const ref_ctx *rc, const ref_desc *d) {
@@ -691,27 +697,36 @@ int ref_render_vertices(const ref_ctx *rc, const float eye[3], const int *verts,
     return 0;
 }
 
-/* Image through cam (see header). */
-int ref_render_image(const ref_ctx *rc, const prt_camera *cam, int w, int h, const ref_desc *d, prt_image *out,
-                     float *se, ref_stats *stats, prt_error *err) {
-    memset(out, 0, sizeof *out);
-    if (w < 1 || h < 1) return prt_fail(err, "reference: bad image size %dx%d", w, h);
-    if (image_alloc(out, w, h, 3, err)) return -1;
+/* Rows [y0, y1) of the w x h image through cam into rgb (see header). */
+int ref_render_rows(const ref_ctx *rc, const prt_camera *cam, int w, int h, int y0, int y1, const ref_desc *d,
+                    float *rgb, float *se, ref_stats *stats, prt_error *err) {
+    if (w < 1 || h < 1 || y0 < 0 || y1 > h || y0 >= y1)
+        return prt_fail(err, "reference: bad rows %d..%d of a %dx%d image", y0, y1, w, h);
     double t0 = prt_now();
     ref_job j;
     job_init(&j, rc, d);
     j.cam = cam;
     j.w = w;
     j.h = h;
-    j.img = out->data;
+    j.y0 = y0;
+    j.img = rgb;
     j.se = se;
-    j.n = (long)w * h;
+    j.n = (long)w * (y1 - y0);
     int nth = prt_thread_count(d->nthreads);
     if (nth > REF_MAX_THREADS) nth = REF_MAX_THREADS;
-    prt_parallel_for(h, 1, nth, image_rows, &j);
+    prt_parallel_for(y1 - y0, 1, nth, image_rows_from, &j);
     bool cancelled = atomic_load(&j.cancel);
-    job_finish(&j, out->data, se, 3 * (size_t)w * h, t0, stats);
-    if (cancelled) { image_free(out); return prt_fail(err, "cancelled"); }
+    job_finish(&j, rgb, se, 3 * (size_t)j.n, t0, stats);
+    return cancelled ? prt_fail(err, "cancelled") : 0;
+}
+
+/* Image through cam (see header): every row. */
+int ref_render_image(const ref_ctx *rc, const prt_camera *cam, int w, int h, const ref_desc *d, prt_image *out,
+                     float *se, ref_stats *stats, prt_error *err) {
+    memset(out, 0, sizeof *out);
+    if (w < 1 || h < 1) return prt_fail(err, "reference: bad image size %dx%d", w, h);
+    if (image_alloc(out, w, h, 3, err)) return -1;
+    if (ref_render_rows(rc, cam, w, h, 0, h, d, out->data, se, stats, err)) { image_free(out); return -1; }
     return 0;
 }
 

@@ -94,6 +94,13 @@ int ref_render_vertices(const ref_ctx *rc, const float eye[3], const int *verts,
 int ref_render_image(const ref_ctx *rc, const prt_camera *cam, int w, int h, const ref_desc *d, prt_image *out,
                      float *se, ref_stats *stats, prt_error *err);
 
+/* Rows [y0, y1) of that image only, into rgb[3 w (y1 - y0)] (and se, may be NULL, the same size), the
+ * same values ref_render_image gives those rows with the same desc (a pixel's samples depend on its
+ * index and seed only): a caller can refine an image band by band and stop between bands (the
+ * viewer's progressive reference, a new seed per pass). */
+int ref_render_rows(const ref_ctx *rc, const prt_camera *cam, int w, int h, int y0, int y1, const ref_desc *d,
+                    float *rgb, float *se, ref_stats *stats, prt_error *err);
+
 /* Environment sampling (exposed for tests): direction (world, unit) from u[0..3] in [0,1), with its
  * solid-angle pdf; false for an all-black probe. ref_env_pdf gives the pdf of any world direction. */
 bool ref_env_sample(const ref_ctx *rc, const float u[4], float w[3], float *pdf);

@@ -214,6 +214,12 @@ void transport_light_range(const prt_transport *t, const float (*L)[4], float *g
 typedef void (*transport_light_fn)(const prt_transport *t, const float (*L)[4], float *g, int first, int last);
 void transport_light_with(const prt_transport *t, const float (*L)[4], float *g, int nthreads, transport_light_fn kernel);
 
+/* A finished copy of finished set t keeping each vector's n largest coefficients by stored energy
+ * r^2 + g^2 + b^2 (ties: lower index; all of a vector that has <= n), same qbits, scales and values
+ * (keep.c): the runtime's "first n by importance" of a file that stores them in index order. Holds no
+ * policy or staging; free with transport_free. Returns 0 or -1 with err (OOM; out then empty). */
+int transport_keep_largest(const prt_transport *t, int n, prt_transport *out, prt_error *err);
+
 void transport_free(prt_transport *t);
 
 /* A representation's policy for transport_store and transport_finish: which coefficients a vector
