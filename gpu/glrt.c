@@ -15,7 +15,10 @@
  *   g       [nvecs] vec4           light-dependent K-vectors (output of a light change)
  *   view    per material [res*res][K] vec4: the view maps h_k
  * The 8-bit layout is the paper's (4.1.2): a 4-byte word per coefficient plus
- * its block byte, 5 bytes in all. */
+ * its block byte, 5 bytes in all.
+ * A transfer without GLSL kernels (ops->linear->glsl NULL) has only L's and g's buffers here and
+ * the view data: its light change runs on the CPU (transfer_light) and g is uploaded
+ * (GLRT_LIGHT_CPU, cpu_set_light). */
 #include "glrt.h"
 #include "prefilter.h"
 #include "gldraw.h"
@@ -35,7 +38,9 @@ struct glrt {
     gldraw draw;
     int nverts, nvecs, kmax_all, nmat, qbits;
     size_t ncoefs, transport_bytes, other_bytes;
-    bool direct;                /* the direct-only transport set is uploaded */
+    bool direct;                /* the direct-only transport set is uploaded (CPU method: is lit) */
+    bool cpu;                   /* the transfer has no GLSL: GLRT_LIGHT_CPU, no transport on the GPU */
+    float *cpu_g;               /* CPU method: [4 * nvecs], g = T x L as [3 * nvecs], then padded to vec4 in place */
     GLuint buf_first, buf_words, buf_blocks, buf_scale, buf_L, buf_g, buf_view;
     GLuint tex_first, tex_words, tex_blocks, tex_scale, tex_L, tex_g, tex_view;
     GLuint prog_light[GLRT_LIGHT_COUNT];
@@ -83,6 +88,7 @@ const char *glrt_light_method_name(glrt_light_method m) {
     case GLRT_LIGHT_FRAGMENT: return "fragment";
     case GLRT_LIGHT_THREAD: return "compute-thread";
     case GLRT_LIGHT_WARP: return "compute-warp";
+    case GLRT_LIGHT_CPU: return "cpu";
     default: return "auto";
     }
 }
@@ -317,11 +323,12 @@ static GLuint make_texbuf(const gl_api *gl, GLuint buf, GLenum fmt) {
     return t;
 }
 
-/* -1 with err when set t does not fit the GL buffer-texture limit (texels). */
+/* -1 with err when set t does not fit the GL buffer-texture limit (texels): its words (none on the
+ * CPU method: nothing of t is uploaded) and its vectors' g. */
 static int check_limits(glrt *rt, const prt_transport *t, prt_error *err) {
     GLint maxtb = 0;
     rt->gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
-    size_t words = (size_t)t->coef_first[t->nvecs] * (t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4);
+    size_t words = rt->cpu ? 0 : (size_t)t->coef_first[t->nvecs] * (t->qbits == 8 ? 1 : t->qbits == 16 ? 2 : 4);
     if ((size_t)maxtb < words + 1 || (size_t)maxtb < (size_t)t->nvecs + 1)
         return prt_fail(err, "GL runtime: %zu transport words exceed the GL buffer-texture limit (%d texels)", words, maxtb);
     return 0;
@@ -395,8 +402,10 @@ static int make_light_buffers(glrt *rt, prt_error *err) {
     /* Both start at zero (the light kernels are timed on this zero light at create). */
     float *zero = prt_calloc(gsize > lsize ? gsize : lsize, 1, err);
     if (!zero) return -1;
-    rt->buf_L = make_buffer(gl, zero, lsize, GL_DYNAMIC_DRAW);
-    rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
+    if (!rt->cpu) {   /* the CPU method uploads g, not L */
+        rt->buf_L = make_buffer(gl, zero, lsize, GL_DYNAMIC_DRAW);
+        rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
+    }
     rt->buf_g = make_buffer(gl, zero, gsize, GL_DYNAMIC_COPY);
     free(zero);
     rt->tex_g = make_texbuf(gl, rt->buf_g, GL_RGBA32F);
@@ -692,9 +701,9 @@ static int build_view_programs(glrt *rt, prt_error *err) {
     return glctx_check(rt->gl, "building the shaders", err);
 }
 
-/* The light kernels and the view programs; -1 with err. */
+/* The light kernels (none on the CPU method) and the view programs; -1 with err. */
 static int build_programs(glrt *rt, prt_error *err) {
-    return build_light_programs(rt, err) || build_view_programs(rt, err) ? -1 : 0;
+    return (!rt->cpu && build_light_programs(rt, err)) || build_view_programs(rt, err) ? -1 : 0;
 }
 
 /* Runs the light kernel of method m on the current L into g. */
@@ -770,18 +779,22 @@ static double time_method(glrt *rt, glrt_light_method m) {
     return 1e3 * (prt_now() - t0);
 }
 
-/* True when kernel m compiled on this context. */
+/* True when method m runs here: the CPU method on a transfer without GLSL, a GL kernel when it
+ * compiled on this context (never on such a transfer: none is built). */
 static bool method_available(const glrt *rt, glrt_light_method m) {
-    return m > GLRT_LIGHT_AUTO && m < GLRT_LIGHT_COUNT && rt->prog_light[m] != 0;
+    if (m == GLRT_LIGHT_CPU) return rt->cpu;
+    return m > GLRT_LIGHT_AUTO && m < GLRT_LIGHT_CPU && rt->prog_light[m] != 0;
 }
 
-/* Chooses (AUTO: times) the light kernel; -1 with err when unavailable. */
+/* Chooses (AUTO: times the GL kernels; a transfer without GLSL: the CPU method) the light method; -1
+ * with err when unavailable. */
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
     if (current(rt, err)) return -1;
+    if (m == GLRT_LIGHT_AUTO && rt->cpu) m = GLRT_LIGHT_CPU;
     if (m == GLRT_LIGHT_AUTO) {
         /* Time every kernel on the light currently uploaded (values do not change the cost). */
         glrt_light_method best = GLRT_LIGHT_AUTO;
-        for (int k = GLRT_LIGHT_FRAGMENT; k < GLRT_LIGHT_COUNT; k++) {
+        for (int k = GLRT_LIGHT_FRAGMENT; k < GLRT_LIGHT_CPU; k++) {
             rt->timing.method_ms[k] = 0;
             if (!method_available(rt, (glrt_light_method)k)) continue;
             rt->timing.method_ms[k] = time_method(rt, (glrt_light_method)k);
@@ -790,13 +803,16 @@ int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err) {
         m = best;
         if (glctx_check(rt->gl, "timing the light kernels", err)) return -1;
     }
+    if (!method_available(rt, m) && (rt->cpu || m == GLRT_LIGHT_CPU))
+        return prt_fail(err, "GL light method '%s' is not available: the %s transfer %s GLSL light kernels",
+                        glrt_light_method_name(m), rt->tr->ops->name, rt->cpu ? "has no" : "has");
     if (!method_available(rt, m))
         return prt_fail(err, "GL light kernel '%s' is not available (needs OpenGL 4.3; this context is %d.%d)",
                         glrt_light_method_name(m), rt->ctx->major, rt->ctx->minor);
     rt->method = m;
     rt->timing.light_method = m;
     rt->timing.light_method_name = glrt_light_method_name(m);
-    if (rt->light_set) run_light(rt, m); /* keep g consistent with the chosen kernel */
+    if (rt->light_set && m != GLRT_LIGHT_CPU) run_light(rt, m); /* keep g consistent with the chosen kernel */
     return 0;
 }
 
@@ -808,13 +824,11 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     if (nlinear != 1)
         return prt_fail(err, "GL runtime: the data has %d linear transfers (one supported)", nlinear), NULL;
     const prt_transfer *tr = prt_data_transfer(d);
-    if (!tr->ops->linear->glsl)
-        return prt_fail(err, "GL runtime: the %s transfer has no GL kernel (use the CPU backend)", tr->ops->name), NULL;
     const prt_transport *t = &tr->transport;
     const prt_mesh *m = &d->scene.mesh;
     if (t->nverts != m->nverts || !t->vec_first || !t->coef_first)
         return prt_fail(err, "GL runtime: transport (%d vertices) does not match the mesh (%d)", t->nverts, m->nverts), NULL;
-    if (t->qbits != 8 && t->qbits != 16 && t->qbits != 32)
+    if (tr->ops->linear->glsl && t->qbits != 8 && t->qbits != 16 && t->qbits != 32)
         return prt_fail(err, "GL runtime: unsupported quantization %d bits", t->qbits), NULL;
     int nmat = d->scene.nmaterials > 0 ? d->scene.nmaterials : 1, kmax = 1;
     if (nmat > PRT_MAX_MATERIALS) nmat = PRT_MAX_MATERIALS;
@@ -833,6 +847,8 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->local_bounce = dd.local_bounce;
     rt->vsgl_glossy = true;
     rt->tr = tr;
+    rt->cpu = !tr->ops->linear->glsl;
+    if (rt->cpu && !(rt->cpu_g = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) { free(rt); return NULL; }
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
     rt->ncoefs = t->coef_first[t->nvecs];
@@ -845,7 +861,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     if (dd.ctx) rt->ctx = dd.ctx;
     else {
         rt->ctx = glctx_create(GLCTX_AUTO, NULL, err);
-        if (!rt->ctx) { free(rt); return NULL; }
+        if (!rt->ctx) { free(rt->cpu_g); free(rt); return NULL; }
         rt->own_ctx = true;
     }
     rt->gl = &rt->ctx->gl;
@@ -857,14 +873,14 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
         glrt_destroy(rt);
         return NULL;
     }
-    if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || upload_transport(rt, t, err) ||
+    if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || (!rt->cpu && upload_transport(rt, t, err)) ||
         make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || upload_tv(rt, err) ||
         build_programs(rt, err)) {
         glrt_destroy(rt);
         return NULL;
     }
     gl->GenQueries(1, &rt->query);
-    if (glrt_set_light_method(rt, dd.light, err)) {
+    if (glrt_set_light_method(rt, rt->cpu ? GLRT_LIGHT_CPU : dd.light, err)) {
         glrt_destroy(rt);
         return NULL;
     }
@@ -906,6 +922,7 @@ void glrt_destroy(glrt *rt) {
         gldraw_free(&rt->draw);
     }
     if (rt->own_ctx) glctx_destroy(rt->ctx);
+    free(rt->cpu_g);
     free(rt);
 }
 
@@ -979,11 +996,37 @@ int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
     return glrt_set_local_lights(rt, &rt->lights, err);
 }
 
+/* The CPU method's light change: g = T x L of the set in use by the transfer's own CPU kernel
+ * (transfer_light: the unscaled L, scaled inside when huge, so no unshift here), padded to the g
+ * buffer's vec4 per vector and uploaded; finished and timed (both steps). -1 with err. */
+static int cpu_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
+    const gl_api *gl = rt->gl;
+    double t0 = prt_now();
+    rt->unshift = 1.f;
+    float *g = rt->cpu_g;
+    transfer_light(rt->tr, rt->direct ? &rt->tr->direct : &rt->tr->transport, L, g, 0);
+    /* [3 * nvecs] -> [4 * nvecs] in place, from the last vector down: vector i's writes (4i..4i+3) reach no
+     * value still to be read (those of vectors < i lie below 3i, and its own are read before written) */
+    for (int i = rt->nvecs - 1; i >= 0; i--) {
+        g[4 * (size_t)i + 3] = 0.f;
+        for (int c = 2; c >= 0; c--) g[4 * (size_t)i + c] = g[3 * (size_t)i + c];
+    }
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_g);
+    gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)(sizeof(float) * 4 * (size_t)rt->nvecs), g);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    gl->Finish();
+    rt->timing.light_ms = 1e3 * (prt_now() - t0);
+    rt->timing.light_gpu_ms = 0;
+    rt->light_set = true;
+    return glctx_check(gl, "light change (uploading g)", err);
+}
+
 /* Light change: uploads L (scaled when huge: transfer_light_scaled_copy) and runs the kernel, finished and timed;
- * -1 with err. */
+ * the CPU method: cpu_set_light. -1 with err. */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
+    if (rt->cpu) return cpu_set_light(rt, L, err);
     double t0 = prt_now();
     int shift;
     float (*Ls)[4] = transfer_light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */
@@ -1234,6 +1277,11 @@ int glrt_use_direct(glrt *rt, bool direct, prt_error *err) {
     if (t->nvecs != rt->nvecs || t->nverts != rt->nverts)
         return prt_fail(err, "direct transport (%d vectors) does not match the full one (%d)", t->nvecs, rt->nvecs);
     if (current(rt, err) || check_limits(rt, t, err)) return -1;
+    if (rt->cpu) {   /* nothing uploaded: the next light change lights that set */
+        rt->direct = direct;
+        rt->light_set = false;
+        return 0;
+    }
     int old_qbits = rt->qbits;
     if (upload_transport(rt, t, err)) return -1;
     if (rt->qbits != old_qbits && build_light_programs(rt, err)) return -1;
@@ -1244,7 +1292,7 @@ int glrt_use_direct(glrt *rt, bool direct, prt_error *err) {
 
 void glrt_get_timing(const glrt *rt, glrt_timing *out) {
     *out = rt->timing;
-    out->gpu_bytes = rt->transport_bytes + rt->other_bytes + sizeof(float) * 4 * (CUBE_TEXELS + (size_t)rt->frag_w * rt->frag_h);
+    out->gpu_bytes = rt->transport_bytes + rt->other_bytes + sizeof(float) * 4 * ((rt->cpu ? 0 : CUBE_TEXELS) + (size_t)rt->frag_w * rt->frag_h);
 }
 
 int glrt_render_image(const prt_data *d, const float (*L)[4], const render_desc *rd, int kmax, prt_image *out,

@@ -47,6 +47,14 @@
  * on a GPU the compute kernels are expected to win. glrt_render_image, a single
  * light change, skips the timing and uses the fragment kernel.
  *
+ * A linear transfer without GLSL kernels (ops->linear->glsl NULL: a representation
+ * whose light change is its own CPU code, transfer.h) gets the fourth method,
+ * GLRT_LIGHT_CPU, and only it, whatever glrt_desc.light asks: nothing of its
+ * transport is uploaded and no light program built; glrt_set_light computes
+ * g = T x L with transfer_light on the CPU (all cores, the set glrt_use_direct
+ * chose), pads it to the g buffer's vec4 layout and uploads it (BufferSubData).
+ * The view programs read g as for the GL kernels. light_ms covers both steps.
+ *
  * Several transfers: glrt draws the data's one sparse transfer (prt_data_transfer; a file with
  * more than one is refused) and adds, per vertex, a radiance computed elsewhere
  * (glrt_set_vertex_add: the vmf transfer's lobes from ops->view->shade_vertices on the CPU, per view
@@ -87,21 +95,24 @@
 #define GLRT_PF_LEVELS 13   /* prefilter ladder levels the per-pixel program samples (prefilter.h's default) */
 
 typedef enum glrt_light_method {
-    GLRT_LIGHT_AUTO = 0, GLRT_LIGHT_FRAGMENT, GLRT_LIGHT_THREAD, GLRT_LIGHT_WARP, GLRT_LIGHT_COUNT
+    GLRT_LIGHT_AUTO = 0, GLRT_LIGHT_FRAGMENT, GLRT_LIGHT_THREAD, GLRT_LIGHT_WARP,
+    GLRT_LIGHT_CPU,             /* transfer_light on the CPU, g uploaded: the transfers without GLSL, and only those */
+    GLRT_LIGHT_COUNT
 } glrt_light_method;
 
 typedef enum glrt_view_mode { GLRT_VIEW_PIXEL = 0, GLRT_VIEW_VERTEX = 1 } glrt_view_mode;
 
 typedef struct glrt_desc {
     glctx *ctx;                 /* NULL: a headless context owned by the glrt */
-    glrt_light_method light;    /* AUTO: the fastest, measured at create */
+    glrt_light_method light;    /* AUTO: the fastest, measured at create (a transfer without GLSL: CPU, whatever this asks) */
     glrt_view_mode view;
     bool local_bounce;          /* local lights: add their one bounce by VSGLs (glvsgl.h: both lobes of the receiver) */
 } glrt_desc;
 
 typedef struct glrt_timing {
     double upload_ms;           /* create: uploading transport, view maps, mesh */
-    double light_ms;            /* last light change, wall clock: upload L + kernel, finished */
+    double light_ms;            /* last light change, wall clock: upload L + kernel, finished (CPU method: the
+                                 * CPU light change + the upload of g) */
     double light_gpu_ms;        /* GPU time of the last light kernel (timer query) */
     double view_ms;             /* last glrt_draw or glrt_draw_vertex_colors, wall clock (finished) */
     double view_gpu_ms;         /* GPU time of the last glrt_draw */
@@ -166,7 +177,8 @@ int glrt_read_gvec(glrt *rt, float *g, prt_error *err);
  * direct + bounces (false, the default): re-uploads that transport set. Call glrt_set_light again
  * to see the change. -1 with err when the file keeps no direct set. */
 int glrt_use_direct(glrt *rt, bool direct, prt_error *err);
-/* Switches the view mode / light kernel (a method the context cannot run fails). */
+/* Switches the view mode / light kernel (a method the context or the transfer cannot run fails: the GL
+ * kernels need the transfer's GLSL, CPU its lack; AUTO picks what it has). */
 void glrt_set_view_mode(glrt *rt, glrt_view_mode mode);
 int glrt_set_light_method(glrt *rt, glrt_light_method m, prt_error *err);
 void glrt_get_timing(const glrt *rt, glrt_timing *out);

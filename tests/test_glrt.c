@@ -235,7 +235,7 @@ static void synthetic(void) {
         CHECK(tm.light_method > GLRT_LIGHT_AUTO && tm.light_method < GLRT_LIGHT_COUNT, "no kernel chosen");
         int nv = s.d.transfers[0].transport.nvecs;
         float *g = calloc(3 * (size_t)nv, sizeof(float));
-        for (int m = GLRT_LIGHT_FRAGMENT; m < GLRT_LIGHT_COUNT; m++) {
+        for (int m = GLRT_LIGHT_FRAGMENT; m < GLRT_LIGHT_CPU; m++) {   /* the GL kernels (CPU: transfers without GLSL) */
             int rc = glrt_set_light_method(rt, (glrt_light_method)m, &err);
             CHECK(rc == 0, "qbits %d, %s: %s", qb[q], glrt_light_method_name((glrt_light_method)m), err.msg);
             if (rc) continue;
