@@ -11,7 +11,10 @@
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
  *    mode's difference from it is reported (it is a different, finer model).
  * 4. A finite 1e37 sun through runtime.h on both backends: gl's colours and images
- *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun). */
+ *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun).
+ * 5. A linear transfer without GLSL (cpu_light: --basis cpca, one bounce, the direct set kept):
+ *    the CPU light method only; g uploaded equals transfer_light's, total, direct-only and under a
+ *    1e37 light; gl's per-vertex images equal cpu's to the rounding of the scene case. */
 #include "harness.h"
 #include "transport_fixture.h"
 #include "brdf.h"
@@ -677,6 +680,108 @@ static void bright_sun(void) {
     prt_data_free(&d);
 }
 
+/* A transfer without GLSL kernels (ops->linear->glsl NULL; cpca is one) lit by the CPU method: g is
+ * transfer_light's, uploaded. The g read back must equal transfer_light's bits (the same code on the
+ * same inputs in one process; floats copied to the GPU and back unchanged), for the total, the direct
+ * set (glrt_use_direct) and a 1e37 light (transfer_light scales it: no unshift on this path). The images:
+ * per-vertex gl against cpu through runtime.h, the scene case's rule (same model, same g: float
+ * rounding of GL's view lookups and raster). */
+static void cpu_light(void) {
+    prt_error err = { { 0 } };
+    prt_mesh sphere = { 0 };
+    prt_scene sc = { 0 };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    const float c[3] = { 0, 0.5f, 0 };
+    int rc = mesh_make_sphere(&sphere, c, 0.5f, 8, 12, &err);
+    if (rc == 0) rc = scene_from_mesh(&sphere, "lambert:kd=0.8", &sc, &err);
+    if (rc == 0) rc = scene_add_floor(&sc, 400, 3, NULL, &err);
+    precompute_desc pd = { .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .gather_res = 16, .keep_direct = true,
+                           .basis = "cpca", .basis_options = "clusters=6,terms=6,coeffs=1500,stage=3000" };
+    if (rc == 0) rc = precompute_run(&sc, &pd, &d, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) return;
+    const prt_transfer *tr = prt_data_transfer(&d);
+    CHECK(tr->ops->linear->glsl == NULL && tr->direct.nvecs == tr->transport.nvecs, "a transfer without GLSL, the direct set kept");
+    prt_probe sky;
+    sky_desc sd = { .width = 128, .sun_dir = { 0.4f, 0.8f, 0.45f }, .sun_radius_deg = 5, .sun_radiance = 80 };
+    CHECK(probe_make_sky(&sd, &sky, &err) == 0, "%s", err.msg);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    probe_to_cube(&sky, CUBE_RES, NULL, 0, cube);
+    float (*L)[4] = transfer_light_vector(tr, cube), (*big)[4] = transfer_light_alloc();
+    for (int k = 0; k < CUBE_TEXELS; k++)
+        for (int ch = 0; ch < 4; ch++) big[k][ch] = ldexpf(L[k][ch], 100);   /* a sun near 1e37: scaled in transfer_light */
+    free(cube);
+    int nv = tr->transport.nvecs;
+    float *g = calloc(3 * (size_t)nv, sizeof(float)), *want = calloc(3 * (size_t)nv, sizeof(float)), *tot = calloc(3 * (size_t)nv, sizeof(float));
+    glrt_desc desc = { .light = GLRT_LIGHT_FRAGMENT };   /* asked for a GL kernel: it gets the CPU method */
+    glrt *rt = glrt_create(&d, &desc, &err);
+    CHECK(rt != NULL, "%s", err.msg);
+    if (rt) {
+        glrt_timing tm;
+        glrt_get_timing(rt, &tm);
+        CHECK(tm.light_method == GLRT_LIGHT_CPU && !strcmp(tm.light_method_name, "cpu"), "method %s", tm.light_method_name);
+        CHECK(glrt_set_light_method(rt, GLRT_LIGHT_THREAD, &err) == -1 && strstr(err.msg, "no GLSL") && !strchr(err.msg, '\n'),
+              "a GL kernel refused in one line: '%s'", err.msg);
+        CHECK(glrt_set_light_method(rt, GLRT_LIGHT_AUTO, &err) == 0, "auto: %s", err.msg);
+        const float (*lights[3])[4] = { (const float (*)[4])L, (const float (*)[4])L, (const float (*)[4])big };
+        for (int step = 0; step < 3; step++) {
+            bool direct = step == 1;
+            CHECK(glrt_use_direct(rt, direct, &err) == 0 && glrt_set_light(rt, lights[step], &err) == 0 &&
+                  glrt_read_gvec(rt, g, &err) == 0, "step %d: %s", step, err.msg);
+            transfer_light(tr, direct ? &tr->direct : &tr->transport, lights[step], want, 0);
+            if (step == 0) memcpy(tot, want, sizeof(float) * 3 * (size_t)nv);
+            double dt = 0, gmax = 0;
+            for (int i = 0; i < 3 * nv; i++) dt = fmax(dt, fabs(want[i] - tot[i])), gmax = fmax(gmax, fabs(want[i]));
+            if (step == 1) CHECK(dt > 1e-3 * gmax, "the direct set lit as the total (the bounce adds %g of %g)", dt, gmax);
+            if (step == 2) CHECK(gmax > 1e30 && isfinite(gmax), "the 1e37 light: max g %g", gmax);
+            CHECK(!memcmp(g, want, sizeof(float) * 3 * (size_t)nv), "step %d (%s): g differs from transfer_light's", step,
+                  step == 0 ? "total" : step == 1 ? "direct" : "1e37 light");
+        }
+        glrt_get_timing(rt, &tm);
+        CHECK(tm.light_ms > 0 && tm.gpu_bytes > 0, "light_ms %g, gpu bytes %zu", tm.light_ms, tm.gpu_bytes);
+        glrt_destroy(rt);
+    }
+    /* per-vertex images, gl against cpu (runtime.h, the backends' own light change) */
+    const int w = 120, h = 90;
+    prt_camera cam;
+    camera_default(d.scene.bmin, d.scene.bmax, (float)w / h, &cam);
+    prt_image img[3] = { { 0 }, { 0 }, { 0 } };   /* cpu, gl per vertex, gl per pixel */
+    for (int b = 0; b < 2; b++) {
+        runtime_desc rdsc = { .backend = b ? "gl" : "cpu", .view = RUNTIME_VIEW_VERTEX };
+        prt_runtime *rrt = runtime_create(&d, &rdsc, &err);
+        render_desc rd = { .width = w, .height = h, .camera = cam };
+        CHECK(rrt && runtime_set_light(rrt, &sky, NULL, &err) == 0 && runtime_render(rrt, &rd, &img[b], &err) == 0, "%s: %s",
+              rdsc.backend, err.msg);
+        if (rrt && b) {
+            runtime_timing t;
+            runtime_get_timing(rrt, &t);
+            CHECK(t.kernel && !strcmp(t.kernel, "cpu"), "gl runtime's kernel: %s", t.kernel ? t.kernel : "(none)");
+            CHECK(runtime_set_view(rrt, RUNTIME_VIEW_PIXEL, &err) == 0 && runtime_render(rrt, &rd, &img[2], &err) == 0, "%s", err.msg);
+        }
+        runtime_destroy(rrt);
+    }
+    /* Per pixel (gl's default) too: Lambertian, so h is one constant per material and h . g interpolated per
+     * pixel is the Gouraud of the vertex colours to rounding (but for colours clamped at zero, hence the quantile). */
+    for (int k = 1; k < 3 && img[0].data; k++) {
+        size_t n = (size_t)w * h * 3;
+        double cmax = 0, *rel = img[k].data ? malloc(sizeof(double) * n) : NULL;
+        if (!rel) continue;
+        for (size_t i = 0; i < n; i++) cmax = fmax(cmax, img[0].data[i]);
+        rel_diffs(&img[k], &img[0], 1e-3 * cmax, rel);
+        fprintf(stderr, "test_glrt: cpu light method, %s GL vs CPU: median rel diff %.2e, 99.9%% %.2e, max %.2e\n",
+                k == 1 ? "per-vertex" : "per-pixel", rel[n / 2], rel[n * 999 / 1000], rel[n - 1]);
+        CHECK(cmax > 0, "black image");
+        CHECK_LE(rel[n * 999 / 1000], 1e-4, "%s GL image (cpu light method) differs from the CPU runtime's", k == 1 ? "per-vertex" : "per-pixel");
+        CHECK_LE(rel[n / 2], 1e-5, "median");
+        free(rel);
+    }
+    for (int k = 0; k < 3; k++) image_free(&img[k]);
+    free(g); free(want); free(tot); free(L); free(big);
+    probe_free(&sky);
+    prt_data_free(&d);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(synthetic);
@@ -685,5 +790,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(direct_switch);
     CHECK_CASE(scene);
     CHECK_CASE(bright_sun);
+    CHECK_CASE(cpu_light);
     return check_summary();
 }
