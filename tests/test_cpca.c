@@ -16,10 +16,14 @@
  *                and `prt info` (exit 1);
  *   relight:     a sphere over a plane precomputed with --basis cpca relights, vector by vector, within
  *                ||x - x^|| ||L|| (Cauchy-Schwarz) of Haar at N = 24,576 in float (the exact vectors),
- *                x^ the model's reconstruction. */
+ *                x^ the model's reconstruction;
+ *   gl:          the file through the CLI: `prt render --backend gl` (the GL runtime's CPU light method,
+ *                glrt.h) equals `--backend cpu` to test_glrt's rule for gl against cpu images, and
+ *                `prt bench --backend gl` runs and names the method "cpu". */
 #include "harness.h"
 #include "cpca.h"
 #include "cubemap.h"
+#include "image.h"
 #include "mesh.h"
 #include "precompute.h"
 #include "probe.h"
@@ -403,6 +407,62 @@ static void relight(void) {
     prt_data_free(&h);
 }
 
+static int cmp_dbl(const void *a, const void *b) {
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* The cpca file rendered by the GL runtime (no GLSL kernel: g from the transfer's own light on the CPU,
+ * uploaded) against the CPU runtime, through `prt render`. The same g on both sides; the scene is
+ * Lambertian (h one constant per material), so gl's per-pixel h . g is the cpu's Gouraud of vertex
+ * colours to GL's float rounding: test_glrt's rule for gl against cpu images (per-pixel relative
+ * difference over 1e-3 of the image's largest value: median 1e-5, 99.9% 1e-4; the quantile for pixels
+ * at colours clamped at zero, where the two interpolate differently). Then `prt bench --backend gl`. */
+static void gl(void) {
+    prt_error err;
+    prt_data a;
+    if (precompute("cpca", CPCA_OPTS, 0, 0, 2, &a)) return;
+    char path[600], probe[600], out[2][600], cmd[4096], buf[8192];
+    const char *D = check_tmpdir(), *B = check_prt_bin();
+    snprintf(path, sizeof path, "%s/cpca_gl.prt", D);
+    snprintf(probe, sizeof probe, "%s/cpca_sun.exr", D);
+    CHECK(prtfile_write(path, &a, &err) == 0, "%s", err.msg);
+    prt_data_free(&a);
+    prt_image im = { 0 }, img[2] = { { 0 }, { 0 } };
+    CHECK(image_alloc(&im, 64, 32, 3, &err) == 0, "%s", err.msg);
+    for (int i = 0; i < 64 * 32 * 3; i++) im.data[i] = i / 3 / 64 < 16 ? 0.5f : 0.05f;   /* sky over a dark ground */
+    for (int y = 5; y < 8; y++)   /* a sun: sharp shadows of the sphere on the plane */
+        for (int x = 20; x < 23; x++)
+            for (int k = 0; k < 3; k++) im.data[3 * (y * 64 + x) + k] = 200.f;
+    CHECK(image_write(probe, &im, NULL, &err) == 0, "%s", err.msg);
+    image_free(&im);
+    for (int b = 0; b < 2; b++) {
+        snprintf(out[b], sizeof out[b], "%s/cpca_%s.exr", D, b ? "gl" : "cpu");
+        snprintf(cmd, sizeof cmd, "%s render %s --probe %s --backend %s -o %s --size 96x72 --no-background 2>&1", B, path, probe,
+                 b ? "gl" : "cpu", out[b]);
+        CHECK(check_run(cmd, buf, sizeof buf) == 0, "render --backend %s: %s", b ? "gl" : "cpu", buf);
+        CHECK(image_read(out[b], &img[b], &err) == 0, "%s", err.msg);
+    }
+    if (img[0].data && img[1].data && img[0].w == img[1].w && img[0].h == img[1].h) {
+        size_t n = (size_t)img[0].w * img[0].h * 3;
+        double cmax = 0, *rel = malloc(sizeof(double) * n);
+        for (size_t i = 0; i < n; i++) cmax = fmax(cmax, img[0].data[i]);
+        for (size_t i = 0; i < n; i++) rel[i] = fabs(img[1].data[i] - img[0].data[i]) / (fabs(img[0].data[i]) + 1e-3 * cmax);
+        qsort(rel, n, sizeof *rel, cmp_dbl);
+        printf("  gl: render --backend gl vs cpu: median rel diff %.2e, 99.9%% %.2e, max %.2e\n", rel[n / 2], rel[n * 999 / 1000],
+               rel[n - 1]);
+        CHECK(cmax > 0, "black image");
+        CHECK_LE(rel[n * 999 / 1000], 1e-4, "gl image differs from cpu's");
+        CHECK_LE(rel[n / 2], 1e-5, "median");
+        free(rel);
+    } else CHECK(0, "two images of one size");
+    image_free(&img[0]);
+    image_free(&img[1]);
+    snprintf(cmd, sizeof cmd, "%s bench %s --probe %s --backend gl --frames 2 --size 32x24 2>&1", B, path, probe);
+    CHECK(check_run(cmd, buf, sizeof buf) == 0 && strstr(buf, "bench: backend=gl") && strstr(buf, "kernel=cpu"),
+          "bench --backend gl names the cpu method: %s", buf);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(energy);
@@ -411,5 +471,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(round_trip);
     CHECK_CASE(bad_input);
     CHECK_CASE(relight);
+    CHECK_CASE_GL(gl);
     return check_summary();
 }
