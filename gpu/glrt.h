@@ -174,8 +174,8 @@ void glrt_present(glrt *rt, int win_w, int win_h, float exposure_stops);
 /* Copies the light-dependent K-vectors back: g[3*i + ch] for every vector (as relight_gvec). */
 int glrt_read_gvec(glrt *rt, float *g, prt_error *err);
 /* Direct-only lighting (true; the file's direct-only set, kept by `precompute --keep-direct`) or
- * direct + bounces (false, the default): re-uploads that transport set. Call glrt_set_light again
- * to see the change. -1 with err when the file keeps no direct set. */
+ * direct + bounces (false, the default): re-uploads that transport set (the CPU method: lights it from
+ * then on). Call glrt_set_light again to see the change. -1 with err when the file keeps no direct set. */
 int glrt_use_direct(glrt *rt, bool direct, prt_error *err);
 /* Switches the view mode / light kernel (a method the context or the transfer cannot run fails: the GL
  * kernels need the transfer's GLSL, CPU its lack; AUTO picks what it has). */

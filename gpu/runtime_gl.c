@@ -1,7 +1,8 @@
 /* runtime_gl.c - the "gl" runtime backend (runtime.h) over the GLSL runtime (glrt.h).
  *
  * Light change: glrt_set_light, the sparse T x L in a GPU pass (the kernel
- * chosen by name, "auto" timing each once at create). View change: glrt_draw,
+ * chosen by name, "auto" timing each once at create; a transfer without GLSL
+ * kernels: on the CPU and g uploaded, the kernel "cpu", glrt.h). View change: glrt_draw,
  * per pixel (the default) or per vertex. Images are read back from glrt's float
  * target; runtime_present blits it to the caller's window.
  *

@@ -26,7 +26,8 @@
  *     vmf   VIEW    src/transfer/vmf/   vMF lobes per vertex and geodesic view, perfect-hashed
  *     cpca  LINEAR  src/transfer/cpca/  clustered PCA of the Haar transport (Sloan 2003, Liu 2004):
  *                                       per cluster a mean and M sparse basis vectors, per vector M
- *                                       weights; built by its finish, lit by its light (CPU only)
+ *                                       weights; built by its finish, lit by its light (on the CPU,
+ *                                       also under the GL runtime, which uploads g)
  * Haar and SH share their storage section, validation and kernels (src/transfer/linear/); cpca
  * uses Haar's basis and light vector and keeps only the sets' vector offsets in them.
  *
@@ -232,7 +233,8 @@ typedef struct transfer_linear {
      * g[3i + ch] of set t of tr on nthreads (0: all), for a representation with a step per light
      * change that every vector shares (cpca: each cluster's rows projected on the light once). */
     void (*light)(const prt_transfer *tr, const prt_transport *t, const float (*L)[4], float *g, int nthreads);
-    /* GLSL light kernels (NULL: no GL runtime for this representation). */
+    /* GLSL light kernels (NULL: the GL runtime changes the light on the CPU, transfer_light, and uploads
+     * g: glrt.h's CPU method). */
     const transfer_glsl *glsl;
 } transfer_linear;
 

@@ -18,7 +18,8 @@
  * passes are smoother than the direct one, so they cost the clusters little.
  *
  * Runtime: cpca_light (C (M + 1) sparse dot products, then M multiply-adds per vector and channel).
- * No GL kernel: the GL runtime refuses the transfer and the CPU runtime lights it. */
+ * No GLSL kernels (glsl NULL): both runtimes light it with cpca_light on the CPU; the GL runtime uploads
+ * g and shades from it as from its own kernels' (glrt.h, the CPU light method). */
 #include "transfer.h"
 #include "cpca.h"
 #include "haar.h"
