@@ -222,7 +222,11 @@ static void report(const bench_args *a, const prt_data *d, const runtime_timing 
     if (km[1] > 0 || vm[1] > 0)   /* the one bounce, the highlights (cpu: indirect.h) */
         printf("local indirect: one bounce (RSM + 2 VSGLs per light) %.2f ms of the move, %s %.2f ms of the view change "
                "(means)\n", km[1], runtime_backend_find(tm->backend)->indirect_view, vm[1]);
-    if (lm[3] > 0 || vm[3] > 0) printf("GPU timer: light change %.2f ms, view change %.2f ms (mean)\n", lm[3], vm[3]);
+    if (lm[3] > 0 || vm[3] > 0) {   /* a light change with no GPU time ran on the CPU (gl's kernel "cpu") */
+        char lc[64] = "none (on the CPU)";
+        if (lm[3] > 0) snprintf(lc, sizeof lc, "%.2f ms", lm[3]);
+        printf("GPU timer: light change %s, view change %.2f ms (mean)\n", lc, vm[3]);
+    }
     printf("bench: backend=%s K=%d light_ms=%.3f view_ms=%.3f kernel=%s\n", tm->backend, kuse, lm[0], vm[0], tm->kernel);
     printf("paper, Table II (Bunny, 36K + 31K floor vertices, GeForce 6800 / Pentium 4 2.4 GHz):\n"
            "  GPU 1-term: light change 31 fps, view change 226 fps\n"
