@@ -17,6 +17,9 @@
 #include "relight.h"
 #include "transfer.h"
 #include "linear.h"
+#include "planfx.h"
+#include "effects.h"
+#include "visibility.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -461,6 +464,146 @@ static void glossy_flag(void) {
     if (f) fclose(f);
 }
 
+/* A point light of intensity I at pos over the scene (its only light). */
+static void add_point_light(prt_scene *sc, float x, float y, float z) {
+    sc->lights.count = 1;
+    sc->lights.light[0] = (prt_light){ .type = PRT_LIGHT_POINT, .pos = { x, y, z }, .intensity = 2, .colour = { 1, 1, 1 } };
+}
+
+/* Every vertex index 0..n-1 (the measurement's sample). */
+static int *all_vertices(int n) {
+    int *v = malloc(sizeof(int) * (size_t)n);
+    for (int i = 0; v && i < n; i++) v[i] = i;
+    return v;
+}
+
+/* A point light over a lone plane: no ray from the plane hits anything, so the one bounce carries
+ * exactly 0 and the plan leaves it (and the highlights) off, saying so. */
+static void local_bounce_plane(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    prt_data out;
+    CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0, 9, 9, &err) == 0, "%s", err.msg);
+    CHECK(scene_from_mesh(&m, "phong:kd=0.5;ks=0.4;n=40", &sc, &err) == 0, "%s", err.msg);
+    add_point_light(&sc, 0.2f, 1, 0.1f);
+    vis_scene *vs = vis_create(&sc.mesh, &err);
+    int *all = all_vertices(sc.mesh.nverts);
+    planfx_bounce b;
+    planfx_measure_bounce(&sc, vs, all, sc.mesh.nverts, PLANFX_RAYS, &b);
+    CHECK(b.direct > 0 && b.bounce == 0 && b.glossy == 0, "plane: direct %g bounce %g glossy %g", b.direct, b.bounce, b.glossy);
+    CHECK(b.vertices == 81 && b.glossy_vertices == 81, "%d vertices, %d glossy", b.vertices, b.glossy_vertices);
+    free(all);
+    vis_destroy(vs);
+    CHECK(precompute_run(&sc, &base, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): none: carries 0.0% of the direct light") != NULL, "plan: %s", out.plan);
+    CHECK(strstr(out.plan, "indirect highlights: none: the 81 glossy sampled vertices receive 0.0%") != NULL, "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(!fx.local_bounce && !fx.highlights, "effects read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+}
+
+/* A closed sphere seen from inside (normals and triangles flipped), radius 1, a point light at
+ * its centre. Every point sees every other with the form factor dA / (4 pi R^2), so the one-bounce
+ * irradiance is kd E_d everywhere: the share is kd. The tessellation (16 rings, 32 segments) moves a
+ * hit point inside the sphere by at most the sag 1 - cos(pi / 32) = 0.0048 and tilts its normal off
+ * the light by at most pi / 32, so a hit's radiance I cos / d^2 is within 1 - 0.0048 and
+ * 1 / (1 - 0.0048)^2 = 1 + 0.0097 of the exact; the radiance is the same along every ray up to that,
+ * so the lattice's noise is below it too: 1.5% bounds the share's error relative to kd. */
+static void local_bounce_sphere(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    float c[3] = { 0, 0, 0 };
+    CHECK(mesh_make_sphere(&m, c, 1, 16, 32, &err) == 0, "%s", err.msg);
+    for (int i = 0; i < 3 * m.nverts; i++) m.nrm[i] = -m.nrm[i];
+    for (int t = 0; t < m.ntris; t++) {
+        uint32_t x = m.tris[3 * t + 1];
+        m.tris[3 * t + 1] = m.tris[3 * t + 2];
+        m.tris[3 * t + 2] = x;
+    }
+    CHECK(scene_from_mesh(&m, "lambert:kd=0.6", &sc, &err) == 0, "%s", err.msg);
+    add_point_light(&sc, 0, 0, 0);
+    vis_scene *vs = vis_create(&sc.mesh, &err);
+    int *all = all_vertices(sc.mesh.nverts);
+    planfx_bounce b;
+    planfx_measure_bounce(&sc, vs, all, sc.mesh.nverts, PLANFX_RAYS, &b);
+    double share = b.bounce / b.direct;
+    printf("closed sphere, kd 0.6: measured share %.4f (%ld rays)\n", share, b.rays);
+    CHECK_NEAR(share, 0.6, 0.015 * 0.6, "closed sphere: one bounce carries kd of the direct light");
+    CHECK_NEAR(b.direct, 2.0 * sc.mesh.nverts, 1e-4 * 2.0 * sc.mesh.nverts, "E_d = I / R^2 at every vertex");
+    CHECK(b.glossy == 0 && b.glossy_vertices == 0, "no glossy receiver");
+    free(all);
+    vis_destroy(vs);
+    prt_data out;
+    precompute_desc d = base;
+    d.force_bounces = -1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): needed: carries 6") != NULL, "plan: %s", out.plan);
+    CHECK(strstr(out.plan, "indirect highlights: none: no glossy material") != NULL, "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(fx.local_bounce && !fx.highlights, "effects read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+}
+
+/* The force flags override the measurement, both ways, and the plan says so. */
+static void local_bounce_forced(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    prt_data out;
+    CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0, 5, 5, &err) == 0, "%s", err.msg);
+    CHECK(scene_from_mesh(&m, "phong:kd=0.5;ks=0.4;n=40", &sc, &err) == 0, "%s", err.msg);
+    add_point_light(&sc, 0, 1, 0);
+    precompute_desc d = base;
+    d.force_local_bounce = 1;
+    d.force_highlights = 1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): needed (forced)") && strstr(out.plan, "indirect highlights: needed (forced)"),
+          "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(fx.local_bounce && fx.highlights, "forced on read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+    d.force_local_bounce = 2;
+    CHECK(precompute_desc_check(&d, &err) == -1 && strstr(err.msg, "force_local_bounce"), "bad force value: %s", err.msg);
+}
+
+/* prt_file_effects reads the plan's lines: the measured ones, the forced ones and the older
+ * hit-fraction ones (files made before the measurement), and falls back on the hit fraction. */
+static void effects_lines(void) {
+    static const struct { const char *plan; float hit; bool bounce, hl; } cases[] = {
+        { "    one bounce (two VSGLs): needed: carries 40.1% of the direct light\n"
+          "    indirect highlights: needed: the 12 glossy sampled vertices receive 5.0%\n", 0, true, true },
+        { "    one bounce (two VSGLs): needed: carries 40.1% of the direct light\n"
+          "    indirect highlights: none: the 12 glossy sampled vertices receive 0.3%\n", 0.5f, true, false },
+        { "    one bounce (two VSGLs): none: carries 0.3% of the direct light\n"
+          "    indirect highlights: needed (forced)\n", 0.5f, false, true },
+        { "    one bounce (two VSGLs): none: surfaces do not see each other\n"
+          "    indirect highlights: none: no glossy surface faces another\n", 0.5f, false, false },
+        { "    one bounce (two VSGLs): needed (surfaces see each other)\n"
+          "    indirect highlights: needed (a glossy material, surfaces see each other)\n", 0, true, true },
+        { "", 0.5f, true, true },
+        { "", 0.001f, false, false },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        static prt_data d;
+        memset(&d, 0, sizeof d);
+        d.scene.materials[0].type = BRDF_PHONG;
+        d.scene.nmaterials = 1;
+        d.scene.lights.count = 1;
+        d.stats.hit_fraction = cases[i].hit;
+        snprintf(d.plan, sizeof d.plan, "%s", cases[i].plan);
+        prt_effects fx;
+        prt_file_effects(&d, &fx);
+        CHECK(fx.local_bounce == cases[i].bounce && fx.highlights == cases[i].hl, "case %zu: bounce %d highlights %d", i,
+              fx.local_bounce, fx.highlights);
+        CHECK((fx.no_bounce == NULL) == fx.local_bounce && (fx.no_highlights == NULL) == fx.highlights, "case %zu: reasons", i);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lone_sphere);
@@ -477,5 +620,9 @@ int main(int argc, char **argv) {
     CHECK_CASE(glossy_flag);
     CHECK_CASE(estimate_passes);
     CHECK_CASE(energy_warning);
+    CHECK_CASE(local_bounce_plane);
+    CHECK_CASE(local_bounce_sphere);
+    CHECK_CASE(local_bounce_forced);
+    CHECK_CASE(effects_lines);
     return check_summary();
 }

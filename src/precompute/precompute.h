@@ -120,8 +120,12 @@ typedef struct precompute_desc {
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
+    int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
+    int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */
+    int force_refine;       /* -1: no refinement whatever refine_threshold says; 0: refine_threshold > 0 asks
+                             * for it, else the plan decides from the receivers (planfx.h) */
     float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose
-                             * masks differ in more than this share; 0: no refinement */
+                             * masks differ in more than this share; 0: as the plan decides */
     int refine_budget;      /* with refinement, the most vertices after it; 0: 1.5x the scene's */
     int refine_parts;       /* refine.h's parts: 0 the floor's edges when there is a floor, REFINE_ALL models too */
     int nthreads;           /* 0: all cores (results do not depend on it) */
