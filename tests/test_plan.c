@@ -17,6 +17,7 @@
 #include "relight.h"
 #include "transfer.h"
 #include "linear.h"
+#include "refine.h"
 #include "planfx.h"
 #include "effects.h"
 #include "visibility.h"
@@ -604,6 +605,76 @@ static void effects_lines(void) {
     }
 }
 
+/* A unit sphere centred at (0, 1, 0) over a floor of `verts` vertices and `size` times its width. */
+static int sphere_over_floor(prt_scene *sc, int rings, int verts, float size, prt_error *err) {
+    prt_mesh m = { 0 };
+    float c[3] = { 0, 1, 0 };
+    if (mesh_make_sphere(&m, c, 1, rings, 2 * rings, err) || scene_from_mesh(&m, "lambert:kd=0.5", sc, err)) return -1;
+    return scene_add_floor(sc, verts, size, NULL, err);
+}
+
+/* The receivers' figures against the floor's construction (scene.h: an n x n grid over size x the
+ * models' width 2, n = round(sqrt(verts))) and the penumbra's geometry: a sun of angular diameter a
+ * behind the sphere's top, h over the floor, blurs its shadow edge over h tan(a). A 50 x 50 grid 3
+ * widths across is 6 / 49 = 0.122 apart, far wider than 2 tan(0.00925) = 0.0185: refine. A 70 x 70
+ * grid half a width across is 1 / 69 = 0.0145 apart, finer: not, unless a local light (a point,
+ * no penumbra) is in the scene. */
+static void receivers(void) {
+    prt_error err;
+    static const struct { int verts; float size; bool light, refine; } cases[] = {
+        { 2500, 3, false, true }, { 4900, 0.5f, false, false }, { 4900, 0.5f, true, true },
+    };
+    for (int i = 0; i < 3; i++) {
+        prt_scene sc;
+        CHECK(sphere_over_floor(&sc, 16, cases[i].verts, cases[i].size, &err) == 0, "%s", err.msg);
+        if (cases[i].light) add_point_light(&sc, 0, 3, 0);
+        int n = (int)lround(sqrt(cases[i].verts)), first = sc.floor_first_vertex;
+        double fy = sc.mesh.pos[3 * first + 1], step = 2.0 * cases[i].size / (n - 1);
+        planfx_receivers rc;
+        planfx_measure_receivers(&sc, &rc);
+        CHECK(rc.floor && rc.models, "case %d: floor and models", i);
+        CHECK_NEAR(rc.spacing, step, 1e-5 * step, "case %d: the grid's step", i);
+        CHECK_NEAR(rc.height, 2 - fy, 1e-5, "case %d: the sphere's top over the floor", i);
+        CHECK_NEAR(rc.penumbra, (2 - fy) * tan(PLANFX_SUN_RAD), 1e-7, "case %d: h tan(a)", i);
+        CHECK(rc.refine == cases[i].refine, "case %d: refine %d (spacing %g, penumbra %g)", i, rc.refine, rc.spacing, rc.penumbra);
+        scene_free(&sc);
+    }
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    float c[3] = { 0, 1, 0 };
+    CHECK(mesh_make_sphere(&m, c, 1, 8, 16, &err) == 0 && scene_from_mesh(&m, "lambert:kd=0.5", &sc, &err) == 0, "%s", err.msg);
+    planfx_receivers rc;
+    planfx_measure_receivers(&sc, &rc);
+    CHECK(!rc.floor && !rc.refine, "no floor: nothing to refine");
+    scene_free(&sc);
+}
+
+/* The plan measures a coarse floor and says it is coarser than a sun's penumbra; by default it
+ * leaves it (PLANFX_REFINE_MEASURED), with force_refine 1 it refines it within the budget, with -1
+ * it says refinement is forced off. */
+static void receivers_plan(void) {
+    prt_error err;
+    static const char *const want[3] = {
+        "refinement: off (forced)",
+        "refinement: off: vertex spacing 0.545 > the penumbra of a sun 0.0185 at the models' height 2, but",
+        "refinement: on for the floor: vertex spacing 0.545 > the penumbra of a sun 0.0185 at the models' height 2; budget",
+    };
+    for (int f = -1; f <= 1; f++) {
+        prt_scene sc;
+        prt_data out;
+        CHECK(sphere_over_floor(&sc, 8, 144, 3, &err) == 0, "%s", err.msg);
+        int before = sc.mesh.nverts;
+        precompute_desc d = base;
+        d.force_refine = f;
+        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+        CHECK(strstr(out.plan, want[f + 1]) != NULL, "force_refine %d: plan: %s", f, out.plan);
+        if (f < 1) CHECK(out.scene.mesh.nverts == before, "force_refine %d: %d vertices, %d before", f, out.scene.mesh.nverts, before);
+        else CHECK(out.scene.mesh.nverts > before && out.scene.mesh.nverts <= (int)(REFINE_BUDGET_FACTOR * before),
+                   "refined: %d vertices, %d before", out.scene.mesh.nverts, before);
+        prt_data_free(&out);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lone_sphere);
@@ -624,5 +695,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(local_bounce_sphere);
     CHECK_CASE(local_bounce_forced);
     CHECK_CASE(effects_lines);
+    CHECK_CASE(receivers);
+    CHECK_CASE(receivers_plan);
     return check_summary();
 }

@@ -107,9 +107,10 @@ static void help(void) {
          "                         (default: where it carries >= 2% of their direct light, measured)\n"
          "  --highlights, --no-highlights       plan their indirect highlights or not (default: where\n"
          "                         glossy surfaces receive >= 2% of the direct light by one bounce)\n"
-         "adaptive refinement (Laurijssen et al. 2011, section 6.1; by default the plan refines the floor\n"
-         "where its vertex spacing is wider than a sun's penumbra from the models' height; a JSON\n"
-         "scene's \"refine\" or the flags below replace that):\n"
+         "adaptive refinement (Laurijssen et al. 2011, section 6.1; off unless asked for here or by a\n"
+         "JSON scene's \"refine\"; the plan says whether the floor's vertex spacing is wider than a\n"
+         "sun's penumbra from the models' height):\n"
+         "  --refine-auto          refine the floor where the plan finds it wider than that penumbra\n"
          "  --refine               before the transport, split the edges whose vertices' visibility\n"
          "                         masks differ in more than 0.5% of directions, iteratively\n"
          "  --refine-threshold F   that share, 0 < F < 1 (default 0.005; turns refinement on; 0: off)\n"
@@ -401,6 +402,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_SETV("--no-highlights", &pd.force_highlights, -1),
         CLI_SETV("--refine", &refine, 1),
         CLI_SETV("--no-refine", &refine, -1),
+        CLI_SETV("--refine-auto", &pd.force_refine, 1),
         CLI_F("--refine-threshold", &refine_thr, 0, 1),
         CLI_I("--refine-budget", &pd.refine_budget, 4, 1 << 28),
         CLI_SETV("--refine-models", &pd.refine_parts, REFINE_ALL),
@@ -442,6 +444,8 @@ int cli_precompute(int argc, char **argv) {
     /* on when asked for by any refine flag; a threshold of 0 or --no-refine turns it off */
     if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0 || pd.refine_parts))
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
+    if (pd.force_refine == 1 && (refine == -1 || refine_thr == 0))
+        return cli_error(k_cmd, "--refine-auto and --no-refine (or --refine-threshold 0) contradict each other") + 1;
     if (refine == -1 || refine_thr == 0) pd.force_refine = -1;   /* the plan's refinement too */
     char texts[2][1024];   /* the representations' options texts; pd points at them until run returns */
     if (rep_desc(&rf, basis, basis_opts, glossy, view_opts, &pd, texts)) return 2;

@@ -539,8 +539,8 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, pc_reps 
     if (d->force_local_bounce < -1 || d->force_local_bounce > 1 || d->force_highlights < -1 || d->force_highlights > 1)
         return prt_fail(err, "precompute: force_local_bounce = %d, force_highlights = %d (each must be -1, 0 or 1)",
                         d->force_local_bounce, d->force_highlights);
-    if (d->force_refine < -1 || d->force_refine > 0)
-        return prt_fail(err, "precompute: force_refine = %d (must be -1 or 0)", d->force_refine);
+    if (d->force_refine < -1 || d->force_refine > 1)
+        return prt_fail(err, "precompute: force_refine = %d (must be -1, 0 or 1)", d->force_refine);
     if (!(d->refine_threshold >= 0 && d->refine_threshold < 1))
         return prt_fail(err, "precompute: refine_threshold = %g is out of range [0, 1)", d->refine_threshold);
     if (d->checkpoint && shard_size(d->shard) > 1)   /* each rank would log only its own vertices */
@@ -623,28 +623,35 @@ typedef struct pc_run {
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
 } pc_run;
 
-/* The plan's refinement decision from the receivers (planfx.h) when nothing asked for or ruled out
- * refinement: sets d's threshold and parts when the floor must be refined, and says why. */
+/* The plan's refinement line from the receivers (planfx.h) when nothing asked for or ruled out
+ * refinement; with force_refine 1 it also sets d's threshold and parts where the floor is coarser
+ * than the penumbra. By default it reports the need only (PLANFX_REFINE_MEASURED says why). */
 static void plan_refine(pc_run *r) {
     planfx_receivers rc;
     planfx_measure_receivers(&r->out->scene, &rc);
+    const char *k = "  refinement:";
     if (!rc.floor || !rc.models) {
-        plan_add(r->plan, r->pcap, "  refinement: off: %s\n", !rc.floor ? "no floor (the models receive their own shadows at their vertices)"
-                                                                        : "nothing stands over the floor");
+        plan_add(r->plan, r->pcap, "%s off: %s\n", k, !rc.floor ? "no floor (the models receive their own shadows at their vertices)"
+                                                             : "nothing stands over the floor");
         return;
     }
-    int n = r->out->scene.mesh.nverts, budget = r->d.refine_budget > 0 ? r->d.refine_budget : (int)(REFINE_BUDGET_FACTOR * n);
     if (!rc.refine) {
-        plan_add(r->plan, r->pcap, "  refinement: off: the floor's vertex spacing %.3g <= the penumbra of a sun %.3g at the models' height %.3g\n",
+        plan_add(r->plan, r->pcap, "%s off: the floor's vertex spacing %.3g <= the penumbra of a sun %.3g at the models' height %.3g\n", k,
                  rc.spacing, rc.penumbra, rc.height);
         return;
     }
+    int n = r->out->scene.mesh.nverts, budget = r->d.refine_budget > 0 ? r->d.refine_budget : (int)(REFINE_BUDGET_FACTOR * n);
+    bool apply = r->d.force_refine == 1;
+    plan_add(r->plan, r->pcap, "%s %s: vertex spacing %.3g > ", k, apply ? "on for the floor" : "off", rc.spacing);
     if (rc.spacing > rc.penumbra)
-        plan_add(r->plan, r->pcap, "  refinement: on for the floor: vertex spacing %.3g > the penumbra of a sun %.3g at the models' height %.3g", rc.spacing,
-                 rc.penumbra, rc.height);
+        plan_add(r->plan, r->pcap, "the penumbra of a sun %.3g at the models' height %.3g", rc.penumbra, rc.height);
     else
-        plan_add(r->plan, r->pcap, "  refinement: on for the floor: a local light casts hard shadow edges (vertex spacing %.3g)", rc.spacing);
-    plan_add(r->plan, r->pcap, "; budget %d vertices (%.2gx: the passes cost up to that much more)\n", budget, (double)budget / n);
+        plan_add(r->plan, r->pcap, "a local light's hard shadow edge");
+    if (apply)
+        plan_add(r->plan, r->pcap, "; budget %d vertices (%.2gx: the passes cost up to that much more)\n", budget, (double)budget / n);
+    else
+        plan_add(r->plan, r->pcap, ", but %s (--refine, --refine-auto or the scene's \"refine\" asks for it)\n", PLANFX_REFINE_MEASURED);
+    if (!apply) return;
     r->d.refine_threshold = REFINE_THRESHOLD;
     r->d.refine_parts = REFINE_FLOOR;
 }
