@@ -54,7 +54,7 @@
  * on the teapot over its 2,500-vertex floor, direct light, sunrise and studio at two yaws, the
  * floor's shadow region was no closer to the path tracer after refinement within 1.5x or 3x the
  * vertices (docs/design/plan.md), while the passes and the file grow with the vertices. */
-#define PLANFX_REFINE_MEASURED "refinement within a 1.5x budget measured no closer to the path tracer on such a floor"
+#define PLANFX_REFINE_MEASURED "refining 1.5x or 3x measured no closer to the path tracer on such a floor"
 /* The sun's angular diameter (0.53 degrees, in radians): the sharpest light a probe holds. */
 #define PLANFX_SUN_RAD 0.00925
 
