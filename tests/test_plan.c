@@ -9,7 +9,12 @@
  * measurement and printed with the reason; --glossy forces it; bad values are refused.
  * The time estimate covers every pass that runs (direct, each bounce, each vMF stage), one for one
  * (not its accuracy: docs/design/pipeline.md, "Effects plan", measures that); a BRDF reflecting more than it
- * receives gets one warning line in the plan, and the run goes on. */
+ * receives gets one warning line in the plan, and the run goes on.
+ * Local lights (planfx.h): the one bounce's measured share is exactly 0 over a lone plane (planned
+ * off) and kd in a closed Lambert sphere lit from its centre (planned on); the force flags win;
+ * prt_file_effects reads the measured, forced and older plan lines. Receivers: the floor's spacing
+ * and a sun's penumbra against the floor's construction and h tan(a), and the plan's three
+ * refinement modes (forced off, reported, applied within the budget). */
 #include "harness.h"
 #include "mesh.h"
 #include "precompute.h"
@@ -463,9 +468,17 @@ static void glossy_flag(void) {
     FILE *f = fopen(outp, "rb");
     CHECK(f == NULL, "no output file");
     if (f) fclose(f);
+    /* --refine-auto against --no-refine: a usage error naming both, before any work */
+    snprintf(cmd, sizeof cmd, "%s precompute data/sphere-phong.json -o %s --refine-auto --no-refine", check_prt_bin(), outp);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 2 && strstr(buf, "--refine-auto") && strstr(buf, "--no-refine"), "exit status %d: %s", rc, buf);
+    CHECK(strchr(buf, '\n') == buf + strlen(buf) - 1, "one line: %s", buf);
+    f = fopen(outp, "rb");
+    CHECK(f == NULL, "no output file");
+    if (f) fclose(f);
 }
 
-/* A point light of intensity I at pos over the scene (its only light). */
+/* A point light of 2 W/sr at (x, y, z), the scene's only light. */
 static void add_point_light(prt_scene *sc, float x, float y, float z) {
     sc->lights.count = 1;
     sc->lights.light[0] = (prt_light){ .type = PRT_LIGHT_POINT, .pos = { x, y, z }, .intensity = 2, .colour = { 1, 1, 1 } };
