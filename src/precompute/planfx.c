@@ -102,7 +102,7 @@ void planfx_measure_bounce(const prt_scene *s, const vis_scene *vs, const int *v
     }
 }
 
-/* The floor's mean shortest triangle edge and its plane's height (the floor's first vertex). */
+/* The mean of the shortest edge of each floor triangle (the triangles whose vertices are all first or later). */
 static double pf_floor_spacing(const prt_mesh *m, int first) {
     double sum = 0;
     int cnt = 0;

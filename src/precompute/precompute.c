@@ -996,23 +996,22 @@ static void plan_bounce_line(pc_run *r) {
     r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && hit >= PC_HIT_MIN);
 }
 
-/* The plan's one-bounce line from the measured shares (planfx.h) or the force flag; returns the decision. */
-static bool plan_bounce_local(pc_run *r, const planfx_bounce *b) {
+/* The plan's one-bounce line from the measured shares (planfx.h) or the force flag. */
+static void plan_bounce_local(pc_run *r, const planfx_bounce *b) {
     const char *k = "    one bounce (two VSGLs):";
     int f = r->d.force_local_bounce;
     if (f) {
         plan_add(r->plan, r->pcap, "%s %s\n", k, f > 0 ? "needed (forced)" : "none (forced off)");
-        return f > 0;
+        return;
     }
     if (!(b->direct > 0)) {
         plan_add(r->plan, r->pcap, "%s none: the lights reach none of the %d sampled vertices\n", k, b->vertices);
-        return false;
+        return;
     }
     double share = b->bounce / b->direct;
     bool on = share >= PLANFX_BOUNCE_MIN;
     plan_add(r->plan, r->pcap, "%s %s: carries %.1f%% of the direct light at %d sampled vertices (%s %.0f%%; %ld rays)\n", k,
              on ? "needed" : "none", 100 * share, b->vertices, on ? ">=" : "<", 100 * PLANFX_BOUNCE_MIN, b->rays);
-    return on;
 }
 
 /* The plan's indirect-highlights line (glossy: the scene has a glossy material). */
