@@ -22,7 +22,9 @@
  * highlights reflect. Exact cases the tests use: a point light over a lone plane, 0 (no ray from
  * the plane hits anything); a point light at the centre of a closed Lambert sphere of albedo kd,
  * kd (every point of a sphere sees every other with the form factor dA / (4 pi R^2), so the
- * radiosity kd E_d / pi fills the hemisphere and E_1 = kd E_d).
+ * radiosity kd E_d / pi fills the hemisphere and E_1 = kd E_d); in modified Phong kd + ks, all of it
+ * at glossy receivers (each hit's mirror direction is its normal, and the chord makes the same angle
+ * at both ends, so E_1 / E_d is the lobe's cosine-weighted integral).
  * Cost: rays x (1 + lights) rays per vertex; 200 vertices x 64 rays take a few milliseconds.
  *
  * Receivers (planfx_measure_receivers). With a floor under models, the floor's vertex spacing (the
