@@ -9,7 +9,12 @@
  * measurement and printed with the reason; --glossy forces it; bad values are refused.
  * The time estimate covers every pass that runs (direct, each bounce, each vMF stage), one for one
  * (not its accuracy: docs/design/pipeline.md, "Effects plan", measures that); a BRDF reflecting more than it
- * receives gets one warning line in the plan, and the run goes on. */
+ * receives gets one warning line in the plan, and the run goes on.
+ * Local lights (planfx.h): the one bounce's measured share is exactly 0 over a lone plane (planned
+ * off) and kd in a closed Lambert sphere lit from its centre (planned on); the force flags win;
+ * prt_file_effects reads the measured, forced and older plan lines. Receivers: the floor's spacing
+ * and a sun's penumbra against the floor's construction and h tan(a), and the plan's three
+ * refinement modes (forced off, reported, applied within the budget). */
 #include "harness.h"
 #include "mesh.h"
 #include "precompute.h"
@@ -17,6 +22,10 @@
 #include "relight.h"
 #include "transfer.h"
 #include "linear.h"
+#include "refine.h"
+#include "planfx.h"
+#include "effects.h"
+#include "visibility.h"
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -459,6 +468,255 @@ static void glossy_flag(void) {
     FILE *f = fopen(outp, "rb");
     CHECK(f == NULL, "no output file");
     if (f) fclose(f);
+    /* --refine-auto against --no-refine: a usage error naming both, before any work */
+    snprintf(cmd, sizeof cmd, "%s precompute data/sphere-phong.json -o %s --refine-auto --no-refine", check_prt_bin(), outp);
+    rc = check_run(cmd, buf, sizeof buf);
+    CHECK(rc == 2 && strstr(buf, "--refine-auto") && strstr(buf, "--no-refine"), "exit status %d: %s", rc, buf);
+    CHECK(strchr(buf, '\n') == buf + strlen(buf) - 1, "one line: %s", buf);
+    f = fopen(outp, "rb");
+    CHECK(f == NULL, "no output file");
+    if (f) fclose(f);
+}
+
+/* A point light of 2 W/sr at (x, y, z), the scene's only light. */
+static void add_point_light(prt_scene *sc, float x, float y, float z) {
+    sc->lights.count = 1;
+    sc->lights.light[0] = (prt_light){ .type = PRT_LIGHT_POINT, .pos = { x, y, z }, .intensity = 2, .colour = { 1, 1, 1 } };
+}
+
+/* Every vertex index 0..n-1 (the measurement's sample). */
+static int *all_vertices(int n) {
+    int *v = malloc(sizeof(int) * (size_t)n);
+    for (int i = 0; v && i < n; i++) v[i] = i;
+    return v;
+}
+
+/* A point light over a lone plane: no ray from the plane hits anything, so the one bounce carries
+ * exactly 0 and the plan leaves it (and the highlights) off, saying so. */
+static void local_bounce_plane(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    prt_data out;
+    CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0, 9, 9, &err) == 0, "%s", err.msg);
+    CHECK(scene_from_mesh(&m, "phong:kd=0.5;ks=0.4;n=40", &sc, &err) == 0, "%s", err.msg);
+    add_point_light(&sc, 0.2f, 1, 0.1f);
+    vis_scene *vs = vis_create(&sc.mesh, &err);
+    int *all = all_vertices(sc.mesh.nverts);
+    planfx_bounce b;
+    planfx_measure_bounce(&sc, vs, all, sc.mesh.nverts, PLANFX_RAYS, &b);
+    CHECK(b.direct > 0 && b.bounce == 0 && b.glossy == 0, "plane: direct %g bounce %g glossy %g", b.direct, b.bounce, b.glossy);
+    CHECK(b.vertices == 81 && b.glossy_vertices == 81, "%d vertices, %d glossy", b.vertices, b.glossy_vertices);
+    free(all);
+    vis_destroy(vs);
+    CHECK(precompute_run(&sc, &base, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): none: carries 0.0% of the direct light") != NULL, "plan: %s", out.plan);
+    CHECK(strstr(out.plan, "indirect highlights: none: the 81 glossy sampled vertices receive 0.0%") != NULL, "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(!fx.local_bounce && !fx.highlights, "effects read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+}
+
+/* A closed sphere seen from inside (normals and triangles flipped), radius 1, a point light at
+ * its centre. Every point sees every other with the form factor dA / (4 pi R^2), so the one-bounce
+ * irradiance is kd E_d everywhere: the share is kd. The tessellation (16 rings, 32 segments) moves a
+ * hit point inside the sphere by at most the sag 1 - cos(pi / 32) = 0.0048 and tilts its normal off
+ * the light by at most pi / 32, so a hit's radiance I cos / d^2 is within 1 - 0.0048 and
+ * 1 / (1 - 0.0048)^2 = 1 + 0.0097 of the exact; the radiance is the same along every ray up to that,
+ * so the lattice's noise is below it too: 1.5% bounds the share's error relative to kd. */
+/* The unit sphere at the origin seen from inside (normals and triangles flipped), material spec. */
+static int inside_sphere(prt_scene *sc, const char *spec, prt_error *err) {
+    prt_mesh m = { 0 };
+    float c[3] = { 0, 0, 0 };
+    if (mesh_make_sphere(&m, c, 1, 16, 32, err)) return -1;
+    for (int i = 0; i < 3 * m.nverts; i++) m.nrm[i] = -m.nrm[i];
+    for (int t = 0; t < m.ntris; t++) {
+        uint32_t x = m.tris[3 * t + 1];
+        m.tris[3 * t + 1] = m.tris[3 * t + 2];
+        m.tris[3 * t + 2] = x;
+    }
+    if (scene_from_mesh(&m, spec, sc, err)) return -1;
+    add_point_light(sc, 0, 0, 0);
+    return 0;
+}
+
+static void local_bounce_sphere(void) {
+    prt_error err;
+    prt_scene sc;
+    CHECK(inside_sphere(&sc, "lambert:kd=0.6", &err) == 0, "%s", err.msg);
+    vis_scene *vs = vis_create(&sc.mesh, &err);
+    int *all = all_vertices(sc.mesh.nverts);
+    planfx_bounce b;
+    planfx_measure_bounce(&sc, vs, all, sc.mesh.nverts, PLANFX_RAYS, &b);
+    double share = b.bounce / b.direct;
+    printf("closed sphere, kd 0.6: measured share %.4f (%ld rays)\n", share, b.rays);
+    CHECK_NEAR(share, 0.6, 0.015 * 0.6, "closed sphere: one bounce carries kd of the direct light");
+    CHECK_NEAR(b.direct, 2.0 * sc.mesh.nverts, 1e-4 * 2.0 * sc.mesh.nverts, "E_d = I / R^2 at every vertex");
+    CHECK(b.glossy == 0 && b.glossy_vertices == 0, "no glossy receiver");
+    free(all);
+    vis_destroy(vs);
+    prt_data out;
+    precompute_desc d = base;
+    d.force_bounces = -1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): needed: carries 6") != NULL, "plan: %s", out.plan);
+    CHECK(strstr(out.plan, "indirect highlights: none: no glossy material") != NULL, "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(fx.local_bounce && !fx.highlights, "effects read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+}
+
+/* The same sphere in modified Phong (kd/pi + ks (n+2)/(2 pi) cos^n of the angle to the mirror
+ * direction). Lit from the centre, every hit q's mirror direction is its normal, and on a sphere the
+ * angle at p to the chord equals the angle at q, so the one-bounce irradiance is E_d times the
+ * integral of (kd/pi + ks (n+2)/(2 pi) cos^n t) cos t over the hemisphere: kd + ks, all of it at glossy
+ * receivers. Tolerance: the Lambert case's 1.5% for the geometry plus the sampling of the lobe: with
+ * cosine-distributed rays cos^4 t has mean 1/3 and variance 1/5 - 1/9 (a 0.9 coefficient of
+ * variation), over 64 rays at each of the 482 vertices (30,848) 0.5% of the lobe's part; four times
+ * that of ks = 0.4 is 0.008. */
+static void local_bounce_glossy(void) {
+    prt_error err;
+    prt_scene sc;
+    CHECK(inside_sphere(&sc, "phong:kd=0.3;ks=0.4;n=4", &err) == 0, "%s", err.msg);
+    vis_scene *vs = vis_create(&sc.mesh, &err);
+    int *all = all_vertices(sc.mesh.nverts);
+    planfx_bounce b;
+    planfx_measure_bounce(&sc, vs, all, sc.mesh.nverts, PLANFX_RAYS, &b);
+    printf("closed Phong sphere, kd 0.3, ks 0.4: measured share %.4f, glossy %.4f (%d vertices)\n", b.bounce / b.direct,
+           b.glossy / b.direct, b.vertices);
+    CHECK_NEAR(b.bounce / b.direct, 0.7, 0.015 * 0.7 + 0.008, "closed Phong sphere: kd + ks");
+    CHECK(b.glossy == b.bounce && b.glossy_vertices == b.vertices, "every receiver glossy");
+    free(all);
+    vis_destroy(vs);
+    scene_free(&sc);
+}
+
+/* The force flags override the measurement, both ways, and the plan says so. */
+static void local_bounce_forced(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    prt_data out;
+    CHECK(mesh_make_plane(&m, -1, 1, -1, 1, 0, 5, 5, &err) == 0, "%s", err.msg);
+    CHECK(scene_from_mesh(&m, "phong:kd=0.5;ks=0.4;n=40", &sc, &err) == 0, "%s", err.msg);
+    add_point_light(&sc, 0, 1, 0);
+    precompute_desc d = base;
+    d.force_local_bounce = 1;
+    d.force_highlights = 1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    CHECK(strstr(out.plan, "one bounce (two VSGLs): needed (forced)") && strstr(out.plan, "indirect highlights: needed (forced)"),
+          "plan: %s", out.plan);
+    prt_effects fx;
+    prt_file_effects(&out, &fx);
+    CHECK(fx.local_bounce && fx.highlights, "forced on read back: bounce %d highlights %d", fx.local_bounce, fx.highlights);
+    prt_data_free(&out);
+    d.force_local_bounce = 2;
+    CHECK(precompute_desc_check(&d, &err) == -1 && strstr(err.msg, "force_local_bounce"), "bad force value: %s", err.msg);
+}
+
+/* prt_file_effects reads the plan's lines: the measured ones, the forced ones and the older
+ * hit-fraction ones (files made before the measurement), and falls back on the hit fraction. */
+static void effects_lines(void) {
+    static const struct { const char *plan; float hit; bool bounce, hl; } cases[] = {
+        { "    one bounce (two VSGLs): needed: carries 40.1% of the direct light\n"
+          "    indirect highlights: needed: the 12 glossy sampled vertices receive 5.0%\n", 0, true, true },
+        { "    one bounce (two VSGLs): needed: carries 40.1% of the direct light\n"
+          "    indirect highlights: none: the 12 glossy sampled vertices receive 0.3%\n", 0.5f, true, false },
+        { "    one bounce (two VSGLs): none: carries 0.3% of the direct light\n"
+          "    indirect highlights: needed (forced)\n", 0.5f, false, true },
+        { "    one bounce (two VSGLs): none: surfaces do not see each other\n"
+          "    indirect highlights: none: no glossy surface faces another\n", 0.5f, false, false },
+        { "    one bounce (two VSGLs): needed (surfaces see each other)\n"
+          "    indirect highlights: needed (a glossy material, surfaces see each other)\n", 0, true, true },
+        { "", 0.5f, true, true },
+        { "", 0.001f, false, false },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        static prt_data d;
+        memset(&d, 0, sizeof d);
+        d.scene.materials[0].type = BRDF_PHONG;
+        d.scene.nmaterials = 1;
+        d.scene.lights.count = 1;
+        d.stats.hit_fraction = cases[i].hit;
+        snprintf(d.plan, sizeof d.plan, "%s", cases[i].plan);
+        prt_effects fx;
+        prt_file_effects(&d, &fx);
+        CHECK(fx.local_bounce == cases[i].bounce && fx.highlights == cases[i].hl, "case %zu: bounce %d highlights %d", i,
+              fx.local_bounce, fx.highlights);
+        CHECK((fx.no_bounce == NULL) == fx.local_bounce && (fx.no_highlights == NULL) == fx.highlights, "case %zu: reasons", i);
+    }
+}
+
+/* A unit sphere centred at (0, 1, 0) over a floor of `verts` vertices and `size` times its width. */
+static int sphere_over_floor(prt_scene *sc, int rings, int verts, float size, prt_error *err) {
+    prt_mesh m = { 0 };
+    float c[3] = { 0, 1, 0 };
+    if (mesh_make_sphere(&m, c, 1, rings, 2 * rings, err) || scene_from_mesh(&m, "lambert:kd=0.5", sc, err)) return -1;
+    return scene_add_floor(sc, verts, size, NULL, err);
+}
+
+/* The receivers' figures against the floor's construction (scene.h: an n x n grid over size x the
+ * models' width 2, n = round(sqrt(verts))) and the penumbra's geometry: a sun of angular diameter a
+ * behind the sphere's top, h over the floor, blurs its shadow edge over h tan(a). A 50 x 50 grid 3
+ * widths across is 6 / 49 = 0.122 apart, far wider than 2 tan(0.00925) = 0.0185: refine. A 70 x 70
+ * grid half a width across is 1 / 69 = 0.0145 apart, finer: not, unless a local light (a point,
+ * no penumbra) is in the scene. */
+static void receivers(void) {
+    prt_error err;
+    static const struct { int verts; float size; bool light, refine; } cases[] = {
+        { 2500, 3, false, true }, { 4900, 0.5f, false, false }, { 4900, 0.5f, true, true },
+    };
+    for (int i = 0; i < 3; i++) {
+        prt_scene sc;
+        CHECK(sphere_over_floor(&sc, 16, cases[i].verts, cases[i].size, &err) == 0, "%s", err.msg);
+        if (cases[i].light) add_point_light(&sc, 0, 3, 0);
+        int n = (int)lround(sqrt(cases[i].verts)), first = sc.floor_first_vertex;
+        double fy = sc.mesh.pos[3 * first + 1], step = 2.0 * cases[i].size / (n - 1);
+        planfx_receivers rc;
+        planfx_measure_receivers(&sc, &rc);
+        CHECK(rc.floor && rc.models, "case %d: floor and models", i);
+        CHECK_NEAR(rc.spacing, step, 1e-5 * step, "case %d: the grid's step", i);
+        CHECK_NEAR(rc.height, 2 - fy, 1e-5, "case %d: the sphere's top over the floor", i);
+        CHECK_NEAR(rc.penumbra, (2 - fy) * tan(PLANFX_SUN_RAD), 1e-7, "case %d: h tan(a)", i);
+        CHECK(rc.refine == cases[i].refine, "case %d: refine %d (spacing %g, penumbra %g)", i, rc.refine, rc.spacing, rc.penumbra);
+        scene_free(&sc);
+    }
+    prt_mesh m = { 0 };
+    prt_scene sc;
+    float c[3] = { 0, 1, 0 };
+    CHECK(mesh_make_sphere(&m, c, 1, 8, 16, &err) == 0 && scene_from_mesh(&m, "lambert:kd=0.5", &sc, &err) == 0, "%s", err.msg);
+    planfx_receivers rc;
+    planfx_measure_receivers(&sc, &rc);
+    CHECK(!rc.floor && !rc.refine, "no floor: nothing to refine");
+    scene_free(&sc);
+}
+
+/* The plan measures a coarse floor and says it is coarser than a sun's penumbra; by default it
+ * leaves it (PLANFX_REFINE_MEASURED), with force_refine 1 it refines it within the budget, with -1
+ * it says refinement is forced off. */
+static void receivers_plan(void) {
+    prt_error err;
+    static const char *const want[3] = {
+        "refinement: off (forced)",
+        "refinement: off: vertex spacing 0.545 > the penumbra of a sun 0.0185 at the models' height 2, but",
+        "refinement: on for the floor: vertex spacing 0.545 > the penumbra of a sun 0.0185 at the models' height 2; budget",
+    };
+    for (int f = -1; f <= 1; f++) {
+        prt_scene sc;
+        prt_data out;
+        CHECK(sphere_over_floor(&sc, 8, 144, 3, &err) == 0, "%s", err.msg);
+        int before = sc.mesh.nverts;
+        precompute_desc d = base;
+        d.force_refine = f;
+        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+        CHECK(strstr(out.plan, want[f + 1]) != NULL, "force_refine %d: plan: %s", f, out.plan);
+        if (f < 1) CHECK(out.scene.mesh.nverts == before, "force_refine %d: %d vertices, %d before", f, out.scene.mesh.nverts, before);
+        else CHECK(out.scene.mesh.nverts > before && out.scene.mesh.nverts <= (int)(REFINE_BUDGET_FACTOR * before),
+                   "refined: %d vertices, %d before", out.scene.mesh.nverts, before);
+        prt_data_free(&out);
+    }
 }
 
 int main(int argc, char **argv) {
@@ -477,5 +735,12 @@ int main(int argc, char **argv) {
     CHECK_CASE(glossy_flag);
     CHECK_CASE(estimate_passes);
     CHECK_CASE(energy_warning);
+    CHECK_CASE(local_bounce_plane);
+    CHECK_CASE(local_bounce_sphere);
+    CHECK_CASE(local_bounce_glossy);
+    CHECK_CASE(local_bounce_forced);
+    CHECK_CASE(effects_lines);
+    CHECK_CASE(receivers);
+    CHECK_CASE(receivers_plan);
     return check_summary();
 }

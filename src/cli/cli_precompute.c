@@ -103,15 +103,22 @@ static void help(void) {
          "  --no-bounces           never do interreflection passes\n"
          "  --keep-direct          also store the direct-only transport (for render --direct-only and\n"
          "                         the viewer's direct/bounces toggle; about doubles the file)\n"
+         "local lights (a JSON scene's \"lights\"; the plan measures what their indirect light carries):\n"
+         "  --local-bounce, --no-local-bounce   plan the local lights' one bounce (two VSGLs) or not\n"
+         "                         (default: where it carries >= 2% of their direct light, measured)\n"
+         "  --highlights, --no-highlights       plan their indirect highlights or not (default: where\n"
+         "                         glossy surfaces receive >= 2% of the direct light by one bounce)\n"
          "adaptive refinement (Laurijssen et al. 2011, section 6.1; off unless asked for here or by a\n"
-         "JSON scene's \"refine\"):\n"
+         "JSON scene's \"refine\"; the plan says whether the floor's vertex spacing is wider than a\n"
+         "sun's penumbra from the models' height):\n"
+         "  --refine-auto          refine the floor where the plan finds it wider than that penumbra\n"
          "  --refine               before the transport, split the edges whose vertices' visibility\n"
          "                         masks differ in more than 0.5% of directions, iteratively\n"
          "  --refine-threshold F   that share, 0 < F < 1 (default 0.005; turns refinement on; 0: off)\n"
          "  --refine-budget V      at most V vertices after refinement (default 1.5x the scene's; turns it on)\n"
          "  --refine-models        refine the models' edges too (default: the floor's, where there is one)\n"
-         "  --no-refine            no refinement, not even a JSON scene's \"refine\" (any refine flag\n"
-         "                         replaces the scene's)\n"
+         "  --no-refine            no refinement: neither --refine-auto's nor a JSON scene's \"refine\"\n"
+         "                         (any refine flag replaces the scene's)\n"
          "other:\n"
          "  --resume               continue the run killed while writing OUT.prt from its checkpoint\n"
          "                         OUT.prt.ckpt (written every 2% of the vertices of each pass, removed\n"
@@ -390,8 +397,13 @@ int cli_precompute(int argc, char **argv) {
         CLI_SETV("--force-bounces", &pd.force_bounces, 1),
         CLI_SETV("--no-bounces", &pd.force_bounces, -1),
         CLI_B("--keep-direct", &pd.keep_direct),
+        CLI_SETV("--local-bounce", &pd.force_local_bounce, 1),
+        CLI_SETV("--no-local-bounce", &pd.force_local_bounce, -1),
+        CLI_SETV("--highlights", &pd.force_highlights, 1),
+        CLI_SETV("--no-highlights", &pd.force_highlights, -1),
         CLI_SETV("--refine", &refine, 1),
         CLI_SETV("--no-refine", &refine, -1),
+        CLI_SETV("--refine-auto", &pd.force_refine, 1),
         CLI_F("--refine-threshold", &refine_thr, 0, 1),
         CLI_I("--refine-budget", &pd.refine_budget, 4, 1 << 28),
         CLI_SETV("--refine-models", &pd.refine_parts, REFINE_ALL),
@@ -433,6 +445,9 @@ int cli_precompute(int argc, char **argv) {
     /* on when asked for by any refine flag; a threshold of 0 or --no-refine turns it off */
     if (refine != -1 && refine_thr != 0 && (refine == 1 || refine_thr > 0 || pd.refine_budget > 0 || pd.refine_parts))
         pd.refine_threshold = refine_thr > 0 ? refine_thr : REFINE_THRESHOLD;
+    if (pd.force_refine == 1 && (refine == -1 || refine_thr == 0))
+        return cli_error(k_cmd, "--refine-auto and --no-refine (or --refine-threshold 0) contradict each other") + 1;
+    if (refine == -1 || refine_thr == 0) pd.force_refine = -1;   /* the plan's refinement too */
     char texts[2][1024];   /* the representations' options texts; pd points at them until run returns */
     if (rep_desc(&rf, basis, basis_opts, glossy, view_opts, &pd, texts)) return 2;
     if (!in) { cli_error(k_cmd, "no input model or scene (see --help)"); return 2; }

@@ -67,6 +67,7 @@
 #include "cubemap.h"
 #include "gather.h"
 #include "refine.h"
+#include "planfx.h"
 #include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
@@ -535,6 +536,11 @@ static int pc_check_desc(const precompute_desc *in, precompute_desc *d, pc_reps 
         return prt_fail(err, "precompute: bounce_threshold = %g is out of range (0, 1)", d->bounce_threshold);
     if (d->force_bounces < -1 || d->force_bounces > 1)
         return prt_fail(err, "precompute: force_bounces = %d (must be -1, 0 or 1)", d->force_bounces);
+    if (d->force_local_bounce < -1 || d->force_local_bounce > 1 || d->force_highlights < -1 || d->force_highlights > 1)
+        return prt_fail(err, "precompute: force_local_bounce = %d, force_highlights = %d (each must be -1, 0 or 1)",
+                        d->force_local_bounce, d->force_highlights);
+    if (d->force_refine < -1 || d->force_refine > 1)
+        return prt_fail(err, "precompute: force_refine = %d (must be -1, 0 or 1)", d->force_refine);
     if (!(d->refine_threshold >= 0 && d->refine_threshold < 1))
         return prt_fail(err, "precompute: refine_threshold = %g is out of range [0, 1)", d->refine_threshold);
     if (d->checkpoint && shard_size(d->shard) > 1)   /* each rank would log only its own vertices */
@@ -617,9 +623,48 @@ typedef struct pc_run {
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
 } pc_run;
 
-/* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, and its
- * plan line. Returns 0 or -1. */
+/* The plan's refinement line from the receivers (planfx.h) when nothing asked for or ruled out
+ * refinement; with force_refine 1 it also sets d's threshold and parts where the floor is coarser
+ * than the penumbra. By default it reports the need only (PLANFX_REFINE_MEASURED says why). */
+static void plan_refine(pc_run *r) {
+    planfx_receivers rc;
+    planfx_measure_receivers(&r->out->scene, &rc);
+    const char *k = "  refinement:";
+    if (!rc.floor || !rc.models) {
+        plan_add(r->plan, r->pcap, "%s off: %s\n", k, !rc.floor ? "no floor (the models receive their own shadows at their vertices)"
+                                                             : "nothing stands over the floor");
+        return;
+    }
+    if (!rc.refine) {
+        plan_add(r->plan, r->pcap, "%s off: the floor's vertex spacing %.3g <= the penumbra of a sun %.3g at the models' height %.3g\n", k,
+                 rc.spacing, rc.penumbra, rc.height);
+        return;
+    }
+    int n = r->out->scene.mesh.nverts, budget = r->d.refine_budget > 0 ? r->d.refine_budget : (int)(REFINE_BUDGET_FACTOR * n);
+    bool apply = r->d.force_refine == 1;
+    plan_add(r->plan, r->pcap, "%s %s: vertex spacing %.3g > ", k, apply ? "on for the floor" : "off", rc.spacing);
+    if (rc.spacing > rc.penumbra)
+        plan_add(r->plan, r->pcap, "the penumbra of a sun %.3g at the models' height %.3g", rc.penumbra, rc.height);
+    else
+        plan_add(r->plan, r->pcap, "a local light's hard shadow edge");
+    if (apply)
+        plan_add(r->plan, r->pcap, "; budget %d vertices (%.2gx: the passes cost up to that much more)\n", budget, (double)budget / n);
+    else
+        plan_add(r->plan, r->pcap, ", but %s (--refine, --refine-auto or the scene's \"refine\" asks for it)\n", PLANFX_REFINE_MEASURED);
+    if (!apply) return;
+    r->d.refine_threshold = REFINE_THRESHOLD;
+    r->d.refine_parts = REFINE_FLOOR;
+}
+
+/* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for or when the
+ * plan calls for it, and its plan lines. Returns 0 or -1. */
 static int pc_refine(pc_run *r, prt_error *err) {
+    if (r->d.force_refine == -1) {
+        plan_add(r->plan, r->pcap, "  refinement: off (forced)\n");
+        return 0;
+    }
+    if (r->d.refine_threshold > 0) plan_add(r->plan, r->pcap, "  refinement: asked for (the scene's \"refine\" or a refine option)\n");
+    else plan_refine(r);
     if (!(r->d.refine_threshold > 0)) return 0;
     refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .parts = r->d.refine_parts, .nthreads = r->nthreads,
                        .progress = r->d.progress, .progress_user = r->d.progress_user };
@@ -951,10 +996,46 @@ static void plan_bounce_line(pc_run *r) {
     r->plan_bounces = d->force_bounces == 1 || (d->force_bounces == 0 && hit >= PC_HIT_MIN);
 }
 
-/* The scene's local lights and the local-light effects they call for. Direct light is
- * always needed (runtime, analytic BRDFs, shadows); one bounce (VSGL) only where surfaces see each
- * other (the same sample as interreflections); indirect highlights only where a glossy material can
- * see another surface. Nothing is printed for a scene without local lights. */
+/* The plan's one-bounce line from the measured shares (planfx.h) or the force flag. */
+static void plan_bounce_local(pc_run *r, const planfx_bounce *b) {
+    const char *k = "    one bounce (two VSGLs):";
+    int f = r->d.force_local_bounce;
+    if (f) {
+        plan_add(r->plan, r->pcap, "%s %s\n", k, f > 0 ? "needed (forced)" : "none (forced off)");
+        return;
+    }
+    if (!(b->direct > 0)) {
+        plan_add(r->plan, r->pcap, "%s none: the lights reach none of the %d sampled vertices\n", k, b->vertices);
+        return;
+    }
+    double share = b->bounce / b->direct;
+    bool on = share >= PLANFX_BOUNCE_MIN;
+    plan_add(r->plan, r->pcap, "%s %s: carries %.1f%% of the direct light at %d sampled vertices (%s %.0f%%; %ld rays)\n", k,
+             on ? "needed" : "none", 100 * share, b->vertices, on ? ">=" : "<", 100 * PLANFX_BOUNCE_MIN, b->rays);
+}
+
+/* The plan's indirect-highlights line (glossy: the scene has a glossy material). */
+static void plan_highlights(pc_run *r, const planfx_bounce *b, bool glossy) {
+    const char *k = "    indirect highlights:";
+    int f = r->d.force_highlights;
+    if (f) {
+        plan_add(r->plan, r->pcap, "%s %s\n", k, f > 0 ? "needed (forced)" : "none (forced off)");
+    } else if (!glossy) {
+        plan_add(r->plan, r->pcap, "%s none: no glossy material\n", k);
+    } else if (!(b->direct > 0)) {
+        plan_add(r->plan, r->pcap, "%s none: the lights reach none of the sampled vertices\n", k);
+    } else {
+        double share = b->glossy / b->direct;
+        bool on = share >= PLANFX_HIGHLIGHT_MIN;
+        plan_add(r->plan, r->pcap, "%s %s: the %d glossy sampled vertices receive %.1f%% of the direct light by one bounce (%s %.0f%%)\n",
+                 k, on ? "needed" : "none", b->glossy_vertices, 100 * share, on ? ">=" : "<", 100 * PLANFX_HIGHLIGHT_MIN);
+    }
+}
+
+/* The scene's local lights and the local-light effects they call for. Direct light is always
+ * needed (runtime, analytic BRDFs, shadows); the one bounce and the indirect highlights where the
+ * light they carry, measured at the planning sample (planfx.h), reaches PLANFX_BOUNCE_MIN and
+ * PLANFX_HIGHLIGHT_MIN of the direct light, unless forced. Nothing is printed without local lights. */
 static void plan_local_lights(pc_run *r) {
     const prt_scene *sc = &r->out->scene;
     if (sc->lights.count == 0) return;
@@ -966,14 +1047,13 @@ static void plan_local_lights(pc_run *r) {
     }
     int glossy = 0;
     for (int m = 0; m < sc->nmaterials; m++) glossy += sc->materials[m].type != BRDF_LAMBERT;
-    bool see = r->hit_sample >= PC_HIT_MIN;
+    planfx_bounce b = { 0 };
+    if (!r->d.force_local_bounce || (glossy && !r->d.force_highlights))
+        planfx_measure_bounce(sc, r->vs, r->order, r->nsample, PLANFX_RAYS, &b);
     plan_add(r->plan, r->pcap, "    direct light with shadows: at runtime (cpu: Embree shadow rays per vertex; gl: a shadow cube "
                                "per point light, one perspective map per spot), analytic BRDFs, not the factorization\n");
-    plan_add(r->plan, r->pcap, "    one bounce (two VSGLs): %s\n",
-             see ? "needed (surfaces see each other)" : "none: surfaces do not see each other");
-    plan_add(r->plan, r->pcap, "    indirect highlights: %s\n",
-             !glossy ? "none: no glossy material" : see ? "needed (a glossy material, surfaces see each other)"
-                                                        : "none: no glossy surface faces another");
+    plan_bounce_local(r, &b);
+    plan_highlights(r, &b, glossy > 0);
 }
 
 /* Pass `name` of the statistics' table (added when new; NULL when the table is full). */

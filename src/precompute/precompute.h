@@ -54,7 +54,11 @@
  * energy (gather_energy ratio; the pass that falls below is still added); force_bounces 1 does
  * max(bounces, 1) passes regardless, -1 none (`--bounces 0`). The view-dependent transfer gets the
  * same number of reflection passes at most (1 + bounces) and the same threshold. A time estimate
- * comes from the sample, which is computed first and kept.
+ * comes from the sample, which is computed first and kept. Local lights (planfx.h): their one
+ * bounce (two VSGLs) where it carries at least PLANFX_BOUNCE_MIN (2%) of their direct light at the
+ * sample's vertices, measured by PLANFX_RAYS rays each; their indirect highlights where a glossy
+ * material's vertices receive at least PLANFX_HIGHLIGHT_MIN of it by one bounce; the plan prints
+ * each share; force_local_bounce and force_highlights override either way.
  *
  * Refinement (refine_threshold > 0, stage refine, before everything else): the scene's mesh is
  * refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1), and the refined
@@ -120,8 +124,13 @@ typedef struct precompute_desc {
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
+    int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
+    int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */
+    int force_refine;       /* -1: no refinement whatever refine_threshold says; otherwise refine_threshold > 0
+                             * asks for it, else the plan measures the receivers (planfx.h) and, with 1,
+                             * refines the floor where they need it (0: it only says so) */
     float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose
-                             * masks differ in more than this share; 0: no refinement */
+                             * masks differ in more than this share; 0: as the plan decides */
     int refine_budget;      /* with refinement, the most vertices after it; 0: 1.5x the scene's */
     int refine_parts;       /* refine.h's parts: 0 the floor's edges when there is a floor, REFINE_ALL models too */
     int nthreads;           /* 0: all cores (results do not depend on it) */

@@ -62,8 +62,10 @@
  * max_levels 6 (edges at most 64 times shorter than the input's; a contact line where a
  * model touches the floor stays marked at every level, so the budget and this cap end it).
  * precompute keeps refinement OFF unless asked for (precompute_desc.refine_threshold,
- * `prt precompute --refine`, a JSON scene's "refine"): the shadow targets (docs/design/shadows.md)
- * are met without it, and its 1.5x vertices would take the benchmark's file past 100 MB (the
+ * `prt precompute --refine`, a JSON scene's "refine", or force_refine 1 / --refine-auto where its
+ * plan finds the floor coarser than a sun's penumbra: planfx.h): on the teapot's floor it brought
+ * the shadow no closer to the path tracer (docs/design/plan.md), the shadow targets
+ * (docs/design/shadows.md) are met without it, and its 1.5x vertices would take the benchmark's file past 100 MB (the
  * refined bunny + floor's direct pass, 103 s with visibility.h's floor shortcut, meets 120 s).
  * On a reduced bunny (6,029 + 4,096 floor vertices, city) one level refines the floor from
  * 4,096 to 9,158 vertices (budget reached) and lowers the image's relative RMS error from

@@ -8,12 +8,14 @@
  *     prt_file_effects(&data, &fx);                  // after prtfile_read and the lights applied
  *     runtime_desc rd = { .local_bounce = fx.local_bounce, .highlight_samples = fx.highlights ? 32 : 0 };
  *
- * The rule is the plan's (precompute.h, its local-lights lines): there must be local lights; the one
- * bounce where surfaces see each other (at least PRT_EFFECTS_HIT_MIN of the planning sample's
- * visibility rays hit geometry); the highlights where, in addition, a material has a vMF lobe fit
- * (phong, blinn, ggx, beckmann: lightmat.h) and the plan does not rule them out. The file's plan
- * lines decide where present; files whose plan has none fall back on the same rule over the stored
- * hit fraction. Pure: reads d only. */
+ * The rule is the plan's (precompute.h, its local-lights lines; planfx.h measures them): there must
+ * be local lights; the one bounce where the plan's line says "needed" (it carries at least 2% of
+ * the lights' direct light at the planning sample, or it was forced); the highlights where a
+ * material has a vMF lobe fit (phong, blinn, ggx, beckmann: lightmat.h) and the plan's highlights
+ * line says "needed". Files whose plan has no such lines (lights added at render time) fall back
+ * on the hit fraction: the one bounce, and with it the highlights, where surfaces see each other
+ * (at least PRT_EFFECTS_HIT_MIN of the planning sample's visibility rays hit geometry). Pure: reads
+ * d only. */
 #ifndef PRT_EFFECTS_H
 #define PRT_EFFECTS_H
 #include "prtfile.h"
