@@ -194,7 +194,7 @@ uninstall:
 	rm -rf $(DESTDIR)$(INCLUDEDIR)/prt
 
 # T=FILTER runs only the cases whose "domain/case" name contains FILTER (tests/harness.h).
-# The fuzz harnesses' smoke run (tools/fuzz.sh --smoke: the seeds and a few seconds each) is the
+# The fuzz harnesses' smoke run (tools/fuzz.sh without arguments: the seeds and a few seconds each) is the
 # suite's last binary; it prints a skip reason when clang's libFuzzer is missing.
 test: all $(TESTS) $(BUILD)/.testdeps
 	@T="$(T)" PRT_BIN=$(BUILD)/prt tools/run_tests.sh $(TESTS) $(FUZZ_SMOKE)

@@ -7,8 +7,8 @@
  * Linked before libprt.a (Makefile, fuzz rules), these definitions keep the archive members
  * that wrap the libraries out of the link: image_oiio.o (OpenImageIO: image files), glctx.o
  * (OSMesa, EGL, GLFW: the gl backend's contexts), visibility.o (Embree: local lights' shadow
- * rays) and shard.o (OpenMPI); LAPACKE and OpenBLAS, which factor.c and refit.c call only
- * while precomputing, are stood in for one by one. The harnesses read bytes from memory and
+ * rays) and shard.o (OpenMPI); LAPACKE and OpenBLAS, which factor.c, refit.c and cpca_build.c
+ * call only while precomputing, are stood in for one by one. The harnesses read bytes from memory and
  * relight on the CPU backend without local lights, so none of these runs; one that did would
  * abort with its name, a finding that says to link the library again. A new call into one of
  * these members shows at link time: the member comes in and its definitions clash with these. */
@@ -56,12 +56,15 @@ ABSENT(shard_share_rows)
 ABSENT(shard_size)
 ABSENT(shard_split)
 ABSENT(shard_status)
-/* LAPACKE and OpenBLAS (factor.c's SVD and eigen solvers, refit.c's Cholesky) */
+/* LAPACKE and OpenBLAS (factor.c's SVD and eigen solvers, refit.c's Cholesky, cpca_build.c's
+ * eigen solver and least squares) */
 ABSENT(LAPACKE_dgesdd)
 ABSENT(LAPACKE_dormtr)
 ABSENT(LAPACKE_dpotrf)
+ABSENT(LAPACKE_dposv)
 ABSENT(LAPACKE_dpotrs)
 ABSENT(LAPACKE_dstemr)
+ABSENT(LAPACKE_dsyev)
 ABSENT(LAPACKE_dsterf)
 ABSENT(LAPACKE_dsytrd)
 ABSENT(LAPACKE_sgesdd)
