@@ -9,8 +9,8 @@
  * munmap on release): about 13 ms an import, over 90% of the harness's time (perf). So this
  * harness replaces the C++ operators new and delete (plain, sized and nothrow; ASan's are weak
  * definitions) with ones that keep one large block when it is released and hand it back for the
- * next request of its size: while kept it is poisoned, so a use after release is still reported (use-after-poison), and its
- * redzones are those of the malloc that made it. Every other block goes to ASan's malloc and free,
+ * next request of its size: while kept it is poisoned, so a use after release is still reported
+ * (use-after-poison), and its redzones are those of the malloc that made it. Every other block goes to ASan's malloc and free,
  * which still report overflows, use after free, double frees and leaks; what is given up is ASan's
  * report of a block from plain new released by free() or the reverse (new[] and delete[] are
  * ASan's own, so their mismatches with new, delete, malloc and free are still reported). */
