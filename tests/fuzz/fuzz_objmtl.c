@@ -10,10 +10,11 @@
  * harness replaces the C++ operators new and delete (plain, sized and nothrow; ASan's are weak
  * definitions) with ones that keep one large block when it is released and hand it back for the
  * next request of its size: while kept it is poisoned, so a use after release is still reported
- * (use-after-poison), and its redzones are those of the malloc that made it. Every other block goes to ASan's malloc and free,
- * which still report overflows, use after free, double frees and leaks; what is given up is ASan's
- * report of a block from plain new released by free() or the reverse (new[] and delete[] are
- * ASan's own, so their mismatches with new, delete, malloc and free are still reported). */
+ * (use-after-poison), and its redzones are those of the malloc that made it. Every other block
+ * goes to ASan's malloc and free, which still report overflows, use after free, double frees and
+ * leaks; what is given up is ASan's report of a block from plain new released by free() or the
+ * reverse (new[] and delete[] are ASan's own, so their mismatches with new, delete, malloc and
+ * free are still reported). */
 #include "fuzz_asset.h"
 #include <sanitizer/allocator_interface.h>
 #include <sanitizer/asan_interface.h>
@@ -24,7 +25,8 @@ typedef struct { void *p; size_t n; } kept_block;
 /* One harness process, one thread: the kept block is the allocator's state, like malloc's own. */
 static kept_block kept;
 
-enum { KEEP_MIN = 4u << 20 };   /* blocks this large are assimp's stream caches; smaller ones churn cheaply */
+/* Blocks this large are assimp's stream caches; smaller ones churn cheaply. */
+enum { KEEP_MIN = 4u << 20 };
 
 void *_Znwm(size_t n);
 void *_ZnwmRKSt9nothrow_t(size_t n, const void *nothrow);
@@ -41,7 +43,7 @@ void *_Znwm(size_t n) {
         return p;
     }
     void *p = malloc(n ? n : 1);
-    if (!p) abort();   /* ASan reports an allocation it cannot make before this; new never returns NULL */
+    if (!p) abort();   /* new never returns NULL (ASan reports a failed allocation first) */
     return p;
 }
 
@@ -49,7 +51,7 @@ void *_Znwm(size_t n) {
  * kept one released again is a double free), every other block freed. */
 void _ZdlPv(void *p) {
     if (p && p == kept.p) {
-        fprintf(stderr, "fuzz_objmtl: a %zu-byte block released twice (attempting double-free)\n", kept.n);
+        fprintf(stderr, "fuzz_objmtl: a %zu-byte block released twice (double free)\n", kept.n);
         abort();
     }
     size_t n = p ? __sanitizer_get_allocated_size(p) : 0;
