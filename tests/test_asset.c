@@ -358,7 +358,7 @@ static void bad_inputs(void) {
     int pp = gb_add(&g, k_quad, sizeof k_quad, 5126, 4, "VEC3"), tc = gb_add(&g, uvs, sizeof uvs, 5126, 4, "VEC2");
     int pi = gb_add(&g, k_quad_idx, sizeof k_quad_idx, 5125, 6, "SCALAR");
     snprintf(rest, sizeof rest, "\"images\":[{\"uri\":\"absent.png\"}],\"textures\":[{\"source\":0}],\"materials\":[{"
-             "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],\"meshes\":[{\"primitives\":[{\"attributes\":"
+             "\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0},\"metallicFactor\":0}}],\"meshes\":[{\"primitives\":[{\"attributes\":"
              "{\"POSITION\":%d,\"TEXCOORD_0\":%d},\"indices\":%d,\"material\":0}]}],\"nodes\":[{\"mesh\":0}],"
              "\"scenes\":[{\"nodes\":[0]}],\"scene\":0", pp, tc, pi);
     write_gltf(tmp_path("notex.gltf"), &g, rest, false, NULL);

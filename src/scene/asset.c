@@ -707,8 +707,8 @@ static bool mat_float(const struct aiMaterial *m, const char *key, float *x) {
     return true;
 }
 
-/* The spec and plan note of glTF material m (asset.h: metallic-roughness onto GGX). */
-static void spec_gltf(const struct aiMaterial *m, const char *mname, char *spec, size_t cap, char *from, size_t fcap,
+/* The spec and plan note of glTF material m (asset.h: metallic-roughness onto GGX); returns its metallic. */
+static float spec_gltf(const struct aiMaterial *m, const char *mname, char *spec, size_t cap, char *from, size_t fcap,
                       const char *file) {
     float base[3] = { 1, 1, 1 }, metal = 1, rough = 1;   /* glTF 2.0's defaults */
     if (!mat_rgb(m, "$clr.base", base)) mat_rgb(m, "$clr.diffuse", base);
@@ -723,6 +723,7 @@ static void spec_gltf(const struct aiMaterial *m, const char *mname, char *spec,
     snprintf(spec, cap, "ggx:kd=%.9g,%.9g,%.9g;ks=%.9g,%.9g,%.9g;alpha=%.9g", kd[0], kd[1], kd[2], ks[0], ks[1], ks[2], alpha);
     snprintf(from, fcap, "%.60s material '%.40s' (glTF metallic-roughness: baseColor %.3g,%.3g,%.3g, metallic %.3g, "
              "roughness %.3g)", file, mname, base[0], base[1], base[2], metal, rough);
+    return metal;
 }
 
 /* The spec and plan note of MTL material m (asset.h: Kd, Ks, Ns onto Phong). */
@@ -815,6 +816,14 @@ static int texture_of(loader *L, const struct aiMaterial *m, unsigned *uvch) {
     return s->ntextures++;
 }
 
+/* Whether material m names a base-colour (or diffuse) texture. */
+static bool has_base_texture(const struct aiMaterial *m) {
+    struct aiString path = { 0 };
+    return (aiGetMaterialTexture(m, aiTextureType_BASE_COLOR, 0, &path, NULL, NULL, NULL, NULL, NULL, NULL) == aiReturn_SUCCESS ||
+            aiGetMaterialTexture(m, aiTextureType_DIFFUSE, 0, &path, NULL, NULL, NULL, NULL, NULL, NULL) == aiReturn_SUCCESS) &&
+           path.data[0];
+}
+
 /* The scene material of the file's material mi (made on first use); -1 with L->err. */
 static int material_of(loader *L, unsigned mi) {
     if (mi >= L->ai->mNumMaterials) return prt_fail(L->err, "%s: a mesh uses material %u of %u", L->name, mi, L->ai->mNumMaterials);
@@ -822,6 +831,7 @@ static int material_of(loader *L, unsigned mi) {
     const struct aiMaterial *m = L->ai->mMaterials[mi];
     struct aiString nm = { 0 };
     char mname[64] = "", spec[256], from[512], file[64];
+    float metal = 0;
     if (aiGetMaterialString(m, "?mat.name", 0, 0, &nm) == aiReturn_SUCCESS) snprintf(mname, sizeof mname, "%.63s", nm.data);
     snprintf(file, sizeof file, "%.63s", base_name(L->name));
     const asset_desc *d = L->desc;
@@ -831,13 +841,19 @@ static int material_of(loader *L, unsigned mi) {
     } else if (is_default_material(m, mname, L->fmt)) {
         snprintf(spec, sizeof spec, "%.255s", d && d->fallback ? d->fallback : ASSET_DEFAULT_MATERIAL);
         snprintf(from, sizeof from, "default (%.60s gives %s no material)", file, L->fmt == FMT_PLY ? "a PLY" : "these faces");
-    } else if (L->fmt == FMT_GLTF) spec_gltf(m, mname, spec, sizeof spec, from, sizeof from, file);
+    } else if (L->fmt == FMT_GLTF) metal = spec_gltf(m, mname, spec, sizeof spec, from, sizeof from, file);
     else spec_mtl(m, mname, spec, sizeof spec, from, sizeof from, file);
-    int tex = d && d->material ? -1 : texture_of(L, m, &L->mat_uv[mi]);
+    /* A texture scales kd only (docs/design/assets.md): a metal has none, so its texture is left out */
+    bool metal_tex = !(d && d->material) && metal >= 1 && has_base_texture(m);
+    if (metal_tex)
+        scene_note(L->s, "%s: material '%s': its base-colour texture is not used (metallic 1 leaves no diffuse term; "
+                   "prt's textures scale kd, F0 takes the base-colour factor)", file, mname);
+    int tex = (d && d->material) || metal_tex ? -1 : texture_of(L, m, &L->mat_uv[mi]);
     if (tex == -2) return -1;
-    if (tex >= 0) {
+    if (tex >= 0) {   /* the SVD path cannot split kd from the lobe: there it scales the whole BRDF */
         size_t at = strlen(from);
-        snprintf(from + at, sizeof from - at, "; texture '%.60s' multiplies kd", L->s->textures[tex].name);
+        snprintf(from + at, sizeof from - at, "; texture '%.60s' multiplies kd%s", L->s->textures[tex].name,
+                 strncmp(spec, "lambert", 7) ? " (the SVD path: the whole BRDF)" : "");
         L->textured = true;
     }
     prt_error e2;
