@@ -29,6 +29,10 @@ struct gllights {
  * llvmpipe runs a branch that no pixel takes at the cost of one that every pixel takes (under a mask),
  * so the models a scene lacks are left out of the program rather than branched around. */
 static const char *k_glsl =
+    /* KD_SCALE: what kd is multiplied by (glrt.c: the texture at the point being shaded, texture.h) */
+    "#ifndef KD_SCALE\n"
+    "#define KD_SCALE vec3(1.0)\n"
+    "#endif\n"
     "#ifndef BRDF_TYPES\n"
     "#define BRDF_TYPES 127\n"
     "#endif\n"
@@ -67,7 +71,7 @@ static const char *k_glsl =
     "    vec4 p0 = texelFetch(t_brdf, b), p1 = texelFetch(t_brdf, b + 1), p2 = texelFetch(t_brdf, b + 2);\n"
     "    int type = int(p0.x + 0.5);\n"
     "    float ci = max(wi.z, 1e-7), co = max(wo.z, 1e-7);\n"
-    "    vec3 kd = p1.rgb, ks = p2.rgb, out_c = kd / PI, h;\n"
+    "    vec3 kd = p1.rgb * KD_SCALE, ks = p2.rgb, out_c = kd / PI, h;\n"
     "#if (BRDF_TYPES & 2) != 0\n"
     "    if (type == 1) {\n"                      /* phong */
     "        float c = -wi.x * wo.x - wi.y * wo.y + wi.z * wo.z;\n"

@@ -50,7 +50,9 @@ struct glrt {
                                  * pixel with the glossy VSGL term, spec_tris), per pixel tv fast path */
     int tv_tris[3];             /* triangles drawn by prog_view[2], [3], [0] in that order (per pixel with a tv) */
     int tv_perm;                /* word offset in t_tvu of the drawn order's triangle indices */
-    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, ebo;
+    GLuint vao, vbo_pos, vbo_nrm, vbo_vec, vbo_mat, vbo_add, vbo_pix, vbo_tva, vbo_uv, ebo;
+    GLuint buf_alb, tex_alb;    /* textured scenes: every texture's linear texels (RGBA32F), see upload_textures */
+    GLint tex_info[PRT_MAX_MATERIALS][4];   /* per material: first texel in t_alb (-1: untextured), width, height */
     const prt_transfer *tv;     /* the transfer shaded per pixel (ops->view->glsl), or NULL */
     GLuint buf_tv, tex_tv, buf_tvu, tex_tvu, tex_pf[GLRT_PF_LEVELS];
     int pf_n;                   /* prefilter levels uploaded (0: none, per-vertex radiance only) */
@@ -81,6 +83,8 @@ struct glrt {
 #define GLRT_UNIT_TV 2
 #define GLRT_UNIT_PF 3
 #define GLRT_UNIT_TVU (GLRT_UNIT_PF + GLRT_PF_LEVELS)
+/* The textures' texels: after the local lights' units (gllights.h). */
+#define GLRT_UNIT_ALB (GLLIGHTS_UNIT + 2 * GLLIGHTS_MAX + 1)
 
 /* Static name of a light kernel. */
 const char *glrt_light_method_name(glrt_light_method m) {
@@ -159,6 +163,29 @@ static const char *k_view_common =
     "    }\n"
     "    return c;\n"
     "}\n"
+    /* texture_sample (texture.h) of material m's texture at uv: bilinear between texel centres,
+     * repeat, row 0 at v = 1; 1 untextured. g_albedo: the one being shaded, which brdf_glsl
+     * (gllights.c) scales kd by for the local lights. */
+    "vec3 g_albedo = vec3(1.0);\n"
+    "#if HAS_TEX\n"
+    "uniform samplerBuffer t_alb;\n"
+    "uniform ivec4 u_tex[NMAT];\n"
+    "vec3 albedo_at(int m, vec2 uv) {\n"
+    "    ivec4 ti = u_tex[m];\n"
+    "    if (ti.x < 0) return vec3(1.0);\n"
+    "    if (isnan(uv.x) || isinf(uv.x) || isnan(uv.y) || isinf(uv.y)) uv = vec2(0.0);\n"
+    "    float x = uv.x * float(ti.y) - 0.5, y = (1.0 - uv.y) * float(ti.z) - 0.5;\n"
+    "    float fx = floor(x), fy = floor(y), ax = x - fx, ay = y - fy;\n"
+    "    int x0 = int(mod(fx, float(ti.y))), y0 = int(mod(fy, float(ti.z)));\n"
+    "    x0 = clamp(x0, 0, ti.y - 1); y0 = clamp(y0, 0, ti.z - 1);\n"   /* mod's rounding can reach the size */
+    "    int x1 = x0 + 1 < ti.y ? x0 + 1 : 0, y1 = y0 + 1 < ti.z ? y0 + 1 : 0;\n"
+    "    vec3 a = texelFetch(t_alb, ti.x + y0 * ti.y + x0).rgb, b = texelFetch(t_alb, ti.x + y0 * ti.y + x1).rgb;\n"
+    "    vec3 d = texelFetch(t_alb, ti.x + y1 * ti.y + x0).rgb, e = texelFetch(t_alb, ti.x + y1 * ti.y + x1).rgb;\n"
+    "    return (1.0 - ay) * ((1.0 - ax) * a + ax * b) + ay * ((1.0 - ax) * d + ax * e);\n"
+    "}\n"
+    "#else\n"
+    "vec3 albedo_at(int m, vec2 uv) { return vec3(1.0); }\n"
+    "#endif\n"
     "vec3 shade_world(int m, vec3 n, vec3 pos, vec3 eye, vec3 g[KMAX], int kmax) {\n"
     "    ivec4 mi = u_mat[m];\n"
     "    vec3 s, t;\n"
@@ -177,6 +204,7 @@ static const char *k_view_vs =
     "layout(location = 4) in vec3 a_add;\n"   /* radiance of the non-linear transfers (glrt_set_vertex_add) */
     "layout(location = 5) in float a_pix;\n"  /* 1: a vertex of the per-pixel transfer's materials (view->glsl) */
     "layout(location = 6) in float a_tva;\n"  /* the per-pixel transfer's own per-vertex value (view->glsl->data) */
+    "layout(location = 7) in vec2 a_uv;\n"    /* texture coordinates (textured scenes) */
     "uniform mat4 u_mvp;\n"
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
@@ -185,6 +213,7 @@ static const char *k_view_vs =
     "out vec3 v_col;\n"
     "#else\n"
     "out vec3 v_pos, v_nrm, v_add;\n"
+    "out vec2 v_uv;\n"
     "out float v_pix, v_tva;\n"
     "out vec3 v_g[KMAX];\n"
     "flat out int v_mat;\n"
@@ -192,12 +221,15 @@ static const char *k_view_vs =
     "void main() {\n"
     "    vec3 g[KMAX];\n"
     "    for (int k = 0; k < KMAX; k++) g[k] = uint(k) < a_vec.y ? texelFetch(t_g, int(a_vec.x) + k).rgb : vec3(0.0);\n"
-    "#if PER_VERTEX\n"
-    "    v_col = shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
-    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye) + vsgl_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
+    "#if PER_VERTEX\n"   /* the texture at the vertex times the sparse sum, as relight.c; kd's for the local lights */
+    "    g_albedo = albedo_at(int(a_mat), a_uv);\n"
+    "    v_col = g_albedo * shade_world(int(a_mat), normalize(a_nrm), a_pos, u_eye, g, u_kmax) + a_add\n"
+    "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
+    "    g_albedo = vec3(1.0);\n"   /* the VSGL bounce shades with the material's own kd, as indirect.c */
+    "    v_col += vsgl_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
-    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva;\n"
+    "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva; v_uv = a_uv;\n"
     "#endif\n"
     "    gl_Position = u_mvp * vec4(a_pos, 1.0);\n"
     "}\n";
@@ -211,6 +243,7 @@ static const char *k_view_fs =
     "void main() { o_color = vec4(max(v_col, 0.0), 1.0); }\n"   /* beyond a silhouette when multisampled (gldraw.c) */
     "#else\n"
     "in vec3 v_pos, v_nrm, v_add;\n"
+    "in vec2 v_uv;\n"
     "in float v_pix, v_tva;\n"
     "in vec3 v_g[KMAX];\n"
     "flat in int v_mat;\n"
@@ -226,7 +259,12 @@ static const char *k_view_fs =
     "    }\n"
     "#endif\n"
     "    vec3 n = normalize(v_nrm);\n"
-    "    o_color = vec4(shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye) + vsgl_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
+    /* the texture at the pixel times the sparse sum (the transport is stored without it; the vMF lobes
+     * in add are the specular part), and kd's for the local lights */
+    "    g_albedo = albedo_at(v_mat, v_uv);\n"
+    "    vec3 c = g_albedo * shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye);\n"
+    "    g_albedo = vec3(1.0);\n"   /* the VSGL bounce shades with the material's own kd, as indirect.c */
+    "    o_color = vec4(c + vsgl_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
     "}\n"
     "#endif\n";
 
@@ -493,6 +531,58 @@ static int upload_mesh(glrt *rt, prt_error *err) {
     return glctx_check(gl, "uploading the mesh", err);
 }
 
+/* A textured scene (texture.h: materials with a texture and the mesh's coordinates): every texture's
+ * linear texels into one RGBA32F buffer texture that albedo_at (the view programs) samples as
+ * texture_sample does, each material's place in it, and the coordinates as attribute 7. Exact
+ * texture_sample arithmetic in the shader instead of GL's filtering keeps GPU and CPU on one rule
+ * (a GPU's bilinear weights have 8 fraction bits) and needs no grouping of triangles by texture.
+ * Nothing for an untextured scene. -1 with err (the texels beyond the buffer-texture limit, or a
+ * context without the texture unit). */
+static int upload_textures(glrt *rt, prt_error *err) {
+    const gl_api *gl = rt->gl;
+    const prt_scene *sc = &rt->d->scene;
+    size_t texels = 0, off[SCENE_MAX_TEXTURES];
+    for (int t = 0; t < sc->ntextures && t < SCENE_MAX_TEXTURES; t++) {
+        off[t] = texels;
+        texels += (size_t)sc->textures[t].w * sc->textures[t].h;
+    }
+    bool any = false;
+    for (int m = 0; m < rt->nmat; m++) {
+        const scene_texture *tx = sc->mesh.uv ? scene_material_tex(sc, m) : NULL;
+        rt->tex_info[m][0] = tx ? (GLint)off[tx - sc->textures] : -1;
+        rt->tex_info[m][1] = tx ? tx->w : 1;
+        rt->tex_info[m][2] = tx ? tx->h : 1;
+        any |= tx != NULL;
+    }
+    if (!any) return 0;
+    GLint maxtb = 0, units = 0, vunits = 0;
+    gl->GetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &maxtb);
+    gl->GetIntegerv(GL_MAX_TEXTURE_IMAGE_UNITS, &units);
+    gl->GetIntegerv(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS, &vunits);
+    if (texels >= (size_t)maxtb || texels > (size_t)INT32_MAX)
+        return prt_fail(err, "GL runtime: the textures' %zu texels exceed the GL buffer-texture limit (%d)", texels, maxtb);
+    if (units <= GLRT_UNIT_ALB || vunits <= GLRT_UNIT_ALB)
+        return prt_fail(err, "GL runtime: textures need %d texture units (this context has %d)", GLRT_UNIT_ALB + 1, units);
+    float *v = prt_calloc(4 * texels, sizeof(float), err);
+    if (!v) return -1;
+    for (int t = 0; t < sc->ntextures && t < SCENE_MAX_TEXTURES; t++) {
+        const scene_texture *tx = &sc->textures[t];
+        for (size_t i = 0; i < (size_t)tx->w * tx->h; i++) memcpy(v + 4 * (off[t] + i), tx->lin + 3 * i, 3 * sizeof(float));
+    }
+    rt->buf_alb = make_buffer(gl, v, sizeof(float) * 4 * texels, GL_STATIC_DRAW);
+    rt->tex_alb = make_texbuf(gl, rt->buf_alb, GL_RGBA32F);
+    free(v);
+    gl->BindVertexArray(rt->vao);
+    rt->vbo_uv = make_buffer(gl, sc->mesh.uv, sizeof(float) * 2 * (size_t)sc->mesh.nverts, GL_STATIC_DRAW);
+    gl->BindBuffer(GL_ARRAY_BUFFER, rt->vbo_uv);
+    gl->EnableVertexAttribArray(7);
+    gl->VertexAttribPointer(7, 2, GL_FLOAT, GL_FALSE, 0, 0);
+    gl->BindVertexArray(0);
+    gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    rt->other_bytes += sizeof(float) * (4 * texels + 2 * (size_t)sc->mesh.nverts);
+    return glctx_check(gl, "uploading the textures", err);
+}
+
 /* The element buffer as a stable partition of the mesh's triangles into ncls classes (cls_of: a
  * triangle's class), class 0 first, the mesh's order within each; counts[c] += the triangles of class
  * c; perm (may be NULL): perm[i] = the mesh's index of drawn triangle i. -1 on OOM. */
@@ -652,9 +742,10 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     for (int m = 0; m < rt->d->scene.nmaterials; m++) types |= 1 << rt->d->scene.materials[m].type;
     snprintf(head, sizeof head,
              "#version 330 core\n#define KMAX %d\n#define NMAT %d\n#define PER_VERTEX %d\n#define HAS_TV %d\n#define TV_FULL %d\n"
-             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define PF_LIGHTS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n",
+             "#define TV_ROWS %d\n#define PF_LEVELS %d\n#define PF_LIGHTS %d\n#define LMAX %d\n#define VSGL_SPEC %d\n#define VSGL_NFIT %d\n#define BRDF_TYPES %d\n"
+             "#define HAS_TEX %d\n#define KD_SCALE g_albedo\n",
              rt->kmax_all, rt->nmat, pv == 1, tvp, pv == 0, rt->tv ? rt->tv->ops->view->glsl->rows : 1, GLRT_PF_LEVELS, PREFILTER_MAX_LIGHTS,
-             rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types);
+             rt->lmax, spec, spec ? glvsgl_fit_rows(rt->vsgl) : 1, types, rt->tex_alb != 0);
     char *vs = build_src(head, k_view_vs, "", "");
     char *vfs = build_src(head, k_view_fs, "", "");
     char *tv = tvp ? tv_source(rt) : NULL;
@@ -678,6 +769,10 @@ static int build_view_program(glrt *rt, int pv, prt_error *err) {
     gl->Uniform4iv(gl->GetUniformLocation(p, "u_mat"), rt->nmat, &rt->mat_info[0][0]);
     gl->Uniform1i(gl->GetUniformLocation(p, "t_view"), 0);
     gl->Uniform1i(gl->GetUniformLocation(p, "t_g"), 1);
+    if (rt->tex_alb) {
+        gl->Uniform4iv(gl->GetUniformLocation(p, "u_tex"), rt->nmat, &rt->tex_info[0][0]);
+        gl->Uniform1i(gl->GetUniformLocation(p, "t_alb"), GLRT_UNIT_ALB);
+    }
     if (rt->lmax > 0) gllights_init_program(gl, p);
     if (spec) glvsgl_init_program(rt->vsgl, gl, p);
     if (tvp) {
@@ -874,8 +969,8 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
         return NULL;
     }
     if (gldraw_init(&rt->draw, gl, err) || gldraw_set_mesh(&rt->draw, m, err) || (!rt->cpu && upload_transport(rt, t, err)) ||
-        make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || upload_tv(rt, err) ||
-        build_programs(rt, err)) {
+        make_light_buffers(rt, err) || upload_view_maps(rt, err) || upload_mesh(rt, err) || upload_textures(rt, err) ||
+        upload_tv(rt, err) || build_programs(rt, err)) {
         glrt_destroy(rt);
         return NULL;
     }
@@ -902,9 +997,9 @@ void glrt_destroy(glrt *rt) {
         const gl_api *gl = rt->gl;
         GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
                           rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv,
-                          rt->buf_tvu, rt->vbo_tva };
+                          rt->buf_tvu, rt->vbo_tva, rt->vbo_uv, rt->buf_alb };
         GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
-                          rt->frag_tex, rt->tex_tv, rt->tex_tvu };
+                          rt->frag_tex, rt->tex_tv, rt->tex_tvu, rt->tex_alb };
         gl->DeleteTextures(GLRT_PF_LEVELS, rt->tex_pf);
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
             if (bufs[i]) gl->DeleteBuffers(1, &bufs[i]);
@@ -1095,6 +1190,11 @@ static void draw_tris(glrt *rt, GLuint p, const float mvp[16], const prt_camera 
     gl->ActiveTexture(GL_TEXTURE1);
     gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_g);
     if ((p == rt->prog_view[0] || p == rt->prog_view[3]) && rt->tv) bind_tv(rt, p);
+    if (rt->tex_alb) {
+        gl->ActiveTexture(GL_TEXTURE0 + GLRT_UNIT_ALB);
+        gl->BindTexture(GL_TEXTURE_BUFFER, rt->tex_alb);
+        gl->ActiveTexture(GL_TEXTURE1);
+    }
     if (rt->local) {   /* the local lights' uniforms and shadow cubes (gllights_bind) */
         gllights_bind(rt->local, p);
         if (rt->vsgl && rt->local_bounce) glvsgl_bind(rt->vsgl, rt->gl, p);

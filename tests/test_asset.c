@@ -602,6 +602,109 @@ static void texture_constant_probe(void) {
     }
 }
 
+/* The texel-mean ratio test: the mean over the pixels of image a over image b (where b > 0) in channel
+ * c; NAN when either cannot be read or their sizes differ. */
+static double ratio_mean(const char *a, const char *b, int c) {
+    prt_image x, y;
+    prt_error err;
+    if (image_read(a, &x, &err)) return NAN;
+    if (image_read(b, &y, &err)) { image_free(&x); return NAN; }
+    double m = 0;
+    int n = 0;
+    for (int i = 0; i < x.w * x.h && x.w == y.w && x.h == y.h; i++)
+        if (y.data[3 * i + c] > 0) m += x.data[3 * i + c] / y.data[3 * i + c], n++;
+    image_free(&x), image_free(&y);
+    return n ? m / n : NAN;
+}
+
+/* The largest |a - b| over the pixels of channel c relative to b's mean; NAN as ratio_mean. */
+static double max_rel_diff(const char *a, const char *b, int c) {
+    prt_image x, y;
+    prt_error err;
+    if (image_read(a, &x, &err)) return NAN;
+    if (image_read(b, &y, &err)) { image_free(&x); return NAN; }
+    double d = NAN, mean = 0;
+    if (x.w == y.w && x.h == y.h) {
+        d = 0;
+        for (int i = 0; i < x.w * x.h; i++) mean += y.data[3 * i + c] / (x.w * x.h);
+        for (int i = 0; i < x.w * x.h; i++) d = fmax(d, fabs(x.data[3 * i + c] - y.data[3 * i + c]));
+        d /= mean;
+    }
+    image_free(&x), image_free(&y);
+    return d;
+}
+
+/* The textured quad through the gl backend's per-pixel path (glrt: the texture sampled in the view
+ * shader): under the constant probe, pixel for pixel the cpu backend's image and the checker's mean
+ * over its untextured twin. Then a point light over both quads, no probe: each textured vertex's
+ * radiance is its texel times kd/pi I cos / d^2 (the light's direct term with the texture on kd,
+ * analytic), and in both backends' images every pixel over its twin's pixel is the texture there, so
+ * the ratio averages to the checker's mean. */
+static void texture_gl_and_lights(void) {
+    checker_files();
+    prt_image pr;
+    prt_error err;
+    CHECK(image_alloc(&pr, 64, 32, 3, &err) == 0);
+    for (int i = 0; i < 64 * 32 * 3; i++) pr.data[i] = 1;
+    image_desc d = { 0 };
+    CHECK(image_write(tmp_path("white.exr"), &pr, &d, &err) == 0, "%s", err.msg);
+    image_free(&pr);
+    char cmd[4000], out[8192];
+    const char *names[2] = { "texquad", "plainquad" }, *backends[2] = { "cpu", "gl" };
+    const char *cam = "--camera 0.5,2,0.5,0.5,0,0.5,21.2397 --size 60x60 --no-background";
+    const double I = 2, h = 1;   /* the light: 2 W/sr, 1 above the quad's centre */
+    for (int f = 0; f < 2; f++) {
+        snprintf(cmd, sizeof cmd, "%s precompute %s/%s.obj --no-bounces -o %s/%s.prt", check_prt_bin(), check_tmpdir(), names[f],
+                 check_tmpdir(), names[f]);
+        CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+        for (int b = 0; b < 2; b++) {
+            snprintf(cmd, sizeof cmd, "%s render %s/%s.prt --backend %s --probe %s %s -o %s/%s_%s.exr && "
+                     "%s render %s/%s.prt --backend %s --probe none --light 'point:pos=0.5,%g,0.5;intensity=%g' %s "
+                     "--vertices %s/%s_light.csv -o %s/%s_light_%s.exr", check_prt_bin(), check_tmpdir(), names[f], backends[b],
+                     tmp_path("white.exr"), cam, check_tmpdir(), names[f], backends[b], check_prt_bin(), check_tmpdir(), names[f],
+                     backends[b], h, I, cam, check_tmpdir(), names[f], check_tmpdir(), names[f], backends[b]);
+            CHECK(check_run(cmd, out, sizeof out) == 0, "%s", out);
+        }
+    }
+    for (int c = 0; c < 3; c++) {
+        double c0 = srgb8_linear(k_check[0][c]), c1 = srgb8_linear(k_check[1][c]), mean = 0.5 * (c0 + c1);
+        /* the cpu raster's GL filter: weights with 8 fraction bits, 1/256 of the contrast per axis */
+        double filt = fabs(c0 - c1) / 256;
+        CHECK_NEAR(max_rel_diff(tmp_path("texquad_gl.exr"), tmp_path("texquad_cpu.exr"), c), 0, 2 * filt / mean + 1e-5, "channel %d", c);
+        CHECK_NEAR(ratio_mean(tmp_path("texquad_gl.exr"), tmp_path("plainquad_gl.exr"), c), mean, filt + 1e-6, "channel %d", c);
+        for (int b = 0; b < 2; b++) {
+            char t[64], u[64];
+            snprintf(t, sizeof t, "texquad_light_%s.exr", backends[b]);
+            snprintf(u, sizeof u, "plainquad_light_%s.exr", backends[b]);
+            char tp[1024];
+            snprintf(tp, sizeof tp, "%s", tmp_path(t));
+            CHECK_NEAR(ratio_mean(tp, tmp_path(u), c), mean, filt + 1e-6, "%s channel %d", backends[b], c);
+        }
+    }
+    /* the vertex CSV (the cpu backend's last run): texel x kd/pi I cos / d^2, kd = 1 (MTL Kd 1) */
+    char *csv = check_read_file(tmp_path("texquad_light.csv"), NULL);
+    prt_scene s;
+    CHECK(scene_load(tmp_path("texquad.obj"), NULL, &s, &err) == 0, "%s", err.msg);
+    int n = 0;
+    for (const char *a = csv ? strchr(csv, '\n') : NULL; a && a[1]; a = strchr(a + 1, '\n')) {
+        int v;
+        double x[3];
+        if (sscanf(a + 1, "%d,%lf,%lf,%lf", &v, &x[0], &x[1], &x[2]) != 4 || v < 0 || v >= s.mesh.nverts) continue;
+        n++;
+        const float *p = s.mesh.pos + 3 * (size_t)v;
+        double d2 = (p[0] - 0.5) * (p[0] - 0.5) + h * h + (p[2] - 0.5) * (p[2] - 0.5), E = I * (h / sqrt(d2)) / d2;
+        int i = (int)lrint(p[0] * 8) % 8, j = (int)lrint(p[2] * 8) % 8;
+        /* float arithmetic on both sides and the CSV's 8 digits: 1e-5 relative */
+        for (int c = 0; c < 3; c++) {
+            double want = srgb8_linear(k_check[(i + 7 - j) & 1][c]) * E / M_PI;
+            CHECK_NEAR(x[c], want, 1e-5 * want, "vertex %d channel %d", v, c);
+        }
+    }
+    CHECK(n >= 81, "%d vertex rows", n);
+    scene_free(&s);
+    free(csv);
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(gltf_metallic_roughness);
@@ -618,5 +721,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(cli_cameras);
     CHECK_CASE(texture_checker);
     CHECK_CASE_GL(texture_constant_probe);
+    CHECK_CASE_GL(texture_gl_and_lights);
     return check_summary();
 }

@@ -21,10 +21,11 @@ struct direct_ctx {
     float eps;
     prt_lights lights;
     uint8_t *vis;           /* [light][nverts]: 1 when the light reaches the vertex unoccluded */
-    float *lambert;         /* [3 * nverts]: the view-independent radiance of Lambert vertices */
+    float *lambert;         /* [3 * nverts]: the view-independent radiance of Lambert vertices, before the texture */
     uint8_t *glossy;        /* [nverts]: 1 where the material's BRDF depends on the view */
     int *vmat;              /* [nverts]: the vertex's material, clamped to the scene's (vertex_brdf's rule) */
     float *kd_pi;           /* [3 * nmaterials]: a Lambert BRDF's value, (float)(kd / pi) as brdf_eval gives it */
+    float *albedo;          /* [3 * nverts]: a textured scene's texture at each vertex (texture.h); NULL: none */
     int nglossy;
     atomic_long rays;
     direct_stats st;
@@ -46,6 +47,10 @@ direct_ctx *direct_create(const prt_scene *scene, int nthreads, prt_error *err) 
     dc->kd_pi = dc->vmat ? prt_calloc(3 * (size_t)(scene->nmaterials > 0 ? scene->nmaterials : 1), sizeof(float), err) : NULL;
     dc->vs = dc->kd_pi ? vis_create(m, err) : NULL;
     if (!dc->vs) { direct_destroy(dc); return NULL; }
+    if (scene->ntextures > 0 && m->uv) {   /* the texture multiplies kd (scene_vertex_albedo: 1 untextured) */
+        if (!(dc->albedo = prt_calloc(3 * nv, sizeof(float), err))) { direct_destroy(dc); return NULL; }
+        for (int v = 0; v < m->nverts; v++) scene_vertex_albedo(scene, v, dc->albedo + 3 * (size_t)v);
+    }
     dc->eps = vis_eps(dc->vs);
     for (int i = 0; i < scene->nmaterials; i++) {
         float wz[3] = { 0, 0, 1 };
@@ -71,6 +76,7 @@ void direct_destroy(direct_ctx *dc) {
     free(dc->glossy);
     free(dc->vmat);
     free(dc->kd_pi);
+    free(dc->albedo);
     free(dc);
 }
 
@@ -157,9 +163,28 @@ typedef struct shade_job {
     direct_ctx *dc;
     float eye[3];
     float *rgb;
+    bool diffuse;           /* direct_diffuse_vertices: the kd part before the texture */
 } shade_job;
 
-/* View change over [b, e): Lambert sums added, glossy vertices evaluated toward the eye. */
+/* Light l's radiance at glossy vertex v toward wo with the texture on kd (a the vertex's albedo, or
+ * NULL), or (diffuse) the part kd contributes before the texture: the BRDF less itself at kd = 0,
+ * every model of brdf.h being linear in kd. */
+static void glossy_light(const direct_ctx *dc, const prt_light *l, int v, const float wo[3], const float *a, bool diffuse,
+                         float out[3]) {
+    const prt_mesh *m = &dc->scene->mesh;
+    const float *p = m->pos + 3 * (size_t)v, *n = m->nrm + 3 * (size_t)v;
+    brdf_params b = *vertex_brdf(dc, v);
+    float wi[3], L0[3] = { 0, 0, 0 };
+    for (int c = 0; c < 3 && a && !diffuse; c++) b.kd[c] *= a[c];
+    light_shade(l, &b, p, n, wo, wi, out);
+    if (!diffuse) return;
+    b.kd[0] = b.kd[1] = b.kd[2] = 0;
+    light_shade(l, &b, p, n, wo, wi, L0);
+    for (int c = 0; c < 3; c++) out[c] -= L0[c];
+}
+
+/* View change over [b, e): Lambert sums added (times the texture unless diffuse), glossy vertices
+ * evaluated toward the eye. */
 static void shade_range(void *ctx, int b, int e, int thread) {
     shade_job *j = ctx;
     const direct_ctx *dc = j->dc;
@@ -170,29 +195,35 @@ static void shade_range(void *ctx, int b, int e, int thread) {
         float wo[3] = { j->eye[0] - p[0], j->eye[1] - p[1], j->eye[2] - p[2] };
         if (v3_dot(wo, n) <= 0 || v3_normalize(wo) == 0) continue;   /* one-sided */
         float *out = j->rgb + 3 * (size_t)v;
+        const float *a = dc->albedo && !j->diffuse ? dc->albedo + 3 * (size_t)v : NULL;
         if (!dc->glossy[v]) {
-            for (int c = 0; c < 3; c++) out[c] += dc->lambert[3 * (size_t)v + c];
+            for (int c = 0; c < 3; c++) out[c] += dc->lambert[3 * (size_t)v + c] * (a ? a[c] : 1.f);
             continue;
         }
         for (int l = 0; l < dc->lights.count; l++) {
             if (!dc->vis[(size_t)l * nv + v]) continue;
-            float wi[3], L[3];
-            light_shade(&dc->lights.light[l], vertex_brdf(dc, v), p, n, wo, wi, L);
+            float L[3];
+            glossy_light(dc, &dc->lights.light[l], v, wo, a, j->diffuse, L);
             for (int c = 0; c < 3; c++)
                 if (isfinite(L[c])) out[c] += L[c];
         }
     }
 }
 
-void direct_shade_vertices(direct_ctx *dc, const float eye[3], float *rgb) {
+/* The view change of direct_shade_vertices (diffuse false) or direct_diffuse_vertices. */
+static void shade_all(direct_ctx *dc, const float eye[3], float *rgb, bool diffuse) {
     PRT_CHECK(dc != NULL && eye != NULL);
     double t0 = prt_now();
     if (dc->lights.count > 0) {
-        shade_job j = { .dc = dc, .eye = { eye[0], eye[1], eye[2] }, .rgb = rgb };
+        shade_job j = { .dc = dc, .eye = { eye[0], eye[1], eye[2] }, .rgb = rgb, .diffuse = diffuse };
         prt_parallel_for(dc->scene->mesh.nverts, 1024, dc->nthreads, shade_range, &j);
     }
-    dc->st.view_ms = 1e3 * (prt_now() - t0);
+    if (!diffuse) dc->st.view_ms = 1e3 * (prt_now() - t0);   /* the view change's figure, not the raster's split */
 }
+
+void direct_shade_vertices(direct_ctx *dc, const float eye[3], float *rgb) { shade_all(dc, eye, rgb, false); }
+
+void direct_diffuse_vertices(direct_ctx *dc, const float eye[3], float *rgb) { shade_all(dc, eye, rgb, true); }
 
 int direct_visible(const direct_ctx *dc, int l, int v) {
     PRT_CHECK(l >= 0 && l < dc->lights.count && v >= 0 && v < dc->scene->mesh.nverts);

@@ -19,6 +19,11 @@
  * Lambert vertices' radiance, independent of the view, is summed there too. A view change
  * evaluates the BRDF again only at non-Lambert vertices.
  *
+ * Textures (texture.h): a textured material's kd is multiplied by its texture at the vertex
+ * (scene_vertex_albedo), as the PRT colour's sparse sum is (relight.h) and prt reference's kd at
+ * each hit; the raster of a textured scene takes the kd part apart (direct_diffuse_vertices) to
+ * multiply it per pixel.
+ *
  * Vertices whose normal faces away from the eye get nothing added (one-sided surfaces, as
  * the runtimes and prt reference). Non-finite sums are never added.
  *
@@ -51,6 +56,9 @@ void direct_destroy(direct_ctx *dc);
 int direct_set_lights(direct_ctx *dc, const prt_lights *ls, prt_error *err);
 /* View change: adds every light's shadowed radiance toward eye to rgb[3 * nverts]. */
 void direct_shade_vertices(direct_ctx *dc, const float eye[3], float *rgb);
+/* The part of it kd gives before the texture (a raster multiplies it by the texture per pixel):
+ * added to rgb[3 * nverts]; direct_shade_vertices = texture x this + the rest at every vertex. */
+void direct_diffuse_vertices(direct_ctx *dc, const float eye[3], float *rgb);
 /* Visibility (0 or 1) of light l from vertex v as the last light move found it. */
 int direct_visible(const direct_ctx *dc, int l, int v);
 /* The last calls' figures. */

@@ -180,8 +180,9 @@ static int cpu_set_local_lights(void *self, const prt_lights *ls, prt_error *err
     return rc;
 }
 
-/* A textured scene's raster colours: the sparse sum without the texture (A, which the raster multiplies
- * per pixel), then what the vertex colours hold beyond their texture-sampled sum (B). */
+/* A textured scene's raster colours: the sparse sum and the local lights' kd part without the texture
+ * (A, which the raster multiplies per pixel), then what the vertex colours hold beyond their
+ * texture-sampled A (B: the vMF lobes, the lights' specular part, their bounce). */
 static void raster_split(cpu_rt *c, const float eye[3], int kmax) {
     size_t n = 3 * (size_t)c->d->scene.mesh.nverts;
     float *A = c->rgb2, *B = c->rgb2 + n;
@@ -189,6 +190,7 @@ static void raster_split(cpu_rt *c, const float eye[3], int kmax) {
     relight_apply_albedo(c->rc, false);
     relight_view(c->rc, eye, kmax, A);
     relight_apply_albedo(c->rc, true);
+    if (c->direct) direct_diffuse_vertices(c->direct, eye, A);
     for (size_t i = 0; i < n; i++) B[i] = fmaxf(c->rgb[i] - alb[i] * A[i], 0.f);
 }
 
