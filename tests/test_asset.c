@@ -371,6 +371,19 @@ static void bad_inputs(void) {
              "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0", p, ix);
     write_gltf(tmp_path("range.glb"), &g, rest, true, NULL);
     CHECK(load(tmp_path("range.glb"), NULL, &s, &am, &err) == -1 && strstr(err.msg, "range.glb") && strstr(err.msg, "out of range"), "%s", err.msg);
+    /* a triangle fan of 2 indices, and one without positions (assimp 5.2 made count - 2 faces in unsigned
+     * arithmetic: 64 GB) */
+    for (int k = 0; k < 2; k++) {
+        memset(&g, 0, sizeof g);
+        const uint32_t two[2] = { 0, 1 };
+        p = gb_add(&g, k_quad, sizeof k_quad, 5126, 4, "VEC3"), ix = gb_add(&g, two, sizeof two, 5125, 2, "SCALAR");
+        snprintf(rest, sizeof rest, "\"meshes\":[{\"primitives\":[{\"attributes\":{\"%s\":%d}%s,\"mode\":6}]}],"
+                 "\"nodes\":[{\"mesh\":0}],\"scenes\":[{\"nodes\":[0]}],\"scene\":0", k ? "NORMAL" : "POSITION", p,
+                 k ? "" : ",\"indices\":1");
+        write_gltf(tmp_path("fan.gltf"), &g, rest, false, NULL);
+        CHECK(load(tmp_path("fan.gltf"), NULL, &s, &am, &err) == -1 && strstr(err.msg, "fan.gltf: mesh 0 primitive 0: ") &&
+              strstr(err.msg, k ? "no POSITION" : "fewer elements"), "%s", err.msg);
+    }
     /* an infinite coordinate */
     memset(&g, 0, sizeof g);
     float inf_quad[12];

@@ -227,6 +227,30 @@ static void gltf_validate(const cJSON *root, gltf_info *gi) {
     }
 }
 
+/* Every primitive's mode (0-6), its POSITION accessor and its indices' accessor (when it has them)
+ * checked, and enough elements for its mode: assimp 5.2 makes count - 2 faces of a strip or fan and
+ * count - 1 of a line strip in unsigned arithmetic (a primitive without positions has a count of 0),
+ * and allocated 64 GB for such a fan. The first problem goes into gi->invalid. */
+static void gltf_validate_prims(const cJSON *root, gltf_info *gi) {
+    const cJSON *acc = cJSON_GetObjectItemCaseSensitive(root, "accessors"), *mesh, *p;
+    int nacc = cJSON_GetArraySize(acc), mi = 0;
+    cJSON_ArrayForEach(mesh, cJSON_GetObjectItemCaseSensitive(root, "meshes")) {
+        int pi = 0;
+        cJSON_ArrayForEach(p, cJSON_GetObjectItemCaseSensitive(mesh, "primitives")) {
+            long long md = jint(p, "mode", 4), pos = jint(cJSON_GetObjectItemCaseSensitive(p, "attributes"), "POSITION", -1);
+            long long ix = jint(p, "indices", -2);
+            const cJSON *ea = pos >= 0 && pos < nacc ? cJSON_GetArrayItem(acc, (int)(ix >= 0 ? ix : pos)) : NULL;
+            long long n = ix >= nacc || ix == -1 ? -1 : jint(ea, "count", -1), need = md == 3 ? 2 : md == 5 || md == 6 ? 3 : 1;
+            if (!gi->invalid[0] && (md < 0 || md > 6 || !ea || n < need))
+                snprintf(gi->invalid, sizeof gi->invalid, "mesh %d primitive %d: %s", mi, pi,
+                         md < 0 || md > 6 ? "a mode outside 0..6" : !ea || n < 0 ? "no POSITION accessor (or a bad indices one)"
+                                                                   : "fewer elements than its mode's first primitive needs");
+            pi++;
+        }
+        mi++;
+    }
+}
+
 /* Marks in used[] the meshes of node ni and its descendants (visited[] stops a cycle, and walk's
  * depth limit a chain). */
 static void mark_meshes(const cJSON *nodes, int ni, unsigned char *used, int nmesh, unsigned char *visited, int nnode, int depth) {
@@ -299,6 +323,7 @@ static void gltf_inspect(const char *name, const char *text, size_t len, prt_sce
     }
     gi->triangles = scene_triangles(root);
     gltf_validate(root, gi);
+    gltf_validate_prims(root, gi);
     const char *const arrays[2] = { "buffers", "images" };
     for (int a = 0; a < 2; a++)
         cJSON_ArrayForEach(e, cJSON_GetObjectItemCaseSensitive(root, arrays[a])) {
