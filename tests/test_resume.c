@@ -22,8 +22,11 @@
  *                  identical file (the staged candidates, not chosen vectors, are what is recorded);
  *   killed_twice:  killed after 20, resumed on one thread (every other run uses two: the work is
  *                  deterministic per vertex) and killed after 40 more, resumed: the identical file;
- *                  OUT.prt.tmp.PID of a dead process removed, one of a live process kept. */
+ *                  OUT.prt.tmp.PID of a dead process removed, one of a live process kept;
+ *   textured_changed: a textured quad killed, resumed with another texture (refused: the key holds
+ *                  the texels the gathering pass's triangle means read), then with its own. */
 #include "harness.h"
+#include "image.h"
 #include "prtfile.h"
 #include "vmf.h"
 #include "prt_normalize.h"
@@ -195,6 +198,61 @@ static void killed_shared(void) {
     check_same("shared.prt", "shared budget, killed in the bounce pass");
 }
 
+/* A textured quad's 8 x 8 checker of albedos a and b (sRGB PNG) as tq.png. */
+static void write_checker(double a, double b) {
+    prt_image im;
+    prt_error err;
+    char p[1024];
+    snprintf(p, sizeof p, "%s/tq.png", g_dir);
+    CHECK(image_alloc(&im, 8, 8, 3, &err) == 0, "%s", err.msg);
+    for (int i = 0; i < 64; i++)
+        for (int c = 0; c < 3; c++) im.data[3 * i + c] = (float)((i / 8 + i % 8) & 1 ? a : b);
+    image_desc d = { 0 };
+    CHECK(image_write(p, &im, &d, &err) == 0, "%s", err.msg);
+    image_free(&im);
+}
+
+/* A textured quad (an OBJ naming its MTL and map_Kd) bent up along one edge, so the gathering pass
+ * takes the texture's triangle means: killed after 10 flushes, resumed with another texture: refused
+ * with one line naming the checkpoint (the key holds the texels), the checkpoint kept; resumed with
+ * the first texture again: done. */
+static void textured_changed(void) {
+    char p[1024], cmd[8192], buf[8192];
+    snprintf(p, sizeof p, "%s/tq.mtl", g_dir);
+    FILE *f = fopen(p, "w");
+    if (f) fputs("newmtl t\nKd 1 1 1\nmap_Kd tq.png\n", f), fclose(f);
+    snprintf(p, sizeof p, "%s/tq.obj", g_dir);
+    f = fopen(p, "w");
+    if (f) {
+        fputs("mtllib tq.mtl\n", f);
+        for (int j = 0; j < 9; j++)   /* x <= 0.5 flat, beyond it rising at 45 degrees */
+            for (int i = 0; i < 9; i++) fprintf(f, "v %g %g %g\nvt %g %g\n", i / 8.0, i > 4 ? (i - 4) / 8.0 : 0, j / 8.0, i / 8.0, j / 8.0);
+        fputs("usemtl t\n", f);
+        for (int j = 0; j < 8; j++)
+            for (int i = 0; i < 8; i++) {
+                int a = 9 * j + i + 1;
+                fprintf(f, "f %d/%d %d/%d %d/%d\nf %d/%d %d/%d %d/%d\n", a, a, a + 9, a + 9, a + 10, a + 10, a, a, a + 10, a + 10, a + 1, a + 1);
+            }
+        fclose(f);
+    }
+    write_checker(0.8, 0.2);
+    char ck[1100];
+    snprintf(ck, sizeof ck, "%s/tq.prt.ckpt", g_dir);
+    for (int run = 0; run < 3; run++) {
+        snprintf(cmd, sizeof cmd, "%s %s precompute %s/tq.obj -o %s/tq.prt %s --threads 2%s", run ? "" : "PRT_CHECKPOINT_KILL=10",
+                 check_prt_bin(), g_dir, g_dir, k_opts, run ? " --resume" : "");
+        if (run == 1) write_checker(0.3, 0.9);
+        if (run == 2) write_checker(0.8, 0.2);
+        int rc = check_run(cmd, buf, sizeof buf), lines = 0;
+        for (const char *c = buf; *c; c++) lines += *c == '\n';
+        if (run == 0) CHECK(rc != 0 && exists(ck), "the run was not killed (status %d): %s", rc, buf);
+        if (run == 1)
+            CHECK(rc == 1 && lines == 1 && strstr(buf, "tq.prt.ckpt: checkpoint of other inputs or options") && exists(ck),
+                  "another texture: status %d: %s", rc, buf);
+        if (run == 2) CHECK(rc == 0 && !exists(ck), "the first texture again: status %d: %s", rc, buf);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     setup();
@@ -203,5 +261,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(killed_twice);
     CHECK_CASE(killed_vmf);
     CHECK_CASE(killed_shared);
+    CHECK_CASE(textured_changed);
     return check_summary();
 }

@@ -13,6 +13,7 @@
  * already matched, so a record that does not fit is a corrupt file, refused with one line. */
 #include "checkpoint.h"
 #include "cubemap.h"
+#include "scene.h"
 #include "sparse.h"
 #include <errno.h>
 #include <math.h>
@@ -67,6 +68,19 @@ void ckpt_key_str(ckpt_key *k, const char *s) {
     uint32_t n = s ? (uint32_t)strlen(s) : 0;
     ckpt_key_add(k, &n, sizeof n);
     if (n) ckpt_key_add(k, s, n);
+}
+
+void ckpt_key_textures(ckpt_key *k, const prt_scene *sc) {
+    if (sc->ntextures <= 0) return;
+    ckpt_key_add(k, &sc->ntextures, sizeof sc->ntextures);
+    for (int t = 0; t < sc->ntextures; t++) {
+        const scene_texture *tx = &sc->textures[t];
+        int wh[2] = { tx->w, tx->h };
+        ckpt_key_add(k, wh, sizeof wh);
+        ckpt_key_add(k, tx->srgb, 3 * (size_t)tx->w * tx->h);
+    }
+    ckpt_key_add(k, sc->material_texture, (size_t)sc->nmaterials);
+    if (sc->mesh.uv) ckpt_key_add(k, sc->mesh.uv, 2 * sizeof(float) * (size_t)sc->mesh.nverts);
 }
 
 uint64_t ckpt_key_value(const ckpt_key *k) { return ((uint64_t)(k->crc & 0xffffffffu) << 32) | (k->adler & 0xffffffffu); }

@@ -31,7 +31,8 @@
  * flush atomic at record granularity without rewriting the file.
  *
  * Key: a 64-bit hash (zlib's CRC-32 and Adler-32 of one stream) of the mesh as precomputed, the
- * materials, their BRDF factors and every option that changes the output (not the threads). A
+ * materials, their BRDF factors, a textured scene's textures and every option that changes the
+ * output (not the threads). A
  * checkpoint of another key is refused with one line naming it; so is a corrupt record in the
  * valid part.
  *
@@ -72,6 +73,11 @@ void ckpt_key_add(ckpt_key *k, const void *p, size_t n);
 /* Adds a string (with its length, so "ab","c" and "a","bc" differ; NULL as empty). */
 void ckpt_key_str(ckpt_key *k, const char *s);
 uint64_t ckpt_key_value(const ckpt_key *k);
+struct prt_scene;
+/* Adds a textured scene's textures (texture.h): each one's size and sRGB texels (its linear values
+ * follow from them), each material's texture and the mesh's coordinates, which the gathering passes
+ * read (each triangle's mean albedo); nothing for an untextured scene. */
+void ckpt_key_textures(ckpt_key *k, const struct prt_scene *sc);
 
 /* Opens path: resume and the file exists: reads its index (a torn tail is cut off), refusing
  * another key or vertex count; otherwise starts a new file. kill_after: the test hook above.

@@ -907,7 +907,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
 static void pc_key_add(void *k, const void *p, size_t n) { ckpt_key_add(k, p, n); }
 
 /* The checkpoint's key: everything the passes' results depend on (checkpoint.h): the mesh as
- * precomputed (after refinement), the materials, their factors, each transfer's representation,
+ * precomputed (after refinement), the materials, their factors, the textures, each transfer's representation,
  * configuration and materials, what the linear one's begin decided (its key op), and the options
  * that shape the passes; not the threads, which change nothing. */
 static uint64_t pc_key(const pc_run *r) {
@@ -923,6 +923,7 @@ static uint64_t pc_key(const pc_run *r) {
     ckpt_key_add(&k, m->tris, 3 * sizeof(uint32_t) * (size_t)m->ntris);
     if (m->mat) ckpt_key_add(&k, m->mat, sizeof(uint16_t) * (size_t)m->nverts);
     ckpt_key_add(&k, &sc->floor_first_vertex, sizeof sc->floor_first_vertex);
+    ckpt_key_textures(&k, sc);
     for (int i = 0; i < sc->nmaterials; i++) {
         const brdf_factor *f = &r->out->factors[i];
         ckpt_key_str(&k, sc->material_spec[i]);
