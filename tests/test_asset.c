@@ -363,6 +363,17 @@ static void bad_inputs(void) {
              "\"scenes\":[{\"nodes\":[0]}],\"scene\":0", pp, tc, pi);
     write_gltf(tmp_path("notex.gltf"), &g, rest, false, NULL);
     CHECK(load(tmp_path("notex.gltf"), NULL, &s, &am, &err) == -1 && strstr(err.msg, "notex.gltf") && strstr(err.msg, "absent.png"), "%s", err.msg);
+    /* the same texture on a metal (glTF's default material: metallic 1): left out with a note, so
+     * its absence is no error (prt's textures scale kd, and a metal has none) */
+    snprintf(rest, sizeof rest, "\"images\":[{\"uri\":\"absent.png\"}],\"textures\":[{\"source\":0}],\"materials\":[{"
+             "\"name\":\"gold\",\"pbrMetallicRoughness\":{\"baseColorTexture\":{\"index\":0}}}],\"meshes\":[{\"primitives\":"
+             "[{\"attributes\":{\"POSITION\":%d,\"TEXCOORD_0\":%d},\"indices\":%d,\"material\":0}]}],\"nodes\":[{\"mesh\":0}],"
+             "\"scenes\":[{\"nodes\":[0]}],\"scene\":0", pp, tc, pi);
+    write_gltf(tmp_path("metaltex.gltf"), &g, rest, false, NULL);
+    int mrc = load(tmp_path("metaltex.gltf"), NULL, &s, &am, &err);
+    CHECK(mrc == 0 && s.ntextures == 0 && s.material_texture[0] == 0 && !am.mesh.uv &&
+          strstr(s.notes, "metaltex.gltf: material 'gold': its base-colour texture is not used (metallic 1"), "%s%s", mrc ? err.msg : "", s.notes);
+    if (mrc == 0) asset_model_free(&am);
     /* an index out of range (9 of 4 vertices) */
     memset(&g, 0, sizeof g);
     const uint32_t bad_idx[6] = { 0, 3, 2, 0, 2, 9 };
