@@ -10,6 +10,7 @@
  *    glrt in per-vertex view mode against the CPU runtime (relight_view +
  *    render_vertex_colors), per-pixel relative difference; the per-pixel view
  *    mode's difference from it is reported (it is a different, finer model).
+ * 3b. A textured sphere: the per-vertex view model's texture at the vertex against the CPU's.
  * 4. A finite 1e37 sun through runtime.h on both backends: gl's colours and images
  *    finite, lit and equal to cpu's, and 1e7 times those of a 1e30 sun (bright_sun).
  * 5. A linear transfer without GLSL (cpu_light: --basis cpca, one bounce, the direct set kept):
@@ -26,6 +27,7 @@
 #include "relight.h"
 #include "runtime.h"
 #include "scene.h"
+#include "texture.h"
 #include "vec3.h"
 #include <float.h>
 #include <stdlib.h>
@@ -543,6 +545,88 @@ done:
     prt_data_free(&d);
 }
 
+/* A textured sphere (an 8 x 8 checker over u = x + 0.5, v = z + 0.5, Phong SVD K = 2): glrt's
+ * per-vertex view model samples the texture at each vertex in its vertex shader, which must give the
+ * CPU runtime's colours (relight_view: the texture at the vertex times the sparse sum) to float
+ * rounding, as in scene(); and an untextured twin's image differs (the texture is in use). */
+static void textured_vertex(void) {
+    prt_error err = { { 0 } };
+    prt_mesh sphere = { 0 };
+    prt_scene scene = { 0 };
+    prt_data d;
+    memset(&d, 0, sizeof d);
+    const float c[3] = { 0, 0.5f, 0 };
+    int rc = mesh_make_sphere(&sphere, c, 0.5f, 16, 24, &err);
+    if (!rc) rc = scene_from_mesh(&sphere, "phong:kd=0.6;ks=0.3;n=20", &scene, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) { mesh_free(&sphere); return; }
+    uint8_t texels[8 * 8 * 3];
+    for (int i = 0; i < 64; i++)
+        for (int ch = 0; ch < 3; ch++) texels[3 * i + ch] = (uint8_t)((i / 8 + i % 8) & 1 ? 40 + 60 * ch : 230 - 50 * ch);
+    prt_mesh *m = &scene.mesh;
+    m->uv = malloc(2 * sizeof(float) * (size_t)m->nverts);
+    CHECK(m->uv && texture_from_srgb(&scene.textures[0], "checker", 8, 8, texels, &err) == 0, "%s", err.msg);
+    if (!m->uv) { scene_free(&scene); return; }
+    scene.ntextures = 1;
+    scene.material_texture[0] = 1;
+    for (int v = 0; v < m->nverts; v++) m->uv[2 * v] = m->pos[3 * v] + 0.5f, m->uv[2 * v + 1] = m->pos[3 * v + 2] + 0.5f;
+    precompute_desc pd = { .N = 64, .max_terms = 2, .vis_res = 64, .quiet = true, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    rc = precompute_run(&scene, &pd, &d, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) { scene_free(&scene); return; }
+    prt_probe sky;
+    sky_desc sd = { .width = 128, .sun_dir = { 0.4f, 0.8f, 0.45f }, .sun_radius_deg = 10, .sun_radiance = 20 };
+    CHECK(probe_make_sky(&sd, &sky, &err) == 0, "%s", err.msg);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    float (*L)[4] = transfer_light_alloc();
+    probe_to_cube(&sky, CUBE_RES, NULL, 0, cube);
+    prt_data_transfer(&d)->ops->linear->project_light(&prt_data_transfer(&d)->cfg, cube, L);
+    free(cube);
+    relight_ctx *rcx = relight_create(&d, 0, &err);
+    glrt_desc desc = { .view = GLRT_VIEW_VERTEX };
+    glrt *rt = rcx ? glrt_create(&d, &desc, &err) : NULL;
+    CHECK(rcx && rt, "%s", err.msg);
+    const int w = 96, h = 96;
+    prt_camera cam;
+    camera_default(d.scene.bmin, d.scene.bmax, 1.0f, &cam);
+    float *rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);   /* the scene is d's now */
+    prt_image ref = { 0 }, img = { 0 };
+    if (rcx && rt && rgb) {
+        relight_set_light(rcx, (const float (*)[4])L);
+        relight_view(rcx, cam.eye, 0, rgb);
+        render_desc rd = { .width = w, .height = h, .camera = cam };
+        CHECK(render_vertex_colors(&d.scene.mesh, rgb, &rd, &ref, &err) == 0, "%s", err.msg);
+        CHECK(glrt_set_light(rt, (const float (*)[4])L, &err) == 0 && glrt_render(rt, &cam, w, h, 0, &img, &err) == 0, "%s", err.msg);
+    }
+    if (ref.data && img.data) {
+        double cmax = 0, untex = 0;
+        for (size_t i = 0; i < (size_t)w * h * 3; i++) cmax = fmax(cmax, ref.data[i]);
+        double *rel = malloc(sizeof(double) * w * h * 3);
+        size_t n = (size_t)w * h * 3;
+        rel_diffs(&img, &ref, 1e-3 * cmax, rel);
+        /* the bounds of scene(): the same model and numbers, float rounding */
+        CHECK_LE(rel[n * 999 / 1000], 1e-4, "per-vertex GL image of a textured sphere differs from the CPU runtime's");
+        CHECK_LE(rel[n / 2], 1e-5, "median");
+        relight_apply_albedo(rcx, false);   /* the untextured colours: far from it */
+        relight_view(rcx, cam.eye, 0, rgb);
+        prt_image plain = { 0 };
+        render_desc rd = { .width = w, .height = h, .camera = cam };
+        CHECK(render_vertex_colors(&d.scene.mesh, rgb, &rd, &plain, &err) == 0, "%s", err.msg);
+        for (size_t i = 0; i < n && plain.data; i++) untex = fmax(untex, fabs(plain.data[i] - img.data[i]) / (1e-3 * cmax + plain.data[i]));
+        CHECK(untex > 0.2, "the texture made no difference (%g)", untex);
+        image_free(&plain);
+        free(rel);
+    }
+    image_free(&ref);
+    image_free(&img);
+    free(rgb);
+    glrt_destroy(rt);
+    relight_destroy(rcx);
+    free(L);
+    probe_free(&sky);
+    prt_data_free(&d);
+}
+
 /* EGL (Mesa's software device here) runs the same kernels as OSMesa. */
 static void egl(void) {
     synth s;
@@ -789,6 +873,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(viewmaps);
     CHECK_CASE(direct_switch);
     CHECK_CASE(scene);
+    CHECK_CASE(textured_vertex);
     CHECK_CASE(bright_sun);
     CHECK_CASE(cpu_light);
     return check_summary();
