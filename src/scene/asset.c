@@ -878,7 +878,7 @@ static int material_of(loader *L, unsigned mi) {
     if (tex >= 0) {   /* the SVD path cannot split kd from the lobe: there it scales the whole BRDF */
         size_t at = strlen(from);
         snprintf(from + at, sizeof from - at, "; texture '%.60s' multiplies kd%s", L->s->textures[tex].name,
-                 strncmp(spec, "lambert", 7) ? " (the SVD path: the whole BRDF)" : "");
+                 strncmp(spec, "lambert", 7) ? " (on the SVD path: the whole BRDF)" : "");
         L->textured = true;
     }
     prt_error e2;
