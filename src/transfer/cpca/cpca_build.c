@@ -2,6 +2,7 @@
  * cluster's principal directions by subspace iteration, the rows kept sparse and quantized, and
  * the weights refit to them. */
 #include "cpca.h"
+#include "sparse.h"
 #include <lapacke.h>
 #include <math.h>
 #include <stdatomic.h>
@@ -66,44 +67,10 @@ static void km_update(const km_ctx *c, float *cen, double *acc, int *cnt, double
         for (int k = 0; k < C; k++) cnorm[k] += (double)cen[t * C + k] * cen[t * C + k];
 }
 
-/* The k-th largest of keys[0, n) (1 <= k <= n): quickselect (Hoare) on scratch[n]. */
-static float kth_largest(const float *keys, int n, int k, float *scratch) {
-    memcpy(scratch, keys, sizeof(float) * (size_t)n);
-    int lo = 0, hi = n - 1, want = k - 1;
-    while (lo < hi) {
-        float pivot = scratch[lo + (hi - lo) / 2];
-        int i = lo, j = hi;
-        while (i <= j) {
-            while (scratch[i] > pivot) i++;
-            while (scratch[j] < pivot) j--;
-            if (i <= j) { float t = scratch[i]; scratch[i++] = scratch[j]; scratch[j--] = t; }
-        }
-        if (want <= j) hi = j;
-        else if (want >= i) lo = i;
-        else break;   /* between j and i: every value there is the pivot */
-    }
-    return scratch[want];
-}
-
-/* Marks in keep[0, n) the k largest keys (ties at the k-th: the lower positions first). */
-static void keep_largest(const float *keys, int n, int k, float *scratch, unsigned char *keep) {
-    if (k >= n) {
-        if (n > 0) memset(keep, 1, (size_t)n);
-        return;
-    }
-    float thr = kth_largest(keys, n, k, scratch);
-    int above = 0;
-    for (int j = 0; j < n; j++) above += keys[j] > thr;
-    for (int j = 0, ties = k - above; j < n; j++) {
-        keep[j] = keys[j] > thr || (keys[j] == thr && ties > 0);
-        if (keys[j] == thr && ties > 0) ties--;
-    }
-}
-
 /* Each vector's feature: its CPCA_FEATURE largest channel means. */
 static int features(const cpca_vectors *v, uint32_t *ff, uint16_t *fi, float *fv) {
     float *key = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    unsigned char *keep = malloc(CUBE_TEXELS);
+    uint8_t *keep = malloc(CUBE_TEXELS);
     if (!key || !keep) { free(key); free(keep); return -1; }
     float *m = key + CUBE_TEXELS, *scratch = key + 2 * CUBE_TEXELS;
     ff[0] = 0;
@@ -114,7 +81,7 @@ static int features(const cpca_vectors *v, uint32_t *ff, uint16_t *fi, float *fv
             m[j] = (x[0] + x[1] + x[2]) / 3;
             key[j] = fabsf(m[j]);
         }
-        keep_largest(key, n, CPCA_FEATURE, scratch, keep);
+        sparse_mark_largest(key, n, CPCA_FEATURE, scratch, keep);
         for (int j = 0; j < n; j++)
             if (keep[j]) fi[ff[i] + (uint32_t)c] = (uint16_t)v->idx[v->first[i] + (uint32_t)j], fv[ff[i] + (uint32_t)c++] = m[j];
         ff[i + 1] = ff[i] + (uint32_t)c;
@@ -288,10 +255,10 @@ typedef struct build_ctx {
  * 2 D floats and D bytes of scratch. */
 static int keep_row(const build_ctx *c, int r, double *x, const int *U, int D, float *tmp) {
     float *key = tmp, *scratch = tmp + D;
-    unsigned char *keep = (unsigned char *)(tmp + 2 * D);
+    uint8_t *keep = (uint8_t *)(tmp + 2 * D);
     double amax = 0;
     for (int t = 0; t < D; t++) key[t] = (float)fabs(x[t]);
-    keep_largest(key, D, c->p->coeffs, scratch, keep);
+    sparse_mark_largest(key, D, c->p->coeffs, scratch, keep);
     int n = 0;
     for (int t = 0; t < D; t++) {
         keep[t] = keep[t] && x[t] != 0;

@@ -29,37 +29,14 @@ static float coef_energy(const prt_transport *t, int i, size_t c) {
     return v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
 }
 
-/* The k-th largest (0-based) of a[0..m) by quickselect (a is reordered): O(m), the cut's hot path. */
-static float kth_largest(float *a, int m, int k) {
-    int lo = 0, hi = m - 1;
-    while (lo < hi) {
-        float p = a[lo + (hi - lo) / 2];
-        int i = lo, j = hi;
-        while (i <= j) {
-            while (a[i] > p) i++;
-            while (a[j] < p) j--;
-            if (i <= j) { float t = a[i]; a[i] = a[j]; a[j] = t; i++; j--; }
-        }
-        if (k <= j) hi = j;
-        else if (k >= i) lo = i;
-        else return a[k];
-    }
-    return a[k];
-}
-
 /* Marks in keep[0..m) the n largest energies of vector i's m coefficients (ties: lower index); returns
  * how many it keeps. e, work: scratch of t->N floats each. */
 static int choose(const prt_transport *t, int i, int n, float *e, float *work, uint8_t *keep) {
     size_t c0 = t->coef_first[i];
     int m = (int)(t->coef_first[i + 1] - c0);
-    if (m <= n) { memset(keep, 1, (size_t)m); return m; }
-    for (int k = 0; k < m; k++) work[k] = e[k] = coef_energy(t, i, c0 + (size_t)k);
-    float thr = kth_largest(work, m, n - 1);
-    int above = 0;
-    for (int k = 0; k < m; k++) above += e[k] > thr;
-    int ties = n - above;
-    for (int k = 0; k < m; k++) keep[k] = e[k] > thr || (e[k] == thr && ties-- > 0);
-    return n;
+    if (m > n)   /* else every one is kept: no energy needed */
+        for (int k = 0; k < m; k++) e[k] = coef_energy(t, i, c0 + (size_t)k);
+    return sparse_mark_largest(e, m, n, work, keep);
 }
 
 /* Appends the kept coefficients of source vector i to out at coefficient c and run r. */

@@ -115,6 +115,38 @@ int sparse_select(const float *r, const float *g, const float *b, int len, int n
     return k;
 }
 
+/* The k-th largest (0-based) of a[0..m) by quickselect (Hoare; a is reordered): O(m). */
+static float kth_largest(float *a, int m, int k) {
+    int lo = 0, hi = m - 1;
+    while (lo < hi) {
+        float p = a[lo + (hi - lo) / 2];
+        int i = lo, j = hi;
+        while (i <= j) {
+            while (a[i] > p) i++;
+            while (a[j] < p) j--;
+            if (i <= j) { float t = a[i]; a[i] = a[j]; a[j] = t; i++; j--; }
+        }
+        if (k <= j) hi = j;
+        else if (k >= i) lo = i;
+        else return a[k];   /* between j and i: every value there is the pivot */
+    }
+    return a[k];
+}
+
+/* See sparse.h. A quickselect, not sparse_select's radix select: the callers' keys are few (a stored
+ * vector's coefficients, a feature's candidates) or include zeros that must count. */
+int sparse_mark_largest(const float *keys, int n, int k, float *scratch, uint8_t *keep) {
+    if (n <= 0) return 0;
+    if (k >= n) { memset(keep, 1, (size_t)n); return n; }
+    if (k <= 0) { memset(keep, 0, (size_t)n); return 0; }
+    memcpy(scratch, keys, sizeof(float) * (size_t)n);
+    float thr = kth_largest(scratch, n, k - 1);
+    int above = 0;
+    for (int j = 0; j < n; j++) above += keys[j] > thr;
+    for (int j = 0, ties = k - above; j < n; j++) keep[j] = keys[j] > thr || (keys[j] == thr && ties-- > 0);
+    return k;
+}
+
 /* max|x| / qmax, or 0 when that is not a usable positive finite step. */
 float sparse_step(float maxabs, int qmax) {
     if (!(maxabs > 0) || !isfinite(maxabs) || qmax <= 0) return 0.f;

@@ -28,6 +28,10 @@
  * 2*len floats. Returns the count (<= n). */
 int sparse_select(const float *r, const float *g, const float *b, int len, int n, uint32_t *idx, float *scratch);
 
+/* Marks in keep[0..n) the k largest of keys[0..n) (every one when k >= n), ties at the k-th to the
+ * lower positions; unlike sparse_select, zero keys count. scratch: n floats. Returns how many it marks. */
+int sparse_mark_largest(const float *keys, int n, int k, float *scratch, uint8_t *keep);
+
 /* The largest |q| of a qbits-bit value: 127 at 8 bits, 32767 at 16; 0 for 32 (floats, no rounding). */
 static inline int sparse_qmax(int qbits) { return qbits == 8 ? 127 : qbits == 16 ? 32767 : 0; }
 /* Quantization step for max |x| = maxabs with qmax levels (0 when maxabs is 0 or not finite). */
