@@ -45,17 +45,19 @@ static void rot(float yaw, float pitch, float R[9]) {
 static int bands(int n, char **argv) {
     enum { NB = TRANSPORT_BANDS };
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), w[FACE], face[FACE], tmp[FACE];
-    static double cnt[NB][NL], mean[NB][NL];
+    unsigned char *band = malloc(CUBE_TEXELS);   /* each wavelet index's band, once (it is trigonometry) */
+    if (!cube || !band) { fprintf(stderr, "level_spectrum: out of memory\n"); return 1; }
+    double cnt[NB][NL] = { { 0 } }, mean[NB][NL] = { { 0 } };
     haar_face_solid_angle(w, RES, false);
-    memset(cnt, 0, sizeof cnt);
-    for (uint32_t i = 0; i < CUBE_TEXELS; i++) cnt[transport_band(i)][transport_level(i)] += 1;
+    for (uint32_t i = 0; i < CUBE_TEXELS; i++) {
+        band[i] = (unsigned char)transport_band(i);
+        cnt[band[i]][transport_level(i)] += 1;
+    }
     for (int a = 0; a < n; a++) {
         prt_probe p;
         prt_error err;
-        if (probe_load(argv[a], PROBE_AUTO, &p, &err)) { fprintf(stderr, "%s\n", err.msg); return 1; }
-        static double e[NB][NL];
-        memset(e, 0, sizeof e);
-        double fin = 0;
+        if (probe_load(argv[a], PROBE_AUTO, &p, &err)) { fprintf(stderr, "%s\n", err.msg); free(cube); free(band); return 1; }
+        double e[NB][NL] = { { 0 } }, fin = 0;
         for (int r = 0; r < 24; r++) {
             float R[9];
             probe_rotation(15.0 * r, 15.0 * (r % 3 - 1), R);
@@ -67,8 +69,9 @@ static int bands(int n, char **argv) {
                     for (int k = 0; k < FACE; k++) {
                         uint32_t i = (uint32_t)(f * FACE) + haar_morton((uint32_t)(k % RES), (uint32_t)(k / RES));
                         double x2 = (double)face[k] * face[k];
-                        e[transport_band(i)][transport_level(i)] += x2;
-                        if (transport_level(i) == NL - 1) fin += x2;
+                        int l = transport_level(i);
+                        e[band[i]][l] += x2;
+                        if (l == NL - 1) fin += x2;
                     }
                 }
         }
@@ -79,7 +82,7 @@ static int bands(int n, char **argv) {
         probe_free(&p);
     }
     /* A light can stand anywhere above the horizon (a lamp overhead, a noon sun): from level 3 on, no
-     * band above it keeps less than half the largest of those bands' figures. */
+     * band above it keeps less than half the largest of those bands' sigma (a quarter in mean square). */
     for (int l = 3; l < NL; l++) {
         double mx = 0;
         for (int b = NB / 2; b < NB; b++) mx = fmax(mx, mean[b][l]);
@@ -93,6 +96,7 @@ static int bands(int n, char **argv) {
         printf("\n");
     }
     free(cube);
+    free(band);
     return 0;
 }
 
