@@ -108,14 +108,9 @@ static void cpca_describe(const transfer_config *cfg, char *buf, size_t cap) {
  * wavelet-index order. */
 static void cpca_project_transport(const transfer_config *cfg, const float *texels, float *coeffs, float *scratch) {
     (void)cfg;
-    enum { NN = CUBE_RES * CUBE_RES };
-    float inv[NN];
+    float inv[CUBE_RES * CUBE_RES];
     haar_face_solid_angle(inv, CUBE_RES, true);
-    for (int f = 0; f < 6; f++) {
-        for (int k = 0; k < NN; k++) scratch[k] = texels[f * NN + k] * inv[k];
-        haar_forward(scratch, CUBE_RES, scratch + NN);
-        haar_face_to_morton(scratch, CUBE_RES, coeffs + f * NN);
-    }
+    haar_cube_forward_weighted(texels, CUBE_RES, inv, coeffs, scratch);
 }
 
 static void cpca_project_light(const transfer_config *cfg, const float *cube_rgb, float (*L)[4]) {

@@ -171,9 +171,17 @@ void haar_face_from_morton(const float *morton, int res, float *face) { morton_t
 
 /* Six faces: texels[f*res^2 + j*res + i] -> wavelet[f*res^2 + morton(i, j)] of the transform. */
 void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp) {
+    haar_cube_forward_weighted(texels, res, NULL, wavelet, tmp);
+}
+
+/* See haar.h; w NULL: unweighted. */
+void haar_cube_forward_weighted(const float *texels, int res, const float *w, float *wavelet, float *tmp) {
     size_t nn = (size_t)res * res;
     for (int f = 0; f < 6; f++) {
-        memcpy(tmp, texels + f * nn, sizeof(float) * nn);
+        if (w)
+            for (size_t k = 0; k < nn; k++) tmp[k] = texels[f * nn + k] * w[k];
+        else
+            memcpy(tmp, texels + f * nn, sizeof(float) * nn);
         haar_forward(tmp, res, tmp + nn);
         face_to_morton(tmp, res, wavelet + f * nn);
     }

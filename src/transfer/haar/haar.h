@@ -36,6 +36,9 @@ void haar_face_from_morton(const float *morton, int res, float *face);
 /* Whole cube: row-major texels (cubemap.h indexing) of one channel -> wavelet-index order.
  * in and out may not alias; tmp holds 2*res*res floats. */
 void haar_cube_forward(const float *texels, int res, float *wavelet, float *tmp);
+/* The same of each face's texels times w[res*res] (the same on every face): with w the reciprocal
+ * solid angle (haar_face_solid_angle, inverse), the Haar coefficients of T/w. */
+void haar_cube_forward_weighted(const float *texels, int res, const float *w, float *wavelet, float *tmp);
 /* Wavelet-index order -> row-major texels. */
 void haar_cube_inverse(const float *wavelet, int res, float *texels, float *tmp);
 

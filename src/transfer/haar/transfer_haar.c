@@ -148,18 +148,9 @@ static void haar_describe(const transfer_config *cfg, char *buf, size_t cap) {
 /* Each face transformed on its own (section 4.1.1), wavelet-index order (haar.h); with the
  * solid-angle measure the texels are divided by w_j first (see the header comment). */
 static void haar_project_transport(const transfer_config *cfg, const float *texels, float *coeffs, float *scratch) {
-    if (!haar_solid_angle(cfg)) {
-        haar_cube_forward(texels, CUBE_RES, coeffs, scratch);
-        return;
-    }
-    enum { NN = CUBE_RES * CUBE_RES };
-    float inv[NN];
-    haar_face_solid_angle(inv, CUBE_RES, true);
-    for (int f = 0; f < 6; f++) {
-        for (int k = 0; k < NN; k++) scratch[k] = texels[f * NN + k] * inv[k];
-        haar_forward(scratch, CUBE_RES, scratch + NN);
-        haar_face_to_morton(scratch, CUBE_RES, coeffs + f * NN);
-    }
+    float inv[CUBE_RES * CUBE_RES];
+    if (haar_solid_angle(cfg)) haar_face_solid_angle(inv, CUBE_RES, true);
+    haar_cube_forward_weighted(texels, CUBE_RES, haar_solid_angle(cfg) ? inv : NULL, coeffs, scratch);
 }
 
 /* The paper's relative energy threshold, 16-bit quantization (light.h); texels weighted by w_j with
