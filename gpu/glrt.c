@@ -942,7 +942,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->local_bounce = dd.local_bounce;
     rt->vsgl_glossy = true;
     rt->tr = tr;
-    rt->cpu = !tr->ops->linear->glsl;
+    rt->cpu = !tr->ops->linear->glsl || tr->open_sky;   /* the open sky is added to g on the CPU */
     if (rt->cpu && !(rt->cpu_g = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) { free(rt); return NULL; }
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
@@ -1094,12 +1094,15 @@ int glrt_set_local_effects(glrt *rt, bool bounce, bool glossy, prt_error *err) {
 /* The CPU method's light change: g = T x L of the set in use by the transfer's own CPU kernel
  * (transfer_light: the unscaled L, scaled inside when huge, so no unshift here), padded to the g
  * buffer's vec4 per vector and uploaded; finished and timed (both steps). -1 with err. */
-static int cpu_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
+static int cpu_set_light(glrt *rt, const float (*L)[4], const float *open, prt_error *err) {
     const gl_api *gl = rt->gl;
+    if (rt->tr->open_sky && !open) return prt_fail(err, "GL runtime: the %s transfer's open sky needs the light's cube", rt->tr->ops->name);
     double t0 = prt_now();
     rt->unshift = 1.f;
     float *g = rt->cpu_g;
     transfer_light(rt->tr, rt->direct ? &rt->tr->direct : &rt->tr->transport, L, g, 0);
+    if (open)
+        for (size_t k = 0; k < 3 * (size_t)rt->nvecs; k++) g[k] += open[k];
     /* [3 * nvecs] -> [4 * nvecs] in place, from the last vector down: vector i's writes (4i..4i+3) reach no
      * value still to be read (those of vectors < i lie below 3i, and its own are read before written) */
     for (int i = rt->nvecs - 1; i >= 0; i--) {
@@ -1118,10 +1121,12 @@ static int cpu_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
 
 /* Light change: uploads L (scaled when huge: transfer_light_scaled_copy) and runs the kernel, finished and timed;
  * the CPU method: cpu_set_light. -1 with err. */
-int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) {
+int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err) { return glrt_set_light_open(rt, L, NULL, err); }
+
+int glrt_set_light_open(glrt *rt, const float (*L)[4], const float *open, prt_error *err) {
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
-    if (rt->cpu) return cpu_set_light(rt, L, err);
+    if (rt->cpu) return cpu_set_light(rt, L, open, err);
     double t0 = prt_now();
     int shift;
     float (*Ls)[4] = transfer_light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */

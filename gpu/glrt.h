@@ -132,6 +132,9 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err);
 void glrt_destroy(glrt *rt);
 /* Light change. L: [CUBE_TEXELS][4] in the file's transfer representation (transfer_light_vector). */
 int glrt_set_light(glrt *rt, const float (*L)[4], prt_error *err);
+/* The same, adding open[3 * nvecs] to g (runtime_light.open: a transfer with the open sky split, whose light
+ * change then runs on the CPU; NULL for one without). */
+int glrt_set_light_open(glrt *rt, const float (*L)[4], const float *open, prt_error *err);
 /* Local lights (gllights.h): their direct light with shadow cubes is added per pixel (or per
  * vertex in GLRT_VIEW_VERTEX) to every later draw; count 0 turns them off. At most GLLIGHTS_MAX. */
 int glrt_set_local_lights(glrt *rt, const prt_lights *ls, prt_error *err);

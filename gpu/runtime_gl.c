@@ -136,7 +136,7 @@ static int gl_set_light(void *self, const runtime_light *light, prt_error *err) 
     /* The ladder's texels go to the GPU once per probe; a rotation only is one uniform. */
     if (g->nonlinear && light->env_new && glrt_set_prefilter(g->rt, g->env, err)) return -1;
     if (g->nonlinear && !light->env_new) glrt_set_prefilter_rotation(g->rt, g->env);
-    return glrt_set_light(g->rt, light->L[g->sparse], err);
+    return glrt_set_light_open(g->rt, light->L[g->sparse], light->open[g->sparse], err);
 }
 
 /* Adds every non-linear transfer's radiance toward eye (ops->view->shade_vertices) to rgb, non-finite

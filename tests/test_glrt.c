@@ -440,7 +440,7 @@ static void scene(void) {
     if (rc) { mesh_free(&sphere); return; }
     rc = scene_add_floor(&scene, 1600, 3, NULL, &err);
     CHECK(rc == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
     rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) { scene_free(&scene); return; }
@@ -570,7 +570,7 @@ static void textured_vertex(void) {
     scene.ntextures = 1;
     scene.material_texture[0] = 1;
     for (int v = 0; v < m->nverts; v++) m->uv[2 * v] = m->pos[3 * v] + 0.5f, m->uv[2 * v + 1] = m->pos[3 * v + 2] + 0.5f;
-    precompute_desc pd = { .N = 64, .max_terms = 2, .vis_res = 64, .quiet = true, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .max_terms = 2, .vis_res = 64, .quiet = true, .glossy = PRECOMPUTE_GLOSSY_SVD };
     rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) { scene_free(&scene); return; }
@@ -673,7 +673,7 @@ static void bright_sun(void) {
     int rc = mesh_make_sphere(&sphere, c, 0.5f, 12, 16, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "phong:kd=0.4,0.25,0.15;ks=0.5;n=30", &sc, &err);
     if (rc == 0) rc = scene_add_floor(&sc, 100, 3, NULL, &err);
-    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD };
     if (rc == 0) rc = precompute_run(&sc, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
@@ -780,7 +780,7 @@ static void cpu_light(void) {
     int rc = mesh_make_sphere(&sphere, c, 0.5f, 8, 12, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "lambert:kd=0.8", &sc, &err);
     if (rc == 0) rc = scene_add_floor(&sc, 400, 3, NULL, &err);
-    precompute_desc pd = { .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .gather_res = 16, .keep_direct = true,
+    precompute_desc pd = { .no_open_sky = true, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .gather_res = 16, .keep_direct = true,
                            .basis = "cpca", .basis_options = "clusters=6,terms=6,coeffs=1500,stage=3000" };
     if (rc == 0) rc = precompute_run(&sc, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);

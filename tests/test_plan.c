@@ -80,7 +80,7 @@ static bool cancel_at_half(void *user, const char *stage, double f) {
     return f < 0.5;
 }
 
-static const precompute_desc base = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2 };
+static const precompute_desc base = { .no_open_sky = true, .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2 };
 
 /* A lone convex sphere: no bounce pass, and the plan says why. */
 static void lone_sphere(void) {

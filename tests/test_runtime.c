@@ -80,7 +80,7 @@ static void setup(void) {
     int rc = mesh_make_sphere(&sphere, c, 0.5f, 16, 24, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "phong:kd=0.4,0.25,0.15;ks=0.5;n=30", &scene, &err);
     if (rc == 0) rc = scene_add_floor(&scene, 900, 3, NULL, &err);
-    precompute_desc pd = { .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1,
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .max_terms = 3, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1,
                            .keep_direct = true, .gather_res = 16, .glossy = PRECOMPUTE_GLOSSY_SVD };
     if (rc == 0) rc = precompute_run(&scene, &pd, &g_d, &err);
     CHECK(rc == 0, "%s", err.msg);
@@ -553,7 +553,7 @@ static void setup_vmf(void) {
     int rc = mesh_make_sphere(&sphere, c, 0.5f, 16, 24, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "paper-phong", &scene, &err);
     if (rc == 0) rc = scene_add_floor(&scene, 400, 3, NULL, &err);
-    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1,
+    precompute_desc pd = { .no_open_sky = true, .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1,
                            .view_options = "level=2,samples=64" };
     if (rc == 0) rc = precompute_run(&scene, &pd, &g_v, &err);
     CHECK(rc == 0, "%s", err.msg);
@@ -767,7 +767,7 @@ static void lambert_unchanged(void) {
     int rc = mesh_make_sphere(&sphere, c, 0.5f, 12, 16, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "lambert:kd=0.6,0.5,0.4", &scene, &err);
     if (rc == 0) rc = scene_add_floor(&scene, 300, 3, NULL, &err);
-    precompute_desc pd = { .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1 };
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1 };
     if (rc == 0) rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0 && d.ntransfers == 1, "%s", err.msg);
     if (rc) return;
@@ -817,7 +817,7 @@ static void vmf_pixel(void) {
     const float c[3] = { 0, 0.5f, 0 }, rad = 0.5f;
     int rc = mesh_make_sphere(&sphere, c, rad, 24, 48, &err);
     if (rc == 0) rc = scene_from_mesh(&sphere, "paper-phong", &scene, &err);
-    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .view_options = "level=2,samples=32" };
+    precompute_desc pd = { .no_open_sky = true, .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .view_options = "level=2,samples=32" };
     if (rc == 0) rc = precompute_run(&scene, &pd, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
@@ -1267,7 +1267,7 @@ static void shared_budget(void) {
         "{ \"models\": [ { \"box\": { \"min\": [-0.3, 0.1, -0.3], \"max\": [0.3, 0.7, 0.3], \"n\": 2 },"
         " \"material\": \"lambert:kd=0.6\" },\n"
         "  { \"plane\": { \"x\": [-2, 2], \"z\": [-2, 2], \"height\": 0, \"nx\": 24, \"nz\": 24 }, \"material\": \"lambert:kd=0.5\" } ] }";
-    precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .keep_direct = true,
+    precompute_desc pd = { .no_open_sky = true, .N = 32, .vis_res = 64, .quiet = true, .bounces = 1, .force_bounces = 1, .keep_direct = true,
                            .gather_res = 16, .basis_options = "budget=shared,smooth_faces=off" };
     prt_data d, back;
     memset(&back, 0, sizeof back);

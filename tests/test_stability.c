@@ -183,7 +183,7 @@ static void relight_poles(void) {
     int poles = 0;
     for (int v = 0; v < s.mesh.nverts; v++) poles += fabsf(fabsf(s.mesh.nrm[3 * v + 1]) - 1) < 1e-6f;
     CHECK(poles >= 2, "the mesh has vertices with normals at the poles (%d)", poles);
-    precompute_desc pd = { .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
+    precompute_desc pd = { .no_open_sky = true, .N = 64, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
                            .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&s, &pd, &d, &err) == 0, "%s", err.msg);
@@ -452,7 +452,7 @@ static void check_sphere_scale(float s, float off, bool floor, const char *label
     CHECK(scene_from_mesh(&m, "lambert:kd=0.5", &sc, &err) == 0, "%s", err.msg);
     int nmodel = sc.mesh.nverts;
     if (floor) CHECK(scene_add_floor(&sc, 400, 3, "lambert:kd=0.5", &err) == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .nthreads = 2,
+    precompute_desc pd = { .no_open_sky = true, .N = 128, .vis_res = 64, .quiet = true, .force_bounces = -1, .nthreads = 2,
                            .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&sc, &pd, &d, &err) == 0, "%s: %s", label, err.msg);
@@ -534,7 +534,7 @@ static void geometry(void) {
     CHECK(bad == 0, "degenerate mesh: positions finite, normals unit");
     prt_scene sc;
     CHECK(scene_from_mesh(&m, "phong:kd=0.3;ks=0.5;n=100", &sc, &err) == 0, "%s", err.msg);
-    precompute_desc pd = { .N = 32, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
+    precompute_desc pd = { .no_open_sky = true, .N = 32, .vis_res = 64, .quiet = true, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .nthreads = 2,
                            .basis_options = "measure=texels,budget=vector" };   /* the paper's Haar: light_from_cube's light */
     prt_data d;
     CHECK(precompute_run(&sc, &pd, &d, &err) == 0, "%s", err.msg);

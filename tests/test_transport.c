@@ -867,7 +867,7 @@ static void measure_file(void) {
         prt_error err;
         prt_scene sc;
         CHECK(scene_parse_json("measure.json", json, strlen(json), NULL, &sc, &err) == 0, "%s", err.msg);
-        precompute_desc d = { .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2,
+        precompute_desc d = { .no_open_sky = true, .N = 64, .vis_res = 64, .quiet = true, .nthreads = 2,
                               .basis_options = m ? "select=magnitude,budget=vector,smooth_faces=off" : "measure=texels,budget=vector" };
         const int want = m ? LINEAR_MEASURE_SOLID_ANGLE : 0;
         prt_data a, b;

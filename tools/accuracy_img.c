@@ -3,6 +3,7 @@
  *
  *     tools/accuracy_img.sh uniform OUT.exr
  *     tools/accuracy_img.sh mask COVER.exr MODEL.exr REF.exr OUT.exr
+ *     tools/accuracy_img.sh model MODEL.exr OUT.exr
  *     tools/accuracy_img.sh cmp A.exr B.exr [MASK.exr]
  *     tools/accuracy_img.sh sheet OUT.png TILE_W TITLE LIST
  *
@@ -19,6 +20,8 @@
  *   floor normal is up and nothing but the model occludes it), the median stands for it where
  *   the shadow covers less than half the floor, and 60% is the per-vertex region tools/shadows.sh
  *   measures. Writes OUT (1 in the region, 0 elsewhere); prints "floor_px=F shadow_px=S".
+ * model: the model's own pixels: those of MODEL (as above) above zero with their 8 neighbours too
+ *   (no silhouette); writes OUT (1 there, 0 elsewhere); prints "model_px=M".
  * cmp: rel_rmse of A against the reference B (cmp_arrays, the metric of prt compare) over the
  *   pixels where MASK is above 0.5 (every pixel without one); prints "rel_rmse=X items=N", or
  *   "rel_rmse=- items=0" for an empty mask.
@@ -41,7 +44,7 @@
 enum { GAP = 4, LINE = 16, MAX_CELLS = 8, CELL_FIELDS = 4, LEGEND_X = 70, LEGEND_BAR = 300, LEGEND_W = 400 };
 
 static int usage(void) {
-    fprintf(stderr, "usage: accuracy_img uniform OUT.exr | mask COVER.exr MODEL.exr REF.exr OUT.exr |\n"
+    fprintf(stderr, "usage: accuracy_img uniform OUT.exr | mask COVER.exr MODEL.exr REF.exr OUT.exr | model MODEL.exr OUT.exr |\n"
                     "       cmp A.exr B.exr [MASK.exr] | sheet OUT.png TILE_W TITLE LIST\n");
     return 2;
 }
@@ -135,6 +138,33 @@ static int cmd_mask(char **paths, const char *out) {
     free(v);
     image_free(&m);
     for (int i = 0; i < 3; i++) image_free(&im[i]);
+    return rc ? fail(&err) : 0;
+}
+
+/* model: the model's own pixels of MODEL (above zero with their 8 neighbours: no silhouette, where
+ * the reference blends model and background); writes OUT (1 there, 0 elsewhere), prints model_px. */
+static int cmd_model(const char *path, const char *out) {
+    prt_image im = { 0 }, m = { 0 };
+    prt_error err;
+    if (image_read(path, &im, &err) || image_alloc(&m, im.w, im.h, 3, &err)) {
+        image_free(&im);
+        return fail(&err);
+    }
+    long n = 0;
+    for (int y = 0; y < im.h; y++)
+        for (int x = 0; x < im.w; x++) {
+            bool ok = x > 0 && y > 0 && x < im.w - 1 && y < im.h - 1;
+            for (int dy = -1; ok && dy <= 1; dy++)
+                for (int dx = -1; ok && dx <= 1; dx++) ok = rgb_sum(&im, (long)(y + dy) * im.w + x + dx) > 0;
+            long i = (long)y * im.w + x;
+            m.data[3 * i] = m.data[3 * i + 1] = m.data[3 * i + 2] = ok;
+            n += ok;
+        }
+    image_desc d = { 0 };
+    int rc = image_write(out, &m, &d, &err);
+    if (rc == 0) printf("model_px=%ld\n", n);
+    image_free(&im);
+    image_free(&m);
     return rc ? fail(&err) : 0;
 }
 
@@ -317,6 +347,7 @@ static int cmd_sheet(const char *out, int tw, const char *title, const char *lis
 int main(int argc, char **argv) {
     if (argc == 3 && !strcmp(argv[1], "uniform")) return cmd_uniform(argv[2]);
     if (argc == 6 && !strcmp(argv[1], "mask")) return cmd_mask(argv + 2, argv[5]);
+    if (argc == 4 && !strcmp(argv[1], "model")) return cmd_model(argv[2], argv[3]);
     if ((argc == 4 || argc == 5) && !strcmp(argv[1], "cmp")) return cmd_cmp(argv + 2, argc - 2);
     if (argc == 6 && !strcmp(argv[1], "sheet")) {
         int tw = atoi(argv[3]);

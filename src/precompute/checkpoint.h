@@ -63,6 +63,7 @@ typedef struct ckpt_vstats {
     int64_t traced, hits;   /* visibility rays cast and hitting geometry */
     double err;             /* sum over its vectors of (relative L2 error)^2 */
     int32_t errs;           /* vectors counted in err */
+    double energy;          /* sum over its vectors of the whole vector's |coefficients|^2 */
 } ckpt_vstats;
 
 /* A running 64-bit hash of the inputs. */

@@ -40,6 +40,7 @@
  * nothing. Lambertian neighbours skip the view lookup (the view map is
  * constant). */
 #include "gather.h"
+#include "opensky.h"
 #include "shard.h"
 #include "checkpoint.h"
 #include "cubemap.h"
@@ -166,6 +167,9 @@ typedef struct gather_thread {
     float *dirs;       /* [ntex*3] upper-hemisphere directions of the current vertex */
     float *cosdw;      /* [ntex] (n.w) dw of each */
     vis_hit *hits;     /* [ntex] */
+    float *open_w;     /* [OPENSKY_NORMALS][slot_lanes] the open neighbours' weights per grid normal (desc->open) */
+    int *open_used;    /* [OPENSKY_NORMALS] grid normals with weights, in order of first use */
+    uint8_t *open_mark; /* [OPENSKY_NORMALS] 1: in open_used */
 } gather_thread;
 
 typedef struct gather_ctx {
@@ -182,6 +186,8 @@ typedef struct gather_ctx {
     int slot_lanes;           /* lanes_of(kmax) rounded up to cover lanes_of(1) */
     int max_slots;
     float hconst[PRT_MAX_MATERIALS][3];  /* constant view map of Lambertian materials */
+    float gconst[PRT_MAX_MATERIALS][3];  /* constant light map of Lambertian materials (the open sky's scale) */
+    const prt_transport *open;           /* desc->open or NULL */
     bool hconst_ok[PRT_MAX_MATERIALS];
     float eps;
     gather_thread *th;
@@ -310,6 +316,37 @@ static inline int gather_combine(const gather_ctx *c, gather_thread *th, int x, 
     return nslots;
 }
 
+/* With the open sky split (gather_desc.open), a Lambertian neighbour y's stored vector lacks its open
+ * sky g_y a0(n_y) (opensky.h): adds y's weights W (term 0), times g_y and the bilinear weights of
+ * n_y, to the grid normals' weights; returns the count of grid normals in use. */
+static int gather_open_weights(const gather_ctx *c, gather_thread *th, int y, int nk, const float *W, int nopen) {
+    const int SL = c->slot_lanes;
+    const float *g = c->gconst[c->d->scene.mesh.mat[y]];
+    int q[4];
+    float w[4];
+    opensky_weights(c->d->scene.mesh.nrm + 3 * (size_t)y, q, w);
+    for (int k = 0; k < 4; k++) {
+        if (w[k] == 0.f) continue;
+        if (!th->open_mark[q[k]]) th->open_mark[q[k]] = 1, th->open_used[nopen++] = q[k];
+        float *o = th->open_w + (size_t)q[k] * SL;
+        for (int ch = 0; ch < 3; ch++)
+            for (int t = 0; t < nk; t++) o[lane(nk, ch, t)] += W[lane(nk, ch, t)] * g[ch] * w[k];
+    }
+    return nopen;
+}
+
+/* Adds the grid normals' open-sky vectors with their weights into th->acc and clears the weights. */
+static void gather_open_decode(const gather_ctx *c, gather_thread *th, int nk, int nopen) {
+    const int SL = c->slot_lanes;
+    for (int i = 0; i < nopen; i++) {
+        int q = th->open_used[i];
+        float *o = th->open_w + (size_t)q * SL;
+        accum_any(c->open, q, o, nk, th->acc, th->touched);   /* float storage: no dequantization step */
+        memset(o, 0, sizeof(float) * (size_t)SL);
+        th->open_mark[q] = 0;
+    }
+}
+
 /* Decodes each of the nslots distinct neighbour vectors once and accumulates it, with its
  * weights times its dequantization step, into th->acc; frees the slots for the next vertex.
  * (Software prefetching of the next neighbour's coefficients and visiting neighbours in vertex
@@ -318,12 +355,14 @@ static inline int gather_combine(const gather_ctx *c, gather_thread *th, int x, 
 static inline void gather_decode(const gather_ctx *c, gather_thread *th, int nk, int nslots) {
     const prt_transport *prev = c->prev;
     const int SL = c->slot_lanes;
+    int nopen = 0;
     memset(th->touched, 0, sizeof th->touched);
     for (int sl = 0; sl < nslots; sl++) {
         int y = th->slot_vert[sl];
         th->slot_of[y] = -1;
         int nl = nvec_of(prev, y);
         const float *W = th->slot_w + (size_t)sl * c->kmax * SL;
+        if (c->open && c->hconst_ok[c->d->scene.mesh.mat[y]]) nopen = gather_open_weights(c, th, y, nk, W, nopen);
         for (int l = 0; l < nl; l++) {
             int vec = (int)prev->vec_first[y] + l;
             if (prev->coef_first[vec + 1] == prev->coef_first[vec]) continue;
@@ -341,6 +380,7 @@ static inline void gather_decode(const gather_ctx *c, gather_thread *th, int nk,
             if (any) accum_any(prev, vec, ws, nk, th->acc, th->touched);
         }
     }
+    gather_open_decode(c, th, nk, nopen);
 }
 
 /* Stores each of x's nk accumulated vectors (truncation to N + quantization) and clears the
@@ -415,6 +455,7 @@ static void free_threads(gather_thread *th, int nth) {
     for (int i = 0; i < nth; i++) {
         free(th[i].acc); free(th[i].plane); free(th[i].scratch); free(th[i].slot_of);
         free(th[i].slot_vert); free(th[i].slot_w); free(th[i].dirs); free(th[i].cosdw); free(th[i].hits);
+        free(th[i].open_w); free(th[i].open_used); free(th[i].open_mark);
     }
     free(th);
 }
@@ -483,7 +524,10 @@ static int ctx_tables(gather_ctx *c, prt_error *err) {
         const brdf_factor *f = &d->factors[i];
         if (f->lambertian && f->K == 1) {
             const float up[3] = { 0.f, 0.f, 1.f };
+            float g[BRDF_MAX_SIGMA * 3];
             brdf_factor_view(f, up, c->hconst[i]);
+            brdf_factor_light(f, up, g);
+            v3_copy(c->gconst[i], g);
             c->hconst_ok[i] = true;
         }
     }
@@ -508,6 +552,10 @@ static int threads_alloc(gather_ctx *c, int nth, prt_error *err) {
             !(t->dirs = prt_calloc((size_t)c->ntex * 3, sizeof(float), err)) ||
             !(t->cosdw = prt_calloc((size_t)c->ntex, sizeof(float), err)) ||
             !(t->hits = prt_calloc((size_t)c->ntex, sizeof(vis_hit), err)))
+            return -1;
+        if (c->open && (!(t->open_w = prt_calloc((size_t)OPENSKY_NORMALS * c->slot_lanes, sizeof(float), err)) ||
+                        !(t->open_used = prt_calloc(OPENSKY_NORMALS, sizeof(int), err)) ||
+                        !(t->open_mark = prt_calloc(OPENSKY_NORMALS, 1, err))))
             return -1;
         for (int v = 0; v < nverts; v++) t->slot_of[v] = -1;
     }
@@ -576,6 +624,12 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     c.ntex = 6 * res * res;
     c.slot_lanes = lanes_of(kmax) > 4 ? lanes_of(kmax) : 4;
     c.eps = vis_eps(vs);
+    c.open = desc ? desc->open : NULL;
+    if (c.open && (c.open->nverts != OPENSKY_NORMALS || c.open->qbits != 32)) {
+        transport_free(next);
+        memset(next, 0, sizeof *next);
+        return prt_fail(err, "gather: the open-sky set is not %d float vectors", OPENSKY_NORMALS);
+    }
     int nth = prt_thread_count(desc ? desc->nthreads : 0);
     if (ctx_tables(&c, err) || threads_alloc(&c, nth, err)) {
         ctx_free(&c, nth);

@@ -41,6 +41,10 @@ typedef struct gather_desc {
                               * (transport_stage_to_file; precompute's memory budget), and the finished
                               * next is moved to another (transport_map_to_file); a mapped prev's pages
                               * are dropped from memory every 1% of the pass either way */
+    const prt_transport *open; /* prev holds the open sky split (opensky.h): its Lambertian vectors lack g a0(n);
+                              * this set holds |p_q| a0(n_q) for the OPENSKY_NORMALS grid normals (one float
+                              * vector each, opensky_grid_texels projected), which the pass adds for each such
+                              * neighbour with opensky_weights; NULL: prev's vectors are whole */
     double *cost;            /* [nverts] or NULL: in, each vertex's relative cost (the split); out, the
                               * seconds each took here (every rank's, after the exchange) */
 } gather_desc;

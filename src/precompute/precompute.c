@@ -66,6 +66,7 @@
 #include "checkpoint.h"
 #include "cubemap.h"
 #include "gather.h"
+#include "opensky.h"
 #include "refine.h"
 #include "planfx.h"
 #include "shard.h"
@@ -117,9 +118,12 @@ static double pc_cpu_now(void) {
 typedef struct pc_scratch {
     uint8_t *vis;       /* [6 * vres^2] visibility bytes */
     float *w;           /* [vres^2] V max(n.w,0) dw of one face */
+    float *w0;          /* [vres^2] max(n.w,0) dw of one face (the open sky split only) */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
+    float *acc0;        /* [CUBE_TEXELS] the same with V = 1, a0_j (the open sky split only) */
     float *T;           /* [Kmax * 3][PC_TSTRIDE] planar transport cubes */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
+    float *wav0;        /* [CUBE_TEXELS] the open sky's coefficients P(a0) (its energy only) */
     float *tmp;         /* [TRANSFER_SCRATCH_FLOATS] projection scratch */
     void *tscratch;     /* transport_store scratch */
     double t_vis, t_busy;   /* seconds inside vis_cube / in total */
@@ -139,6 +143,7 @@ typedef struct pc_ctx {
     const transfer_config *cfg;
     uint64_t materials;             /* materials it shades (the others get no vectors) */
     int vres, ss;
+    bool open;              /* the open sky split (opensky.h): Lambertian vectors store what is blocked */
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
@@ -165,7 +170,7 @@ typedef struct pc_ctx {
 } pc_ctx;
 
 static void pc_scratch_free(pc_scratch *s) {
-    free(s->vis); free(s->w); free(s->acc); free(s->T); free(s->wav); free(s->tmp); free(s->tscratch);
+    free(s->vis); free(s->w); free(s->w0); free(s->acc); free(s->acc0); free(s->T); free(s->wav); free(s->wav0); free(s->tmp); free(s->tscratch);
     memset(s, 0, sizeof *s);
 }
 
@@ -175,20 +180,41 @@ static int pc_scratch_init(pc_scratch *s, int vres, int kmax, prt_error *err) {
     size_t ct = CUBE_TEXELS;
     s->vis = prt_calloc((size_t)6 * vres * vres, 1, err);
     s->w = s->vis ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
-    s->acc = s->w ? prt_calloc(ct, sizeof(float), err) : NULL;
+    s->w0 = s->w ? prt_calloc((size_t)vres * vres, sizeof(float), err) : NULL;
+    s->acc0 = s->w0 ? prt_calloc(ct, sizeof(float), err) : NULL;
+    s->acc = s->acc0 ? prt_calloc(ct, sizeof(float), err) : NULL;
     s->T = s->acc ? prt_calloc((size_t)kmax * 3 * PC_TSTRIDE, sizeof(float), err) : NULL;
     s->wav = s->T ? prt_calloc(3 * ct, sizeof(float), err) : NULL;
-    s->tmp = s->wav ? prt_calloc(TRANSFER_SCRATCH_FLOATS, sizeof(float), err) : NULL;
+    s->wav0 = s->wav ? prt_calloc(ct, sizeof(float), err) : NULL;
+    s->tmp = s->wav0 ? prt_calloc(TRANSFER_SCRATCH_FLOATS, sizeof(float), err) : NULL;
     s->tscratch = s->tmp ? prt_calloc(transport_scratch_size(), 1, err) : NULL;
     if (!s->tscratch) { pc_scratch_free(s); return -1; }
     return 0;
 }
 
-/* a_j for every lighting texel (Eq. 3's V (n.w) dw summed over the texel's sub-texels) into s->acc. */
+/* One face's sub-texel values w [vres^2] summed over each lighting texel's ss x ss sub-texels into acc. */
+static void pc_box(const float *restrict w, float *restrict acc, int R, int ss) {
+    if (ss == 1) {
+        memcpy(acc, w, sizeof(float) * CUBE_RES * CUBE_RES);
+        return;
+    }
+    for (int j = 0; j < CUBE_RES; j++)
+        for (int i = 0; i < CUBE_RES; i++) {
+            float a = 0;
+            for (int b = 0; b < ss; b++) {
+                const float *row = w + (size_t)(j * ss + b) * R + i * ss;
+                for (int q = 0; q < ss; q++) a += row[q];
+            }
+            acc[j * CUBE_RES + i] = a;
+        }
+}
+
+/* a_j for every lighting texel (Eq. 3's V (n.w) dw summed over the texel's sub-texels) into s->acc;
+ * with the open sky split (opensky.h) also a0_j, the same with V = 1, into s->acc0. */
 static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
     const int R = c->vres, ss = c->ss;
     for (int f = 0; f < 6; f++) {
-        float *acc = s->acc + f * CUBE_RES * CUBE_RES;
+        float *acc = s->acc + f * CUBE_RES * CUBE_RES, *acc0 = c->open ? s->acc0 + f * CUBE_RES * CUBE_RES : NULL;
         /* n.d is linear on the face plane, so a face whose four corners are below the horizon
          * lies wholly below it and its visibility bytes are all 0: skip it. */
         float cmax = -1;
@@ -200,6 +226,7 @@ static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
         }
         if (!(cmax > 0)) {
             memset(acc, 0, sizeof(float) * CUBE_RES * CUBE_RES);
+            if (acc0) memset(acc0, 0, sizeof(float) * CUBE_RES * CUBE_RES);
             continue;
         }
         const uint8_t *restrict v = s->vis + (size_t)f * R * R;
@@ -207,25 +234,22 @@ static void pc_box_filter(const pc_ctx *c, pc_scratch *s, const float n[3]) {
         const float *restrict dx = c->vdir + (size_t)f * R * R;
         const float *restrict dy = dx + plane, *restrict dz = dy + plane, *restrict dw = c->vdw;
         const float nx = n[0], ny = n[1], nz = n[2];
-        float *restrict w = s->w;
-        /* branch-free so it vectorizes: V is 0 below the horizon anyway */
-        for (int i = 0; i < R * R; i++) {
-            float nd = nx * dx[i] + ny * dy[i] + nz * dz[i];
-            w[i] = (float)v[i] * (nd > 0.f ? nd : 0.f) * dw[i];
-        }
-        if (ss == 1) {
-            memcpy(acc, w, sizeof(float) * CUBE_RES * CUBE_RES);
-            continue;
-        }
-        for (int j = 0; j < CUBE_RES; j++)
-            for (int i = 0; i < CUBE_RES; i++) {
-                float a = 0;
-                for (int b = 0; b < ss; b++) {
-                    const float *row = w + (size_t)(j * ss + b) * R + i * ss;
-                    for (int q = 0; q < ss; q++) a += row[q];
-                }
-                acc[j * CUBE_RES + i] = a;
+        float *restrict w = s->w, *restrict w0 = s->w0;
+        if (acc0) {
+            for (int i = 0; i < R * R; i++) {
+                float nd = nx * dx[i] + ny * dy[i] + nz * dz[i];
+                w0[i] = (nd > 0.f ? nd : 0.f) * dw[i];
+                w[i] = (float)v[i] * w0[i];
             }
+            pc_box(w0, acc0, R, ss);
+        } else {
+            /* branch-free so it vectorizes: V is 0 below the horizon anyway */
+            for (int i = 0; i < R * R; i++) {
+                float nd = nx * dx[i] + ny * dy[i] + nz * dz[i];
+                w[i] = (float)v[i] * (nd > 0.f ? nd : 0.f) * dw[i];
+            }
+        }
+        pc_box(w, acc, R, ss);
     }
 }
 
@@ -258,7 +282,10 @@ static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3],
         const float *g = c->lambert_g[mat];
         for (int ch = 0; ch < 3; ch++) {
             float *T = s->T + (size_t)ch * PC_TSTRIDE;
-            for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
+            if (c->open)   /* what the occluders block, negated: the runtime adds g E(n) (opensky.h) */
+                for (size_t j = 0; j < ct; j++) T[j] = g[ch] * (s->acc[j] - s->acc0[j]);
+            else
+                for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
         }
         return;
     }
@@ -290,28 +317,48 @@ static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3],
     }
 }
 
-/* Projection (the representation's op, once per vector channel) and compression of vertex v's
- * K vectors, with the truncation + quantization error statistics. */
-static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int K, ckpt_vstats *vs) {
+/* |x|^2 over 3 CUBE_TEXELS floats: 8 independent float accumulators (no dependency chain; the
+ * length is a multiple of 8), summed in double. With y, x.y instead. */
+static double pc_dot(const float *x, const float *y, size_t n) {
+    float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
+    for (size_t i = 0; i < n; i += 8)
+        for (int q = 0; q < 8; q++) p8[q] += x[i + q] * y[i + q];
+    double d = 0;
+    for (int q = 0; q < 8; q++) d += p8[q];
+    return d;
+}
+
+/* |vector|^2 of vertex v's whole transport (K = 1) whose stored part is s->wav: with the open sky split,
+ * |P(R) + g P(a0)|^2 per channel, P(a0) projected into s->wav0 once. */
+static double pc_whole_norm2(const pc_ctx *c, pc_scratch *s, int mat) {
     const size_t ct = CUBE_TEXELS;
+    if (!c->open || !c->factors[mat].lambertian) return pc_dot(s->wav, s->wav, 3 * ct);
+    c->lin->project_transport(c->cfg, s->acc0, s->wav0, s->tmp);
+    double b2 = pc_dot(s->wav0, s->wav0, ct), n2 = 0;
+    for (int ch = 0; ch < 3; ch++) {
+        const float *x = s->wav + (size_t)ch * ct;
+        double g = c->lambert_g[mat][ch];
+        n2 += pc_dot(x, x, ct) + g * g * b2 + 2 * g * pc_dot(x, s->wav0, ct);
+    }
+    return n2;
+}
+
+/* Projection (the representation's op, once per vector channel) and compression of vertex v's
+ * K vectors, with the truncation + quantization error statistics (relative to the whole vector,
+ * the open sky included) and the whole vectors' energy. */
+static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int mat, ckpt_vstats *vs) {
+    const size_t ct = CUBE_TEXELS;
+    const int K = c->factors[mat].K;
     uint32_t vec0 = c->t->vec_first[v];
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++)
             c->lin->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
-        /* |vector|^2 for the error statistics: 8 independent float accumulators (no dependency
-         * chain; the vector length is a multiple of 8), summed in double */
-        float p8[8] = { 0, 0, 0, 0, 0, 0, 0, 0 };
-        const float *x = s->wav;
-        for (size_t i = 0; i < 3 * ct; i += 8) {
-            p8[0] += x[i] * x[i]; p8[1] += x[i + 1] * x[i + 1]; p8[2] += x[i + 2] * x[i + 2]; p8[3] += x[i + 3] * x[i + 3];
-            p8[4] += x[i + 4] * x[i + 4]; p8[5] += x[i + 5] * x[i + 5]; p8[6] += x[i + 6] * x[i + 6]; p8[7] += x[i + 7] * x[i + 7];
-        }
-        double norm2 = 0;
-        for (int q = 0; q < 8; q++) norm2 += p8[q];
+        double norm2 = pc_whole_norm2(c, s, mat);
         double ts = pc_cpu_now();
         double e2 = c->lin->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
         s->t_store += pc_cpu_now() - ts;
         s->n_store++;
+        vs->energy += norm2;
         if (norm2 > 0) {
             vs->err += e2 / norm2;
             vs->errs++;
@@ -338,7 +385,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     pc_box_filter(c, s, n);
     if (c->rays) pc_weighted_texels(c, s, p, n, vs);
     pc_transport_cubes(c, s, n, mat);
-    pc_store(c, s, v, c->factors[mat].K, vs);
+    pc_store(c, s, v, mat, vs);
     ckpt_add(c->ck, 0, c->t, v, vs);
     double t2 = prt_now();
     c->cost[v] = t2 - t0;
@@ -817,6 +864,7 @@ static int pc_choose(pc_run *r, prt_error *err) {
         if (r->out->factors[i].K > r->kmax) r->kmax = r->out->factors[i].K;
     uint64_t all = nm >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << nm) - 1;
     r->tr = prt_data_add_transfer(r->out, r->rp.lops, &r->rp.lcfg, all);
+    r->tr->open_sky = !r->d.no_open_sky;
     char line[256];
     r->rp.lops->describe(&r->tr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
@@ -888,6 +936,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->materials = r->tr->materials;
     c->vres = R;
     c->ss = R / CUBE_RES;
+    c->open = r->tr->open_sky;
     c->vdir = r->vdir;
     c->vdw = r->vdw;
     c->ldir = r->ldir;
@@ -939,7 +988,7 @@ static uint64_t pc_key(const pc_run *r) {
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
     if (r->rp.lops->linear->key) r->rp.lops->linear->key(&r->lrun, pc_key_add, &k);
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy };
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->no_open_sky };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     return ckpt_key_value(&k);
@@ -1286,22 +1335,86 @@ static int pc_direct(pc_run *r, prt_error *err) {
     return 0;
 }
 
+/* The open-sky set (gather_desc.open): the linear representation's projection of |p_q| a0(n_q) at
+ * every grid normal q (opensky.h), its PC_OPEN_N largest kept in floats. It stands in for the open sky
+ * of every Lambertian neighbour in the first bounce, so its truncation only touches bounced light:
+ * 512 coefficients hold that vector to about 2% (relative L2, measured on the grid's normals). */
+#define PC_OPEN_N 512
+static const int *pc_fill_one(int *a, int n) {
+    for (int i = 0; i < n; i++) a[i] = 1;
+    return a;
+}
+
+typedef struct pc_open_ctx {
+    const pc_run *r;
+    const opensky *o;
+    prt_transport *t;
+    float *buf[PC_MAX_THREADS];     /* per thread: a0 [CUBE_TEXELS], coefficients [CUBE_TEXELS], projection scratch */
+    void *scratch[PC_MAX_THREADS];  /* transport_store's */
+} pc_open_ctx;
+
+static void pc_open_range(void *ctx, int begin, int end, int thread) {
+    pc_open_ctx *c = ctx;
+    float *a0 = c->buf[thread], *co = a0 + CUBE_TEXELS, *tmp = co + CUBE_TEXELS;
+    for (int q = begin; q < end; q++) {
+        opensky_grid_texels(c->o, q, a0);
+        c->r->tr->ops->linear->project_transport(&c->r->tr->cfg, a0, co, tmp);
+        transport_store(c->t, q, co, co, co, c->scratch[thread]);
+    }
+}
+
+static int pc_open_set(const pc_run *r, prt_transport *t, prt_error *err) {
+    int *one = prt_calloc(OPENSKY_NORMALS, sizeof(int), err), rc = -1;
+    opensky *o = one ? opensky_create(err) : NULL;
+    pc_open_ctx c = { .r = r, .o = o, .t = t };
+    if (o && transport_init(t, OPENSKY_NORMALS, pc_fill_one(one, OPENSKY_NORMALS), PC_OPEN_N, 32, err) == 0) {
+        bool ok = true;
+        for (int i = 0; i < r->nthreads && ok; i++)
+            ok = (c.buf[i] = prt_calloc(2 * CUBE_TEXELS + TRANSFER_SCRATCH_FLOATS, sizeof(float), err)) &&
+                 (c.scratch[i] = prt_calloc(1, transport_scratch_size(), err));
+        if (ok) {
+            prt_parallel_for(OPENSKY_NORMALS, 16, r->nthreads, pc_open_range, &c);
+            rc = transport_finish(t, err);
+        }
+        if (rc) transport_free(t);
+    }
+    for (int i = 0; i < r->nthreads; i++) free(c.buf[i]), free(c.scratch[i]);
+    opensky_destroy(o);
+    free(one);
+    return rc;
+}
+
 /* Stage bounces: interreflection passes (Eq. 8), adaptive unless forced. Pass b gathers pass b-1
  * (`last`, the direct set for b = 1); `total` = direct + passes so far. Returns 0 or -1. */
+static int pc_bounce_passes(pc_run *r, double e0, const prt_transport *open_set, prt_error *err);
 static int pc_bounces(pc_run *r, prt_error *err) {
     if (!r->plan_bounces || r->max_b <= 0) return 0;
-    prt_stats *st = &r->out->stats;
     double e0 = gather_energy(&r->direct);
+    if (r->tr->open_sky) {   /* the direct set holds what is blocked: the whole vectors' energy, as computed */
+        e0 = 0;
+        for (int v = 0; v < r->out->scene.mesh.nverts; v++) e0 += r->vst[v].energy;
+    }
     /* the first gathering pass's split: its cost grows with the vertex's vectors (Eq. 8 per term);
      * each later pass is split by the times the one before measured (gather_desc.cost) */
     for (int v = 0; v < r->out->scene.mesh.nverts; v++) r->cost[v] = r->nvec[v] ? 1 + r->nvec[v] : 0;
+    prt_transport open = { 0 };
+    if (r->tr->open_sky && pc_open_set(r, &open, err)) return -1;
+    int rc = pc_bounce_passes(r, e0, &open, err);
+    transport_free(&open);
+    return rc;
+}
+
+/* The passes of stage bounces; open: the open-sky set for the first (nverts 0: none). */
+static int pc_bounce_passes(pc_run *r, double e0, const prt_transport *open_set, prt_error *err) {
+    prt_stats *st = &r->out->stats;
+    const prt_transport open = *open_set;
     for (int b = 1; b <= r->max_b; b++) {
         char stage[32], line[256];
         snprintf(stage, sizeof stage, "bounce %d", b);
         gather_desc gd = { .res = r->d.gather_res, .nthreads = r->nthreads, .progress = r->d.progress,
                            .progress_user = r->d.progress_user, .stage = stage, .ckpt = r->ck, .pass = b,
                            .shard = r->d.shard, .cost = r->cost,
-                           .stream_dir = r->streamed ? pc_stream_dir(r) : NULL };
+                           .stream_dir = r->streamed ? pc_stream_dir(r) : NULL, .open = b == 1 && open.nverts ? &open : NULL };
         prt_transport next = { 0 }, sum = { 0 };
         double tb0 = prt_now(), cb0 = prt_process_cpu();
         if (gather_pass(r->out, r->vs, b == 1 ? &r->direct : &r->last, &gd, &next, err)) return -1;

@@ -123,6 +123,8 @@ typedef struct precompute_desc {
     int gather_res;         /* 0: 32 */
     float bounce_threshold; /* stop when a pass carries less than this fraction of the direct energy; 0: 0.01 */
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
+    bool no_open_sky;       /* store Lambertian vectors whole, without the open sky split (opensky.h; the default
+                             * splits: the vectors hold what occluders block, the runtime adds the open sky) */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
     int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
     int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */

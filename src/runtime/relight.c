@@ -163,6 +163,18 @@ void relight_set_light_at(relight_ctx *rc, int i, const float (*L)[4]) {
     PRT_CHECK(!"relight_set_light_at: not a sparse transfer");
 }
 
+/* See relight.h. */
+void relight_add_open(relight_ctx *rc, int i, const float *open) {
+    for (int p = 0; p < rc->nparts; p++)
+        if (rc->part[p].index == i) {
+            const prt_transport *t = &rc->part[p].tr->transport;
+            float *g = rc->part[p].g;
+            for (size_t k = 0; k < 3 * (size_t)t->nvecs; k++) g[k] += open[k];
+            return;
+        }
+    PRT_CHECK(!"relight_add_open: not a sparse transfer");
+}
+
 /* Chooses the direct-only set (when the first sparse transfer keeps one) or the total; true if available. */
 bool relight_use_direct(relight_ctx *rc, bool direct) {
     if (direct && !rc->part[0].tr->direct.nvecs) return false;

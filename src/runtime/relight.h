@@ -28,6 +28,9 @@ void relight_destroy(relight_ctx *rc);
 void relight_set_light(relight_ctx *rc, const float (*L)[4]);
 /* The light change of transfer i of the data (index in d->transfers; PRT_CHECKed to be sparse). */
 void relight_set_light_at(relight_ctx *rc, int i, const float (*L)[4]);
+/* Adds open[3 * nvecs] to transfer i's g (the open sky of a split transfer, runtime_light.open), after its
+ * light change. */
+void relight_add_open(relight_ctx *rc, int i, const float *open);
 /* Light changes from now on use the direct-only transport (true; only when the file keeps
  * one, prt_data_transfer(d)->direct.nvecs > 0) or direct + bounces (false, the default). Returns false when
  * the direct set is asked for but absent. Call relight_set_light again to see the change. */

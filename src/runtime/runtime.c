@@ -9,6 +9,7 @@
 #include "check.h"
 #include "cubemap.h"
 #include "lights.h"
+#include "opensky.h"
 #include "prefilter.h"
 #include "probecube.h"
 #include "transfer.h"
@@ -37,7 +38,65 @@ struct prt_runtime {
     const float *env_pixels;
     runtime_probe *lent;        /* runtime_lend_probe's, or NULL */
     const prefilter_env *env_shown; /* the env the backend got last (another one is new to it), or NULL */
+    int threads;                /* desc.threads */
+    opensky *sky;               /* the open sky's irradiance grid when a linear transfer has the split, or NULL */
+    uint8_t *sky_need;          /* [OPENSKY_NORMALS] the grid normals its vertices read (opensky_need) */
+    float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector, 0 for the others */
+    float lambert_g[PRT_MAX_MATERIALS][3];  /* constant light map of each Lambertian factor */
+    const float *sky_cube;      /* the cube rt_open_range reads */
 };
+
+/* The open sky of transfer i's Lambertian vectors for the grid's light (opensky.h), per vertex range. */
+typedef struct rt_open_job { prt_runtime *rt; int i; } rt_open_job;
+static void rt_open_range(void *ctx, int begin, int end, int thread) {
+    (void)thread;
+    const rt_open_job *j = ctx;
+    const prt_data *d = j->rt->d;
+    const prt_transfer *tr = &d->transfers[j->i];
+    const prt_mesh *m = &d->scene.mesh;
+    for (int v = begin; v < end; v++) {
+        int mat = m->mat ? m->mat[v] : 0;
+        if (!((tr->materials >> mat) & 1) || !d->factors[mat].lambertian) continue;
+        float e[3], *o = j->rt->open[j->i] + 3 * (size_t)tr->transport.vec_first[v];
+        opensky_eval(j->rt->sky, m->nrm + 3 * (size_t)v, e);
+        for (int c = 0; c < 3; c++) o[c] = j->rt->lambert_g[mat][c] * e[c];
+    }
+}
+
+/* light->open[i] for every transfer with the open sky split, from the cube. */
+static void rt_open_light(prt_runtime *rt, const float *cube, runtime_light *light) {
+    if (!rt->sky) return;
+    opensky_set_light(rt->sky, cube, rt->sky_need, rt->threads);
+    for (int i = 0; i < rt->d->ntransfers; i++) {
+        if (!rt->open[i]) continue;
+        rt_open_job j = { rt, i };
+        prt_parallel_for(rt->d->scene.mesh.nverts, 1024, rt->threads, rt_open_range, &j);
+        light->open[i] = rt->open[i];
+    }
+}
+
+/* The open sky's grid and per-transfer arrays when some linear transfer has the split; -1 with err. */
+static int rt_open_create(prt_runtime *rt, prt_error *err) {
+    const prt_data *d = rt->d;
+    for (int i = 0; i < d->ntransfers; i++) {
+        const prt_transfer *tr = &d->transfers[i];
+        if (tr->ops->kind != TRANSFER_LINEAR || !tr->open_sky) continue;
+        if (!rt->sky && (!(rt->sky = opensky_create(err)) || !(rt->sky_need = prt_calloc(OPENSKY_NORMALS, 1, err)))) return -1;
+        if (!(rt->open[i] = prt_calloc(3 * (size_t)tr->transport.nvecs + 1, sizeof(float), err))) return -1;
+        const prt_mesh *m = &d->scene.mesh;
+        for (int v = 0; v < m->nverts; v++) {
+            int mat = m->mat ? m->mat[v] : 0;
+            if (((tr->materials >> mat) & 1) && d->factors[mat].lambertian) opensky_need(m->nrm + 3 * (size_t)v, rt->sky_need);
+        }
+    }
+    for (int k = 0; k < d->scene.nmaterials && k < PRT_MAX_MATERIALS; k++)
+        if (d->factors[k].lambertian) {
+            float g[BRDF_MAX_SIGMA * 3];
+            brdf_factor_light(&d->factors[k], (const float[3]){ 0, 0, 1 }, g);
+            memcpy(rt->lambert_g[k], g, sizeof rt->lambert_g[k]);
+        }
+    return 0;
+}
 
 /* See runtime.h. */
 int runtime_backend_count(void) { return NBACKENDS; }
@@ -83,6 +142,8 @@ static int check_view(const runtime_backend *be, runtime_view view, prt_error *e
     return 0;
 }
 
+static void runtime_destroy_parts(prt_runtime *rt);
+
 /* See runtime.h; the caller owns the runtime (runtime_destroy). */
 prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_error *err) {
     PRT_CHECK(d != NULL);
@@ -100,18 +161,31 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
     if (!rt) return NULL;
     rt->be = be;
     rt->d = d;
+    rt->threads = dd.threads;
+    if (rt_open_create(rt, err)) {
+        runtime_destroy_parts(rt);
+        return NULL;
+    }
     rt->kmax = dd.terms;
     rt->self = be->create(d, &dd, err);
-    if (!rt->self) { free(rt); return NULL; }
+    if (!rt->self) { runtime_destroy_parts(rt); return NULL; }
     return rt;
+}
+
+/* Frees the runtime's own parts and the runtime (not the backend state). */
+static void runtime_destroy_parts(prt_runtime *rt) {
+    opensky_destroy(rt->sky);
+    free(rt->sky_need);
+    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free(rt->open[i]);
+    prefilter_destroy(rt->env);
+    free(rt);
 }
 
 /* Frees the backend state and the runtime; NULL is fine. */
 void runtime_destroy(prt_runtime *rt) {
     if (!rt) return;
     rt->be->destroy(rt->self);
-    prefilter_destroy(rt->env);
-    free(rt);
+    runtime_destroy_parts(rt);
 }
 
 /* light->L[i] for every linear transfer, from the cube (allocated: the caller frees them). */
@@ -173,6 +247,7 @@ static int rt_set_light(prt_runtime *rt, const float *cube, const prt_probe *p, 
     runtime_light light;
     memset(&light, 0, sizeof light);
     int rc = rt_light_vectors(rt, cube, &light, err);
+    if (rc == 0) rt_open_light(rt, cube, &light);
     if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
     rt->light_vector_ms = 1e3 * (prt_now() - t0);
     if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);
@@ -211,6 +286,8 @@ int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRA
     for (int i = 0; i < rt->d->ntransfers; i++) {
         const transfer_ops *ops = rt->d->transfers[i].ops;
         if (ops->kind == TRANSFER_VIEW) return prt_fail(err, "a %s transfer needs the probe itself, not a light vector", ops->name);
+        if (rt->d->transfers[i].open_sky)
+            return prt_fail(err, "the %s transfer's open sky needs the light's cube, not its light vector", ops->name);
         PRT_CHECK(L[i] != NULL);
         light.L[i] = L[i];
     }

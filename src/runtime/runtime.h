@@ -275,6 +275,8 @@ typedef struct runtime_light {
                                              * when no transfer has ops->view->shade_vertices */
     bool env_new;                           /* env was made in this call (a new probe); false: only its
                                              * rotation changed, so a backend's copy of its texels still holds */
+    const float *open[PRT_MAX_TRANSFERS];   /* transfer i with the open sky split (prt_transfer.open_sky): what
+                                             * to add to g = T x L, [3 * nvecs] (opensky.h); NULL: nothing */
 } runtime_light;
 
 typedef struct runtime_backend {

@@ -118,6 +118,7 @@ static int cpu_set_light(void *self, const runtime_light *light, prt_error *err)
         if (c->d->transfers[i].ops->kind == TRANSFER_LINEAR) {
             PRT_CHECK(light->L[i] != NULL);
             relight_set_light_at(c->rc, i, light->L[i]);
+            if (light->open[i]) relight_add_open(c->rc, i, light->open[i]);
         }
     c->env = light->env;
     c->light_ms = 1e3 * (prt_now() - t0);

@@ -139,6 +139,8 @@ typedef struct prt_transfer {
     prt_transport transport;    /* LINEAR: direct + every interreflection pass (what the runtime uses) */
     prt_transport direct;       /* LINEAR, optional (nvecs 0 when absent): the direct pass alone, kept by
                                  * `precompute --keep-direct` for the direct/bounces toggle */
+    bool open_sky;              /* LINEAR: the vectors of Lambertian-factor vertices hold what the occluders
+                                 * block, negated; the runtime adds the open sky g E(n) (opensky.h) */
     void *priv;                 /* its own data: VIEW (vmf: lobe sets in a perfect hash), made by its
                                  * precompute; LINEAR with a finish (cpca: its clusters), made by finish;
                                  * or by its read; freed by its release; NULL else */

@@ -203,7 +203,8 @@ static void cpca_light_set(const prt_transfer *tr, const prt_transport *t, const
 
 /* ---- the file section -------------------------------------------------------------------------- */
 
-/* i32 clusters, terms, coeffs, stage; u64 materials; u8 flags (bit 0: the direct set follows);
+/* i32 clusters, terms, coeffs, stage; u64 materials; u8 flags (bit 0: the direct set follows; bit 1: the
+ * open sky split, prt_transfer.open_sky);
  * i32 nverts, nvecs; u32 vec_first[nverts + 1]; the transport's model; [the direct set's] (cpca.h). */
 static void cpca_write_section(prt_writer *w, const prt_transfer *tr) {
     cpca_config c = cpca_config_of(&tr->cfg);
@@ -214,7 +215,7 @@ static void cpca_write_section(prt_writer *w, const prt_transfer *tr) {
     prtio_put_i32(w, c.coeffs);
     prtio_put_i32(w, c.lin.N);
     prtio_put_u64(w, tr->materials);
-    prtio_put_u8(w, direct ? 1 : 0);
+    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (tr->open_sky ? 2 : 0)));
     prtio_put_i32(w, tr->transport.nverts);
     prtio_put_i32(w, tr->transport.nvecs);
     prtio_put_arr(w, tr->transport.vec_first, (size_t)tr->transport.nverts + 1, 4);
@@ -239,7 +240,8 @@ static bool cpca_read_section(prt_reader *r, prt_transfer *tr, char *why) {
     uint8_t flags = prtio_get_u8(r);
     int nverts = prtio_get_i32(r), nvecs = prtio_get_i32(r);
     if (r->bad) return BAD(why, "cpca section too short");
-    if (flags > 1) return BAD(why, "cpca: bad flags %u", flags);
+    if (flags > 3) return BAD(why, "cpca: bad flags %u", flags);
+    tr->open_sky = flags & 2;
     if (c.clusters < 1 || c.clusters > 4096 || c.terms < 1 || c.terms > CPCA_MAX_TERMS || c.coeffs < 16 ||
         c.coeffs > CUBE_TEXELS || c.lin.N < 1 || c.lin.N > CUBE_TEXELS)
         return BAD(why, "cpca: bad configuration (clusters %d, terms %d, coeffs %d, stage %d)", c.clusters, c.terms, c.coeffs, c.lin.N);

@@ -143,7 +143,7 @@ int haar_begin(const transfer_config *cfg, const transfer_setup *s, const transf
     out->rays = st->rays.n ? &st->rays : NULL;
     st->budget = resolve_budget(&c, st, in);
     if (st->budget != TRANSPORT_BUDGET_VECTOR)
-        plan_add(in, "  coefficients: N x vectors shared, each vector N/2 to 2N, by %s error\n",
+        plan_add(in, "  coefficients: N x vectors shared, each vector N/2 to 4N, by %s error\n",
                  st->budget == TRANSPORT_BUDGET_RELATIVE ? "relative" : "expected");
     if (prior)
         plan_add(in, "  light prior: %s %s (each coefficient weighed by its RMS light)\n", name,

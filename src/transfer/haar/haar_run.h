@@ -28,8 +28,8 @@
 #define PRT_HAAR_RUN_H
 #include "linear.h"
 
-/* budget=auto keeps a shared budget up to this many vectors: a shared budget stages 2N candidates per
- * vector (6.4 KB against 2 KB) and costs about 13% more CPU, so the largest scenes (a 1 M-vertex
+/* budget=auto keeps a shared budget up to this many vectors: a shared budget stages 4N candidates per
+ * vector (12.8 KB against 2 KB) and costs about 13% more CPU, so the largest scenes (a 1 M-vertex
  * scene holds 1.1 M vectors) keep the paper's per-vector N. */
 #define HAAR_SHARED_MAX_VECS 500000
 #define HAAR_BUDGET_AUTO (-1)

@@ -59,7 +59,7 @@ static const transfer_option k_options[NOPTS + 1] = {
                      .arg = "shared|vector|relative",
                      .help = "how the N x vectors coefficients are shared out:\n"
                              "shared: the best weights over all vectors win, each vector keeping\n"
-                             "N/2 to 2N (a shadow edge more, a smooth one fewer; the same storage\n"
+                             "N/2 to 4N (a shadow edge more, a smooth one fewer; the same storage\n"
                              "at most); vector: each vector its own N (the paper's); relative:\n"
                              "shared, each weight taken over its vector's own total. shared and\n"
                              "relative are for Haar wavelets only. Default: shared up to 500,000\n"

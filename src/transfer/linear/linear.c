@@ -81,7 +81,7 @@ void linear_write(prt_writer *w, const prt_transfer *tr) {
     prtio_put_i32(w, lc.order);
     prtio_put_u64(w, tr->materials);
     bool direct = tr->direct.nvecs > 0;
-    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (lc.measure == LINEAR_MEASURE_SOLID_ANGLE ? 2 : 0) | 4));
+    prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (lc.measure == LINEAR_MEASURE_SOLID_ANGLE ? 2 : 0) | 4 | (tr->open_sky ? 8 : 0)));
     put_transport(w, &tr->transport);
     if (direct) put_transport(w, &tr->direct);
 }
@@ -148,7 +148,8 @@ bool linear_read(prt_reader *r, prt_transfer *tr, char *why) {
     tr->materials = prtio_get_u64(r);
     uint8_t flags = prtio_get_u8(r), direct = flags & 1;
     if (r->bad) return BAD(why, "transfer section too short");
-    if (flags > 7) return BAD(why, "bad transfer flags %u", flags);
+    if (flags > 15) return BAD(why, "bad transfer flags %u", flags);
+    tr->open_sky = flags & 8;
     lc.measure = flags & 2 ? LINEAR_MEASURE_SOLID_ANGLE : 0;   /* 0: the texels */
     linear_store(&tr->cfg, &lc, sizeof lc);
     if (!get_transport(r, &tr->transport, flags & 4, why)) return false;

@@ -22,7 +22,8 @@
  *     u64 materials                      bit i: material i
  *     u8  flags                          bit 0: the direct-only set follows the total;
  *                                        bit 1: the solid-angle measure (LINEAR_MEASURE_SOLID_ANGLE);
- *                                        bit 2: padded (below)
+ *                                        bit 2: padded (below);
+ *                                        bit 3: the open sky split (prt_transfer.open_sky)
  *     transport, [direct transport]      each: i32 nverts, nvecs, N, qbits; u64 ncoefs, nruns;
  *                                        vec_first, coef_first, run_first, runs, scale,
  *                                        [padded: u8 k, k zero bytes], then

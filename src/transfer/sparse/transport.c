@@ -8,7 +8,7 @@
  * contiguously and frees the staging here.
  *
  * Why files: a scene's staging is 16 bytes per kept coefficient (20 per candidate plus 4 x
- * TRANSPORT_STAGE per vector with a shared budget, 3.1x at N_max = 2N = 256), which for large scenes
+ * TRANSPORT_STAGE per vector with a shared budget, whose candidates are N_max = TRANSPORT_SHARED_CAP x N), which for large scenes
  * exceeds what a process should hold; transport_stage_to_file moves it to a file-backed shared
  * mapping whose pages transport_release drops as vectors are done, and transport_map_to_file does the
  * same for a finished set a later pass only reads. Both give the same bits as the heap.

@@ -1,0 +1,70 @@
+/* opensky.h - the open-sky part of a Lambertian transport vector, exact under any light.
+ *
+ * A vertex of a Lambertian factor (K = 1, constant light map g per channel) has the transport
+ * texels T_j = g a_j, a_j = sum_s V(w_s) max(n.w_s, 0) dw_s over the texel's visibility sub-texels
+ * (precompute.c, Eq. 3). Split it as
+ *     T_j = g a0_j(n) - g (a0_j(n) - a_j),    a0_j(n) = sum_s max(n.w_s, 0) dw_s   (V = 1),
+ * the open sky minus what the occluders block. With the split on (prt_transfer.open_sky) the stored
+ * vector is the second term alone, and the runtime adds g E(n) back, E(n) = sum_j L_j a0_j(n) the
+ * cube's irradiance at normal n. Why: a truncated vector holds the cosine's fall to the horizon only
+ * as coarse blocks, so a low sun (a few degrees up, where the cosine is small and steep) reads a
+ * block's mean, tens of percent off on an open floor; the blocked part is zero on an open vertex and
+ * an occluder's silhouette on a shadowed one, which the coefficients then spend on (the measurements:
+ * docs/design/shadows.md "The open sky").
+ *
+ * E(n) exactly at a grid of normals, interpolated between them: the grid points are the corners of a
+ * G x G split of each cube face, normals p / |p| with p = (u, v, 1) on the face plane. Per light
+ * change, at each grid normal, sum_j L_j a0_j(n) is summed exactly: a block of 8 x 8 texels wholly
+ * above n's horizon contributes n . sum_j L_j m_j (m_j = sum_s w_s dw_s, the texel's first moment: the
+ * clamp is inactive, so the sum is linear in n), one wholly below nothing, and a block that straddles
+ * the horizon texel by texel in the same way, a straddling texel by its sub-texels. The lookup
+ * interpolates |p| E bilinearly on the face and divides by |p|: |p| E(p / |p|) = sum L (p . m) is
+ * linear in (u, v) wherever no block straddles, so the interpolation is exact there too; the error is
+ * confined to normals whose horizon crosses a bright texel (a sun's terminator), where it is at most
+ * the sun's irradiance times the grid's angle (tests/test_opensky.c measures it).
+ * The sub-texels are those of the default visibility cube (CUBE_RES x 2 per face): files ray cast at
+ * another --vis-res differ from them at second order in the sub-texel size.
+ *
+ * Usage:
+ *     opensky *o = opensky_create(&err);
+ *     opensky_need(n, need);                       // once per normal that will be looked up (optional)
+ *     opensky_set_light(o, cube_rgb, need, nthreads);  // per light change: [CUBE_TEXELS][3] mean radiance
+ *     float e[3]; opensky_eval(o, n, e);           // E(n) per channel, n unit
+ *     opensky_destroy(o);
+ * Ownership: the opensky owns its tables. Thread safety: opensky_eval is read-only (any threads);
+ * opensky_set_light writes the grid (not concurrently with eval). */
+#ifndef PRT_OPENSKY_H
+#define PRT_OPENSKY_H
+#include "common.h"
+
+#define OPENSKY_GRID 16   /* grid cells per face edge: (OPENSKY_GRID + 1)^2 normals per face */
+#define OPENSKY_NORMALS (6 * (OPENSKY_GRID + 1) * (OPENSKY_GRID + 1))
+#define OPENSKY_SUB 2     /* visibility sub-texels per lighting texel edge (128 / CUBE_RES) */
+
+typedef struct opensky opensky;
+
+/* The texel and block tables (a few MB); NULL with err when out of memory. */
+opensky *opensky_create(prt_error *err);
+void opensky_destroy(opensky *o);
+/* E at the grid normals for the light cube_rgb ([CUBE_TEXELS][3] mean radiance per texel) on nthreads
+ * (0: all cores): those with need[q] set (need [OPENSKY_NORMALS], opensky_need), or all (need NULL). A
+ * scene's normals use few of them when its Lambertian surfaces are planes (a floor: one), and each costs
+ * about 12 us (a walk down the quadtree along its horizon). */
+void opensky_set_light(opensky *o, const float *cube_rgb, const uint8_t *need, int nthreads);
+/* Marks in need [OPENSKY_NORMALS] the grid normals opensky_eval reads for n. */
+void opensky_need(const float n[3], uint8_t *need);
+/* E(n) per channel for a unit normal n from the grid of the last set_light. */
+void opensky_eval(const opensky *o, const float n[3], float rgb[3]);
+/* The grid normals (OPENSKY_NORMALS of them) and weights that give E at n: E(n) = sum_k w[k] |p_q| E(n_q)
+ * over q = q[k] (each weight holds the 1 / |p| of n). The same weights interpolate a0(n) from the
+ * grid's |p_q| a0(n_q) (opensky_grid_texels): gathering uses them for a neighbour's open sky. */
+void opensky_weights(const float n[3], int q[4], float w[4]);
+/* Grid normal q (unit). */
+void opensky_grid_normal(int q, float n[3]);
+/* |p_q| a0_j(n_q) for every lighting texel j into a0[CUBE_TEXELS] (from o's tables). */
+void opensky_grid_texels(const opensky *o, int q, float *a0);
+/* E(n) summed over every sub-texel of cube_rgb (the definition; tests and the grid's check). */
+void opensky_exact(const float *cube_rgb, const float n[3], double rgb[3]);
+/* a0_j(n) for every lighting texel j into a0[CUBE_TEXELS] (the open sky's texels at the sub-texels above). */
+void opensky_texels(const float n[3], float *a0);
+#endif
