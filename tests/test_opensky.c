@@ -9,7 +9,9 @@
  *                          within the interpolation bound of the header everywhere
  *   opensky/open_plane     a plane alone stores no coefficients, and its radiance under a sky plus a sun
  *                          texel 2 degrees up is kd/pi (pi sky + L a0) with a0 by quadrature
- *   opensky/file           the split survives the file; --no-open-sky turns it off; a light vector
+ *   opensky/covered        a plane inside a closed box sees none of its sky: its vectors stay whole
+ *                          (not split) and it renders exactly black, as the reference does
+ *   opensky/file           the split and its per-vertex flags survive the file; --no-open-sky turns it off; a light vector
  *                          alone is refused for a split transfer
  *   opensky/bounce         a plane beside a wall, one forced bounce, float storage, every coefficient:
  *                          the split and the whole vectors give the same radiance within the open-sky
@@ -169,6 +171,38 @@ static void open_plane(void) {
     prt_data_free(&d);
 }
 
+static void covered(void) {
+    prt_error err;
+    prt_mesh m = { 0 }, cover = { 0 };
+    prt_scene sc;
+    prt_data d;
+    const float bmin[3] = { -3, -1, -3 }, bmax[3] = { 3, 1, 3 };
+    int rc = mesh_make_plane(&m, -1, 1, -1, 1, 0, 5, 5, &err) || mesh_make_box(&cover, bmin, bmax, 2, false, &err) ||
+             mesh_append(&m, &cover, &err) || scene_from_mesh(&m, "lambert:kd=0.6", &sc, &err) ||
+             precompute_run(&sc, &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
+    mesh_free(&cover);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) return;
+    const prt_transfer *tr = &d.transfers[0];
+    int split = 0;
+    for (int v = 0; v < 25; v++) split += tr->open_vert[v];
+    CHECK(tr->open_sky && split == 0, "%d of the 25 covered vertices split", split);
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), *rgb = malloc(sizeof(float) * 3 * (size_t)d.scene.mesh.nverts);
+    sky_and_sun(cube, 0.5f, 20000.f, 40 * M_PI / 180, 0.4);
+    prt_runtime *rt = runtime_create(&d, NULL, &err);
+    if (rt && runtime_set_light_cube(rt, cube, &err) == 0 && runtime_shade_vertices(rt, (float[3]){ 0, 0.2f, 3 }, rgb, &err) == 0) {
+        float worst = 0;
+        for (int v = 0; v < 25; v++) worst = fmaxf(worst, fmaxf(rgb[3 * v], fmaxf(rgb[3 * v + 1], rgb[3 * v + 2])));
+        /* inside the box every ray is blocked: a = 0, so the whole vector is zero, no coefficient, no light */
+        CHECK(worst == 0.f, "covered plane: radiance up to %g", worst);
+    } else
+        CHECK(0, "%s", err.msg);
+    runtime_destroy(rt);
+    free(cube);
+    free(rgb);
+    prt_data_free(&d);
+}
+
 static void file_flag(void) {
     prt_error err;
     for (int no = 0; no < 2; no++) {
@@ -183,6 +217,9 @@ static void file_flag(void) {
         if (rc == 0) {
             CHECK(back.transfers[0].open_sky == !no, "%s: the flag read back %d", no ? "--no-open-sky" : "default",
                   back.transfers[0].open_sky);
+            if (!no && back.transfers[0].open_vert)
+                CHECK(!memcmp(back.transfers[0].open_vert, d.transfers[0].open_vert, (size_t)d.scene.mesh.nverts),
+                      "the per-vertex flags read back");
             prt_runtime *rt = runtime_create(&back, NULL, &err);
             float (*L)[4] = calloc(CUBE_TEXELS, sizeof *L);
             const float (*Ls[PRT_MAX_TRANSFERS])[4] = { (const float (*)[4])L };
@@ -250,6 +287,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(grid_exact);
     CHECK_CASE(grid_between);
     CHECK_CASE(open_plane);
+    CHECK_CASE(covered);
     CHECK_CASE(file_flag);
     CHECK_CASE(bounce);
     return check_summary();

@@ -265,8 +265,17 @@ static bool transfers_ok(const prt_data *d, char *why) {
     }
     for (int m = 0; m < nm; m++)
         if (!((covered >> m) & 1)) return BAD(why, "material %d has no transfer", m);
-    for (int i = 0; i < d->ntransfers; i++)
-        if (!d->transfers[i].ops->validate(d, &d->transfers[i], why)) return false;
+    for (int i = 0; i < d->ntransfers; i++) {
+        const prt_transfer *tr = &d->transfers[i];
+        if (!tr->ops->validate(d, tr, why)) return false;
+        if (tr->open_sky && (tr->ops->kind != TRANSFER_LINEAR || !tr->open_vert)) return BAD(why, "%s transfer: bad open sky", tr->ops->name);
+        for (int v = 0; tr->open_sky && v < d->scene.mesh.nverts; v++) {
+            int m = d->scene.mesh.mat ? d->scene.mesh.mat[v] : 0;
+            if (tr->open_vert[v] && !(((tr->materials >> m) & 1) && d->factors[m].lambertian))
+                return BAD(why, "%s transfer: vertex %d's open sky split, but its material %d is not a Lambertian one it shades",
+                           tr->ops->name, v, m);
+        }
+    }
     return true;
 }
 
@@ -712,7 +721,10 @@ void prt_data_free(prt_data *d) {
     scene_free(&d->scene);
     for (int m = 0; m < PRT_MAX_MATERIALS; m++) brdf_factor_free(&d->factors[m]);
     for (int i = 0; i < d->ntransfers && i < PRT_MAX_TRANSFERS; i++)
-        if (d->transfers[i].ops) d->transfers[i].ops->release(&d->transfers[i]);
+        if (d->transfers[i].ops) {
+            free(d->transfers[i].open_vert);
+            d->transfers[i].ops->release(&d->transfers[i]);
+        }
     memset(d, 0, sizeof *d);
     d->scene.floor_first_vertex = -1;
 }

@@ -28,11 +28,11 @@
 #define CKPT_MAGIC "PRTCKPT2"
 #define CKPT_HEADER 24
 #define CKPT_RECORD 0x58545256u     /* "VRTX" little-endian */
-/* Payload: u32 pass, u32 vertex, u32 vectors, i64 traced, i64 hits, f64 err, i32 errs, f64 energy (48 bytes),
+/* Payload: u32 pass, u32 vertex, u32 vectors, i64 traced, i64 hits, f64 err, i32 errs, f64 energy, i32 open (52 bytes),
  * then per vector: u32 count, f32 scale[3], u16 index[count], then its values as the set stores
  * them (transport.h): quantized, i8 or i16 [3 * count] (value = q * scale, what transport_finish
  * quantizes again to the same q), or f32 [3 * count] with 32 bits: about the output's size. */
-#define CKPT_FIXED 48
+#define CKPT_FIXED 52
 /* With a shared budget (transport.h) a vector is staged as candidates: u32 count, u16 index[count],
  * f32 value[3 * count], f32 weight[count], f32 block[TRANSPORT_STAGE]. */
 
@@ -233,6 +233,7 @@ static int stage_record(const uint8_t *p, uint32_t len, prt_transport *t, ckpt_v
         vs->errs = (int32_t)get32(p + 36);
         uint64_t en = get64(p + 40);
         memcpy(&vs->energy, &en, 8);
+        vs->open = (int32_t)get32(p + 48);
     }
     if (t->stage_key) return stage_candidates(p, len, t, v, nvec);
     const size_t vb = value_bytes(t->qbits);
@@ -368,6 +369,7 @@ static size_t put_record(prt_checkpoint *c, int pass, const prt_transport *t, in
     uint64_t en;
     memcpy(&en, &vs->energy, 8);
     put64(p + 40, en);
+    put32(p + 48, (uint32_t)vs->open);
     size_t q = CKPT_FIXED;
     for (uint32_t k = 0; k < nvec && t->stage_key; k++) q = put_candidates(p, q, t, t->vec_first[v] + k);
     for (uint32_t k = 0; k < nvec && !t->stage_key; k++) {

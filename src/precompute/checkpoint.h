@@ -64,6 +64,7 @@ typedef struct ckpt_vstats {
     double err;             /* sum over its vectors of (relative L2 error)^2 */
     int32_t errs;           /* vectors counted in err */
     double energy;          /* sum over its vectors of the whole vector's |coefficients|^2 */
+    int32_t open;           /* 1: its vectors hold the open sky split's blocked part (opensky.h) */
 } ckpt_vstats;
 
 /* A running 64-bit hash of the inputs. */

@@ -362,7 +362,7 @@ static inline void gather_decode(const gather_ctx *c, gather_thread *th, int nk,
         th->slot_of[y] = -1;
         int nl = nvec_of(prev, y);
         const float *W = th->slot_w + (size_t)sl * c->kmax * SL;
-        if (c->open && c->hconst_ok[c->d->scene.mesh.mat[y]]) nopen = gather_open_weights(c, th, y, nk, W, nopen);
+        if (c->open && c->desc->open_vert[y]) nopen = gather_open_weights(c, th, y, nk, W, nopen);
         for (int l = 0; l < nl; l++) {
             int vec = (int)prev->vec_first[y] + l;
             if (prev->coef_first[vec + 1] == prev->coef_first[vec]) continue;
@@ -625,7 +625,7 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
     c.slot_lanes = lanes_of(kmax) > 4 ? lanes_of(kmax) : 4;
     c.eps = vis_eps(vs);
     c.open = desc ? desc->open : NULL;
-    if (c.open && (c.open->nverts != OPENSKY_NORMALS || c.open->qbits != 32)) {
+    if (c.open && (c.open->nverts != OPENSKY_NORMALS || c.open->qbits != 32 || !desc->open_vert)) {
         transport_free(next);
         memset(next, 0, sizeof *next);
         return prt_fail(err, "gather: the open-sky set is not %d float vectors", OPENSKY_NORMALS);

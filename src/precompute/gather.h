@@ -45,6 +45,7 @@ typedef struct gather_desc {
                               * this set holds |p_q| a0(n_q) for the OPENSKY_NORMALS grid normals (one float
                               * vector each, opensky_grid_texels projected), which the pass adds for each such
                               * neighbour with opensky_weights; NULL: prev's vectors are whole */
+    const uint8_t *open_vert; /* with open: [nverts], 1 where prev's vectors of vertex v lack the open sky */
     double *cost;            /* [nverts] or NULL: in, each vertex's relative cost (the split); out, the
                               * seconds each took here (every rank's, after the exchange) */
 } gather_desc;

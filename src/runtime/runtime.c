@@ -43,7 +43,6 @@ struct prt_runtime {
     uint8_t *sky_need;          /* [OPENSKY_NORMALS] the grid normals its vertices read (opensky_need) */
     float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector, 0 for the others */
     float lambert_g[PRT_MAX_MATERIALS][3];  /* constant light map of each Lambertian factor */
-    const float *sky_cube;      /* the cube rt_open_range reads */
 };
 
 /* The open sky of transfer i's Lambertian vectors for the grid's light (opensky.h), per vertex range. */
@@ -56,7 +55,7 @@ static void rt_open_range(void *ctx, int begin, int end, int thread) {
     const prt_mesh *m = &d->scene.mesh;
     for (int v = begin; v < end; v++) {
         int mat = m->mat ? m->mat[v] : 0;
-        if (!((tr->materials >> mat) & 1) || !d->factors[mat].lambertian) continue;
+        if (!tr->open_vert[v]) continue;
         float e[3], *o = j->rt->open[j->i] + 3 * (size_t)tr->transport.vec_first[v];
         opensky_eval(j->rt->sky, m->nrm + 3 * (size_t)v, e);
         for (int c = 0; c < 3; c++) o[c] = j->rt->lambert_g[mat][c] * e[c];
@@ -84,10 +83,8 @@ static int rt_open_create(prt_runtime *rt, prt_error *err) {
         if (!rt->sky && (!(rt->sky = opensky_create(err)) || !(rt->sky_need = prt_calloc(OPENSKY_NORMALS, 1, err)))) return -1;
         if (!(rt->open[i] = prt_calloc(3 * (size_t)tr->transport.nvecs + 1, sizeof(float), err))) return -1;
         const prt_mesh *m = &d->scene.mesh;
-        for (int v = 0; v < m->nverts; v++) {
-            int mat = m->mat ? m->mat[v] : 0;
-            if (((tr->materials >> mat) & 1) && d->factors[mat].lambertian) opensky_need(m->nrm + 3 * (size_t)v, rt->sky_need);
-        }
+        for (int v = 0; v < m->nverts; v++)
+            if (tr->open_vert[v]) opensky_need(m->nrm + 3 * (size_t)v, rt->sky_need);
     }
     for (int k = 0; k < d->scene.nmaterials && k < PRT_MAX_MATERIALS; k++)
         if (d->factors[k].lambertian) {

@@ -139,8 +139,12 @@ typedef struct prt_transfer {
     prt_transport transport;    /* LINEAR: direct + every interreflection pass (what the runtime uses) */
     prt_transport direct;       /* LINEAR, optional (nvecs 0 when absent): the direct pass alone, kept by
                                  * `precompute --keep-direct` for the direct/bounces toggle */
-    bool open_sky;              /* LINEAR: the vectors of Lambertian-factor vertices hold what the occluders
-                                 * block, negated; the runtime adds the open sky g E(n) (opensky.h) */
+    bool open_sky;              /* LINEAR: the open sky split (opensky.h): the vectors of the vertices open_vert
+                                 * marks hold what the occluders block, negated, and the runtime adds the
+                                 * open sky g E(n) */
+    uint8_t *open_vert;         /* with open_sky, [nverts]: 1 where vertex v's vectors are split (a Lambertian
+                                 * factor seeing more of its sky than it misses), 0 where they hold the whole
+                                 * transport; owned here, freed with the data (prt_data_free) */
     void *priv;                 /* its own data: VIEW (vmf: lobe sets in a perfect hash), made by its
                                  * precompute; LINEAR with a finish (cpca: its clusters), made by finish;
                                  * or by its read; freed by its release; NULL else */

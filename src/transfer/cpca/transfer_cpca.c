@@ -221,6 +221,7 @@ static void cpca_write_section(prt_writer *w, const prt_transfer *tr) {
     prtio_put_arr(w, tr->transport.vec_first, (size_t)tr->transport.nverts + 1, 4);
     cpca_write(w, &d->set[0]);
     if (direct) cpca_write(w, &d->set[1]);
+    linear_put_open(w, tr);
 }
 
 /* A skeleton set of nverts / nvecs over a copy of vec_first. */
@@ -258,6 +259,7 @@ static bool cpca_read_section(prt_reader *r, prt_transfer *tr, char *why) {
     tr->priv = d;
     if (!ok) return false;
     if (!cpca_read(r, &d->set[0], why) || ((flags & 1) && !cpca_read(r, &d->set[1], why))) return false;
+    if (!linear_get_open(r, tr, why)) return false;
     if (r->pos != r->n) return BAD(why, "cpca section longer than its data");
     return true;
 }

@@ -84,6 +84,22 @@ void linear_write(prt_writer *w, const prt_transfer *tr) {
     prtio_put_u8(w, (uint8_t)((direct ? 1 : 0) | (lc.measure == LINEAR_MEASURE_SOLID_ANGLE ? 2 : 0) | 4 | (tr->open_sky ? 8 : 0)));
     put_transport(w, &tr->transport);
     if (direct) put_transport(w, &tr->direct);
+    linear_put_open(w, tr);
+}
+
+/* See linear.h: u8 open_vert[nverts] after the sets when the split is on. */
+void linear_put_open(prt_writer *w, const prt_transfer *tr) {
+    if (tr->open_sky) prtio_put_bytes(w, tr->open_vert, (size_t)tr->transport.nverts);
+}
+
+/* See linear.h. */
+bool linear_get_open(prt_reader *r, prt_transfer *tr, char *why) {
+    if (!tr->open_sky) return true;
+    size_t n = (size_t)tr->transport.nverts;
+    if (!(tr->open_vert = prtio_get_arr(r, n, 1))) return BAD(why, "transfer section too short (open sky)");
+    for (size_t v = 0; v < n; v++)
+        if (tr->open_vert[v] > 1) return BAD(why, "open sky: vertex %zu has flag %u", v, tr->open_vert[v]);
+    return true;
 }
 
 /* ---- reading ---------------------------------------------------------------------------- */
@@ -154,6 +170,7 @@ bool linear_read(prt_reader *r, prt_transfer *tr, char *why) {
     linear_store(&tr->cfg, &lc, sizeof lc);
     if (!get_transport(r, &tr->transport, flags & 4, why)) return false;
     if (direct && !get_transport(r, &tr->direct, flags & 4, why)) return false;
+    if (!linear_get_open(r, tr, why)) return false;
     prt_transport *sets[2] = { &tr->transport, &tr->direct };
     for (int k = 0; k < 2; k++)   /* a shared budget (budget_ok): its kind is not recorded */
         if (sets[k]->N > lc.N && lc.N > 0) { sets[k]->budget = lc.N; sets[k]->budget_kind = TRANSPORT_BUDGET_SHARED; }

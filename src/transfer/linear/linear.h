@@ -28,6 +28,7 @@
  *                                        vec_first, coef_first, run_first, runs, scale,
  *                                        [padded: u8 k, k zero bytes], then
  *                                        packed (8-bit) or offs + q16 / f32
+ *     [open sky: u8 open_vert[nverts]]   1 where a vertex's vectors are split (prt_transfer.open_vert)
  * The padding puts packed, q16 or f32 at a multiple of 64 bytes from the file's start, so that
  * prtfile_read can leave the coefficients in the file's pages: the runs and the coefficient
  * arrays, all but about 24 bytes per vector, become one read-only window of the file
@@ -56,6 +57,11 @@ typedef struct linear_config {
     int order;      /* the basis size where it has one (SH bands); 0 else */
     int measure;    /* 0 or LINEAR_MEASURE_SOLID_ANGLE */
 } linear_config;
+
+/* The open sky's per-vertex flags (prt_transfer.open_vert) after a member's sets, when tr->open_sky;
+ * the reader allocates them and checks each is 0 or 1 (prtfile's validation checks the materials). */
+void linear_put_open(prt_writer *w, const prt_transfer *tr);
+bool linear_get_open(prt_reader *r, prt_transfer *tr, char *why);
 
 /* The leading fields of cfg. */
 linear_config linear_config_of(const transfer_config *cfg);
