@@ -40,9 +40,10 @@ struct glrt {
     size_t ncoefs, transport_bytes, other_bytes;
     bool direct;                /* the direct-only transport set is uploaded (CPU method: is lit) */
     bool cpu;                   /* the transfer has no GLSL: GLRT_LIGHT_CPU, no transport on the GPU */
+    float *open4;               /* [4 * nvecs] staging of the open sky's addend (buf_open), or NULL */
     float *cpu_g;               /* CPU method: [4 * nvecs], g = T x L as [3 * nvecs], then padded to vec4 in place */
-    GLuint buf_first, buf_words, buf_blocks, buf_scale, buf_L, buf_g, buf_view;
-    GLuint tex_first, tex_words, tex_blocks, tex_scale, tex_L, tex_g, tex_view;
+    GLuint buf_first, buf_words, buf_blocks, buf_scale, buf_L, buf_g, buf_view, buf_open;
+    GLuint tex_first, tex_words, tex_blocks, tex_scale, tex_L, tex_g, tex_view, tex_open;
     GLuint prog_light[GLRT_LIGHT_COUNT];
     GLuint frag_fbo, frag_tex;
     int frag_w, frag_h;
@@ -443,6 +444,9 @@ static int make_light_buffers(glrt *rt, prt_error *err) {
     if (!rt->cpu) {   /* the CPU method uploads g, not L */
         rt->buf_L = make_buffer(gl, zero, lsize, GL_DYNAMIC_DRAW);
         rt->tex_L = make_texbuf(gl, rt->buf_L, GL_RGBA32F);
+        /* the open sky's addend per vector, laid out as g (zero without the split); g is at least as long */
+        rt->buf_open = make_buffer(gl, zero, gsize, GL_DYNAMIC_DRAW);
+        rt->tex_open = make_texbuf(gl, rt->buf_open, GL_RGBA32F);
     }
     rt->buf_g = make_buffer(gl, zero, gsize, GL_DYNAMIC_COPY);
     free(zero);
@@ -822,9 +826,9 @@ static void run_light(glrt *rt, glrt_light_method m) {
         gl->BindFramebuffer(GL_FRAMEBUFFER, rt->frag_fbo);
         gl->Viewport(0, 0, rt->frag_w, rt->frag_h);
         gl->Disable(GL_DEPTH_TEST);
-        const GLuint tex[5] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L };
-        const char *names[5] = { "t_first", "t_words", "t_blocks", "t_scale", "t_L" };
-        for (int i = 0; i < 5; i++) {
+        const GLuint tex[6] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_open };
+        const char *names[6] = { "t_first", "t_words", "t_blocks", "t_scale", "t_L", "t_open" };
+        for (int i = 0; i < 6; i++) {
             gl->ActiveTexture(GL_TEXTURE0 + i);
             gl->BindTexture(GL_TEXTURE_BUFFER, tex[i]);
             gl->Uniform1i(gl->GetUniformLocation(p, names[i]), i);
@@ -834,7 +838,7 @@ static void run_light(glrt *rt, glrt_light_method m) {
         gl->BindVertexArray(rt->draw.vao_empty);
         gl->DrawArrays(GL_TRIANGLES, 0, 3);
         gl->BindVertexArray(0);
-        for (int i = 4; i >= 0; i--) {
+        for (int i = 5; i >= 0; i--) {
             gl->ActiveTexture(GL_TEXTURE0 + i);
             gl->BindTexture(GL_TEXTURE_BUFFER, 0);
         }
@@ -845,15 +849,15 @@ static void run_light(glrt *rt, glrt_light_method m) {
         gl->BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
         gl->BindFramebuffer(GL_FRAMEBUFFER, 0);
     } else {
-        const GLuint bufs[6] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g };
-        for (int i = 0; i < 6; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
+        const GLuint bufs[7] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_open };
+        for (int i = 0; i < 7; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, bufs[i]);
         gl->Uniform1ui(gl->GetUniformLocation(p, "u_nvecs"), (GLuint)rt->nvecs);
         int per = m == GLRT_LIGHT_WARP ? 8 : 64;
         int groups = (rt->nvecs + per - 1) / per;
         int gx = groups < 65535 ? groups : 65535, gy = (groups + gx - 1) / gx;
         if (gx > 0) gl->DispatchCompute((GLuint)gx, (GLuint)gy, 1);
         gl->MemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_BUFFER_UPDATE_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
-        for (int i = 0; i < 6; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
+        for (int i = 0; i < 7; i++) gl->BindBufferBase(GL_SHADER_STORAGE_BUFFER, i, 0);
     }
     gl->UseProgram(0);
 }
@@ -942,8 +946,12 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->local_bounce = dd.local_bounce;
     rt->vsgl_glossy = true;
     rt->tr = tr;
-    rt->cpu = !tr->ops->linear->glsl || tr->open_sky;   /* the open sky is added to g on the CPU */
+    rt->cpu = !tr->ops->linear->glsl;
     if (rt->cpu && !(rt->cpu_g = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) { free(rt); return NULL; }
+    if (!rt->cpu && tr->open_sky && !(rt->open4 = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) {
+        free(rt);
+        return NULL;
+    }
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
     rt->ncoefs = t->coef_first[t->nvecs];
@@ -956,7 +964,7 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     if (dd.ctx) rt->ctx = dd.ctx;
     else {
         rt->ctx = glctx_create(GLCTX_AUTO, NULL, err);
-        if (!rt->ctx) { free(rt->cpu_g); free(rt); return NULL; }
+        if (!rt->ctx) { free(rt->cpu_g); free(rt->open4); free(rt); return NULL; }
         rt->own_ctx = true;
     }
     rt->gl = &rt->ctx->gl;
@@ -995,10 +1003,10 @@ void glrt_destroy(glrt *rt) {
     if (!rt) return;
     if (rt->gl && current(rt, NULL) == 0) {
         const gl_api *gl = rt->gl;
-        GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view,
+        GLuint bufs[] = { rt->buf_first, rt->buf_words, rt->buf_blocks, rt->buf_scale, rt->buf_L, rt->buf_g, rt->buf_view, rt->buf_open,
                           rt->vbo_pos, rt->vbo_nrm, rt->vbo_vec, rt->vbo_mat, rt->vbo_add, rt->ebo, rt->vbo_pix, rt->buf_tv,
                           rt->buf_tvu, rt->vbo_tva, rt->vbo_uv, rt->buf_alb };
-        GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view,
+        GLuint texs[] = { rt->tex_first, rt->tex_words, rt->tex_blocks, rt->tex_scale, rt->tex_L, rt->tex_g, rt->tex_view, rt->tex_open,
                           rt->frag_tex, rt->tex_tv, rt->tex_tvu, rt->tex_alb };
         gl->DeleteTextures(GLRT_PF_LEVELS, rt->tex_pf);
         for (size_t i = 0; i < sizeof bufs / sizeof bufs[0]; i++)
@@ -1018,6 +1026,7 @@ void glrt_destroy(glrt *rt) {
     }
     if (rt->own_ctx) glctx_destroy(rt->ctx);
     free(rt->cpu_g);
+    free(rt->open4);
     free(rt);
 }
 
@@ -1127,7 +1136,16 @@ int glrt_set_light_open(glrt *rt, const float (*L)[4], const float *open, prt_er
     const gl_api *gl = rt->gl;
     if (current(rt, err)) return -1;
     if (rt->cpu) return cpu_set_light(rt, L, open, err);
+    if (rt->tr->open_sky && !open) return prt_fail(err, "GL runtime: the %s transfer's open sky needs the light's cube", rt->tr->ops->name);
     double t0 = prt_now();
+    if (rt->tr->open_sky) {   /* the open sky's addend, laid out as g */
+        float *o = rt->open4;
+        for (size_t i = 0; i < (size_t)rt->nvecs; i++)
+            for (int c = 0; c < 4; c++) o[4 * i + c] = c < 3 ? open[3 * i + c] : 0.f;
+        gl->BindBuffer(GL_ARRAY_BUFFER, rt->buf_open);
+        gl->BufferSubData(GL_ARRAY_BUFFER, 0, (GLsizeiptr)(sizeof(float) * 4 * (size_t)rt->nvecs), o);
+        gl->BindBuffer(GL_ARRAY_BUFFER, 0);
+    }
     int shift;
     float (*Ls)[4] = transfer_light_scaled_copy(L, &shift);   /* a 1e37 sun: scaled by 2^-shift, undone in the kernels */
     rt->unshift = ldexpf(1.f, shift);

@@ -13,10 +13,17 @@
  *                          (not split) and it renders exactly black, as the reference does
  *   opensky/file           the split and its per-vertex flags survive the file; --no-open-sky turns it off; a light vector
  *                          alone is refused for a split transfer
+ *   opensky/gl_kernels     the GL light kernels (fragment, thread, warp; those the context has) add the
+ *                          open sky: g read back equals transfer_light plus the addend within float
+ *                          summation (the transport's own kernels' tolerance)
  *   opensky/bounce         a plane beside a wall, one forced bounce, float storage, every coefficient:
  *                          the split and the whole vectors give the same radiance within the open-sky
  *                          set's truncation, measured on its own vectors */
 #include "harness.h"
+#include "brdf.h"
+#ifndef PRT_NO_GL
+#include "glrt.h"
+#endif
 #include "cubemap.h"
 #include "opensky.h"
 #include "precompute.h"
@@ -255,6 +262,76 @@ static int wall_radiance(bool no_split, const float *cube, float *rgb, int *nver
     return rc;
 }
 
+#ifndef PRT_NO_GL
+/* The open sky's addend per vector of a split transfer, as the runtime forms it (runtime.c). */
+static float *open_addend(const prt_data *d, const float *cube, prt_error *err) {
+    const prt_transfer *tr = &d->transfers[0];
+    opensky *o = opensky_create(err);
+    float *a = calloc(3 * (size_t)tr->transport.nvecs + 1, sizeof(float));
+    if (!o || !a) { opensky_destroy(o); free(a); return NULL; }
+    opensky_set_light(o, cube, NULL, 2);
+    const prt_mesh *m = &d->scene.mesh;
+    for (int v = 0; v < m->nverts; v++) {
+        if (!tr->open_vert[v]) continue;
+        float e[3], g[BRDF_MAX_SIGMA * 3];
+        brdf_factor_light(&d->factors[m->mat[v]], (const float[3]){ 0, 0, 1 }, g);
+        opensky_eval(o, m->nrm + 3 * (size_t)v, e);
+        for (int c = 0; c < 3; c++) a[3 * (size_t)tr->transport.vec_first[v] + c] = g[c] * e[c];
+    }
+    opensky_destroy(o);
+    return a;
+}
+
+#endif
+
+static void gl_kernels(void) {
+#ifndef PRT_NO_GL   /* a build without GL skips the case (CHECK_CASE_GL) and has no glrt */
+    prt_error err;
+    prt_mesh m = { 0 }, wall = { 0 };
+    prt_scene sc;
+    prt_data d;
+    const float bmin[3] = { 0.5f, 0, -1 }, bmax[3] = { 0.7f, 1.5f, 1 };
+    int rc = mesh_make_plane(&m, -1, 1, -1, 1, 0, 9, 9, &err) || mesh_make_box(&wall, bmin, bmax, 2, false, &err) ||
+             mesh_append(&m, &wall, &err) || scene_from_mesh(&m, "lambert:kd=0.8", &sc, &err) ||
+             precompute_run(&sc, &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
+    mesh_free(&wall);
+    CHECK(rc == 0, "%s", err.msg);
+    if (rc) return;
+    const prt_transfer *tr = &d.transfers[0];
+    int nv = tr->transport.nvecs;
+    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS), *g = calloc(3 * (size_t)nv, sizeof(float));
+    float *want = calloc(3 * (size_t)nv, sizeof(float));
+    sky_and_sun(cube, 0.3f, 5000.f, 15 * M_PI / 180, M_PI);
+    float (*L)[4] = transfer_light_vector(tr, cube), *open = open_addend(&d, cube, &err);
+    CHECK(L && open, "light vector and addend");
+    transfer_light(tr, &tr->transport, (const float (*)[4])L, want, 1);
+    double scale = 0;
+    for (int i = 0; i < 3 * nv; i++) want[i] += open[i], scale = fmax(scale, fabs(want[i]));
+    glrt *rt = glrt_create(&d, NULL, &err);
+    CHECK(rt != NULL, "%s", err.msg);
+    CHECK(rt && glrt_set_light(rt, (const float (*)[4])L, &err) == -1, "a split transfer's light without the addend is refused");
+    int ran = 0;
+    for (int meth = GLRT_LIGHT_FRAGMENT; rt && meth <= GLRT_LIGHT_WARP; meth++) {
+        if (glrt_set_light_method(rt, (glrt_light_method)meth, &err)) continue;   /* not in this context */
+        ran++;
+        CHECK(glrt_set_light_open(rt, (const float (*)[4])L, open, &err) == 0 && glrt_read_gvec(rt, g, &err) == 0, "%s", err.msg);
+        double worst = 0;
+        for (int i = 0; i < 3 * nv; i++) worst = fmax(worst, fabs(g[i] - want[i]));
+        /* float sums of up to 512 products in another order, and one float addition: 1e-5 of the largest g */
+        CHECK_LE(worst, 1e-5 * scale, "method %d: g against transfer_light + the addend", meth);
+        printf("GL light method %d: g within %.2e of the CPU's (largest %.3g)\n", meth, worst, scale);
+    }
+    CHECK(ran >= 1, "no GL light kernel ran");
+    glrt_destroy(rt);
+    free(L);
+    free(open);
+    free(cube);
+    free(g);
+    free(want);
+    prt_data_free(&d);
+#endif
+}
+
 static void bounce(void) {
     prt_error err;
     float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
@@ -289,6 +366,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(open_plane);
     CHECK_CASE(covered);
     CHECK_CASE(file_flag);
+    CHECK_CASE_GL(gl_kernels);
     CHECK_CASE(bounce);
     return check_summary();
 }

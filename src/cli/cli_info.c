@@ -73,6 +73,12 @@ int cli_info(int argc, char **argv) {
                t->qbits == 32 ? "float" : t->qbits == 16 ? "16-bit" : "8-bit", transport_ncoefs(t), transport_nruns(t),
                transport_bytes(t) / 1e6);
         printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
+        if (tr->open_sky) {
+            int split = 0;
+            for (int v = 0; v < s->mesh.nverts; v++) split += tr->open_vert[v];
+            printf("open sky      added exactly at runtime; %d vertices store what occluders block, the rest whole\n", split);
+        } else
+            printf("open sky      not split (--no-open-sky): every vector whole\n");
     }
     for (int i = 0; i < d.ntransfers; i++)
         if (d.transfers[i].ops->summary) {

@@ -187,8 +187,9 @@ typedef struct transfer_linear_run {
 typedef void (*transfer_key_fn)(void *key, const void *p, size_t n);
 
 /* GLSL sources of a light kernel family, compiled by glrt (gpu/glrt.c). The kernel computes
- * g_i = scale_i * sum_c q_c L[index_c] for every vector i from glrt's buffers (first, words,
- * blocks, scale, L -> g); see glrt.c for the buffer layout. The marker lines DECODE and
+ * g_i = scale_i * sum_c q_c L[index_c] + open_i for every vector i from glrt's buffers (first, words,
+ * blocks, scale, L, open -> g; open: the open sky's addend, runtime_light.open, zero without the
+ * split); see glrt.c for the buffer layout. The marker lines DECODE and
  * BUFFERS in the bodies are replaced by `decode` (after "#define QBITS n") and `buffers`. */
 typedef struct transfer_glsl {
     const char *decode;     /* vec3 coef(uint c, out uint idx) per QBITS; uses WORD(c), BLOCK(c) */

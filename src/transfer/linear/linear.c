@@ -307,7 +307,7 @@ static const char k_decode[] =
 /* Fragment kernel: one fragment per vector (GL 3.3, buffer textures). */
 static const char k_light_frag[] =
     "uniform usamplerBuffer t_first, t_words, t_blocks;\n"
-    "uniform samplerBuffer t_scale, t_L;\n"
+    "uniform samplerBuffer t_scale, t_L, t_open;\n"
     "uniform int u_width, u_nvecs;\n"
     "out vec4 o_g;\n"
     "#define WORD(c) texelFetch(t_words, int(c)).r\n"
@@ -320,7 +320,7 @@ static const char k_light_frag[] =
     "    vec3 acc = vec3(0.0);\n"
     "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * texelFetch(t_L, int(idx)).rgb; }\n"
     "    vec3 s = vec3(texelFetch(t_scale, 3 * i).r, texelFetch(t_scale, 3 * i + 1).r, texelFetch(t_scale, 3 * i + 2).r);\n"
-    "    o_g = vec4(unshift(acc * s), 0.0);\n"
+    "    o_g = vec4(unshift(acc * s) + texelFetch(t_open, i).rgb, 0.0);\n"
     "}\n";
 
 static const char k_light_buffers[] =
@@ -330,6 +330,7 @@ static const char k_light_buffers[] =
     "layout(std430, binding = 3) readonly buffer B3 { float scale[]; };\n"
     "layout(std430, binding = 4) readonly buffer B4 { vec4 L[]; };\n"
     "layout(std430, binding = 5) writeonly buffer B5 { vec4 g[]; };\n"
+    "layout(std430, binding = 6) readonly buffer B6 { vec4 open_g[]; };\n"
     "uniform uint u_nvecs;\n"
     "#define WORD(c) words[c]\n"
     "#define BLOCK(c) ((blocks[(c) >> 2] >> (((c) & 3u) * 8u)) & 255u)\n";
@@ -345,7 +346,7 @@ static const char k_light_thread[] =
     "    uint c0 = first[i], c1 = first[i + 1u];\n"
     "    vec3 acc = vec3(0.0);\n"
     "    for (uint c = c0; c < c1; c++) { uint idx; vec3 q = coef(c, idx); acc += q * L[idx].rgb; }\n"
-    "    g[i] = vec4(unshift(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])), 0.0);\n"
+    "    g[i] = vec4(unshift(acc * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])) + open_g[i].rgb, 0.0);\n"
     "}\n";
 
 /* Compute kernel, 32 invocations per vector (8 vectors per group of 256) and a tree sum in shared memory. */
@@ -369,7 +370,7 @@ static const char k_light_warp[] =
     "        memoryBarrierShared(); barrier();\n"
     "    }\n"
     "    if (lane == 0u && i < u_nvecs)\n"
-    "        g[i] = vec4(unshift(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])), 0.0);\n"
+    "        g[i] = vec4(unshift(part[lid] * vec3(scale[3u * i], scale[3u * i + 1u], scale[3u * i + 2u])) + open_g[i].rgb, 0.0);\n"
     "}\n";
 
 const transfer_glsl linear_glsl = {
