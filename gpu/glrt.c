@@ -947,11 +947,8 @@ glrt *glrt_create(const prt_data *d, const glrt_desc *desc, prt_error *err) {
     rt->vsgl_glossy = true;
     rt->tr = tr;
     rt->cpu = !tr->ops->linear->glsl;
-    if (rt->cpu && !(rt->cpu_g = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) { free(rt); return NULL; }
-    if (!rt->cpu && tr->open_sky && !(rt->open4 = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) {
-        free(rt);
-        return NULL;
-    }
+    float **staging = rt->cpu ? &rt->cpu_g : tr->open_sky ? &rt->open4 : NULL;   /* g, or the open sky's addend */
+    if (staging && !(*staging = prt_calloc(4 * (size_t)t->nvecs + 4, sizeof(float), err))) { free(rt); return NULL; }
     rt->nverts = m->nverts;
     rt->nvecs = t->nvecs;
     rt->ncoefs = t->coef_first[t->nvecs];
