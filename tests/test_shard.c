@@ -15,6 +15,8 @@
  *               transport_stage_to_file) with a bounce pass: the in-memory run's file, the
  *               streaming said on stderr, no file left beside the output; and under -np 2.
  *   vmf         the vMF lobe passes (--glossy vmf, two gathering passes) under -np 2;
+ *   cpca        clustered PCA (--basis cpca: its clusters and basis made after the passes) with the open
+ *               sky split, one process on 2 threads against -np 2 on 1 thread each;
  *   binding     one process on all cores, one under taskset -c 0, and -np 2 under mpirun's default
  *               core binding: the same bytes (the factorization runs on one OpenBLAS thread,
  *               factor.c; else its last bits would follow the cores a process may use).
@@ -104,6 +106,22 @@ static void direct(void) {
     rc = run("", 2, "lambert", "two.prt", "--no-bounces --threads 1", buf, sizeof buf);
     CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
     if (rc == 0) check_same("one.prt", "two.prt");
+}
+
+/* Clustered PCA: its finish (k-means and subspace iteration over every vector) after a direct pass split
+ * across 2 ranks gives the one-process file, bit for bit (Lambert scene, the open sky split on). */
+static void cpca(void) {
+    if (!have_mpirun()) return;
+    char buf[8192];
+    const char *o = "--no-bounces --basis cpca --basis-options clusters=4,terms=3,coeffs=64,stage=128";
+    char a[512], b[512];
+    snprintf(a, sizeof a, "%s --threads 2", o);
+    snprintf(b, sizeof b, "%s --threads 1", o);
+    int rc = run("", 0, "lambert", "one-c.prt", a, buf, sizeof buf);
+    CHECK(rc == 0, "one process failed (%d): %s", rc, buf);
+    rc = run("", 2, "lambert", "two-c.prt", b, buf, sizeof buf);
+    CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
+    if (rc == 0) check_same("one-c.prt", "two-c.prt");
 }
 
 /* Two forced gathering passes: 2 ranks give the one-process file; 3 (uneven ranges) too, on the
@@ -278,6 +296,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(binding);
     CHECK_CASE(balance);
     CHECK_CASE(vmf);
+    CHECK_CASE(cpca);
     CHECK_CASE(rank_fails);
     CHECK_CASE(resume);
     CHECK_CASE(streamed);
