@@ -54,7 +54,9 @@
  * some transfer has ops->view->shade_vertices, the probe prefiltered by vMF lobes
  * (prefilter.h), made once per probe (~1 s: prefilter_create) and only rotated
  * (prefilter_set_rotation: free) while the probe stays the same (pointer and
- * pixels), so rotating the light stays interactive. The runtime owns the
+ * pixels), so rotating the light stays interactive. A linear transfer with the open
+ * sky split also gets runtime_light.open, the open sky's irradiance at each split
+ * vertex's normal times its constant light map (opensky.h), from the same cube. The runtime owns the
  * prefiltered probe; a backend may keep the pointer until the next light
  * change or runtime_destroy. The backend then runs its light-change kernels.
  * A new representation needs nothing here: its ops say which of the two it
@@ -197,7 +199,8 @@ int runtime_set_light_cube(prt_runtime *rt, const float *cube, prt_error *err);
 /* Light change from light vectors already projected: L[i] = transfers[i].ops->linear->project_light(cfg, cube)
  * for every transfer with a projection (the others' entries are not read); runtime_set_light_cube
  * without the projection, for many files whose transfers share configurations (the fuzz harness
- * keeps one vector per configuration). Only read during the call. -1 with err as runtime_set_light_cube. */
+ * keeps one vector per configuration). Only read during the call. -1 with err as runtime_set_light_cube, and
+ * for a transfer with the open sky split (prt_transfer.open_sky), whose addend needs the cube. */
 int runtime_set_light_vectors(prt_runtime *rt, const float (*const L[PRT_MAX_TRANSFERS])[4], prt_error *err);
 /* ---------------------------------------------------------------- probes prepared once
  * What runtime_set_light makes of a probe before any rotation can be made once per probe, apart:
