@@ -42,7 +42,9 @@
  *     T_k(j) = g_k(w_j) a_j,
  * g_k being the light map at the texel centre's local direction (it is smooth
  * at the 48x48 map resolution). A Lambertian factor is constant, so its value
- * is looked up once per material. Each of the K x 3 cubes is projected by the
+ * is looked up once per material; with the open sky split (opensky.h, the default)
+ * such a vertex stores g (a_j - a0_j), what occluders block, where that is the
+ * smaller part (pc_split), and the runtime adds the open sky g a0 back. Each of the K x 3 cubes is projected by the
  * linear representation (transfer.h: its project_transport) and handed to its
  * compress op, which keeps its N best coefficients and quantizes them. The ops
  * are called once per vector channel, never per texel. Nothing here names a

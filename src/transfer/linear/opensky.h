@@ -14,14 +14,14 @@
  *
  * E(n) exactly at a grid of normals, interpolated between them: the grid points are the corners of a
  * G x G split of each cube face, normals p / |p| with p = (u, v, 1) on the face plane. Per light
- * change, at each grid normal, sum_j L_j a0_j(n) is summed exactly: a block of 8 x 8 texels wholly
- * above n's horizon contributes n . sum_j L_j m_j (m_j = sum_s w_s dw_s, the texel's first moment: the
- * clamp is inactive, so the sum is linear in n), one wholly below nothing, and a block that straddles
- * the horizon texel by texel in the same way, a straddling texel by its sub-texels. The lookup
- * interpolates |p| E bilinearly on the face and divides by |p|: |p| E(p / |p|) = sum L (p . m) is
- * linear in (u, v) wherever no block straddles, so the interpolation is exact there too; the error is
- * confined to normals whose horizon crosses a bright texel (a sun's terminator), where it is at most
- * the sun's irradiance times the grid's angle (tests/test_opensky.c measures it).
+ * change, at each grid normal, sum_j L_j a0_j(n) is summed exactly down a quadtree per face (a face,
+ * its quarters, ..., its texels): a node wholly above n's horizon contributes n . sum L_j m_j over its
+ * texels (m_j = sum_s w_s dw_s, the texel's first moment: the clamp is inactive, so the sum is linear in
+ * n), one wholly below nothing, one across it its four children, a texel across it its sub-texels.
+ * The lookup interpolates |p| E bilinearly on the face and divides by |p|: |p| E(p / |p|) = sum L (p . m)
+ * over the texels above the horizon is linear in (u, v), so only texels that cross the horizon of some
+ * normal in the cell add error: at most 2 h^2/8 of a uniform sky's irradiance (h = 2/G; 0.4% at G = 16)
+ * and, across a sun's terminator, h/2 of the sun's (tests/test_opensky.c measures both).
  * The sub-texels are those of the default visibility cube (CUBE_RES x 2 per face): files ray cast at
  * another --vis-res differ from them at second order in the sub-texel size.
  *
