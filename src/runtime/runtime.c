@@ -41,6 +41,9 @@ struct prt_runtime {
     int threads;                /* desc.threads */
     opensky *sky;               /* the open sky's irradiance grid when a linear transfer has the split, or NULL */
     uint8_t *sky_need;          /* [OPENSKY_NORMALS] the grid normals its vertices read (opensky_need) */
+    const prt_probe *sky_probe; /* the probe (pointer and pixels) whose unrotated light the grid holds, or NULL */
+    const float *sky_pixels;
+    float sky_Rt[9];            /* the light's rotation transposed: E_R(n) = E(R^T n) for the unrotated grid */
     float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector, 0 for the others */
     float lambert_g[PRT_MAX_MATERIALS][3];  /* constant light map of each Lambertian factor */
 };
@@ -53,25 +56,59 @@ static void rt_open_range(void *ctx, int begin, int end, int thread) {
     const prt_data *d = j->rt->d;
     const prt_transfer *tr = &d->transfers[j->i];
     const prt_mesh *m = &d->scene.mesh;
+    const float *Rt = j->rt->sky_Rt;
     for (int v = begin; v < end; v++) {
         int mat = m->mat ? m->mat[v] : 0;
         if (!tr->open_vert[v]) continue;
-        float e[3], *o = j->rt->open[j->i] + 3 * (size_t)tr->transport.vec_first[v];
-        opensky_eval(j->rt->sky, m->nrm + 3 * (size_t)v, e);
+        float e[3], n[3], *o = j->rt->open[j->i] + 3 * (size_t)tr->transport.vec_first[v];
+        const float *nv = m->nrm + 3 * (size_t)v;
+        for (int r = 0; r < 3; r++) n[r] = Rt[3 * r] * nv[0] + Rt[3 * r + 1] * nv[1] + Rt[3 * r + 2] * nv[2];
+        opensky_eval(j->rt->sky, n, e);
         for (int c = 0; c < 3; c++) o[c] = j->rt->lambert_g[mat][c] * e[c];
     }
 }
 
-/* light->open[i] for every transfer with the open sky split, from the cube. */
-static void rt_open_light(prt_runtime *rt, const float *cube, runtime_light *light) {
-    if (!rt->sky) return;
-    opensky_set_light(rt->sky, cube, rt->sky_need, rt->threads);
+static runtime_probe *rt_lent(const prt_runtime *rt, const prt_probe *p);
+
+/* The grid of the light: for a probe p turned by R, the unrotated probe's at every grid normal, made
+ * once per probe, read at R^T n (E_R(n) = E(R^T n): turning the light costs the lookups alone, as the
+ * prefiltered probe's rotation does); for a cube alone (p NULL), the cube's at the normals the vertices
+ * read. -1 with err. */
+static int rt_open_grid(prt_runtime *rt, const float *cube, const prt_probe *p, const float R[9], prt_error *err) {
+    static const float I[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 };
+    const float *M = p && R ? R : I;
+    for (int r = 0; r < 3; r++)
+        for (int c = 0; c < 3; c++) rt->sky_Rt[3 * r + c] = M[3 * c + r];
+    if (!p) {
+        rt->sky_probe = NULL;
+        opensky_set_light(rt->sky, cube, rt->sky_need, rt->threads);
+        return 0;
+    }
+    if (rt->sky_probe == p && rt->sky_pixels == p->img.data) return 0;
+    float *cube0 = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (!cube0) return prt_fail(err, "out of memory");
+    const runtime_probe *lp = rt_lent(rt, p);
+    if (lp && lp->cube) probe_cube_resample(lp->cube, NULL, cube0);
+    else probe_to_cube(p, CUBE_RES, NULL, 0, cube0);
+    opensky_set_light(rt->sky, cube0, NULL, rt->threads);
+    free(cube0);
+    rt->sky_probe = p;
+    rt->sky_pixels = p->img.data;
+    return 0;
+}
+
+/* light->open[i] for every transfer with the open sky split (the light: rt_open_grid's). -1 with err. */
+static int rt_open_light(prt_runtime *rt, const float *cube, const prt_probe *p, const float R[9], runtime_light *light,
+                         prt_error *err) {
+    if (!rt->sky) return 0;
+    if (rt_open_grid(rt, cube, p, R, err)) return -1;
     for (int i = 0; i < rt->d->ntransfers; i++) {
         if (!rt->open[i]) continue;
         rt_open_job j = { rt, i };
         prt_parallel_for(rt->d->scene.mesh.nverts, 1024, rt->threads, rt_open_range, &j);
         light->open[i] = rt->open[i];
     }
+    return 0;
 }
 
 /* The open sky's grid and per-transfer arrays when some linear transfer has the split; -1 with err. */
@@ -244,7 +281,7 @@ static int rt_set_light(prt_runtime *rt, const float *cube, const prt_probe *p, 
     runtime_light light;
     memset(&light, 0, sizeof light);
     int rc = rt_light_vectors(rt, cube, &light, err);
-    if (rc == 0) rt_open_light(rt, cube, &light);
+    if (rc == 0) rc = rt_open_light(rt, cube, p, R, &light, err);
     if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
     rt->light_vector_ms = 1e3 * (prt_now() - t0);
     if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);

@@ -56,7 +56,8 @@
  * (prefilter_set_rotation: free) while the probe stays the same (pointer and
  * pixels), so rotating the light stays interactive. A linear transfer with the open
  * sky split also gets runtime_light.open, the open sky's irradiance at each split
- * vertex's normal times its constant light map (opensky.h), from the same cube. The runtime owns the
+ * vertex's normal times its constant light map (opensky.h): from the unrotated probe's grid, made once per
+ * probe, read at R^T n (turning the light costs the lookups), or from the cube given alone. The runtime owns the
  * prefiltered probe; a backend may keep the pointer until the next light
  * change or runtime_destroy. The backend then runs its light-change kernels.
  * A new representation needs nothing here: its ops say which of the two it
