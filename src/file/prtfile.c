@@ -722,8 +722,8 @@ void prt_data_free(prt_data *d) {
     for (int m = 0; m < PRT_MAX_MATERIALS; m++) brdf_factor_free(&d->factors[m]);
     for (int i = 0; i < d->ntransfers && i < PRT_MAX_TRANSFERS; i++)
         if (d->transfers[i].ops) {
-            free(d->transfers[i].open_vert);
             d->transfers[i].ops->release(&d->transfers[i]);
+            free(d->transfers[i].open_vert);   /* a release that did not free it (linear_release does) */
         }
     memset(d, 0, sizeof *d);
     d->scene.floor_first_vertex = -1;

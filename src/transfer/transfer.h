@@ -144,7 +144,7 @@ typedef struct prt_transfer {
                                  * open sky g E(n) */
     uint8_t *open_vert;         /* with open_sky, [nverts]: 1 where vertex v's vectors are split (a Lambertian
                                  * factor seeing more of its sky than it misses), 0 where they hold the whole
-                                 * transport; owned here, freed with the data (prt_data_free) */
+                                 * transport; owned here, freed by linear_release (or prt_data_free) */
     void *priv;                 /* its own data: VIEW (vmf: lobe sets in a perfect hash), made by its
                                  * precompute; LINEAR with a finish (cpca: its clusters), made by finish;
                                  * or by its read; freed by its release; NULL else */

@@ -7,6 +7,7 @@
 #include "sparse.h"
 #include "check.h"
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define BAD(buf, ...) (snprintf((buf), 256, __VA_ARGS__), false)
@@ -271,6 +272,8 @@ bool linear_validate(const struct prt_data *d, const prt_transfer *tr, uint32_t 
 void linear_release(prt_transfer *tr) {
     transport_free(&tr->transport);
     transport_free(&tr->direct);
+    free(tr->open_vert);
+    tr->open_vert = NULL;
 }
 
 size_t linear_bytes(const prt_transfer *tr) { return transport_bytes(&tr->transport) + transport_bytes(&tr->direct); }
