@@ -601,6 +601,13 @@ void brdf_factor_light(const brdf_factor *f, const float w[3], float *out) {
     fetch(f, f->light, x, y, out);
 }
 
+void brdf_factor_lambert_light(const brdf_factor *f, float g[3]) {
+    const float up[3] = { 0, 0, 1 };
+    float all[BRDF_MAX_SIGMA * 3];
+    brdf_factor_light(f, up, all);
+    memcpy(g, all, 3 * sizeof *g);
+}
+
 /* View maps h_k(w) for all K terms and 3 channels into out[K*3]; zeros below the horizon. */
 void brdf_factor_view(const brdf_factor *f, const float w[3], float *out) {
     float x, y;

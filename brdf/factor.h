@@ -85,6 +85,8 @@ int brdf_factor_copy(brdf_factor *dst, const brdf_factor *src, prt_error *err);
 bool brdf_factor_uv(const brdf_factor *f, const float w[3], float *x, float *y);
 /* All K light-map (g_k) values x 3 channels at local incident direction w into out[K*3]. */
 void brdf_factor_light(const brdf_factor *f, const float w[3], float *out);
+/* A Lambertian factor's constant light map (K = 1: its value at the pole) into g[3]. */
+void brdf_factor_lambert_light(const brdf_factor *f, float g[3]);
 /* All K view-map (h_k) values x 3 channels at local view direction w into out[K*3]. */
 void brdf_factor_view(const brdf_factor *f, const float w[3], float *out);
 /* sum_{k<K} g_k(wi) h_k(wo) per channel (K <= f->K), to compare with brdf_eval. */

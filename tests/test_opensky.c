@@ -140,13 +140,30 @@ static double texel_a0_quadrature(int j, const float n[3]) {
     return a;
 }
 
-/* A plane alone precomputed with the defaults (split on unless no_split). */
-static int plane_data(bool no_split, prt_data *out, prt_error *err) {
+/* A plane of n x n vertices over [-half, half]^2 at y = 0, with extra (NULL: none; freed here) above it, all
+ * of material mat, precomputed with d. 0 or -1 with err. */
+static int plane_with(float half, int n, prt_mesh *extra, const char *mat, const precompute_desc *d, prt_data *out,
+                      prt_error *err) {
     prt_mesh m = { 0 };
     prt_scene sc;
-    if (mesh_make_plane(&m, -1, 1, -1, 1, 0, 5, 5, err) || scene_from_mesh(&m, "lambert:kd=0.6", &sc, err)) return -1;
-    precompute_desc d = { .quiet = true, .nthreads = 2, .no_open_sky = no_split };
-    return precompute_run(&sc, &d, out, err);
+    int rc = mesh_make_plane(&m, -half, half, -half, half, 0, n, n, err) || (extra && mesh_append(&m, extra, err)) ||
+                     scene_from_mesh(&m, mat, &sc, err) || precompute_run(&sc, d, out, err) ? -1 : 0;
+    if (extra) mesh_free(extra);
+    return rc;
+}
+
+/* A plane with a box wall on one side (opensky/bounce, opensky/gl_kernels). */
+static int wall_data(const precompute_desc *d, prt_data *out, prt_error *err) {
+    prt_mesh wall = { 0 };
+    const float bmin[3] = { 0.5f, 0, -1 }, bmax[3] = { 0.7f, 1.5f, 1 };
+    if (mesh_make_box(&wall, bmin, bmax, 2, false, err)) return -1;
+    return plane_with(1, 9, &wall, "lambert:kd=0.8", d, out, err);
+}
+
+/* A plane alone precomputed with the defaults (split on unless no_split). */
+static int plane_data(bool no_split, prt_data *out, prt_error *err) {
+    return plane_with(1, 5, NULL, "lambert:kd=0.6", &(precompute_desc){ .quiet = true, .nthreads = 2, .no_open_sky = no_split },
+                      out, err);
 }
 
 static void open_plane(void) {
@@ -184,14 +201,11 @@ static void open_plane(void) {
 
 static void turned(void) {
     prt_error err;
-    prt_mesh m = { 0 }, sph = { 0 };
-    prt_scene sc;
+    prt_mesh sph = { 0 };
     prt_data d;
     const float c[3] = { 0, 0.6f, 0 };
-    int rc = mesh_make_plane(&m, -2, 2, -2, 2, 0, 9, 9, &err) || mesh_make_sphere(&sph, c, 0.5f, 12, 24, &err) ||
-             mesh_append(&m, &sph, &err) || scene_from_mesh(&m, "lambert:kd=0.7", &sc, &err) ||
-             precompute_run(&sc, &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
-    mesh_free(&sph);
+    int rc = mesh_make_sphere(&sph, c, 0.5f, 12, 24, &err) ||
+             plane_with(2, 9, &sph, "lambert:kd=0.7", &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
     prt_probe pr;
@@ -231,14 +245,11 @@ static void turned(void) {
 
 static void covered(void) {
     prt_error err;
-    prt_mesh m = { 0 }, cover = { 0 };
-    prt_scene sc;
+    prt_mesh cover = { 0 };
     prt_data d;
     const float bmin[3] = { -3, -1, -3 }, bmax[3] = { 3, 1, 3 };
-    int rc = mesh_make_plane(&m, -1, 1, -1, 1, 0, 5, 5, &err) || mesh_make_box(&cover, bmin, bmax, 2, false, &err) ||
-             mesh_append(&m, &cover, &err) || scene_from_mesh(&m, "lambert:kd=0.6", &sc, &err) ||
-             precompute_run(&sc, &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
-    mesh_free(&cover);
+    int rc = mesh_make_box(&cover, bmin, bmax, 2, false, &err) ||
+             plane_with(1, 5, &cover, "lambert:kd=0.6", &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
     const prt_transfer *tr = &d.transfers[0];
@@ -294,17 +305,10 @@ static void file_flag(void) {
 
 /* A plane with a wall on one side, one forced bounce, every coefficient in floats: radiance per vertex. */
 static int wall_radiance(bool no_split, const float *cube, float *rgb, int *nverts, prt_error *err) {
-    prt_mesh m = { 0 }, wall = { 0 };
-    prt_scene sc;
-    const float bmin[3] = { 0.5f, 0, -1 }, bmax[3] = { 0.7f, 1.5f, 1 };
-    if (mesh_make_plane(&m, -1, 1, -1, 1, 0, 9, 9, err) || mesh_make_box(&wall, bmin, bmax, 2, false, err) ||
-        mesh_append(&m, &wall, err) || scene_from_mesh(&m, "lambert:kd=0.8", &sc, err))
-        return -1;
-    mesh_free(&wall);
     precompute_desc d = { .quiet = true, .nthreads = 2, .no_open_sky = no_split, .N = CUBE_TEXELS, .qbits = 32,
                           .force_bounces = 1, .bounces = 1, .gather_res = 16 };
     prt_data out;
-    if (precompute_run(&sc, &d, &out, err)) return -1;
+    if (wall_data(&d, &out, err)) return -1;
     prt_runtime *rt = runtime_create(&out, &(runtime_desc){ .backend = "cpu" }, err);
     int rc = rt && runtime_set_light_cube(rt, cube, err) == 0 && runtime_shade_vertices(rt, (float[3]){ -2, 3, 0 }, rgb, err) == 0 ? 0 : -1;
     *nverts = out.scene.mesh.nverts;
@@ -324,8 +328,8 @@ static float *open_addend(const prt_data *d, const float *cube, prt_error *err) 
     const prt_mesh *m = &d->scene.mesh;
     for (int v = 0; v < m->nverts; v++) {
         if (!tr->open_vert[v]) continue;
-        float e[3], g[BRDF_MAX_SIGMA * 3];
-        brdf_factor_light(&d->factors[m->mat[v]], (const float[3]){ 0, 0, 1 }, g);
+        float e[3], g[3];
+        brdf_factor_lambert_light(&d->factors[m->mat[v]], g);
         opensky_eval(o, m->nrm + 3 * (size_t)v, e);
         for (int c = 0; c < 3; c++) a[3 * (size_t)tr->transport.vec_first[v] + c] = g[c] * e[c];
     }
@@ -338,14 +342,8 @@ static float *open_addend(const prt_data *d, const float *cube, prt_error *err) 
 static void gl_kernels(void) {
 #ifndef PRT_NO_GL   /* a build without GL skips the case (CHECK_CASE_GL) and has no glrt */
     prt_error err;
-    prt_mesh m = { 0 }, wall = { 0 };
-    prt_scene sc;
     prt_data d;
-    const float bmin[3] = { 0.5f, 0, -1 }, bmax[3] = { 0.7f, 1.5f, 1 };
-    int rc = mesh_make_plane(&m, -1, 1, -1, 1, 0, 9, 9, &err) || mesh_make_box(&wall, bmin, bmax, 2, false, &err) ||
-             mesh_append(&m, &wall, &err) || scene_from_mesh(&m, "lambert:kd=0.8", &sc, &err) ||
-             precompute_run(&sc, &(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
-    mesh_free(&wall);
+    int rc = wall_data(&(precompute_desc){ .quiet = true, .nthreads = 2, .force_bounces = -1 }, &d, &err);
     CHECK(rc == 0, "%s", err.msg);
     if (rc) return;
     const prt_transfer *tr = &d.transfers[0];

@@ -188,6 +188,8 @@ typedef struct gather_ctx {
     float hconst[PRT_MAX_MATERIALS][3];  /* constant view map of Lambertian materials */
     float gconst[PRT_MAX_MATERIALS][3];  /* constant light map of Lambertian materials (the open sky's scale) */
     const prt_transport *open;           /* desc->open or NULL */
+    int (*open_q)[4];                    /* with open: [nverts] each vertex's grid normals (opensky_weights) */
+    float (*open_w)[4];                  /* ... and their weights, made once per pass */
     bool hconst_ok[PRT_MAX_MATERIALS];
     float eps;
     gather_thread *th;
@@ -322,9 +324,8 @@ static inline int gather_combine(const gather_ctx *c, gather_thread *th, int x, 
 static int gather_open_weights(const gather_ctx *c, gather_thread *th, int y, int nk, const float *W, int nopen) {
     const int SL = c->slot_lanes;
     const float *g = c->gconst[c->d->scene.mesh.mat[y]];
-    int q[4];
-    float w[4];
-    opensky_weights(c->d->scene.mesh.nrm + 3 * (size_t)y, q, w);
+    const int *q = c->open_q[y];
+    const float *w = c->open_w[y];
     for (int k = 0; k < 4; k++) {
         if (w[k] == 0.f) continue;
         if (!th->open_mark[q[k]]) th->open_mark[q[k]] = 1, th->open_used[nopen++] = q[k];
@@ -520,14 +521,18 @@ static int ctx_tables(gather_ctx *c, prt_error *err) {
         if (!(c->tri_albedo = prt_calloc(3 * (size_t)m->ntris, sizeof(float), err))) return -1;
         for (int t = 0; t < m->ntris; t++) scene_triangle_albedo(&d->scene, t, c->tri_albedo + 3 * (size_t)t);
     }
+    if (c->open) {
+        if (!(c->open_q = prt_calloc((size_t)m->nverts, sizeof *c->open_q, err)) ||
+            !(c->open_w = prt_calloc((size_t)m->nverts, sizeof *c->open_w, err)))
+            return -1;
+        for (int v = 0; v < m->nverts; v++) opensky_weights(m->nrm + 3 * (size_t)v, c->open_q[v], c->open_w[v]);
+    }
     for (int i = 0; i < d->scene.nmaterials && i < PRT_MAX_MATERIALS; i++) {
         const brdf_factor *f = &d->factors[i];
         if (f->lambertian && f->K == 1) {
             const float up[3] = { 0.f, 0.f, 1.f };
-            float g[BRDF_MAX_SIGMA * 3];
             brdf_factor_view(f, up, c->hconst[i]);
-            brdf_factor_light(f, up, g);
-            v3_copy(c->gconst[i], g);
+            brdf_factor_lambert_light(f, c->gconst[i]);
             c->hconst_ok[i] = true;
         }
     }
@@ -566,6 +571,7 @@ static int threads_alloc(gather_ctx *c, int nth, prt_error *err) {
 static void ctx_free(gather_ctx *c, int nth) {
     free_threads(c->th, nth);
     free(c->tex_dir); free(c->tex_dw); free(c->frame); free(c->restored); free(c->tri_albedo);
+    free(c->open_q); free(c->open_w);
 }
 
 /* The vertices of this pass that the checkpoint holds, staged into next (gather_desc.ckpt).

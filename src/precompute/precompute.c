@@ -146,7 +146,7 @@ typedef struct pc_ctx {
     uint64_t materials;             /* materials it shades (the others get no vectors) */
     int vres, ss;
     bool open;              /* the open sky split (opensky.h): Lambertian vectors store what is blocked */
-    float lw[CUBE_RES * CUBE_RES];  /* the lighting texels' solid angles (pc_split) */
+    float lwinv[CUBE_RES * CUBE_RES];   /* 1 / the lighting texels' solid angles (pc_split) */
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
     const float *ldir;      /* [CUBE_TEXELS][3] lighting texel centre directions */
@@ -287,8 +287,8 @@ static bool pc_split(const pc_ctx *c, const pc_scratch *s) {
     for (int f = 0; f < 6; f++)
         for (int i = 0; i < CUBE_RES * CUBE_RES; i++) {
             int j = f * CUBE_RES * CUBE_RES + i;
-            double a = s->acc[j], b = (double)s->acc0[j] - a, w = c->lw[i];
-            vis += a * a / w, blk += b * b / w;
+            double a = s->acc[j], b = (double)s->acc0[j] - a, wi = c->lwinv[i];
+            vis += a * a * wi, blk += b * b * wi;
         }
     return blk <= vis;
 }
@@ -758,11 +758,7 @@ static int pc_factor(pc_run *r, prt_error *err) {
         brdf_factor *f = &out->factors[i];
         if (f->K < 1 || f->K > BRDF_MAX_SIGMA) return prt_fail(err, "precompute: material %d factored into %d terms", i, f->K);
         if (f->K > r->kmax) r->kmax = f->K;
-        if (f->lambertian) {
-            float up[3] = { 0, 0, 1 }, g[BRDF_MAX_SIGMA * 3];
-            brdf_factor_light(f, up, g);
-            memcpy(r->c.lambert_g[i], g, sizeof(float) * 3);
-        }
+        if (f->lambertian) brdf_factor_lambert_light(f, r->c.lambert_g[i]);
     }
     out->stats.t_brdf = prt_now() - t0;
     const prt_mesh *m = &out->scene.mesh;
@@ -828,9 +824,7 @@ static int pc_diffuse_factor(pc_run *r, int i, prt_error *err) {
     PRT_CHECK(f.K == 1 && f.lambertian);
     brdf_factor_free(&r->out->factors[i]);
     r->out->factors[i] = f;
-    float up[3] = { 0, 0, 1 }, g[BRDF_MAX_SIGMA * 3];
-    brdf_factor_light(&f, up, g);
-    memcpy(r->c.lambert_g[i], g, sizeof(float) * 3);
+    brdf_factor_lambert_light(&f, r->c.lambert_g[i]);
     return 0;
 }
 
@@ -959,7 +953,8 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->vres = R;
     c->ss = R / CUBE_RES;
     c->open = r->tr->open_sky;
-    cube_face_solid_angles(CUBE_RES, c->lw);
+    cube_face_solid_angles(CUBE_RES, c->lwinv);
+    for (int i = 0; i < CUBE_RES * CUBE_RES; i++) c->lwinv[i] = 1.f / c->lwinv[i];
     c->vdir = r->vdir;
     c->vdw = r->vdw;
     c->ldir = r->ldir;

@@ -124,11 +124,7 @@ static int rt_open_create(prt_runtime *rt, prt_error *err) {
             if (tr->open_vert[v]) opensky_need(m->nrm + 3 * (size_t)v, rt->sky_need);
     }
     for (int k = 0; k < d->scene.nmaterials && k < PRT_MAX_MATERIALS; k++)
-        if (d->factors[k].lambertian) {
-            float g[BRDF_MAX_SIGMA * 3];
-            brdf_factor_light(&d->factors[k], (const float[3]){ 0, 0, 1 }, g);
-            memcpy(rt->lambert_g[k], g, sizeof rt->lambert_g[k]);
-        }
+        if (d->factors[k].lambertian) brdf_factor_lambert_light(&d->factors[k], rt->lambert_g[k]);
     return 0;
 }
 

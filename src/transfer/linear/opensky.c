@@ -206,19 +206,6 @@ void opensky_grid_texels(const opensky *o, int q, float *a0) {
     }
 }
 
-void opensky_texels(const float n[3], float *a0) {
-    for (int j = 0; j < CUBE_TEXELS; j++) {
-        float s[OS_NS][4];
-        os_subtexels(j, s);
-        float a = 0;
-        for (int k = 0; k < OS_NS; k++) {
-            float c = dot3(n, s[k]);
-            if (c > 0) a += c * s[k][3];
-        }
-        a0[j] = a;
-    }
-}
-
 void opensky_exact(const float *cube_rgb, const float n[3], double rgb[3]) {
     rgb[0] = rgb[1] = rgb[2] = 0;
     for (int j = 0; j < CUBE_TEXELS; j++) {

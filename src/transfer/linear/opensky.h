@@ -65,6 +65,4 @@ void opensky_grid_normal(int q, float n[3]);
 void opensky_grid_texels(const opensky *o, int q, float *a0);
 /* E(n) summed over every sub-texel of cube_rgb (the definition; tests and the grid's check). */
 void opensky_exact(const float *cube_rgb, const float n[3], double rgb[3]);
-/* a0_j(n) for every lighting texel j into a0[CUBE_TEXELS] (the open sky's texels at the sub-texels above). */
-void opensky_texels(const float n[3], float *a0);
 #endif
