@@ -111,7 +111,7 @@ TEST_DIRS := $(patsubst tests/%/,%,$(dir $(wildcard tests/*/test_*.c)))
 TESTS   += $(TEST_DIRS:%=$(BUILD)/tests/test_%)
 TEST_SUPPORT := $(patsubst %.c,$(BUILD)/obj/%.o,$(filter-out tests/test_%.c,$(wildcard tests/*.c)))
 
-.PHONY: all deps incs test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
+.PHONY: all deps incs libs test test-portable demo bench bench-scale study study-glossy accuracy fuzz fuzz-build install uninstall clean
 # Keep the test objects (they are intermediate files of the test binaries).
 .SECONDARY:
 all: $(BUILD)/.deps $(BUILD)/prt $(BUILD)/$(SO_FILE)
@@ -273,3 +273,7 @@ clean:
 # The include flags of the library's folders, for the tools that build against it (tools/*.sh).
 incs:
 	@echo $(INCS)
+
+# The libraries they link after build/libprt.a.
+libs:
+	@echo $(LDLIBS)

@@ -331,6 +331,49 @@ static void corner_bounce(void) {
     prt_data_free(&d);
 }
 
+/* A lobe the wall or the floor cuts keeps what its unblocked rays fit, never sharper than twice the
+ * BRDF's own lobe (vmfpass.c VP_KAPPA_CAP: a straight edge leaves at sharpest a strip whose spread
+ * along the edge is the lobe's, mean length 1 - 1/(2 kappa)) and never brighter than it; slices with
+ * one or two unblocked rays, whose mean alone would fit kappa at half's largest, are among them.
+ * Tolerances: half's 11-bit kappa and alpha (2^-11 relative) and the fit's float kappa. */
+static void cut_lobes(void) {
+    prt_data d;
+    vis_scene *vs;
+    if (load_scene(k_corner, &d, &vs) || run_vmf(&d, vs, "level=2,samples=64", 1, 1, 0)) {
+        CHECK(0, "set-up");
+        return;
+    }
+    const vmft_data *t = vmft_get(&d.transfers[0]);
+    const prt_mesh *m = &d.scene.mesh;
+    int stored = 0, slivers = 0, sharp = 0;
+    double worst_k = 0, worst_a = 0;
+    for (int v = 0; v < m->nverts; v++)
+        for (int j = 0; j < t->nviews; j++) {
+            const uint32_t *sl = vmft_slice(t, v, j, 0);
+            if (!sl) continue;
+            vmf_lobe B, l;
+            float A[3], a[3], sum = 0;
+            vmft_brdf_lobe(&t->fit[m->mat[v]], m->nrm + 3 * (size_t)v, geogrid_dir(t->grid, j), &B, A);
+            for (int i = 0; i < t->lobes; i++) {
+                vmft_unpack(sl + VMFT_WORDS * i, &l, a);
+                if (!(prt_luminancef(a) > 0)) continue;
+                sum += prt_luminancef(a);
+                worst_k = fmax(worst_k, l.kappa / B.kappa);
+                sharp += l.kappa > 1.9f * B.kappa;
+            }
+            worst_a = fmax(worst_a, sum / prt_luminancef(A));
+            stored++;
+            slivers += sum > 0 && sum < 2.5f / 64 * prt_luminancef(A);
+        }
+    printf("  %d stored slices, %d with 1-2 unblocked rays of 64, %d lobes over 1.9 kappa_brdf; kappa / kappa_brdf at most "
+           "%.4f, alpha / the lobe's at most %.4f\n", stored, slivers, sharp, worst_k, worst_a);
+    CHECK(stored > 0 && slivers > 0, "the corner stores cut lobes, slivers among them (%d, %d)", stored, slivers);
+    CHECK_LE(worst_k, 2.0 * (1 + 1.0 / 1024), "a cut lobe's kappa at most twice the lobe's");
+    CHECK_LE(worst_a, 1 + 1.0 / 1024, "a cut lobe's colour at most the lobe's");
+    vis_destroy(vs);
+    prt_data_free(&d);
+}
+
 /* The same on 1 and 2 threads: identical hash and lobes, byte for byte (exact by construction:
  * the same code on the same machine; each vertex's lobes are one thread's, whatever the count). */
 static void determinism(void) {
@@ -531,6 +574,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(configure);
     CHECK_CASE(unoccluded_sphere);
     CHECK_CASE(corner_bounce);
+    CHECK_CASE(cut_lobes);
     CHECK_CASE(determinism);
     CHECK_CASE(cancel);
     CHECK_CASE(file_roundtrip);

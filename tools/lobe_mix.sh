@@ -6,6 +6,5 @@ cd "$(dirname "$0")/.."
 make -s build/libprt.a
 INCS="$(make -s incs)"
 cc -std=c11 -O2 -D_GNU_SOURCE -Wall -Wextra -Wno-unused-parameter -march=x86-64-v2 -pthread $INCS tools/lobe_mix.c \
-   build/libprt.a -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL -lcjson -lz -lm \
-   -lpthread -lstdc++ -o build/lobe_mix
+   build/libprt.a $(make -s libs) -o build/lobe_mix
 exec build/lobe_mix "$@"

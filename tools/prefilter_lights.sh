@@ -7,6 +7,5 @@ cd "$(dirname "$0")/.."
 make -s build/libprt.a
 INCS="$(make -s incs)"
 cc -std=c11 -O2 -D_GNU_SOURCE -Wall -Wextra -Wno-unused-parameter -march=x86-64-v2 -pthread $INCS tools/prefilter_lights.c \
-   build/libprt.a -lembree3 -lOpenImageIO -lOpenImageIO_Util -llapacke -lopenblas -lOSMesa -lglfw -lGL -lEGL -lcjson -lz -lm \
-   -lpthread -lstdc++ -o build/prefilter_lights
+   build/libprt.a $(make -s libs) -o build/prefilter_lights
 exec build/prefilter_lights "$@"

@@ -70,7 +70,10 @@ int main(int argc, char **argv) {
     const prt_mesh *m = &d.scene.mesh;
     vis_scene *vs = vis_create(m, &err);
     char opts[64];
-    snprintf(opts, sizeof opts, "level=%d,samples=%d", o.level, o.samples);
+    /* zero: the transfer's defaults (its options refuse 0) */
+    int n = o.level ? snprintf(opts, sizeof opts, "level=%d", o.level) : 0;
+    if (o.samples) snprintf(opts + n, sizeof opts - n, "%ssamples=%d", n ? "," : "", o.samples);
+    else opts[n] = 0;
     transfer_config cfg;
     if (!vs || transfer_vmf.configure(&(transfer_setup){ .options = opts }, &cfg, &err)) return fprintf(stderr, "%s\n", err.msg), 1;
     prt_transfer *tr = prt_data_add_transfer(&d, &transfer_vmf, &cfg, mask);

@@ -22,6 +22,12 @@
 #define VP_MAX_THREADS 64
 #define VP_BROAD_KAPPA 8.0f      /* lobes wider than this are "diffuse" light (the last lobe) */
 #define VP_DIFFUSE_RAYS 64
+/* A fitted part of a lobe is at most this much sharper than the lobe: a straight occluder edge
+ * leaves at sharpest a thin strip of the lobe, whose spread along the edge is the lobe's own, so
+ * its mean length 1 - 1/(2 kappa) fits 2 kappa. A cluster of one or two rays fits a mean of length
+ * ~1 (kappa at half's largest), a sampling artefact that Eq. 7's kappa average (weighted by
+ * luminance, not kappa) would let focus a neighbour's lobe onto a sun. */
+#define VP_KAPPA_CAP 2.0f
 #define VP_MAX_ITEMS_PER_HIT (VMFT_MAX_LOBES + 1)
 
 /* One thing to merge: a mean unnormalized direction r (Eq. 2), weight w, colour c. */
@@ -246,6 +252,7 @@ static bool vp_direct_slice(const vp_ctx *c, vp_thread *th, int v, int j, uint32
     bool cv = k == 1 && 2 * nb < S;
     if (cv) vp_refit_one(th, S, nb, &L, A, &l[0], a[0]);
     for (int q = 0; !cv && q < k; q++) vp_merge(th->items, ni, q, &l[q], a[q]);
+    for (int q = 0; q < k; q++) l[q].kappa = fminf(l[q].kappa, VP_KAPPA_CAP * L.kappa);
     vp_sort(l, a, k);
     vp_pack(l, (const float (*)[3])a, c->I, w);
     *e = 0;
