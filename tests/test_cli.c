@@ -647,6 +647,22 @@ static void durations(void) {
     CHECK(rc == 0 && tm && strstr(tm, " ms") && !strstr(buf, "e+0"), "info: %s", buf);
 }
 
+/* render without --backend draws a file with highlights per pixel (gl: runtime_backend_for) and a
+ * Lambertian one per vertex (cpu); the timing line names the backend; --backend still decides. */
+static void render_backend(void) {
+    static char buf[65536];
+    int rc = run_here("precompute good.obj -o lam.prt --vis-res 64", buf, sizeof buf);
+    CHECK(rc == 0, "precompute lambert: %s", buf);
+    rc = run_here("precompute good.obj -o gls.prt --vis-res 64 --material paper-phong", buf, sizeof buf);
+    CHECK(rc == 0, "precompute paper-phong: %s", buf);
+    rc = run_here("render lam.prt --probe const.exr -o lam.png --size 16x12", buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "(16x12) (cpu)"), "Lambertian: %s", buf);
+    rc = run_here("render gls.prt --probe const.exr -o gls.png --size 16x12", buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "(16x12) (gl)"), "paper-phong: %s", buf);
+    rc = run_here("render gls.prt --probe const.exr -o gls.png --size 16x12 --backend cpu", buf, sizeof buf);
+    CHECK(rc == 0 && strstr(buf, "(16x12) (cpu)"), "--backend cpu: %s", buf);
+}
+
 /* Writes a 64x32 latlong EXR: radiance 2, the top `rows` rows -neg in every channel, and `dots` single
  * texels of -1e-4 (lossy compression's kind). */
 static void write_probe(const char *name, int rows, float neg, int dots) {
@@ -697,6 +713,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(camera_messages);
     CHECK_CASE_GL(help_defaults);
     CHECK_CASE_GL(durations);
+    CHECK_CASE_GL(render_backend);
     CHECK_CASE_GL(probe_negatives);
     return check_summary();
 }

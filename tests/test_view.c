@@ -229,7 +229,7 @@ static void keys(void) {
              g_scene, g_sky, g_sky2, k_cam, W, H, shot);
     int rc = run_view(args, out, sizeof out);
     CHECK(rc == 0 && strstr(out, "CPU runtime"), "view with keys failed (%d): %s", rc, out);
-    snprintf(args, sizeof args, "%s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -0.5 --terms 1 -o %s",
+    snprintf(args, sizeof args, "%s --probe %s --light-rotation 60,10 --camera %s --size %dx%d --exposure -0.5 --terms 1 --backend cpu -o %s",
              g_scene, g_sky2, k_cam, W, H, ref);
     rc = run_render(args, out, sizeof out);
     CHECK(rc == 0, "render failed (%d): %s", rc, out);
@@ -255,7 +255,7 @@ static void direct_gl(void) {
              g_scene, g_sky, k_cam, W, H, shot);
     int rc = run_view(args, out, sizeof out);
     CHECK(rc == 0 && strstr(out, "direct lighting only"), "view --keys d failed (%d): %s", rc, out);
-    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only -o %s", g_scene, g_sky,
+    snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --exposure -1 --direct-only --backend cpu -o %s", g_scene, g_sky,
              k_cam, W, H, ref);
     rc = run_render(args, out, sizeof out);
     CHECK(rc == 0, "render --direct-only failed (%d): %s", rc, out);
@@ -293,7 +293,7 @@ static void direct_cpu(void) {
     int rc = run_view(args, out, sizeof out);
     CHECK(rc == 0 && strstr(out, "direct lighting only"), "view with key d failed (%d): %s", rc, out);
     for (int k = 0; k < 2; k++) {
-        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d %s -o %s", g_scene, g_sky, k_cam, W, H,
+        snprintf(args, sizeof args, "%s --probe %s --camera %s --size %dx%d --backend cpu %s -o %s", g_scene, g_sky, k_cam, W, H,
                  k ? "" : "--direct-only", k ? reft : ref);
         rc = run_render(args, out, sizeof out);
         CHECK(rc == 0, "render failed (%d): %s", rc, out);

@@ -56,7 +56,7 @@ s_v=$(precompute sphere data/sphere-phong.json)
 s_s=$(precompute sphere-svd data/sphere-phong.json --glossy svd)
 "$PRT" reference "$OUT/sphere.prt" --probe "$P/city.exr" --spp "$SPP" --size 400x400 -o "$OUT/sphere-ref.exr" --quiet || die "reference (sphere) failed"
 for f in sphere sphere-svd; do
-  "$PRT" render "$OUT/$f.prt" --probe "$P/city.exr" --size 400x400 -o "$OUT/$f.exr" > /dev/null 2>&1 || die "render $f failed"
+  "$PRT" render "$OUT/$f.prt" --probe "$P/city.exr" --size 400x400 --backend cpu -o "$OUT/$f.exr" > /dev/null 2>&1 || die "render $f failed"
 done
 "$PRT" render "$OUT/sphere.prt" --probe "$P/city.exr" --size 400x400 --backend gl -o "$OUT/sphere-gl.exr" > /dev/null 2>&1 \
   || die "render sphere (gl) failed"
@@ -98,7 +98,7 @@ CSPP=${CHROME_SPP:-$SPP}
   || die "reference (chrome) failed"
 "$PRT" render "$OUT/chrome.prt" --probe "$P/city.exr" --size 400x300 --backend gl -o "$OUT/chrome.exr" > /dev/null 2>&1 \
   || die "render chrome (gl) failed"
-"$PRT" render "$OUT/chrome.prt" --probe "$P/city.exr" --size 400x300 -o "$OUT/chrome-cpu.exr" > /dev/null 2>&1 || die "render chrome failed"
+"$PRT" render "$OUT/chrome.prt" --probe "$P/city.exr" --size 400x300 --backend cpu -o "$OUT/chrome-cpu.exr" > /dev/null 2>&1 || die "render chrome failed"
 cc=$("$PRT" compare "$OUT/chrome.exr" "$OUT/chrome-ref.exr"); cp=$("$PRT" compare "$OUT/chrome-cpu.exr" "$OUT/chrome-ref.exr")
 grep -h 'pass' "$OUT/chrome.log" | grep -iv eta | head -4 | sed 's/^/   /'
 printf "   image rel_rmse, gl per pixel       %8s    target <= 0.10   %s (reference %s spp)\n" "$(kv "$cc" rel_rmse)" \

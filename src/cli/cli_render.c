@@ -37,7 +37,7 @@ static void help(void) {
          "  --tonemap T             clamp (default), reinhard or aces for PNG output\n"
          "  --terms K               use only the first K BRDF terms (default: all)\n"
          CLI_AA_HELP, stdout);
-    cli_backend_help(26, 0, runtime_backend_at(0)->name);
+    cli_backend_help(26, 0, "gl if the file is view dependent, else cpu");
     puts("  --no-background         black background instead of the probe\n"
          "  --direct-only           direct lighting only (files with bounces need precompute --keep-direct)\n"
          "  --vertices OUT.csv      also write per-vertex radiance toward the camera (for prt compare)\n"
@@ -60,7 +60,8 @@ static int write_vertices(const char *path, const float *rgb, int n, prt_error *
 /* What the command line asked for. */
 typedef struct render_args {
     const char *in, *out, *probe_path, *layout, *cam_s, *cam_name, *rot_s, *vert_out, *backend;
-    const runtime_backend_info *be;   /* --backend's table entry */
+    const runtime_backend_info *be;   /* --backend's table entry; without it the default's until the file is read */
+    bool backend_given;
     int w, h, kmax, nthreads, tonemap, aa;
     float exposure, R[9];
     bool background, direct_only;
@@ -74,7 +75,6 @@ static int parse_args(int argc, char **argv, render_args *a) {
     int size[2] = { 800, 600 };
     bool no_background = false;
     memset(a, 0, sizeof *a);
-    a->backend = runtime_backend_at(0)->name;
     a->exposure = NAN;   /* not given: from the probe (probe_exposure) */
     a->aa = CLI_AA_DEFAULT;
     const cli_option opts[] = {
@@ -95,7 +95,9 @@ static int parse_args(int argc, char **argv, render_args *a) {
     else if (!strcmp(tonemap_s, "reinhard")) a->tonemap = 1;
     else if (!strcmp(tonemap_s, "aces")) a->tonemap = 2;
     else return cli_error(k_cmd, "unknown --tonemap '%s' (clamp, reinhard, aces)", tonemap_s) + 1;
+    a->backend_given = a->backend != NULL;
     if (!(a->be = cli_backend(k_cmd, a->backend, 0, NULL))) return 2;
+    a->backend = a->be->name;
     bool images = a->be->caps & RUNTIME_CAP_IMAGES;
     if (!a->in) { cli_error(k_cmd, "no input .prt file (see --help)"); return 2; }
     if (!a->probe_path) { cli_error(k_cmd, "no light probe (--probe PROBE)"); return 2; }
@@ -122,8 +124,20 @@ static void print_timing(const char *what, const runtime_timing *t, double t_rea
         prt_format_duration(g, sizeof g, 1e-3 * t->light_gpu_ms);
         snprintf(gpu, sizeof gpu, ", GPU timer %s", g);
     }
-    fprintf(stderr, "wrote %s: read %s, light change %s (light vector %s + T x L %s%s), view change %s, raster %s, write %s\n",
-            what, tm[0], tm[1], tm[2], tm[3], gpu, tm[4], tm[5], tm[6]);
+    fprintf(stderr, "wrote %s (%s): read %s, light change %s (light vector %s + T x L %s%s), view change %s, raster %s, write %s\n",
+            what, t->backend, tm[0], tm[1], tm[2], tm[3], gpu, tm[4], tm[5], tm[6]);
+}
+
+/* The runtime of desc; where --backend was not given and the chosen GL backend cannot start (no GL
+ * context here), the default backend instead, saying so in one line. NULL with err when neither starts. */
+static prt_runtime *create_runtime(const render_args *a, const prt_data *d, runtime_desc *desc, prt_error *err) {
+    prt_runtime *rt = runtime_create(d, desc, err);
+    const runtime_backend_info *dflt = runtime_backend_at(0);
+    if (rt || a->backend_given || a->be == dflt) return rt;
+    fprintf(stderr, "render: the %s backend did not start (%s); drawing with %s, per vertex\n", a->be->name, err->msg, dflt->name);
+    desc->backend = dflt->name;
+    desc->kernel = dflt->quick_kernel;
+    return runtime_create(d, desc, err);
 }
 
 /* Relights d under the probe through the runtime: the image into -o, the vertex colours into
@@ -143,7 +157,7 @@ static int relight(const render_args *a, const prt_data *d, const prt_probe *pro
     prt_image img = { 0 };
     float *rgb = NULL;
     int rc = 1;
-    prt_runtime *rt = runtime_create(d, &desc, &err);
+    prt_runtime *rt = create_runtime(a, d, &desc, &err);
     if (!rt || runtime_set_light(rt, probe, R, &err)) goto fail;
     if (d->scene.lights.count > 0 && runtime_set_local_lights(rt, &d->scene.lights, &err)) goto fail;
     if (a->out && runtime_render(rt, &rd, &img, &err)) goto fail;
@@ -201,6 +215,7 @@ int cli_render(int argc, char **argv) {
         return rc;
     }
     cli_indirect_resolve(&ind, &d, false, &a.hl_samples, &a.bounce);
+    if (!a.backend_given && a.out) a.be = runtime_backend_for(&d), a.backend = a.be->name;
     rc = 1;
     prt_probe probe;
     memset(&probe, 0, sizeof probe);

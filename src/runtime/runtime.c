@@ -151,6 +151,22 @@ const runtime_backend_info *runtime_backend_find(const char *name) {
     return i < 0 ? NULL : &k_backends[i]->info;
 }
 
+/* See runtime.h: a view transfer, or a material whose BRDF keeps K > 1 view-map terms. */
+bool runtime_view_dependent(const prt_data *d) {
+    bool any = runtime_needs_prefilter(d);
+    for (int k = 0; k < d->scene.nmaterials && k < PRT_MAX_MATERIALS; k++) any |= d->factors[k].K > 1;
+    return any;
+}
+
+/* See runtime.h. Per vertex, a highlight narrower than the vertex spacing is smeared over its
+ * triangles (Gouraud) or missed between vertices; per pixel its lobes are interpolated instead. */
+const runtime_backend_info *runtime_backend_for(const prt_data *d) {
+    const unsigned need = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_GL;   /* not null's black images */
+    for (int i = 0; runtime_view_dependent(d) && i < NBACKENDS; i++)
+        if ((k_backends[i]->info.caps & need) == need) return &k_backends[i]->info;
+    return &k_backends[0]->info;
+}
+
 /* "cpu, gl, null": the names with every capability in need, cut to cap bytes. */
 const char *runtime_backend_names(char *buf, size_t cap, unsigned need) {
     PRT_CHECK(buf != NULL && cap > 0);

@@ -139,6 +139,12 @@ const runtime_backend_info *runtime_backend_at(int i);
 const runtime_backend_info *runtime_backend_find(const char *name);
 /* The position of the backend called name in the table, or -1. */
 int runtime_backend_index(const char *name);
+/* Whether d's shading depends on the view beyond a Lambertian colour: a view transfer (vMF lobes) or a
+ * material with K > 1 BRDF terms. */
+bool runtime_view_dependent(const prt_data *d);
+/* The backend that draws d's images best: the first drawing with GL per pixel (gl) when d is view
+ * dependent and the build has one, else the default (the first); prt render's without --backend. */
+const runtime_backend_info *runtime_backend_for(const prt_data *d);
 /* The names of the backends with every capability in need (0: all), "cpu, gl, null", into buf
  * (cap bytes, cut to fit); returns buf. */
 const char *runtime_backend_names(char *buf, size_t cap, unsigned need);
