@@ -19,6 +19,8 @@
  * exact mean of the whole lobe minus the blocked rays (r = (S A3(kappa) mu - sum blocked s) /
  * (S - blocked), a control variate): one blocked ray of 64 then moves the lobe by 1/64 of
  * that ray, not by the noise of 63 fresh samples, so stored and unstored neighbours agree.
+ * A fitted lobe's kappa is capped at twice the BRDF lobe's (VP_KAPPA_CAP: a straight edge's strip
+ * is at most that sharp), so a cluster of one or two rays does not fit a needle.
  *
  * Gathering pass p >= 1, per stored slice (the same rays, so the same hits): at each hit
  * (triangle a, b, c, barycentrics) the radiance toward the slice's vertex along -s is pass
