@@ -95,6 +95,36 @@ static void configure(void) {
     }
 }
 
+/* settle (vmf.h VMFT_PLAN_BYTES): without a level in the options, the finest level of 2..4 whose
+ * modelled bytes, nverts x views x (slot bytes + stored share x passes x lobes x 12), fit the budget;
+ * a level in the options is kept. Exact: the same double arithmetic, compared at the boundaries. */
+static void settle(void) {
+    prt_error err;
+    double pair1 = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * 1 * VMFT_DEFAULT_LOBES * 12;
+    double pair4 = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * 4 * VMFT_DEFAULT_LOBES * 12;
+    struct { const char *options; long n; int passes, want; } cases[] = {
+        { NULL, 100, 1, 4 },
+        { NULL, (long)(VMFT_PLAN_BYTES / (2562 * pair1)), 1, 4 },
+        { NULL, (long)(VMFT_PLAN_BYTES / (2562 * pair1)) + 1, 1, 3 },
+        { NULL, (long)(VMFT_PLAN_BYTES / (642 * pair4)) + 1, 4, 2 },
+        { NULL, (long)(VMFT_PLAN_BYTES / (642 * pair4)), 4, 3 },
+        { NULL, 10000000, 1, 2 },
+        { "level=1", 100, 1, 1 },
+        { "level=2", 100, 1, 2 },
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        transfer_config c;
+        char why[256] = "";
+        CHECK(transfer_vmf.configure(&(transfer_setup){ .options = cases[i].options }, &c, &err) == 0, "%s", err.msg);
+        transfer_vmf.view->settle(&c, cases[i].n, cases[i].passes, why, sizeof why);
+        vmf_config v = vmft_config(&c);
+        CHECK(v.level == cases[i].want, "case %zu: %ld vertices, %d passes: level %d, want %d (%s)", i, cases[i].n,
+              cases[i].passes, v.level, cases[i].want, why);
+        CHECK(why[0] && !strchr(why, '\n') && (cases[i].options ? strstr(why, "as asked") != NULL : strstr(why, "MB") != NULL),
+              "case %zu: '%s'", i, why);
+    }
+}
+
 /* ---- scenes --------------------------------------------------------------------------------- */
 
 /* d from JSON scene text, vis built; 0 or -1. */
@@ -572,6 +602,7 @@ int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(pack);
     CHECK_CASE(configure);
+    CHECK_CASE(settle);
     CHECK_CASE(unoccluded_sphere);
     CHECK_CASE(corner_bounce);
     CHECK_CASE(cut_lobes);

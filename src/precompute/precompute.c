@@ -830,10 +830,18 @@ static int pc_diffuse_factor(pc_run *r, int i, prt_error *err) {
 
 /* The view-dependent transfer for the materials in mask, and its plan line. */
 static void pc_add_view(pc_run *r, uint64_t mask) {
-    r->vtr = prt_data_add_transfer(r->out, r->rp.vops, &r->rp.vcfg, mask);
-    char line[256];
+    const prt_mesh *m = &r->out->scene.mesh;
+    long n = 0;
+    for (int v = 0; v < m->nverts; v++) n += (mask >> m->mat[v]) & 1;
+    transfer_config cfg = r->rp.vcfg;
+    char line[256], why[256] = "";
+    /* the passes it may make: the bounces' plan comes later, so its upper bound */
+    int passes = r->d.force_bounces == -1 ? 1 : 1 + (r->d.force_bounces == 1 && r->d.bounces == 0 ? 1 : r->d.bounces);
+    if (r->rp.vops->view->settle) r->rp.vops->view->settle(&cfg, n, passes, why, sizeof why);
+    r->vtr = prt_data_add_transfer(r->out, r->rp.vops, &cfg, mask);
     r->rp.vops->describe(&r->vtr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  specular: %s for the materials on the %s path\n", line, r->rp.vops->label);
+    if (why[0]) plan_add(r->plan, r->pcap, "    %s\n", why);
 }
 
 /* The linear representation's begin (transfer.h): what this run needs beyond its config, its plan

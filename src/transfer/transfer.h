@@ -318,6 +318,10 @@ typedef struct transfer_view {
     int (*estimate)(const transfer_precompute_in *in, const prt_transfer *tr, transfer_estimate *out, prt_error *err);
     /* Optional: the resume message's clause for count records of its checkpoint pass p ("vmf direct 86"). */
     void (*resumed)(int p, int count, char *buf, size_t cap);
+    /* Optional: settles in cfg what its options left to the scene, from the count of vertices it will
+     * cover and the passes it may make (vmf: the view grid's level, by a byte budget), before the
+     * transfer is made; why gets the effects plan's clause (no newline). */
+    void (*settle)(transfer_config *cfg, long nverts, int passes, char *why, size_t cap);
 
     /* ---- runtime ----
      * CPU view change: ADDS to rgb[3 * nverts] the outgoing radiance toward eye of every vertex of

@@ -377,6 +377,7 @@ vmf_config vmft_config(const transfer_config *cfg) {
 static int vmf_set(void *user, int i, const char *value, prt_error *err) {
     vmf_config *c = user;
     int *field[] = { &c->lobes, &c->level, &c->samples };
+    c->level_set |= i == 1;
     return transfer_option_int("vmf", &k_options[i], value, field[i], err);
 }
 
@@ -390,6 +391,30 @@ static int vmf_configure(const transfer_setup *s, transfer_config *cfg, prt_erro
     if (transfer_parse_options("vmf", k_options, s->options, vmf_set, &c, err)) return -1;
     memcpy(cfg->bytes, &c, sizeof c);
     return 0;
+}
+
+/* The finest level whose bytes fit the budget (vmf.h VMFT_PLAN_BYTES), unless the options set one. */
+static void vmf_settle(transfer_config *cfg, long nverts, int passes, char *why, size_t cap) {
+    vmf_config c = vmft_config(cfg);
+    if (c.level_set) {
+        snprintf(why, cap, "view grid level %d, as asked", c.level);
+        return;
+    }
+    int R = passes < 1 ? 1 : passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : passes;
+    double pair = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * R * c.lobes * 4 * VMFT_WORDS;
+    double est[VMFT_PLAN_MAX_LEVEL + 1] = { 0 };
+    int L = VMFT_DEFAULT_LEVEL;
+    for (int l = VMFT_DEFAULT_LEVEL; l <= VMFT_PLAN_MAX_LEVEL; l++) {
+        est[l] = (double)nverts * (10.0 * (1 << (2 * l)) + 2) * pair;
+        if (est[l] <= VMFT_PLAN_BYTES) L = l;
+    }
+    c.level = L, c.level_set = true;
+    memcpy(cfg->bytes, &c, sizeof c);
+    int n = snprintf(why, cap, "view grid level %d (%d views): %ld glossy vertices, %d pass%s: at most ~%.0f MB", L,
+                     10 * (1 << (2 * L)) + 2, nverts, R, R == 1 ? "" : "es", est[L] / 1e6);
+    if (L < VMFT_PLAN_MAX_LEVEL && n > 0 && (size_t)n < cap)
+        snprintf(why + n, cap - (size_t)n, " (level %d: ~%.0f MB, over the %.0f MB budget)", L + 1, est[L + 1] / 1e6,
+                 VMFT_PLAN_BYTES / 1e6);
 }
 
 static void vmf_describe(const transfer_config *cfg, char *buf, size_t cap) {
@@ -606,7 +631,7 @@ static bool vmf_read_arrays(prt_reader *r, vmft_data *t, char *why) {
 
 static bool vmf_read(prt_reader *r, prt_transfer *tr, char *why) {
     vmf_config c = { 0 };
-    c.lobes = prtio_get_i32(r), c.level = prtio_get_i32(r), c.samples = prtio_get_i32(r);
+    c.lobes = prtio_get_i32(r), c.level = prtio_get_i32(r), c.samples = prtio_get_i32(r), c.level_set = true;
     memset(&tr->cfg, 0, sizeof tr->cfg);
     memcpy(tr->cfg.bytes, &c, sizeof c);
     tr->materials = prtio_get_u64(r);
@@ -705,6 +730,7 @@ static const transfer_view k_view = {
     .precompute = vmf_precompute,
     .estimate = vmf_estimate,
     .resumed = vmf_resumed,
+    .settle = vmf_settle,
     .shade_vertices = vmf_shade_vertices,
     .glsl = &transfer_vmf_glsl_view,
 };

@@ -126,6 +126,17 @@ struct prefilter_env;
 #define VMFT_DEFAULT_LOBES 2
 #define VMFT_DEFAULT_LEVEL 2     /* 162 views: measured against level 3 in vmf.h ("Grid level") */
 #define VMFT_DEFAULT_SAMPLES 64  /* rays per slice and pass (the paper traced 144) */
+/* The view grid's level when the options leave it (settle): the finest of VMFT_DEFAULT_LEVEL..
+ * VMFT_PLAN_MAX_LEVEL whose bytes stay within VMFT_PLAN_BYTES (the bench file's size). A finer grid
+ * interpolates a lobe's occlusion edge over fewer degrees of view (docs/design/glossy.md: teapot over
+ * a floor under studio, per-vertex specular error 18% at level 2, 15% at 3, 13% at 4). Bytes per
+ * (vertex, view) pair: VMFT_PLAN_SLOT_BYTES of hash slots, and VMFT_PLAN_STORED stored slices of
+ * passes x lobes x 12 bytes: teapot-floor's at level 2 (491,244 slots and 228,570 stored slices of
+ * its 525,042 pairs), a scene whose floor blocks every low view, the dear case. */
+#define VMFT_PLAN_BYTES 96e6
+#define VMFT_PLAN_SLOT_BYTES 7.5
+#define VMFT_PLAN_STORED 0.44
+#define VMFT_PLAN_MAX_LEVEL 4
 
 /* The transfer's configuration (its options: lobes=1..4, level=0..6, samples=4..4096; transfer_vmf.c),
  * the private struct inside its transfer_config. */
@@ -133,6 +144,7 @@ typedef struct vmf_config {
     int lobes;      /* I: lobes per set and reflection pass */
     int level;      /* geodesic view grid: icosahedron subdivided `level` times (10 * 4^level + 2 views) */
     int samples;    /* rays per (vertex, view) set in the direct and gathering passes */
+    bool level_set; /* level fixed: given in the options, settled, or read; else settle picks it */
 } vmf_config;
 vmf_config vmft_config(const transfer_config *cfg);
 /* Its table (transfer_vmf.c; listed in transfer.c) and the per-pixel shading it points at
