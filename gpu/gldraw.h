@@ -50,7 +50,8 @@ typedef struct gldraw {
     GLuint ms_fbo, ms_color, ms_depth; /* samples > 1: the multisampled target drawn into, resolved into fbo */
     int ms_w, ms_h, ms_samples;
     bool resolved;               /* fbo holds what was drawn into the multisampled target */
-    GLuint mesh_vao, mesh_pos, mesh_col, mesh_ebo;
+    GLuint mesh_vao, mesh_pos, mesh_col, mesh_ebo, mesh_nrm;
+    bool sided;                  /* the mesh has normals: pixels whose normal faces away are black */
     int nverts, ntris;
     float bmin[3], bmax[3];      /* mesh bounds, for the clip planes */
     float *pos;                  /* [3*nverts] positions, [3*ntris] triangles and the boxes of each run of */

@@ -210,10 +210,11 @@ static const char *k_view_vs =
     "uniform samplerBuffer t_g;\n"
     "uniform vec3 u_eye;\n"
     "uniform int u_kmax;\n"
+    "out vec3 v_pos, v_nrm;\n"   /* both: the one-sided test per pixel */
     "#if PER_VERTEX\n"
     "out vec3 v_col;\n"
     "#else\n"
-    "out vec3 v_pos, v_nrm, v_add;\n"
+    "out vec3 v_add;\n"
     "out vec2 v_uv;\n"
     "out float v_pix, v_tva;\n"
     "out vec3 v_g[KMAX];\n"
@@ -228,6 +229,7 @@ static const char *k_view_vs =
     "          + local_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
     "    g_albedo = vec3(1.0);\n"   /* the VSGL bounce shades with the material's own kd, as indirect.c */
     "    v_col += vsgl_lights(int(a_mat), a_pos, normalize(a_nrm), u_eye);\n"
+    "    v_pos = a_pos; v_nrm = a_nrm;\n"
     "#else\n"
     "    for (int k = 0; k < KMAX; k++) v_g[k] = g[k];\n"
     "    v_pos = a_pos; v_nrm = a_nrm; v_mat = int(a_mat); v_add = a_add; v_pix = a_pix; v_tva = a_tva; v_uv = a_uv;\n"
@@ -239,11 +241,13 @@ static const char *k_view_fs =
     "uniform vec3 u_eye;\n"
     "uniform int u_kmax, u_tri0, u_tv_perm;\n"
     "out vec4 o_color;\n"
+    /* one-sided, as prt reference and gldraw.c: a pixel whose interpolated normal faces away is black */
+    "in vec3 v_pos, v_nrm;\n"
     "#if PER_VERTEX\n"
     "in vec3 v_col;\n"
-    "void main() { o_color = vec4(max(v_col, 0.0), 1.0); }\n"   /* beyond a silhouette when multisampled (gldraw.c) */
+    "void main() { o_color = vec4(dot(v_nrm, u_eye - v_pos) > 0.0 ? max(v_col, 0.0) : vec3(0.0), 1.0); }\n"   /* max: beyond a silhouette when multisampled (gldraw.c) */
     "#else\n"
-    "in vec3 v_pos, v_nrm, v_add;\n"
+    "in vec3 v_add;\n"
     "in vec2 v_uv;\n"
     "in float v_pix, v_tva;\n"
     "in vec3 v_g[KMAX];\n"
@@ -265,7 +269,7 @@ static const char *k_view_fs =
     "    g_albedo = albedo_at(v_mat, v_uv);\n"
     "    vec3 c = g_albedo * shade_world(v_mat, n, v_pos, u_eye, g, u_kmax) + add + local_lights(v_mat, v_pos, n, u_eye);\n"
     "    g_albedo = vec3(1.0);\n"   /* the VSGL bounce shades with the material's own kd, as indirect.c */
-    "    o_color = vec4(c + vsgl_lights(v_mat, v_pos, n, u_eye), 1.0);\n"
+    "    o_color = vec4(dot(v_nrm, u_eye - v_pos) > 0.0 ? c + vsgl_lights(v_mat, v_pos, n, u_eye) : vec3(0.0), 1.0);\n"
     "}\n"
     "#endif\n";
 

@@ -287,6 +287,35 @@ static void antialias(void) {
     for (int k = 0; k < 3; k++) image_free(&img[k]);
 }
 
+/* One-sided, as prt reference: a square whose normals face the eye shows its colour; the same square
+ * with its normals turned away (the inside of a body seen through a gap) is black at every pixel, and
+ * one whose normals turn from toward to away across it is black exactly where the interpolated
+ * normal faces away (the centre column's sign of n.(eye - p), linear in x). */
+static void one_sided(void) {
+    const int w = 32, h = 24;
+    float pos[12] = { -1, -1, 0, 1, -1, 0, 1, 1, 0, -1, 1, 0 }, rgb[12], nrm[12];
+    uint32_t tris[6] = { 0, 1, 2, 0, 2, 3 };
+    for (int i = 0; i < 12; i++) rgb[i] = 3;
+    prt_mesh m = { .nverts = 4, .ntris = 2, .pos = pos, .tris = tris, .nrm = nrm };
+    prt_camera cam = { .eye = { 0, 0, 4 }, .target = { 0, 0, 0 }, .up = { 0, 1, 0 }, .fov_deg = 40 };
+    prt_error err = { { 0 } };
+    const float nz[3] = { 1, -1, 0 };   /* toward, away, and (0 below) mixed: +z at x = -1, -z at x = +1 */
+    for (int k = 0; k < 3; k++) {
+        for (int v = 0; v < 4; v++) {
+            nrm[3 * v] = 0, nrm[3 * v + 1] = 0;
+            nrm[3 * v + 2] = k < 2 ? nz[k] : -pos[3 * v];
+        }
+        prt_image img;
+        render_desc d = { .width = w, .height = h, .camera = cam, .samples = 1 };
+        CHECK(render_vertex_colors(&m, rgb, &d, &img, &err) == 0, "%s", err.msg);
+        const float *c = img.data + 3 * ((size_t)(h / 2) * w + w / 2 - 4), *r = img.data + 3 * ((size_t)(h / 2) * w + w / 2 + 4);
+        if (k == 0) CHECK(c[0] == 3 && r[0] == 3, "normals toward the eye: %g, %g", c[0], r[0]);
+        if (k == 1) CHECK(c[0] == 0 && r[0] == 0, "normals away: %g, %g", c[0], r[0]);
+        if (k == 2) CHECK(c[0] == 3 && r[0] == 0, "left half toward, right half away: %g, %g", c[0], r[0]);
+        image_free(&img);
+    }
+}
+
 /* Two vertical unit squares facing +z, centred at (0, 1), the back one (green) a gap g behind the front
  * one (red) and listed first, on a grey floor y = 0 tessellated over [-50, 50]^2. */
 static void make_gap_scene(prt_mesh *m, float **rgb, float g) {
@@ -483,6 +512,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(camera);
     CHECK_CASE(raster);
     CHECK_CASE(antialias);
+    CHECK_CASE(one_sided);
     CHECK_CASE(clip_planes);
     CHECK_CASE(background);
     CHECK_CASE(background_angular);

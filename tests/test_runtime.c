@@ -1029,6 +1029,10 @@ static void pixel_point_under(const prt_probe *pr, const char *what) {
                 for (int ch = 0; ch < 3; ch++) s0 += (e[ch] - e0[ch]) * (e[ch] - e0[ch]);
                 for (int k = 0; k < 3; k++)
                     for (int ch = 0; ch < 3; ch++) e[ch] += b[k] * sp[3 * tri[k] + ch];
+                float nb[3] = { 0, 0, 0 };   /* one-sided, as prt reference: a pixel whose normal faces away is black */
+                for (int k = 0; k < 3; k++)
+                    for (int q = 0; q < 3; q++) nb[q] += b[k] * m->nrm[3 * (size_t)tri[k] + q];
+                if (nb[0] * wo[0] + nb[1] * wo[1] + nb[2] * wo[2] <= 0) e[0] = e[1] = e[2] = 0;
                 const float *a = ip.data + 3 * ((size_t)y * W + x);
                 double d2 = 0, t2 = 0;
                 for (int ch = 0; ch < 3; ch++) d2 += (a[ch] - e[ch]) * (a[ch] - e[ch]), t2 += e[ch] * e[ch];
