@@ -468,6 +468,7 @@ static bool gg_truth(const prt_scene *s, const vis_scene *vs, const lightmat *lm
     v3_sub(wo, cam->eye, pos);
     v3_normalize(wo);
     out[0] = out[1] = out[2] = 0;
+    if (v3_dot(nrm, wo) <= 0) return lightmat_glossy(lm, m);   /* one-sided, as the images: black */
     for (int l = 0; l < nl; l++) {
         if (glossy) vsgl_shade(&pairs[l], lm, m, pos, nrm, wo, L);
         else vsgl_shade_diffuse(&pairs[l], lm, m, pos, nrm, L);
