@@ -241,7 +241,7 @@ static void procedural(void) {
     CHECK(loaded >= 3, "demo, sphere-phong and two-chrome-spheres are procedural (%d loaded)", loaded);
 }
 
-/* sphere-phong.json is issue 9's sphere exactly: every vertex at distance 1 from (0,1,0)
+/* sphere-phong.json is the glossy study's sphere exactly: every vertex at distance 1 from (0,1,0)
  * with its normal pointing out, poles on the y axis. */
 static void sphere_phong(void) {
     prt_scene s;

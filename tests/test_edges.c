@@ -118,7 +118,7 @@ static void setup(void) {
     CHECK(rc == 0, "precompute sq.prt: %d %s", rc, buf);
 }
 
-/* Item 1: a write cut short (a file-size limit standing in for a full disk) fails with one
+/* A write cut short (a file-size limit standing in for a full disk) fails with one
  * line for every output format, leaving neither the output nor a temporary. */
 static void full_disk(void) {
     /* PNG was the format that reported success; EXR and JPEG stand for the others (one path for all) */
@@ -152,7 +152,7 @@ static void full_disk(void) {
     CHECK(rc == 0 && strstr(buf, "wrote small.png"), "a small PNG under the limit: %d %s", rc, buf);
 }
 
-/* Item 3: every output is checked before the work (a missing folder, an empty name, an unknown
+/* Every output is checked before the work (a missing folder, an empty name, an unknown
  * extension, a folder as the name), usage errors naming the user's path. The inputs do not even
  * exist, so a check made after loading would name them instead. */
 static void outputs_first(void) {
@@ -165,7 +165,7 @@ static void outputs_first(void) {
     expect_fail("demo -o nodir/demo.png", 2, "nodir/demo.png", NULL);
 }
 
-/* Item 4: a temporary of a killed run (a process that no longer runs) is removed when the same
+/* A temporary of a killed run (a process that no longer runs) is removed when the same
  * output is written again, with one line saying so; a running process's temporary is kept. */
 static void stale_temporaries(void) {
     pid_t child = fork();
@@ -195,7 +195,7 @@ static void stale_temporaries(void) {
     CHECK(temporaries() == 0, "temporaries left");
 }
 
-/* Item 2: a finite but huge sun (1e37 W/sr/m^2-like texels) renders the same image as a 1e30
+/* A finite but huge sun (1e37 W/sr/m^2-like texels) renders the same image as a 1e30
  * one scaled by 1e7 (transport is linear in the light), finite and not black, on both backends;
  * before, the float Haar transform and the 8-bit kernel overflowed and every pixel was 0 (on gl,
  * until its kernels ran the light scaled too: test_glrt's bright_sun compares gl with cpu). */
@@ -239,7 +239,7 @@ static void bright_sun(void) {
     bright_sun_on("gl");
 }
 
-/* Item 5: a UTF-16 or UTF-32 OBJ is refused naming its encoding; a UTF-8 byte-order mark is skipped. */
+/* A UTF-16 or UTF-32 OBJ is refused naming its encoding; a UTF-8 byte-order mark is skipped. */
 static void obj_encodings(void) {
     static const struct { const char *name, *bom; size_t n; const char *enc; } k_cases[] = {
         { "u16le.obj", "\xFF\xFEv\0 \0", 6, "UTF-16LE" },
@@ -328,7 +328,7 @@ static void scale_render(void) {
 
 }
 
-/* Item 7: every usage error of every command exits 2 with one line naming the flag (table). */
+/* Every usage error of every command exits 2 with one line naming the flag (table). */
 static void exit_codes(void) {
     static const struct { const char *args, *needle; } k_usage[] = {
         { "nosuchcommand", "nosuchcommand" },
@@ -361,7 +361,7 @@ static bool noisy(const char *s) {
     return false;
 }
 
-/* Item 10: the canonical spec re-parses bit for bit (a -0 is parsed as 0), in the shortest decimals. */
+/* The canonical spec re-parses bit for bit (a -0 is parsed as 0), in the shortest decimals. */
 static void canonical_specs(void) {
     static const char *const k_specs[] = {
         "ggx:kd=0,-0,0", "lafortune:kd=0;lobe=-0.8,-1.2e-109,0.9,30", "lafortune:kd=0;lobe=-0.8,-.0000001164934748500,0.9,30", "lambert:kd=-0", "phong:kd=0.1,0.2,0.3;ks=0.7;n=1234.5", "as:kd=0.5;ks=0.75;nu=10;nv=100",
@@ -387,7 +387,7 @@ static void canonical_specs(void) {
           "brdf echo: %s", buf);
 }
 
-/* Item 8: brdf --help states its defaults and its K default is precompute's; Lambert prints one
+/* Brdf --help states its defaults and its K default is precompute's; Lambert prints one
  * rank-1 line; render's light change is the sum of its printed parts; compare -v names x,y. */
 static void messages(void) {
     char buf[16384], buf2[16384];
@@ -422,7 +422,7 @@ static void messages(void) {
     CHECK(run_prt("compare cb.exr ca.exr -v", buf, sizeof buf) == 0 && strstr(buf, "worst pixel x,y = 5,3"), "compare -v: %s", buf);
 }
 
-/* Item 6: an 8-bit probe is accepted with one warning line saying it is low dynamic range (the
+/* An 8-bit probe is accepted with one warning line saying it is low dynamic range (the
  * decision: warn, not refuse; README "Light probes"); the image is still written. */
 static void ldr_probe(void) {
     prt_image im = { 0 };
@@ -438,7 +438,7 @@ static void ldr_probe(void) {
           lines(buf) == 2, "render under a PNG probe: %d %s", rc, buf);
 }
 
-/* Item 9: the default camera looks from the -z side, where the shared models face (Spot's head:
+/* The default camera looks from the -z side, where the shared models face (Spot's head:
  * its top vertices have mean z -0.27 against the body's middle 0.19); the demo's lowered camera
  * puts the horizon where tan(8) / (2 tan(27.5)) says, about 36% down, so the sky fills the upper third. */
 static void camera_views(void) {

@@ -656,7 +656,7 @@ static void egl(void) {
     synth_free(&s);
 }
 
-/* A finite but huge sun (issue 12): a probe with 2x2 texels of 1e37 over a dim sky lights the
+/* A finite but huge sun: a probe with 2x2 texels of 1e37 over a dim sky lights the
  * gl runtime as the cpu one, whose light change runs scaled by a power of two (transfer.c). The
  * GL kernels summed codes x L in float before the vector's scale, so L near 1e37 overflowed to
  * Inf and every pixel came out black (or NaN). Both backends, per-vertex view model: vertex

@@ -158,7 +158,7 @@ static void lambert_only(void) {
         CHECK(out.factors[0].K == 1 && out.factors[1].K == 1, "Lambert K = %d, %d", out.factors[0].K, out.factors[1].K);
         CHECK(out.transfers[0].transport.nvecs == out.scene.mesh.nverts, "one vector per vertex");
         CHECK(strstr(out.plan, "material 1 lambert: K=1") != NULL, "plan: %s", out.plan);
-        /* issue 9: interreflections are the plan's by default (up to 3 passes, adaptive stop), no longer off */
+        /* interreflections are the plan's by default (up to 3 passes, adaptive stop) */
         CHECK(strstr(out.plan, "up to 3 passes") != NULL, "plan plans up to 3 passes by default: %s", out.plan);
         CHECK(out.stats.bounces >= 1 && out.stats.bounces <= 3, "default bounce passes: %d", out.stats.bounces);
         prt_data_free(&out);

@@ -467,7 +467,7 @@ static void failed_writes(void) {
 }
 
 
-/* Several transfers (issue 9): prt_data_transfer is the first transfer with a light kernel; a file
+/* Several transfers: prt_data_transfer is the first transfer with a light kernel; a file
  * holding only a non-linear one (vmf) is valid (its tests write one), and then it is NULL. */
 static void transfers_rule(void) {
     const transfer_ops *vmf = transfer_find("vmf");
@@ -524,7 +524,7 @@ static void from_memory(void) {
     free(img);
 }
 
-/* ---- issue 13: mapped loading ------------------------------------------------------------------ */
+/* ---- mapped loading ---------------------------------------------------------------------------- */
 
 /* The coefficient values of a set (packed, q16 or f32). */
 static const void *values_of(const prt_transport *t) {

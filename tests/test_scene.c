@@ -254,7 +254,7 @@ static void json_errors(void) {
     expect_fail("missing OBJ", "missingobj.json", "{ \"models\": [ { \"obj\": \"nothere.obj\" } ] }", "nothere.obj: cannot open");
     expect_fail("bad OBJ", "badobj.json", "{ \"models\": [ { \"obj\": \"bad.obj\" } ] }", "bad.obj:2: unknown statement");
     expect_fail("unknown shape", "cyl.json", "{ \"models\": [ { \"cylinder\": {\"radius\": 1} } ] }", "unknown key 'cylinder'");
-    /* issue 11 made "lights" a key (test_locallight.c checks its contents): the unknown top key is another */
+    /* "lights" is a key (test_locallight.c checks its contents): the unknown top key is another */
     expect_fail("unknown top key", "top.json", "{ \"models\": [ { \"sphere\": {} } ], \"cameras\": 3 }", "unknown key 'cameras'");
     expect_fail("lights not an array", "top2.json", "{ \"models\": [ { \"sphere\": {} } ], \"lights\": 3 }",
                 "lights: expected an array of lights");

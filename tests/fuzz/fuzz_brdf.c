@@ -5,7 +5,7 @@
 #include "fuzz.h"
 #include "brdf.h"
 
-/* Parameters equal as numbers (so 0 and -0 agree: the sign of a zero is issue 12 item 10's). */
+/* Parameters equal as numbers (so 0 and -0 agree: the canonical spec parses -0 as 0). */
 static bool same_params(const brdf_params *a, const brdf_params *b) {
     if (a->type != b->type || a->nlobes != b->nlobes) return false;
     for (int k = 0; k < 3; k++) if (a->kd[k] != b->kd[k] || a->ks[k] != b->ks[k]) return false;
