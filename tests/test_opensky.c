@@ -51,17 +51,28 @@ static int sky_and_sun(float *cube, float sky, float sun, double elev, double az
     return j;
 }
 
-/* The sun texel's first moment direction (its centre) and its irradiance scale L_j Omega_j. */
-static void texel_centre(int j, float d[3]) { cube_texel_dir(CUBE_RES, j, d); }
-
-static void grid_exact(void) {
+/* A grid lit by sky_and_sun's cube (*cube, the caller's to free) and the sun texel's index into *sun;
+ * NULL after a failed check. */
+static opensky *lit_grid(float sky, float sunL, double elev, double azim, float **cube, int *sun) {
     prt_error err;
     opensky *o = opensky_create(&err);
-    CHECK(o != NULL, "%s", err.msg);
+    *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    CHECK(o != NULL && *cube != NULL, "%s", o ? "out of memory" : err.msg);
+    if (!o || !*cube) {
+        opensky_destroy(o);
+        free(*cube);
+        return NULL;
+    }
+    *sun = sky_and_sun(*cube, sky, sunL, elev, azim);
+    opensky_set_light(o, *cube, NULL, 2);
+    return o;
+}
+
+static void grid_exact(void) {
+    float *cube;
+    int j;
+    opensky *o = lit_grid(1.f, 30000.f, 3 * M_PI / 180, 0.7, &cube, &j);
     if (!o) return;
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
-    sky_and_sun(cube, 1.f, 30000.f, 3 * M_PI / 180, 0.7);
-    opensky_set_light(o, cube, NULL, 2);
     double worst = 0;
     for (int q = 0; q < OPENSKY_NORMALS; q += 7) {
         float n[3], e[3];
@@ -83,16 +94,13 @@ static void grid_exact(void) {
 }
 
 static void grid_between(void) {
-    prt_error err;
-    opensky *o = opensky_create(&err);
-    CHECK(o != NULL, "%s", err.msg);
-    if (!o) return;
-    float *cube = malloc(sizeof(float) * 3 * CUBE_TEXELS);
     const float sky = 1.f, sunL = 30000.f;
-    int j = sky_and_sun(cube, sky, sunL, 3 * M_PI / 180, 2.1);
-    opensky_set_light(o, cube, NULL, 2);
+    float *cube;
+    int j;
+    opensky *o = lit_grid(sky, sunL, 3 * M_PI / 180, 2.1, &cube, &j);
+    if (!o) return;
     float s[3];
-    texel_centre(j, s);
+    cube_texel_dir(CUBE_RES, j, s);   /* the sun texel's centre */
     float sa[CUBE_RES * CUBE_RES];
     cube_face_solid_angles(CUBE_RES, sa);
     double phi = sunL * sa[j % (CUBE_RES * CUBE_RES)];   /* the sun texel's irradiance at normal incidence */

@@ -62,13 +62,10 @@ static int demo_light(const char *path, prt_probe *probe) {
     return probe_make_sky(&sd, probe, &err) ? cli_error(k_cmd, "%s", err.msg) : 0;
 }
 
-/* The first backend of the table that draws with GL per pixel, else the default when it draws images
- * (NULL: none, a build without GL; the null backend's black images are not a demo). */
+/* The per-pixel GL backend, else the default when it draws images (NULL: none, a build without GL). */
 static const runtime_backend_info *demo_backend(void) {
-    const unsigned need = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_GL;
-    for (int i = 0; i < runtime_backend_count(); i++)
-        if ((runtime_backend_at(i)->caps & need) == need) return runtime_backend_at(i);
-    return runtime_backend_at(0)->caps & RUNTIME_CAP_IMAGES ? runtime_backend_at(0) : NULL;
+    const runtime_backend_info *px = runtime_backend_pixel(), *dflt = runtime_backend_at(0);
+    return px ? px : dflt->caps & RUNTIME_CAP_IMAGES ? dflt : NULL;
 }
 
 /* Precomputes the demo scene (floor_verts floor vertices; bounces: -1 the default, 0 none, else at

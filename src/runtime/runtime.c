@@ -158,13 +158,19 @@ bool runtime_view_dependent(const prt_data *d) {
     return any;
 }
 
+/* See runtime.h. GL is asked for too: the null backend's black images also have both caps. */
+const runtime_backend_info *runtime_backend_pixel(void) {
+    const unsigned need = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_GL;
+    for (int i = 0; i < NBACKENDS; i++)
+        if ((k_backends[i]->info.caps & need) == need) return &k_backends[i]->info;
+    return NULL;
+}
+
 /* See runtime.h. Per vertex, a highlight narrower than the vertex spacing is smeared over its
  * triangles (Gouraud) or missed between vertices; per pixel its lobes are interpolated instead. */
 const runtime_backend_info *runtime_backend_for(const prt_data *d) {
-    const unsigned need = RUNTIME_CAP_IMAGES | RUNTIME_CAP_VIEW_PIXEL | RUNTIME_CAP_GL;   /* not null's black images */
-    for (int i = 0; runtime_view_dependent(d) && i < NBACKENDS; i++)
-        if ((k_backends[i]->info.caps & need) == need) return &k_backends[i]->info;
-    return &k_backends[0]->info;
+    const runtime_backend_info *px = runtime_view_dependent(d) ? runtime_backend_pixel() : NULL;
+    return px ? px : &k_backends[0]->info;
 }
 
 /* "cpu, gl, null": the names with every capability in need, cut to cap bytes. */

@@ -142,6 +142,8 @@ int runtime_backend_index(const char *name);
 /* Whether d's shading depends on the view beyond a Lambertian colour: a view transfer (vMF lobes) or a
  * material with K > 1 BRDF terms. */
 bool runtime_view_dependent(const prt_data *d);
+/* The first backend that draws its images with GL per pixel (gl), or NULL in a build without GL. */
+const runtime_backend_info *runtime_backend_pixel(void);
 /* The backend that draws d's images best: the first drawing with GL per pixel (gl) when d is view
  * dependent and the build has one, else the default (the first); prt render's without --backend. */
 const runtime_backend_info *runtime_backend_for(const prt_data *d);
