@@ -457,6 +457,29 @@ static void plane(void) {
     CHECK(mesh_make_plane(&m, 0.f, 1.f, 0.f, 1.f, 0.f, 1, 4, &err) == -1, "one column");
 }
 
+/* mesh_vertex_areas: a 3-4-5 triangle (area 6) gives each of its vertices 2 and an unused vertex 0
+ * (exact in double); over the 11 x 5 plane the areas sum to its 10 (to double rounding). */
+static void vertex_areas(void) {
+    prt_error err = { "" };
+    float pos[] = { 0, 0, 0, 3, 0, 0, 0, 4, 0, 9, 9, 9 }, nrm[12] = { 0 };
+    uint32_t tris[] = { 0, 1, 2 };
+    prt_mesh t = { .pos = pos, .nrm = nrm, .tris = tris, .nverts = 4, .ntris = 1 };
+    double a[4];
+    mesh_vertex_areas(&t, a);
+    CHECK(a[0] == 2.0 && a[1] == 2.0 && a[2] == 2.0 && a[3] == 0.0, "%g %g %g %g", a[0], a[1], a[2], a[3]);
+    prt_mesh m;
+    CHECK(mesh_make_plane(&m, -2.f, 3.f, -1.f, 1.f, 0.25f, 11, 5, &err) == 0, "%s", err.msg);
+    double *area = malloc(sizeof *area * (size_t)m.nverts), sum = 0;
+    if (!area) { mesh_free(&m); CHECK(0, "out of memory"); return; }
+    mesh_vertex_areas(&m, area);
+    int zero = 0;
+    for (int v = 0; v < m.nverts; v++) sum += area[v], zero += !(area[v] > 0);
+    CHECK_NEAR(sum, 10.0, 1e-12);
+    CHECK(zero == 0, "%d vertices without area", zero);
+    free(area);
+    mesh_free(&m);
+}
+
 static void box(void) {
     prt_mesh m;
     prt_error err = { "" };
@@ -610,6 +633,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(normals);
     CHECK_CASE(sphere);
     CHECK_CASE(plane);
+    CHECK_CASE(vertex_areas);
     CHECK_CASE(box);
     CHECK_CASE(torus);
     CHECK_CASE(transform_append_copy);

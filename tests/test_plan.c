@@ -649,12 +649,16 @@ static void effects_lines(void) {
     }
 }
 
-/* A unit sphere centred at (0, 1, 0) over a floor of `verts` vertices and `size` times its width. */
-static int sphere_over_floor(prt_scene *sc, int rings, int verts, float size, prt_error *err) {
+/* A unit sphere of BRDF spec centred at (0, 1, 0) over a floor of `verts` vertices and `size` times its width. */
+static int spec_sphere_over_floor(prt_scene *sc, const char *spec, int rings, int verts, float size, prt_error *err) {
     prt_mesh m = { 0 };
     float c[3] = { 0, 1, 0 };
-    if (mesh_make_sphere(&m, c, 1, rings, 2 * rings, err) || scene_from_mesh(&m, "lambert:kd=0.5", sc, err)) return -1;
+    if (mesh_make_sphere(&m, c, 1, rings, 2 * rings, err) || scene_from_mesh(&m, spec, sc, err)) return -1;
     return scene_add_floor(sc, verts, size, NULL, err);
+}
+
+static int sphere_over_floor(prt_scene *sc, int rings, int verts, float size, prt_error *err) {
+    return spec_sphere_over_floor(sc, "lambert:kd=0.5", rings, verts, size, err);
 }
 
 /* The receivers' figures against the floor's construction (scene.h: an n x n grid over size x the
@@ -719,6 +723,34 @@ static void receivers_plan(void) {
     }
 }
 
+/* The plan refines the view path's models by default (planfx.h PLANFX_GLOSSY_GROWTH): a paper-phong
+ * sphere over a floor gains vertices where the floor cuts its lobes, at most 2.5x its own, the floor
+ * keeps its vertices and the plan says so; force_refine -1 (--no-refine) leaves it as it is. (The
+ * Lambertian sphere of receivers_plan keeps its vertices at the defaults: not on the view path.) */
+static void glossy_refine(void) {
+    prt_error err;
+    for (int f = -1; f <= 0; f++) {
+        prt_scene sc;
+        prt_data out;
+        CHECK(spec_sphere_over_floor(&sc, "paper-phong", 8, 144, 3, &err) == 0, "%s", err.msg);
+        const int models = sc.floor_first_vertex, floor = sc.mesh.nverts - models;
+        precompute_desc d = base;
+        d.force_refine = f;
+        d.force_bounces = -1;
+        d.view_options = "level=1,samples=16";
+        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+        const int models1 = out.scene.floor_first_vertex, floor1 = out.scene.mesh.nverts - models1;
+        CHECK(floor1 == floor, "force_refine %d: floor %d -> %d vertices", f, floor, floor1);
+        if (f == -1) CHECK(models1 == models, "forced off: the sphere's %d -> %d vertices", models, models1);
+        else CHECK(models1 > models && models1 <= (int)(PLANFX_GLOSSY_GROWTH * models), "the sphere's %d -> %d vertices (at most %g x)",
+                   models, models1, PLANFX_GLOSSY_GROWTH);
+        char want[96];
+        snprintf(want, sizeof want, "refinement of the glossy models: their %d vertices may grow by", models);
+        CHECK((strstr(out.plan, want) != NULL) == (f == 0), "force_refine %d: plan: %s", f, out.plan);
+        prt_data_free(&out);
+    }
+}
+
 int main(int argc, char **argv) {
     check_begin(argc, argv);
     CHECK_CASE(lone_sphere);
@@ -742,5 +774,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(effects_lines);
     CHECK_CASE(receivers);
     CHECK_CASE(receivers_plan);
+    CHECK_CASE(glossy_refine);
     return check_summary();
 }

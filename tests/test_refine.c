@@ -297,6 +297,46 @@ static void parts(void) {
     scene_free(&s);
 }
 
+/* REFINE_MODELS with a material mask (precompute's refinement of the glossy models): only the
+ * masked material's model gains vertices, the other model and the floor keep theirs; with
+ * REFINE_FLOOR as well the floor gains too; a mask without REFINE_MODELS is refused. */
+static void models_by_material(void) {
+    static const char json[] =
+        "{ \"models\": [ { \"box\": { \"min\": [-0.25, 0.3, -0.25], \"max\": [0.25, 0.5, 0.25], \"n\": 2 }, \"material\": \"lambert:kd=0.5\" },\n"
+        "                { \"sphere\": { \"center\": [0.6, 0.15, 0.6], \"radius\": 0.15, \"rings\": 8, \"segments\": 16 },\n"
+        "                  \"material\": \"phong:kd=0.3;ks=0.5;n=50\" } ],\n"
+        "  \"floor\": { \"vertices\": 400, \"size\": 2 } }";
+    prt_scene s = { 0 }, b = { 0 };
+    if (load(json, &s) || load(json, &b)) return;
+    prt_error err;
+    const int glossy = s.mesh.mat[s.floor_first_vertex - 1], box = s.mesh.mat[0];
+    CHECK(glossy != box, "two model materials (%d, %d)", box, glossy);
+    int n0[2] = { 0, 0 };
+    for (int v = 0; v < s.floor_first_vertex; v++) n0[s.mesh.mat[v] == glossy]++;
+    const int floor0 = s.mesh.nverts - s.floor_first_vertex;
+    refine_stats st;
+    CHECK(refine_scene(&s, &(refine_desc){ .max_levels = 2, .parts = REFINE_MODELS, .materials = (uint64_t)1 << glossy }, &st, &err) == 0,
+          "%s", err.msg);
+    int n1[2] = { 0, 0 };
+    for (int v = 0; v < s.floor_first_vertex; v++) n1[s.mesh.mat[v] == glossy]++;
+    CHECK(n1[1] > n0[1] && n1[0] == n0[0], "sphere %d -> %d, box %d -> %d vertices", n0[1], n1[1], n0[0], n1[0]);
+    CHECK(st.floor_after == floor0 && s.mesh.nverts - s.floor_first_vertex == floor0, "floor %d -> %d", floor0, st.floor_after);
+    CHECK(st.parts == REFINE_MODELS && st.materials == (uint64_t)1 << glossy, "stats: parts %d materials 0x%llx", st.parts,
+          (unsigned long long)st.materials);
+    CHECK(refine_scene(&b, &(refine_desc){ .max_levels = 2, .parts = REFINE_FLOOR | REFINE_MODELS, .materials = (uint64_t)1 << glossy },
+                       &st, &err) == 0, "%s", err.msg);
+    int n2[2] = { 0, 0 };
+    for (int v = 0; v < b.floor_first_vertex; v++) n2[b.mesh.mat[v] == glossy]++;
+    CHECK(n2[1] > n0[1] && n2[0] == n0[0] && st.floor_after > floor0, "floor and sphere: sphere %d -> %d, box %d, floor %d -> %d",
+          n0[1], n2[1], n2[0], floor0, st.floor_after);
+    const int nv = b.mesh.nverts;
+    CHECK(refine_scene(&b, &(refine_desc){ .parts = REFINE_FLOOR, .materials = 1 }, NULL, &err) == -1 && strstr(err.msg, "mask"),
+          "a mask without REFINE_MODELS: %s", err.msg);
+    CHECK(b.mesh.nverts == nv, "the scene is unchanged after an error");
+    scene_free(&b);
+    scene_free(&s);
+}
+
 /* Byte for byte: exact by construction for runs of the same code on the same machine (refine's
  * choices do not depend on the thread count), which is all it compares. */
 static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
@@ -431,6 +471,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(no_cracks);
     CHECK_CASE(floor_order);
     CHECK_CASE(parts);
+    CHECK_CASE(models_by_material);
     CHECK_CASE(deterministic);
     CHECK_CASE(budget);
     CHECK_CASE(precompute);

@@ -1110,8 +1110,9 @@ static void select_flag(void) {
 
 /* The objective a shared budget minimises for one set of V small vectors (expected squared error of T.L
  * over the dropped coefficients, c^2 sigma_l^2 over three equal channels; relative: over each vector's
- * total weight). */
-static double shared_objective(int V, int NZ, const int pos[][6], const float val[][6], const uint8_t *kept, bool rel) {
+ * total weight; times each vector's weight wv[v], NULL: 1). */
+static double shared_objective(int V, int NZ, const int pos[][6], const float val[][6], const uint8_t *kept, bool rel,
+                               const float *wv) {
     double obj = 0;
     for (int v = 0; v < V; v++) {
         double tot = 0, drop = 0;
@@ -1121,7 +1122,7 @@ static double shared_objective(int V, int NZ, const int pos[][6], const float va
             tot += w;
             if (!kept[v * NZ + k]) drop += w;
         }
-        obj += rel ? drop / tot : drop;
+        obj += (wv ? wv[v] : 1.0) * (rel ? drop / tot : drop);
     }
     return obj;
 }
@@ -1130,7 +1131,8 @@ static double shared_objective(int V, int NZ, const int pos[][6], const float va
  * coefficient), N = 2 shared (6 in all), a vector 1 to 4, float values, no correction. Truth: brute force
  * over every subset of the 18 coefficients with at most 6 in all and 1 to 4 per vector; the stored choice's
  * objective (shared_objective) is the least (1e-6 relative, float weights), for the absolute and the
- * relative weights, the stored values are the inputs exactly, and the total is 6. */
+ * relative weights and for absolute ones scaled per vector (prt_transport.weight: the dim vector 4x,
+ * the bright one 1/4), the stored values are the inputs exactly, and the total is 6. */
 static void shared_budget(void) {
     enum { V = 3, NZ = 6, NB = 2, CAP = 4 };
     static const int pos[V][6] = { { 0, 2, 7, 30, 300, 4100 }, { 1, 5, 64, 200, 2000, 9000 }, { 0, 3, 18, 90, 1000, 20000 } };
@@ -1142,7 +1144,11 @@ static void shared_budget(void) {
     for (int v = 0; v < V; v++)
         for (int k = 0; k < NZ; k++) c[v][pos[v][k]] = val[v][k];
     void *scr = malloc(transport_scratch_size());
-    for (int rel = 0; rel < 2; rel++) {
+    static const float wv[V] = { 0.25f, 4.f, 1.f };
+    for (int mode = 0; mode < 3; mode++) {
+        const bool rel = mode == 1;
+        const float *w = mode == 2 ? wv : NULL;
+        const char *name = mode == 0 ? "absolute" : mode == 1 ? "relative" : "weighted absolute";
         double best = INFINITY;
         uint8_t kept[V * NZ];
         for (int mask = 0; mask < 1 << (V * NZ); mask++) {
@@ -1154,7 +1160,7 @@ static void shared_budget(void) {
             }
             if (!ok) continue;
             for (int k = 0; k < V * NZ; k++) kept[k] = mask >> k & 1;
-            best = fmin(best, shared_objective(V, NZ, pos, val, kept, rel));
+            best = fmin(best, shared_objective(V, NZ, pos, val, kept, rel, w));
         }
         prt_transport t;
         prt_error err;
@@ -1163,6 +1169,7 @@ static void shared_budget(void) {
         t.select = TRANSPORT_SELECT_EXPECTED;
         CHECK(transport_set_policy(&t, &haar_transport_policy, &err) == 0, "%s", err.msg);
         CHECK(transport_share_budget(&t, rel ? TRANSPORT_BUDGET_RELATIVE : TRANSPORT_BUDGET_SHARED, CAP, &err) == 0, "%s", err.msg);
+        t.weight = w;
         for (int v = V - 1; v >= 0; v--) transport_store(&t, v, c[v], c[v], c[v], scr);   /* any order */
         CHECK(transport_finish(&t, &err) == 0, "%s", err.msg);
         int exact = 1, n[V];
@@ -1175,11 +1182,11 @@ static void shared_budget(void) {
                 exact &= !kept[v * NZ + k] || (r[pos[v][k]] == val[v][k] && b[pos[v][k]] == val[v][k]);
             }
         }
-        double got = shared_objective(V, NZ, pos, val, kept, rel);
-        printf("  %s weights: kept %d / %d / %d of 6 each, objective %.6g (brute force %.6g)\n", rel ? "relative" : "absolute",
-               n[0], n[1], n[2], got, best);
+        double got = shared_objective(V, NZ, pos, val, kept, rel, w);
+        printf("  %s weights: kept %d / %d / %d of 6 each, objective %.6g (brute force %.6g)\n", name, n[0], n[1], n[2], got, best);
         CHECK(transport_ncoefs(&t) == V * NB && t.N == CAP && t.budget == NB, "6 in all (%zu), N %d", transport_ncoefs(&t), t.N);
-        CHECK_NEAR(got, best, 1e-6 * best, "%s weights: the least objective of any allowed subset", rel ? "relative" : "absolute");
+        CHECK_NEAR(got, best, 1e-6 * best, "%s weights: the least objective of any allowed subset", name);
+        CHECK(t.weight == NULL, "%s: transport_finish lets the borrowed weights go", name);
         CHECK(exact, "kept values are the inputs");
         CHECK(n[0] != NB || n[1] != NB, "the case moves coefficients between vectors");
         transport_free(&t);

@@ -97,7 +97,8 @@ static void configure(void) {
 
 /* settle (vmf.h VMFT_PLAN_BYTES): without a level in the options, the finest level of 2..4 whose
  * modelled bytes, nverts x views x (slot bytes + stored share x passes x lobes x 12), fit the budget;
- * a level in the options is kept. Exact: the same double arithmetic, compared at the boundaries. */
+ * a level in the options is kept; room, the vertices that level holds within the budget, holds the
+ * count whenever a level fits. Exact: the same double arithmetic, compared at the boundaries. */
 static void settle(void) {
     prt_error err;
     double pair1 = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * 1 * VMFT_DEFAULT_LOBES * 12;
@@ -116,10 +117,17 @@ static void settle(void) {
         transfer_config c;
         char why[256] = "";
         CHECK(transfer_vmf.configure(&(transfer_setup){ .options = cases[i].options }, &c, &err) == 0, "%s", err.msg);
-        transfer_vmf.view->settle(&c, cases[i].n, cases[i].passes, why, sizeof why);
+        long room = -1;
+        transfer_vmf.view->settle(&c, cases[i].n, cases[i].passes, &room, why, sizeof why);
         vmf_config v = vmft_config(&c);
         CHECK(v.level == cases[i].want, "case %zu: %ld vertices, %d passes: level %d, want %d (%s)", i, cases[i].n,
               cases[i].passes, v.level, cases[i].want, why);
+        /* room: the most vertices whose modelled bytes at the settled level fit the budget */
+        double pair = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * cases[i].passes * VMFT_DEFAULT_LOBES * 12;
+        long want_room = (long)(VMFT_PLAN_BYTES / ((10.0 * (1 << (2 * v.level)) + 2) * pair));
+        CHECK(room == want_room, "case %zu: room %ld, want %ld", i, room, want_room);
+        CHECK(cases[i].want == VMFT_DEFAULT_LEVEL || cases[i].options || room >= cases[i].n, "case %zu: room %ld < %ld vertices", i,
+              room, cases[i].n);
         CHECK(why[0] && !strchr(why, '\n') && (cases[i].options ? strstr(why, "as asked") != NULL : strstr(why, "MB") != NULL),
               "case %zu: '%s'", i, why);
     }

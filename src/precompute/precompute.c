@@ -87,6 +87,8 @@
 #define PC_SAMPLE 200           /* vertices in the planning sample */
 #define PC_HIT_MIN 0.005        /* below this fraction of hitting rays, no interreflections */
 #define PC_MAX_THREADS 64
+/* The least weight a vector gets in a shared budget (pc_vector_weights): its area share may be 0. */
+#define PC_MIN_WEIGHT 1e-3
 /* Plane stride of the K x 3 transport cubes: CUBE_TEXELS floats is a multiple of 4 KB, so the
  * 12 planes' same texel would fall in one L1 set; 32 floats of padding spread them out. */
 #define PC_TSTRIDE (CUBE_TEXELS + 32)
@@ -690,6 +692,10 @@ typedef struct pc_run {
     double wall_per_cpu;        /* the sample's wall seconds per CPU second: the estimates' conversion */
     bool plan_bounces;
     bool streamed;              /* the passes' staging goes through temporary files (pc_stream) */
+    uint64_t vmask;             /* the materials on the view path (pc_paths) */
+    float *vweight;             /* [direct.nvecs] the shared budget's weight per vector (pc_vector_weights) */
+    char *later;                /* [pcap] the BRDF and path lines, decided before refinement, printed after
+                                 * the scene line that follows it (pc_choose) */
 } pc_run;
 
 /* The plan's refinement line from the receivers (planfx.h) when nothing asked for or ruled out
@@ -725,29 +731,80 @@ static void plan_refine(pc_run *r) {
     r->d.refine_parts = REFINE_FLOOR;
 }
 
-/* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for or when the
- * plan calls for it, and its plan lines. Returns 0 or -1. */
-static int pc_refine(pc_run *r, prt_error *err) {
-    if (r->d.force_refine == -1) {
-        plan_add(r->plan, r->pcap, "  refinement: off (forced)\n");
-        return 0;
-    }
-    if (r->d.refine_threshold > 0) plan_add(r->plan, r->pcap, "  refinement: asked for (the scene's \"refine\" or a refine option)\n");
-    else plan_refine(r);
-    if (!(r->d.refine_threshold > 0)) return 0;
-    refine_desc rd = { .threshold = r->d.refine_threshold, .budget = r->d.refine_budget, .parts = r->d.refine_parts, .nthreads = r->nthreads,
-                       .progress = r->d.progress, .progress_user = r->d.progress_user };
+/* The reflection passes the view-dependent transfer may make: the bounces' plan comes later, so
+ * its upper bound. */
+static int pc_view_passes(const pc_run *r) {
+    return r->d.force_bounces == -1 ? 1 : 1 + (r->d.force_bounces == 1 && r->d.bounces == 0 ? 1 : r->d.bounces);
+}
+
+/* Runs refine_scene with rd's threshold, budget and parts, and prints its line. Returns 0 or -1. */
+static int pc_refine_run(pc_run *r, refine_desc rd, prt_error *err) {
+    rd.nthreads = r->nthreads;
+    rd.progress = r->d.progress;
+    rd.progress_user = r->d.progress_user;
     refine_stats st;
     if (refine_scene(&r->out->scene, &rd, &st, err)) return -1;
-    r->out->stats.t_refine = st.seconds;
+    r->out->stats.t_refine += st.seconds;
     char line[512];
     refine_describe(&st, line, sizeof line);
     plan_add(r->plan, r->pcap, "  %s\n", line);
     return 0;
 }
 
+/* The view path's models refined where visibility changes (planfx.h PLANFX_GLOSSY_GROWTH says why
+ * and how far): up to that many times their vertices, within the room the view grid's byte budget
+ * leaves at the level their unrefined count settles (settle: so refinement never coarsens the view
+ * grid, which costs more than the vertices gain). Returns 0 or -1. */
+static int pc_refine_glossy(pc_run *r, prt_error *err) {
+    const prt_scene *s = &r->out->scene;
+    if (!r->vmask || !r->rp.vops->view->settle) return 0;
+    long all = 0, models = 0;
+    for (int v = 0; v < s->mesh.nverts; v++) {
+        bool view = (r->vmask >> (s->mesh.mat ? s->mesh.mat[v] : 0)) & 1;
+        all += view;
+        models += view && !(s->floor_first_vertex >= 0 && v >= s->floor_first_vertex);
+    }
+    if (models == 0) return 0;
+    transfer_config cfg = r->rp.vcfg;
+    long room = 0;
+    char why[256];
+    r->rp.vops->view->settle(&cfg, all, pc_view_passes(r), &room, why, sizeof why);
+    long grow = (long)(PLANFX_GLOSSY_GROWTH * models) - models, extra = room - all < grow ? room - all : grow;
+    const char *k = "  refinement of the glossy models:";
+    if (extra < models / 20) {
+        plan_add(r->plan, r->pcap, "%s off: at the view grid's level for their %ld vertices its byte budget holds %ld, %ld more\n", k,
+                 all, room, room > all ? room - all : 0);
+        return 0;
+    }
+    char cap[48];
+    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_GLOSSY_GROWTH);
+    plan_add(r->plan, r->pcap, "%s their %ld vertices may grow by %ld (%s), where an occluder cuts their lobes\n", k, models, extra,
+             extra < grow ? "the room the view grid's byte budget leaves" : cap);
+    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = s->mesh.nverts + (int)extra, .parts = REFINE_MODELS,
+                                          .materials = r->vmask }, err);
+}
+
+/* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, else where
+ * the plan calls for it (the floor's report, the glossy models), and its plan lines. Returns 0 or -1. */
+static int pc_refine(pc_run *r, prt_error *err) {
+    if (r->d.force_refine == -1) {
+        plan_add(r->plan, r->pcap, "  refinement: off (forced)\n");
+        return 0;
+    }
+    if (r->d.refine_threshold > 0) {
+        plan_add(r->plan, r->pcap, "  refinement: asked for (the scene's \"refine\" or a refine option)\n");
+        return pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
+                                              .parts = r->d.refine_parts }, err);
+    }
+    plan_refine(r);
+    if (r->d.refine_threshold > 0 && pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
+                                                                     .parts = r->d.refine_parts }, err))
+        return -1;
+    return pc_refine_glossy(r, err);
+}
+
 /* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,
- * and the plan's scene and BRDF lines. Returns 0 or -1. */
+ * and the plan's BRDF lines (kept in r->later: refinement's lines come first). Returns 0 or -1. */
 static int pc_factor(pc_run *r, prt_error *err) {
     prt_data *out = r->out;
     double t0 = prt_now();
@@ -761,20 +818,17 @@ static int pc_factor(pc_run *r, prt_error *err) {
         if (f->lambertian) brdf_factor_lambert_light(f, r->c.lambert_g[i]);
     }
     out->stats.t_brdf = prt_now() - t0;
-    const prt_mesh *m = &out->scene.mesh;
-    plan_add(r->plan, r->pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris,
-             out->scene.nmaterials, out->scene.nmaterials == 1 ? "" : "s", r->nthreads, r->nthreads == 1 ? "" : "s");
-    plan_add(r->plan, r->pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
+    plan_add(r->later, r->pcap, "  BRDF terms (factored in %.1fs):\n", out->stats.t_brdf);
     for (int i = 0; i < out->scene.nmaterials; i++) {
-        plan_material(r->plan, r->pcap, i, &out->scene.materials[i], &out->factors[i], r->d.max_terms, r->d.term_error);
-        if (out->scene.material_from[i][0]) plan_add(r->plan, r->pcap, "    from %s\n", out->scene.material_from[i]);
+        plan_material(r->later, r->pcap, i, &out->scene.materials[i], &out->factors[i], r->d.max_terms, r->d.term_error);
+        if (out->scene.material_from[i][0]) plan_add(r->later, r->pcap, "    from %s\n", out->scene.material_from[i]);
     }
     /* A BRDF reflecting more than it receives (albedo.h): a warning, since it may be meant */
     for (int i = 0; i < out->scene.nmaterials; i++) {
         char w[700];
         const char *spec = out->scene.material_spec[i][0] ? out->scene.material_spec[i] : NULL;
         if (brdf_energy_warning(&out->scene.materials[i], spec, w, sizeof w))
-            plan_add(r->plan, r->pcap, "  warning: material %d %s\n", i, w);
+            plan_add(r->later, r->pcap, "  warning: material %d %s\n", i, w);
     }
     return 0;
 }
@@ -835,9 +889,7 @@ static void pc_add_view(pc_run *r, uint64_t mask) {
     for (int v = 0; v < m->nverts; v++) n += (mask >> m->mat[v]) & 1;
     transfer_config cfg = r->rp.vcfg;
     char line[256], why[256] = "";
-    /* the passes it may make: the bounces' plan comes later, so its upper bound */
-    int passes = r->d.force_bounces == -1 ? 1 : 1 + (r->d.force_bounces == 1 && r->d.bounces == 0 ? 1 : r->d.bounces);
-    if (r->rp.vops->view->settle) r->rp.vops->view->settle(&cfg, n, passes, why, sizeof why);
+    if (r->rp.vops->view->settle) r->rp.vops->view->settle(&cfg, n, pc_view_passes(r), NULL, why, sizeof why);
     r->vtr = prt_data_add_transfer(r->out, r->rp.vops, &cfg, mask);
     r->rp.vops->describe(&r->vtr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  specular: %s for the materials on the %s path\n", line, r->rp.vops->label);
@@ -863,14 +915,13 @@ static int pc_begin(pc_run *r, prt_error *err) {
     return 0;
 }
 
-/* Stage choose: the path of every material with the reason (see precompute.h), then the linear
- * transfer (desc.basis, else the table's default, Haar wavelets: the paper's all-frequency basis)
- * over every material with its begin, and, when some material took the view path, the
- * view-dependent transfer over those. Returns 0 or -1. */
-static int pc_choose(pc_run *r, prt_error *err) {
+/* Stage paths: the path of every material with the reason (see precompute.h), before refinement,
+ * which refines the view path's models (plan_refine_glossy); a view-path material's factor becomes
+ * its diffuse part. Returns 0 or -1. */
+static int pc_paths(pc_run *r, prt_error *err) {
     int nm = r->out->scene.nmaterials;
     uint64_t vmask = 0;
-    plan_add(r->plan, r->pcap, "  paths:\n");
+    plan_add(r->later, r->pcap, "  paths:\n");
     for (int i = 0; i < nm; i++) {
         const brdf_params *p = &r->out->scene.materials[i];
         char why[384];
@@ -881,8 +932,22 @@ static int pc_choose(pc_run *r, prt_error *err) {
         bool view = path == PRECOMPUTE_PATH_VIEW;
         if (view && pc_diffuse_factor(r, i, err)) return -1;
         if (view) vmask |= (uint64_t)1 << i;
-        plan_add(r->plan, r->pcap, "    material %d %s: %s\n", i, brdf_type_name(p->type), why);
+        plan_add(r->later, r->pcap, "    material %d %s: %s\n", i, brdf_type_name(p->type), why);
     }
+    r->vmask = vmask;
+    return 0;
+}
+
+/* Stage choose: the scene line (after refinement) and the lines pc_factor and pc_paths kept, then the
+ * linear transfer (desc.basis, else the table's default, Haar wavelets: the paper's all-frequency basis)
+ * over every material with its begin, and, when some material took the view path, the view-dependent
+ * transfer over those. Returns 0 or -1. */
+static int pc_choose(pc_run *r, prt_error *err) {
+    int nm = r->out->scene.nmaterials;
+    const prt_mesh *m = &r->out->scene.mesh;
+    plan_add(r->plan, r->pcap, "  scene: %d vertices, %d triangles, %d material%s, %d thread%s\n", m->nverts, m->ntris, nm,
+             nm == 1 ? "" : "s", r->nthreads, r->nthreads == 1 ? "" : "s");
+    plan_add(r->plan, r->pcap, "%s", r->later);
     r->kmax = 1;
     for (int i = 0; i < nm; i++)
         if (r->out->factors[i].K > r->kmax) r->kmax = r->out->factors[i].K;
@@ -894,7 +959,33 @@ static int pc_choose(pc_run *r, prt_error *err) {
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
              r->d.basis ? "asked for" : "the default (all-frequency)");
     if (pc_begin(r, err)) return -1;
-    if (vmask) pc_add_view(r, vmask);
+    if (r->vmask) pc_add_view(r, r->vmask);
+    return 0;
+}
+
+/* A shared budget's weight per vector (transport.h prt_transport.weight): its vertex's area over the
+ * mean vertex area, so the budget goes where the error integrated over the surface is least, not
+ * the error summed over vertices, which a refined (denser) region would outweigh: teapot-lambert
+ * under sunrise at 135 degrees, 0.084 -> 0.066 against the path tracer (docs/design/shadows.md).
+ * At least PC_MIN_WEIGHT: a vertex of degenerate triangles still keeps its budget_min. 0 or -1. */
+static int pc_vector_weights(pc_run *r, prt_error *err) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    double *area = prt_calloc((size_t)m->nverts, sizeof *area, err);
+    if (!area || !(r->vweight = prt_calloc((size_t)r->direct.nvecs > 0 ? (size_t)r->direct.nvecs : 1, sizeof *r->vweight, err))) {
+        free(area);
+        return -1;
+    }
+    mesh_vertex_areas(m, area);
+    double sum = 0;
+    for (int v = 0; v < m->nverts; v++) sum += area[v];
+    const double mean = sum > 0 ? sum / m->nverts : 1;
+    for (int v = 0; v < m->nverts; v++) {
+        double w = area[v] / mean;
+        w = w > PC_MIN_WEIGHT ? w : PC_MIN_WEIGHT;
+        for (uint32_t q = r->direct.vec_first[v]; q < r->direct.vec_first[v + 1]; q++) r->vweight[q] = (float)w;
+    }
+    free(area);
+    r->direct.weight = r->vweight;
     return 0;
 }
 
@@ -944,6 +1035,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     }
     /* the representation's N, qbits and store policy; the gathering passes copy it (transport_init_like) */
     if (r->rp.lops->linear->init_set(&r->tr->cfg, &r->lrun, &r->direct, m->nverts, r->nvec, err)) return -1;
+    if (r->direct.stage_key && pc_vector_weights(r, err)) return -1;
     if (pc_stream(r, err)) return -1;
     r->vs = vis_create(m, err);
     if (!r->vs) return -1;
@@ -1545,6 +1637,8 @@ static void pc_cleanup(pc_run *r) {
     transport_free(&r->last);
     if (r->rp.lops && r->rp.lops->linear->end) r->rp.lops->linear->end(&r->lrun);
     free(r->prior);
+    free(r->later);
+    free(r->vweight);
 }
 
 /* Runs the whole pipeline (see precompute.h and the file comment). */
@@ -1568,7 +1662,8 @@ int precompute_run(prt_scene *scene, const precompute_desc *desc, prt_data *out,
         r->nthreads = nt > PC_MAX_THREADS ? PC_MAX_THREADS : nt;
         out->vis_res = r->d.vis_res;
         out->gather_res = r->d.gather_res;
-        st = pc_refine(r, err) || pc_factor(r, err) || pc_choose(r, err) || pc_setup(r, err) || pc_resume(r, err) ? -1 : 0;
+        st = !(r->later = prt_calloc(1, r->pcap, err)) || pc_factor(r, err) || pc_paths(r, err) || pc_refine(r, err) ||
+                     pc_choose(r, err) || pc_setup(r, err) || pc_resume(r, err) ? -1 : 0;
     }
     /* no collective so far: a failure on any rank (OOM included) fails every rank alike here;
      * later, the passes agree at their exchanges (shard.h) */

@@ -60,10 +60,13 @@
  * material's vertices receive at least PLANFX_HIGHLIGHT_MIN of it by one bounce; the plan prints
  * each share; force_local_bounce and force_highlights override either way.
  *
- * Refinement (refine_threshold > 0, stage refine, before everything else): the scene's mesh is
- * refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1), and the refined
- * mesh is what is precomputed, stored and drawn; the plan's first line says vertices before and
- * after, models and floor, and its time.
+ * Refinement (stage refine, after the BRDFs' paths are chosen and before the passes): the scene's
+ * mesh is refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1) as asked
+ * (refine_threshold > 0, the floor's by default), else, unless force_refine is -1, the models on the
+ * view path (the glossy ones) up to PLANFX_GLOSSY_GROWTH times their vertices within the room the
+ * view grid's byte budget leaves (planfx.h; the floor too with force_refine 1); the refined mesh
+ * is what is precomputed, stored and drawn; the plan's first lines say vertices before and after,
+ * models and floor, and the time.
  *
  * Resuming (desc.checkpoint, desc.resume): the direct pass, each gathering pass and a
  * view-dependent transfer's passes log every finished vertex (or slice) to the checkpoint, flushed
@@ -129,8 +132,9 @@ typedef struct precompute_desc {
     int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
     int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */
     int force_refine;       /* -1: no refinement whatever refine_threshold says; otherwise refine_threshold > 0
-                             * asks for it, else the plan measures the receivers (planfx.h) and, with 1,
-                             * refines the floor where they need it (0: it only says so) */
+                             * asks for it, else the plan refines the glossy models and measures the
+                             * receivers (planfx.h) and, with 1, refines the floor where they need it
+                             * (0: it only says so) */
     float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose
                              * masks differ in more than this share; 0: as the plan decides */
     int refine_budget;      /* with refinement, the most vertices after it; 0: 1.5x the scene's */

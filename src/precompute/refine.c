@@ -37,7 +37,7 @@ typedef struct rf_ctx {
     uint64_t *vis, *up;     /* [nverts * W] escaping directions / directions above the horizon */
     float *dirs;            /* [3 * ndirs] unit texel-centre directions of the mask cube */
     int res, ndirs;
-    bool floor_only;        /* REFINE_FLOOR: only floor edges are compared, only floor vertices traced */
+    uint8_t *cmp;           /* [nverts] 1 where the vertex's part is compared (refine_desc.parts) */
     const vis_scene *vs;
     uint8_t *bytes[RF_MAX_THREADS];   /* vis_cube output per thread */
     long rays[RF_MAX_THREADS];
@@ -105,7 +105,7 @@ static void rf_mask_range(void *ctx, int begin, int end, int thread) {
         uint64_t *mv = c->vis + v * (size_t)c->W, *mu = c->up + v * (size_t)c->W;
         memset(mv, 0, sizeof(uint64_t) * (size_t)c->W);
         memset(mu, 0, sizeof(uint64_t) * (size_t)c->W);
-        if (c->floor_only && !c->floor[v]) continue;   /* no edge of it is compared */
+        if (!c->cmp[v]) continue;   /* no edge of it is compared */
         long traced = 0;
         vis_cube(c->vs, p, n, c->res, b, &traced, NULL);
         c->rays[thread] += traced;
@@ -127,7 +127,7 @@ static void rf_diff_range(void *ctx, int begin, int end, int thread) {
     const size_t W = (size_t)c->W;
     for (int e = begin; e < end; e++) {
         const size_t a = (size_t)(c->ekey[e] >> 32), b = (size_t)(c->ekey[e] & 0xffffffffu);
-        if (c->floor_only && !(c->floor[a] && c->floor[b])) { c->diff[e] = 0.f; continue; }
+        if (!(c->cmp[a] && c->cmp[b])) { c->diff[e] = 0.f; continue; }
         const uint64_t *va = c->vis + a * W, *vb = c->vis + b * W, *ua = c->up + a * W, *ub = c->up + b * W;
         int nd = 0, nc = 0;
         for (size_t w = 0; w < W; w++) {
@@ -153,11 +153,13 @@ static int rf_grow(rf_ctx *c, int nv, prt_error *err) {
     if (c->m.uv && !uv) return prt_fail(err, "refine: out of memory for %d vertices", nv);
     uint8_t *fl = realloc(c->floor, n);
     if (fl) c->floor = fl;
+    uint8_t *cm = realloc(c->cmp, n);
+    if (cm) c->cmp = cm;
     uint64_t *vis = realloc(c->vis, n * (size_t)c->W * sizeof(uint64_t));
     if (vis) c->vis = vis;
     uint64_t *up = realloc(c->up, n * (size_t)c->W * sizeof(uint64_t));
     if (up) c->up = up;
-    if (!pos || !nrm || !mat || !fl || !vis || !up) return prt_fail(err, "refine: out of memory for %d vertices", nv);
+    if (!pos || !nrm || !mat || !fl || !cm || !vis || !up) return prt_fail(err, "refine: out of memory for %d vertices", nv);
     return 0;
 }
 
@@ -228,6 +230,7 @@ static void rf_add_midpoints(rf_ctx *c) {
         c->m.mat[o] = c->m.mat[a];
         for (int k = 0; c->m.uv && k < 2; k++) c->m.uv[2 * o + k] = 0.5f * (c->m.uv[2 * a + k] + c->m.uv[2 * b + k]);
         c->floor[o] = c->floor[a];
+        c->cmp[o] = c->cmp[a];
         c->mid[e] = v++;
     }
     c->m.nverts = v;
@@ -332,9 +335,12 @@ static int rf_check(const refine_desc *in, const prt_mesh *m, bool has_floor, re
     if (d->mask_res < 8 || d->mask_res > 64 || d->mask_res % 4)
         return prt_fail(err, "refine: mask_res %d (must be a multiple of 4 in 8..64)", d->mask_res);
     if (d->parts == 0) d->parts = has_floor ? REFINE_FLOOR : REFINE_ALL;
-    if (d->parts != REFINE_FLOOR && d->parts != REFINE_ALL)
-        return prt_fail(err, "refine: parts %d (must be %d, the floor, or %d, everything)", d->parts, REFINE_FLOOR, REFINE_ALL);
+    if (d->parts != REFINE_ALL && (d->parts & ~(REFINE_FLOOR | REFINE_MODELS)))
+        return prt_fail(err, "refine: parts %d (must be %d, everything, or %d the floor and/or %d the models)", d->parts, REFINE_ALL,
+                        REFINE_FLOOR, REFINE_MODELS);
     if (d->parts == REFINE_FLOOR && !has_floor) return prt_fail(err, "refine: the floor only, but the scene has no floor");
+    if (d->materials && !(d->parts & REFINE_MODELS))
+        return prt_fail(err, "refine: a material mask (0x%llx) without REFINE_MODELS", (unsigned long long)d->materials);
     if (d->max_levels == 0) d->max_levels = 6;
     if (d->max_levels < 1 || d->max_levels > 16)
         return prt_fail(err, "refine: max_levels %d is out of range 1..16", d->max_levels);
@@ -343,9 +349,16 @@ static int rf_check(const refine_desc *in, const prt_mesh *m, bool has_floor, re
     return 0;
 }
 
+/* Whether a vertex of the floor (or of a model of material mat) has its edges compared under d->parts. */
+static bool rf_compared(const refine_desc *d, bool floor, int mat) {
+    if (d->parts == REFINE_ALL) return true;
+    if (floor) return (d->parts & REFINE_FLOOR) != 0;
+    return (d->parts & REFINE_MODELS) && (d->materials == 0 || ((d->materials >> mat) & 1));
+}
+
 static void rf_free(rf_ctx *c) {
     mesh_free(&c->m);
-    free(c->floor); free(c->vis); free(c->up); free(c->dirs);
+    free(c->floor); free(c->cmp); free(c->vis); free(c->up); free(c->dirs);
     free(c->ekey); free(c->tedge); free(c->diff); free(c->mid);
     for (int t = 0; t < RF_MAX_THREADS; t++) free(c->bytes[t]);
     pthread_mutex_destroy(&c->lock);
@@ -358,13 +371,15 @@ static int rf_init(rf_ctx *c, const prt_scene *s, const refine_desc *d, prt_erro
     c->progress = d->progress;
     c->progress_user = d->progress_user;
     c->res = d->mask_res;
-    c->floor_only = d->parts == REFINE_FLOOR;
     c->ndirs = 6 * c->res * c->res;
     c->W = (c->ndirs + 63) / 64;
     c->dirs = prt_calloc(3 * (size_t)c->ndirs, sizeof(float), err);
     if (!c->dirs || rf_grow(c, c->m.nverts > 0 ? c->m.nverts : 1, err)) return -1;
     for (int i = 0; i < c->ndirs; i++) cube_texel_dir(c->res, i, c->dirs + 3 * i);
-    for (int v = 0; v < c->m.nverts; v++) c->floor[v] = s->floor_first_vertex >= 0 && v >= s->floor_first_vertex;
+    for (int v = 0; v < c->m.nverts; v++) {
+        c->floor[v] = s->floor_first_vertex >= 0 && v >= s->floor_first_vertex;
+        c->cmp[v] = rf_compared(d, c->floor[v], c->m.mat ? c->m.mat[v] : 0);
+    }
     for (int t = 0; t < d->nthreads; t++)
         if (!(c->bytes[t] = prt_calloc((size_t)c->ndirs, 1, err))) return -1;
     return 0;
@@ -416,7 +431,8 @@ int refine_scene(prt_scene *s, const refine_desc *desc, refine_stats *stats, prt
     refine_desc d;
     if (rf_check(desc, &s->mesh, s->floor_first_vertex >= 0, &d, err)) return -1;
     refine_stats st = { .verts_before = s->mesh.nverts, .tris_before = s->mesh.ntris, .budget = d.budget,
-                        .threshold = d.threshold, .mask_res = d.mask_res, .parts = d.parts };
+                        .threshold = d.threshold, .mask_res = d.mask_res, .parts = d.parts,
+                        .materials = d.materials };
     st.floor_before = s->floor_first_vertex >= 0 ? s->mesh.nverts - s->floor_first_vertex : 0;
     rf_ctx *c = prt_calloc(1, sizeof *c, err);
     if (!c) return -1;
@@ -453,6 +469,15 @@ done:
     return rc;
 }
 
+static const char *rf_parts_name(int parts) {
+    switch (parts) {
+    case REFINE_FLOOR: return "floor";
+    case REFINE_MODELS: return "models'";
+    case REFINE_FLOOR | REFINE_MODELS: return "floor and models'";
+    default: return "all";
+    }
+}
+
 /* The plan's refinement line. */
 void refine_describe(const refine_stats *st, char *buf, size_t cap) {
     char where[128];
@@ -465,6 +490,6 @@ void refine_describe(const refine_stats *st, char *buf, size_t cap) {
              "refinement: %d -> %d vertices (%s), %d -> %d triangles, %d level%s; %s edges whose %dx%dx6 visibility masks "
              "differ in > %.2f%% of directions split, budget %d%s; %.1fM mask rays in %.1fs",
              st->verts_before, st->verts_after, where, st->tris_before, st->tris_after, st->levels,
-             st->levels == 1 ? "" : "s", st->parts == REFINE_FLOOR ? "floor" : "all", st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
+             st->levels == 1 ? "" : "s", rf_parts_name(st->parts), st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
              st->budget_hit ? " (reached)" : "", st->rays / 1e6, st->seconds);
 }

@@ -52,7 +52,10 @@
  * floor (the model vertices' indices do not change).
  *
  * Parts: with a floor, only the floor's edges are compared by default (REFINE_FLOOR; only floor
- * vertices are traced), REFINE_ALL takes the models' too (the default without a floor). On the
+ * vertices are traced), REFINE_ALL takes the models' too (the default without a floor), and
+ * REFINE_MODELS the edges of the models whose material is in a mask (a glossy model's highlight
+ * is cut at its vertices' resolution: precompute refines those where the plan says so).
+ * An edge is compared when both its vertices are of a compared part. On the
  * bunny + 31K floor at the paper's threshold, 94K of the 132K new vertices of an all-parts run
  * went to the bunny, whose scanned surface differs from vertex to vertex; the floor is where
  * a model's cast shadows are seen.
@@ -61,7 +64,8 @@
  * grows with the vertex count: this keeps the bunny + floor's within 120 s), mask_res 32,
  * max_levels 6 (edges at most 64 times shorter than the input's; a contact line where a
  * model touches the floor stays marked at every level, so the budget and this cap end it).
- * precompute keeps refinement OFF unless asked for (precompute_desc.refine_threshold,
+ * precompute refines the glossy models by default (REFINE_MODELS, planfx.h PLANFX_GLOSSY_GROWTH)
+ * and keeps the floor's refinement OFF unless asked for (precompute_desc.refine_threshold,
  * `prt precompute --refine`, a JSON scene's "refine", or force_refine 1 / --refine-auto where its
  * plan finds the floor coarser than a sun's penumbra: planfx.h): on the teapot's floor it brought
  * the shadow no closer to the path tracer (docs/design/plan.md), the shadow targets
@@ -85,15 +89,18 @@
 #define REFINE_BUDGET_FACTOR 1.5  /* default budget: this many times the input's vertices */
 #define REFINE_MIN_COS 0.15f      /* directions compared: n.w above this for both vertices */
 
-enum { REFINE_FLOOR = 1, REFINE_ALL = 2 };   /* refine_desc.parts */
+/* refine_desc.parts: REFINE_FLOOR and REFINE_MODELS combine; REFINE_ALL is every edge. */
+enum { REFINE_FLOOR = 1, REFINE_ALL = 2, REFINE_MODELS = 4 };
 
 typedef struct refine_desc {
     float threshold;    /* mark an edge whose masks differ in more than this share; 0: REFINE_THRESHOLD */
     int budget;         /* most vertices after refinement; 0: REFINE_BUDGET_FACTOR x the input's */
     int mask_res;       /* mask cube resolution, a multiple of 4 in 8..64; 0: 32 */
     int max_levels;     /* most iterations, 1..16; 0: 6 */
-    int parts;          /* REFINE_FLOOR: the floor's edges only; REFINE_ALL: models too;
+    int parts;          /* REFINE_FLOOR: the floor's edges; REFINE_MODELS: the models' (those of
+                         * `materials`); both or'ed; REFINE_ALL: every edge;
                          * 0: REFINE_FLOOR when the scene has a floor, else REFINE_ALL */
+    uint64_t materials; /* with REFINE_MODELS: bit i compares the edges of material i's models; 0: all */
     int nthreads;       /* 0: all cores */
     prt_progress_fn progress;   /* per level's mask tracing ("refine level N"); false cancels */
     void *progress_user;
@@ -108,7 +115,8 @@ typedef struct refine_stats {
     bool budget_hit;                /* it stopped marked edges from being split */
     float threshold;                /* the threshold used */
     int mask_res;
-    int parts;                      /* REFINE_FLOOR or REFINE_ALL (after defaults) */
+    int parts;                      /* refine_desc.parts after defaults */
+    uint64_t materials;             /* refine_desc.materials */
     long rays;                      /* mask rays traced */
     double seconds;                 /* wall time */
 } refine_stats;

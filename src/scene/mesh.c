@@ -583,6 +583,19 @@ int mesh_append(prt_mesh *a, const prt_mesh *b, prt_error *err) {
     return 0;
 }
 
+void mesh_vertex_areas(const prt_mesh *m, double *area) {
+    for (int v = 0; v < m->nverts; v++) area[v] = 0;
+    for (int t = 0; t < m->ntris; t++) {
+        const uint32_t *tri = m->tris + 3 * (size_t)t;
+        const float *a = m->pos + 3 * (size_t)tri[0], *b = m->pos + 3 * (size_t)tri[1], *c = m->pos + 3 * (size_t)tri[2];
+        double u[3], w[3];
+        for (int k = 0; k < 3; k++) u[k] = (double)b[k] - a[k], w[k] = (double)c[k] - a[k];
+        double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2], z = u[0] * w[1] - u[1] * w[0];
+        double third = sqrt(x * x + y * y + z * z) / 6;
+        for (int k = 0; k < 3; k++) area[tri[k]] += third;
+    }
+}
+
 void mesh_bounds(const prt_mesh *m, float bmin[3], float bmax[3]) {
     if (m->nverts <= 0) {
         v3_set(bmin, 0.f, 0.f, 0.f);

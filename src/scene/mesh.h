@@ -62,6 +62,10 @@ void mesh_transform(prt_mesh *m, const float R[9], float s, const float t[3]);
 /* Appends b's vertices and triangles to a (b's material indices are kept). Returns 0 or -1 (OOM). */
 int mesh_append(prt_mesh *a, const prt_mesh *b, prt_error *err);
 
+/* area[v] = a third of the area of every triangle that uses vertex v (the surface a vertex stands
+ * for under linear interpolation: the areas sum to the mesh's); 0 for a vertex no triangle uses. */
+void mesh_vertex_areas(const prt_mesh *m, double *area);
+
 /* Axis-aligned bounds of the positions. */
 void mesh_bounds(const prt_mesh *m, float bmin[3], float bmax[3]);
 

@@ -320,8 +320,9 @@ typedef struct transfer_view {
     void (*resumed)(int p, int count, char *buf, size_t cap);
     /* Optional: settles in cfg what its options left to the scene, from the count of vertices it will
      * cover and the passes it may make (vmf: the view grid's level, by a byte budget), before the
-     * transfer is made; why gets the effects plan's clause (no newline). */
-    void (*settle)(transfer_config *cfg, long nverts, int passes, char *why, size_t cap);
+     * transfer is made; why gets the effects plan's clause (no newline); *room (when not NULL) the
+     * most vertices that settled cfg holds within that budget (refinement's share: precompute.c). */
+    void (*settle)(transfer_config *cfg, long nverts, int passes, long *room, char *why, size_t cap);
 
     /* ---- runtime ----
      * CPU view change: ADDS to rgb[3 * nverts] the outgoing radiance toward eye of every vertex of

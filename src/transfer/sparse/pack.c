@@ -102,6 +102,7 @@ int transport_finish(prt_transport *t, prt_error *err) {
     if (t->qbits == 8 ? !t->packed : (!t->offs || (t->qbits == 16 ? !t->q16 : !t->f32))) goto oom;
     prt_parallel_for(t->nvecs, 4096, 0, pack_vectors, &ctx);
     transport_free_staging(t);
+    t->weight = NULL;   /* borrowed for the staging only */
     return 0;
 oom:
     /* leave the staged data intact so the caller may retry or free */

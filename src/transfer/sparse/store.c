@@ -13,6 +13,7 @@
  * drops (haar/policy.h); those are Haar's, reached through the set's transport_policy, so this file
  * names no basis. Without a policy the parameters that ask for one must be 0 (PRT_CHECK). */
 #include "build.h"
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -66,9 +67,10 @@ static double store_candidates(prt_transport *t, int i, const float *r, const fl
     if (t->budget_kind == TRANSPORT_BUDGET_RELATIVE)
         for (int j = 0; j < CUBE_TEXELS; j++) total += key_at(keys, j);
     size_t o = (size_t)i * t->N;
+    const double w = t->weight ? t->weight[i] : 1.0;
     for (int k = 0; k < n; k++) {
-        double e = key_at(keys, (int)idx[k]);
-        t->stage_key[o + k] = total > 0 ? (float)(e / total) : (float)e;
+        double e = w * key_at(keys, (int)idx[k]) / (total > 0 ? total : 1.0);
+        t->stage_key[o + k] = e < FLT_MAX / 2 ? (float)e : FLT_MAX / 2;   /* FLT_MAX marks budget_min's */
         t->stage_idx[o + k] = idx[k];
         for (int c = 0; c < 3; c++) t->stage_val[3 * (o + k) + c] = isfinite(ch[c][idx[k]]) ? ch[c][idx[k]] : 0.f;
     }

@@ -92,6 +92,9 @@ int transport_init_like(prt_transport *t, const prt_transport *like, const int *
     t->refit = like->refit;
     t->block_level = like->block_level;
     t->smooth_faces = like->smooth_faces;
+    /* a per-vector weight serves only the same vectors */
+    if (like->weight && t->nvecs == like->nvecs && !memcmp(t->vec_first, like->vec_first, sizeof(uint32_t) * ((size_t)t->nverts + 1)))
+        t->weight = like->weight;
     if (transport_set_policy(t, like->policy, err) ||
         (like->budget && transport_share_budget(t, like->budget_kind, like->N, err))) {
         transport_free(t);

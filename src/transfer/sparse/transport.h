@@ -64,7 +64,9 @@ typedef enum transport_select { TRANSPORT_SELECT_MAGNITUDE = 0, TRANSPORT_SELECT
  *             |c_i|^2 sigma_l^2, summed over the channels), wherever they are: a vector whose transport
  *             has detail (a shadow edge crossing its cube) keeps more, a smooth one fewer. The global
  *             optimum of the summed expected squared error of T.L at that storage, given that each
- *             vector keeps at least budget_min and at most N.
+ *             vector keeps at least budget_min and at most N. With prt_transport.weight each vector's
+ *             weights are scaled by its own (precompute: its vertex's share of the surface, so the sum is
+ *             the error integrated over the surface, which a refined region does not outweigh).
  *   RELATIVE: the same with each vector's weights divided by its own total weight (the expected T.L
  *             squared), so the summed relative error is what is minimised: dark vertices are not
  *             starved by bright ones. */
@@ -144,6 +146,8 @@ typedef struct prt_transport {
     uint32_t *stage_idx;    /* [nvecs*N] coefficient indices */
     float *stage_val;       /* [nvecs*N*3] values (already dequantized for error bookkeeping; with a shared
                              * budget the candidates' raw values until transport_finish) */
+    const float *weight;    /* shared budget: [nvecs] a factor on each vector's selection weights, finite and
+                             * > 0, borrowed (the caller keeps it alive until transport_finish; NULL: 1) */
     float *stage_key;       /* shared budget: [nvecs*N] each candidate's selection weight */
     float *stage_blk;       /* shared budget: [nvecs*TRANSPORT_STAGE] what the non-candidates add to each
                              * block's dropped integral (with solid_angle), per channel, face and block, then

@@ -394,20 +394,26 @@ static int vmf_configure(const transfer_setup *s, transfer_config *cfg, prt_erro
 }
 
 /* The finest level whose bytes fit the budget (vmf.h VMFT_PLAN_BYTES), unless the options set one. */
-static void vmf_settle(transfer_config *cfg, long nverts, int passes, char *why, size_t cap) {
+/* The plan's modelled bytes of one vertex at grid level l with R passes (VMFT_PLAN_BYTES). */
+static double vmf_plan_vertex_bytes(const vmf_config *c, int l, int R) {
+    return (10.0 * (1 << (2 * l)) + 2) * (VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * R * c->lobes * 4 * VMFT_WORDS);
+}
+
+static void vmf_settle(transfer_config *cfg, long nverts, int passes, long *room, char *why, size_t cap) {
     vmf_config c = vmft_config(cfg);
+    int R = passes < 1 ? 1 : passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : passes;
     if (c.level_set) {
+        if (room) *room = (long)(VMFT_PLAN_BYTES / vmf_plan_vertex_bytes(&c, c.level, R));
         snprintf(why, cap, "view grid level %d, as asked", c.level);
         return;
     }
-    int R = passes < 1 ? 1 : passes > VMFT_MAX_PASSES ? VMFT_MAX_PASSES : passes;
-    double pair = VMFT_PLAN_SLOT_BYTES + VMFT_PLAN_STORED * R * c.lobes * 4 * VMFT_WORDS;
     double est[VMFT_PLAN_MAX_LEVEL + 1] = { 0 };
     int L = VMFT_DEFAULT_LEVEL;
     for (int l = VMFT_DEFAULT_LEVEL; l <= VMFT_PLAN_MAX_LEVEL; l++) {
-        est[l] = (double)nverts * (10.0 * (1 << (2 * l)) + 2) * pair;
+        est[l] = (double)nverts * vmf_plan_vertex_bytes(&c, l, R);
         if (est[l] <= VMFT_PLAN_BYTES) L = l;
     }
+    if (room) *room = (long)(VMFT_PLAN_BYTES / vmf_plan_vertex_bytes(&c, L, R));
     c.level = L, c.level_set = true;
     memcpy(cfg->bytes, &c, sizeof c);
     int n = snprintf(why, cap, "view grid level %d (%d views): %ld glossy vertices, %d pass%s: at most ~%.0f MB", L,
