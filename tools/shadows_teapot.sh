@@ -37,7 +37,7 @@ for s in teapot-floor teapot-shadows; do echo "$s, image against the reference (
 # Per vertex (4,096 samples each): the floor's shadow region as tools/shadows.sh takes it (floor vertices
 # below 60% of the floor's median reference radiance), so the image's error can be told from the vertices'.
 for s in teapot-floor teapot-shadows; do
-  [ -f $W/$s.vref.csv ] || "$PRT" reference $W/$s.prt --probe "$DATA/probes/city.exr" --vertex-spp 4096 --no-image \
+  [ $W/$s.vref.csv -nt $W/$s.prt ] || "$PRT" reference $W/$s.prt --probe "$DATA/probes/city.exr" --vertex-spp 4096 --no-image \
     --vertices $W/$s.vref.csv --quiet 2>> $W/ref.log
   "$PRT" render $W/$s.prt --probe "$DATA/probes/city.exr" --size 64x48 -o $W/x.exr --vertices $W/$s.v.csv 2>/dev/null
   ff=$("$PRT" info $W/$s.prt | awk '/floor:/ { gsub(/\)/, ""); print $NF }')
