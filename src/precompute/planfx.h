@@ -59,9 +59,9 @@
 #define PLANFX_REFINE_MEASURED "refining 1.5x or 3x measured no closer to the path tracer on such a floor"
 /* The glossy (view path) models are refined by default, up to this many times their vertices: a
  * lobe cut by an occluder (the spout before the body, the floor under it) changes within a vertex,
- * and the view grid interpolates it between vertices. teapot-floor, direct light, 400x300 against
- * the path tracer (docs/design/plan.md): 1.7x, 2.3x and 4.2x the teapot's vertices took studio at
- * 135 degrees from 0.233 to 0.170, 0.159 and 0.154; the vMF pass's time and bytes grow with them. */
+ * and the view grid interpolates it between vertices. Against the path tracer the gain flattens
+ * past about 2.5x while the vMF pass's time and bytes grow with the vertices (docs/design/plan.md,
+ * "Refinement of the glossy models", has the measurements). */
 #define PLANFX_GLOSSY_GROWTH 2.5
 /* The sun's angular diameter (0.53 degrees, in radians): the sharpest light a probe holds. */
 #define PLANFX_SUN_RAD 0.00925

@@ -965,9 +965,9 @@ static int pc_choose(pc_run *r, prt_error *err) {
 
 /* A shared budget's weight per vector (transport.h prt_transport.weight): its vertex's area over the
  * mean vertex area, so the budget goes where the error integrated over the surface is least, not
- * the error summed over vertices, which a refined (denser) region would outweigh: teapot-lambert
- * under sunrise at 135 degrees, 0.084 -> 0.066 against the path tracer (docs/design/shadows.md).
- * At least PC_MIN_WEIGHT: a vertex of degenerate triangles still keeps its budget_min. 0 or -1. */
+ * the error summed over vertices, which a refined (denser) region would outweigh (docs/design/
+ * shadows.md, "A shared budget weighs vertices by area", has the measurements). At least
+ * PC_MIN_WEIGHT: a vertex of degenerate triangles still keeps its budget_min. 0 or -1. */
 static int pc_vector_weights(pc_run *r, prt_error *err) {
     const prt_mesh *m = &r->out->scene.mesh;
     double *area = prt_calloc((size_t)m->nverts, sizeof *area, err);
