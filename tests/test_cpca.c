@@ -200,13 +200,14 @@ static int sphere_plane(prt_scene *sc) {
 }
 
 /* The scene precomputed with basis and options, direct only, on nthreads (whole: without the open sky
- * split, opensky.h). 0 or -1. */
+ * split, opensky.h), not refined (the plan's refinement depends on the basis's bytes, and these
+ * compare bases on one mesh). 0 or -1. */
 static int precompute(const char *basis, const char *options, int N, int qbits, int nthreads, bool whole, prt_data *out) {
     prt_error err;
     prt_scene sc;
     if (sphere_plane(&sc)) { CHECK(0, "scene"); return -1; }
     precompute_desc d = { .N = N, .qbits = qbits, .vis_res = 64, .quiet = true, .nthreads = nthreads, .force_bounces = -1,
-                          .basis = basis, .basis_options = options, .no_open_sky = whole };
+                          .force_refine = -1, .basis = basis, .basis_options = options, .no_open_sky = whole };
     int rc = precompute_run(&sc, &d, out, &err);
     CHECK(rc == 0, "%s: %s", basis, err.msg);
     return rc;

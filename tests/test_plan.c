@@ -698,8 +698,9 @@ static void receivers(void) {
 }
 
 /* The plan measures a coarse floor and says it is coarser than a sun's penumbra; by default it
- * leaves it (PLANFX_REFINE_MEASURED), with force_refine 1 it refines it within the budget, with -1
- * it says refinement is forced off. */
+ * leaves the floor (PLANFX_REFINE_MEASURED; the sphere's own refinement is models_refine's), with
+ * force_refine 1 it refines it within the budget, with -1 it says refinement is forced off and
+ * nothing changes. */
 static void receivers_plan(void) {
     prt_error err;
     static const char *const want[3] = {
@@ -711,44 +712,64 @@ static void receivers_plan(void) {
         prt_scene sc;
         prt_data out;
         CHECK(sphere_over_floor(&sc, 8, 144, 3, &err) == 0, "%s", err.msg);
-        int before = sc.mesh.nverts;
+        const int before = sc.mesh.nverts, models = sc.floor_first_vertex, floor = before - models;
         precompute_desc d = base;
         d.force_refine = f;
         CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
         CHECK(strstr(out.plan, want[f + 1]) != NULL, "force_refine %d: plan: %s", f, out.plan);
-        if (f < 1) CHECK(out.scene.mesh.nverts == before, "force_refine %d: %d vertices, %d before", f, out.scene.mesh.nverts, before);
-        else CHECK(out.scene.mesh.nverts > before && out.scene.mesh.nverts <= (int)(REFINE_BUDGET_FACTOR * before),
-                   "refined: %d vertices, %d before", out.scene.mesh.nverts, before);
+        const int floor1 = out.scene.mesh.nverts - out.scene.floor_first_vertex;
+        if (f < 1) CHECK(floor1 == floor, "force_refine %d: %d floor vertices, %d before", f, floor1, floor);
+        else CHECK(floor1 > floor && out.scene.mesh.nverts <= (int)(REFINE_BUDGET_FACTOR * before) + (int)(PLANFX_MODEL_GROWTH * models),
+                   "refined: %d floor vertices, %d before; %d in all", floor1, floor, out.scene.mesh.nverts);
+        if (f == -1) CHECK(out.scene.mesh.nverts == before, "forced off: %d vertices, %d before", out.scene.mesh.nverts, before);
         prt_data_free(&out);
     }
 }
 
-/* The plan refines the view path's models by default (planfx.h PLANFX_GLOSSY_GROWTH): a paper-phong
- * sphere over a floor gains vertices where the floor cuts its lobes, at most 2.5x its own, the floor
- * keeps its vertices and the plan says so; force_refine -1 (--no-refine) leaves it as it is. (The
- * Lambertian sphere of receivers_plan keeps its vertices at the defaults: not on the view path.) */
-static void glossy_refine(void) {
+/* The plan refines the models by default (planfx.h PLANFX_MODEL_GROWTH): a paper-phong sphere (on the
+ * view path) and a Lambertian one over a floor gain vertices where the floor changes their visibility,
+ * at most 2.5x their own, the floor keeps its vertices and the plan says so; force_refine -1
+ * (--no-refine) leaves them as they are; a full float transport leaves only the file's room. */
+static void models_refine(void) {
     prt_error err;
-    for (int f = -1; f <= 0; f++) {
-        prt_scene sc;
-        prt_data out;
-        CHECK(spec_sphere_over_floor(&sc, "paper-phong", 8, 144, 3, &err) == 0, "%s", err.msg);
-        const int models = sc.floor_first_vertex, floor = sc.mesh.nverts - models;
-        precompute_desc d = base;
-        d.force_refine = f;
-        d.force_bounces = -1;
-        d.view_options = "level=1,samples=16";
-        CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
-        const int models1 = out.scene.floor_first_vertex, floor1 = out.scene.mesh.nverts - models1;
-        CHECK(floor1 == floor, "force_refine %d: floor %d -> %d vertices", f, floor, floor1);
-        if (f == -1) CHECK(models1 == models, "forced off: the sphere's %d -> %d vertices", models, models1);
-        else CHECK(models1 > models && models1 <= (int)(PLANFX_GLOSSY_GROWTH * models), "the sphere's %d -> %d vertices (at most %g x)",
-                   models, models1, PLANFX_GLOSSY_GROWTH);
-        char want[96];
-        snprintf(want, sizeof want, "refinement of the glossy models: their %d vertices may grow by", models);
-        CHECK((strstr(out.plan, want) != NULL) == (f == 0), "force_refine %d: plan: %s", f, out.plan);
-        prt_data_free(&out);
-    }
+    static const char *const specs[2] = { "paper-phong", "lambert:kd=0.5" };
+    for (int k = 0; k < 2; k++)
+        for (int f = -1; f <= 0; f++) {
+            prt_scene sc;
+            prt_data out;
+            CHECK(spec_sphere_over_floor(&sc, specs[k], 8, 144, 3, &err) == 0, "%s", err.msg);
+            const int models = sc.floor_first_vertex, floor = sc.mesh.nverts - models;
+            precompute_desc d = base;
+            d.force_refine = f;
+            d.force_bounces = -1;
+            d.view_options = "level=1,samples=16";
+            CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+            const int models1 = out.scene.floor_first_vertex, floor1 = out.scene.mesh.nverts - models1;
+            CHECK(floor1 == floor, "%s, force_refine %d: floor %d -> %d vertices", specs[k], f, floor, floor1);
+            if (f == -1) CHECK(models1 == models, "%s forced off: the sphere's %d -> %d vertices", specs[k], models, models1);
+            else CHECK(models1 > models && models1 <= (int)(PLANFX_MODEL_GROWTH * models), "%s: the sphere's %d -> %d vertices (at most %g x)",
+                       specs[k], models, models1, PLANFX_MODEL_GROWTH);
+            char want[96];
+            snprintf(want, sizeof want, "refinement of the models: their %d vertices may grow by", models);
+            CHECK((strstr(out.plan, want) != NULL) == (f == 0), "%s, force_refine %d: plan: %s", specs[k], f, out.plan);
+            prt_data_free(&out);
+        }
+    /* The file's byte budget binds when every coefficient is kept in float: the linear transfer's
+     * vector takes N (3 x 32 / 8 + 1.5) bytes (linear.h), so 96 MB holds floor(96e6 / that - vertices)
+     * more one-vector (Lambertian) vertices. */
+    prt_scene sc;
+    prt_data out;
+    CHECK(spec_sphere_over_floor(&sc, "lambert:kd=0.5", 8, 144, 3, &err) == 0, "%s", err.msg);
+    const int models = sc.floor_first_vertex, n = sc.mesh.nverts;
+    const long room = (long)(96e6 / (CUBE_TEXELS * (3.0 * 32 / 8 + 1.5)) - n);
+    precompute_desc d = base;
+    d.N = CUBE_TEXELS, d.qbits = 32, d.force_bounces = -1;
+    CHECK(precompute_run(&sc, &d, &out, &err) == 0, "%s", err.msg);
+    char want[160];
+    snprintf(want, sizeof want, "their %d vertices may grow by %ld (the room the file's byte budget leaves)", models, room);
+    CHECK(room > 0 && room < (long)((PLANFX_MODEL_GROWTH - 1) * models) && strstr(out.plan, want) != NULL, "want '%s': %s", want, out.plan);
+    CHECK(out.scene.mesh.nverts <= n + room, "%d vertices, at most %ld", out.scene.mesh.nverts, n + room);
+    prt_data_free(&out);
 }
 
 int main(int argc, char **argv) {
@@ -774,6 +795,6 @@ int main(int argc, char **argv) {
     CHECK_CASE(effects_lines);
     CHECK_CASE(receivers);
     CHECK_CASE(receivers_plan);
-    CHECK_CASE(glossy_refine);
+    CHECK_CASE(models_refine);
     return check_summary();
 }

@@ -259,9 +259,9 @@ static void end_to_end(int pass) {
     {
         prt_scene sc;
         CHECK(make_sphere_plane(&sc, &err) == 0, "%s", err.msg);
-        /* the direct pass with the SVD is what this checks: no bounces, glossy svd */
+        /* the direct pass with the SVD is what this checks: no bounces, glossy svd, the input's vertices */
         precompute_desc d = { .no_open_sky = true, .N = pass == 0 ? CUBE_TEXELS : 128, .qbits = pass == 0 ? 32 : 8, .vis_res = 128,
-                              .quiet = true, .nthreads = 2, .force_bounces = -1, .glossy = PRECOMPUTE_GLOSSY_SVD,
+                              .quiet = true, .nthreads = 2, .force_bounces = -1, .force_refine = -1, .glossy = PRECOMPUTE_GLOSSY_SVD,
                               .basis_options = PAPER_HAAR };
         prt_data out;
         int rc = precompute_run(&sc, &d, &out, &err);

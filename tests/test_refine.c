@@ -297,7 +297,7 @@ static void parts(void) {
     scene_free(&s);
 }
 
-/* REFINE_MODELS with a material mask (precompute's refinement of the glossy models): only the
+/* REFINE_MODELS with a material mask (a mask of some of the models' materials): only the
  * masked material's model gains vertices, the other model and the floor keep theirs; with
  * REFINE_FLOOR as well the floor gains too; a mask without REFINE_MODELS is refused. */
 static void models_by_material(void) {

@@ -188,12 +188,12 @@ static long balance_of(const char *out, const char *name, long *sum, int *ranks)
 
 /* The timing summary's balance under -np 2: every split pass lists both ranks, and their vertices
  * add up to the scene's (282: the 97-vertex sphere and the 185-vertex floor, as the closing line
- * says); rank 0's bar reaches 100% in every pass and never goes back. */
+ * says; not refined); rank 0's bar reaches 100% in every pass and never goes back. */
 static void balance(void) {
     if (!have_mpirun()) return;
     char buf[16384], cmd[8192];
     snprintf(cmd, sizeof cmd, "%s -np 2 %s precompute %s/lambert.json -o %s/bal.prt --vis-res 64 --coeffs 16 --gather-res 4 "
-             "--bounces 2 --force-bounces --threads 1 2>&1", k_mpi, check_prt_bin(), g_dir, g_dir);
+             "--bounces 2 --force-bounces --threads 1 --no-refine 2>&1", k_mpi, check_prt_bin(), g_dir, g_dir);
     int rc = check_run(cmd, buf, sizeof buf);
     CHECK(rc == 0, "mpirun -np 2 failed (%d): %s", rc, buf);
     const char *w = strstr(buf, "\nwrote ");

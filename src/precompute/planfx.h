@@ -57,12 +57,15 @@
  * floor's shadow region was no closer to the path tracer after refinement within 1.5x or 3x the
  * vertices (docs/design/plan.md), while the passes and the file grow with the vertices. */
 #define PLANFX_REFINE_MEASURED "refining 1.5x or 3x measured no closer to the path tracer on such a floor"
-/* The glossy (view path) models are refined by default, up to this many times their vertices: a
- * lobe cut by an occluder (the spout before the body, the floor under it) changes within a vertex,
- * and the view grid interpolates it between vertices. Against the path tracer the gain flattens
- * past about 2.5x while the vMF pass's time and bytes grow with the vertices (docs/design/plan.md,
- * "Refinement of the glossy models", has the measurements). */
-#define PLANFX_GLOSSY_GROWTH 2.5
+/* The models are refined by default where visibility changes across their edges, up to this many
+ * times their vertices: a self-shadow edge (the spout's on the body, the lid's rim) and a glossy lobe
+ * cut by an occluder change within a vertex, and the vertices interpolate them. Against the path
+ * tracer the gain flattens past about 2.5x while the passes' time and the file grow with the vertices
+ * (docs/design/plan.md, "Refinement of the models", has the measurements). */
+#define PLANFX_MODEL_GROWTH 2.5
+/* The file's byte budget refinement keeps within: the bench file's size, as the view grid's
+ * VMFT_PLAN_BYTES (transfer_linear.vector_bytes models the linear transfer's part). */
+#define PLANFX_FILE_BYTES 96e6
 /* The sun's angular diameter (0.53 degrees, in radians): the sharpest light a probe holds. */
 #define PLANFX_SUN_RAD 0.00925
 

@@ -74,6 +74,7 @@
 #include "shard.h"
 #include "transfer.h"
 #include "visibility.h"
+#include <limits.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -751,41 +752,62 @@ static int pc_refine_run(pc_run *r, refine_desc rd, prt_error *err) {
     return 0;
 }
 
-/* The view path's models refined where visibility changes (planfx.h PLANFX_GLOSSY_GROWTH says why
- * and how far): up to that many times their vertices, within the room the view grid's byte budget
- * leaves at the level their unrefined count settles (settle: so refinement never coarsens the view
- * grid, which costs more than the vertices gain). Returns 0 or -1. */
-static int pc_refine_glossy(pc_run *r, prt_error *err) {
-    const prt_scene *s = &r->out->scene;
-    if (!r->vmask || !r->rp.vops->view->settle) return 0;
-    long all = 0, models = 0;
-    for (int v = 0; v < s->mesh.nverts; v++) {
-        bool view = (r->vmask >> (s->mesh.mat ? s->mesh.mat[v] : 0)) & 1;
-        all += view;
-        models += view && !(s->floor_first_vertex >= 0 && v >= s->floor_first_vertex);
+/* The most vertices the models may gain within the plan's bytes (PLANFX_FILE_BYTES): the linear
+ * transfer's (its vector_bytes per vector, each new vertex with the models' mean vector count); and
+ * for the view path's, the room the view grid's byte budget leaves at the level
+ * their unrefined count settles (settle: so refinement never coarsens the view grid, which costs more
+ * than the vertices gain; every new vertex counted as one of theirs). *why gets the binding limit. */
+static long pc_model_room(pc_run *r, long models, const char **why) {
+    const prt_mesh *m = &r->out->scene.mesh;
+    double vecs = 0, model_vecs = 0;
+    long view = 0;
+    for (int v = 0; v < m->nverts; v++) {
+        int mat = m->mat ? m->mat[v] : 0, K = r->out->factors[mat].K;
+        vecs += K;
+        model_vecs += r->out->scene.floor_first_vertex >= 0 && v >= r->out->scene.floor_first_vertex ? 0 : K;
+        view += (r->vmask >> mat) & 1;
     }
+    long room = LONG_MAX;
+    *why = "";
+    if (r->rp.lops->linear->vector_bytes) {
+        const double vb = r->rp.lops->linear->vector_bytes(&r->rp.lcfg), lin = (PLANFX_FILE_BYTES - vecs * vb) / (model_vecs / models * vb);
+        room = lin > 0 ? (long)lin : 0;
+        *why = "the room the file's byte budget leaves";
+    }
+    if (view && r->rp.vops->view->settle) {
+        transfer_config cfg = r->rp.vcfg;
+        long vroom = 0;
+        char line[256];
+        r->rp.vops->view->settle(&cfg, view, pc_view_passes(r), &vroom, line, sizeof line);
+        if (vroom - view < room) room = vroom - view > 0 ? vroom - view : 0, *why = "the room the view grid's byte budget leaves";
+    }
+    return room;
+}
+
+/* The models refined where visibility changes (planfx.h PLANFX_MODEL_GROWTH says why and how far), up
+ * to that many times their vertices within pc_model_room. Returns 0 or -1. */
+static int pc_refine_models(pc_run *r, prt_error *err) {
+    const prt_scene *s = &r->out->scene;
+    long models = s->floor_first_vertex >= 0 ? s->floor_first_vertex : s->mesh.nverts;
     if (models == 0) return 0;
-    transfer_config cfg = r->rp.vcfg;
-    long room = 0;
-    char why[256];
-    r->rp.vops->view->settle(&cfg, all, pc_view_passes(r), &room, why, sizeof why);
-    long grow = (long)(PLANFX_GLOSSY_GROWTH * models) - models, extra = room - all < grow ? room - all : grow;
-    const char *k = "  refinement of the glossy models:";
+    const char *why;
+    long room = pc_model_room(r, models, &why), grow = (long)(PLANFX_MODEL_GROWTH * models) - models;
+    long extra = room < grow ? room : grow;
+    const char *k = "  refinement of the models:";
     if (extra < models / 20) {
-        plan_add(r->plan, r->pcap, "%s off: at the view grid's level for their %ld vertices its byte budget holds %ld, %ld more\n", k,
-                 all, room, room > all ? room - all : 0);
+        plan_add(r->plan, r->pcap, "%s off: %s holds %ld more vertices than their %ld\n", k, why, room, models);
         return 0;
     }
     char cap[48];
-    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_GLOSSY_GROWTH);
-    plan_add(r->plan, r->pcap, "%s their %ld vertices may grow by %ld (%s), where an occluder cuts their lobes\n", k, models, extra,
-             extra < grow ? "the room the view grid's byte budget leaves" : cap);
-    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = s->mesh.nverts + (int)extra, .parts = REFINE_MODELS,
-                                          .materials = r->vmask }, err);
+    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_MODEL_GROWTH);
+    plan_add(r->plan, r->pcap, "%s their %ld vertices may grow by %ld (%s), where visibility changes across their edges\n", k,
+             models, extra, extra < grow ? why : cap);
+    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = s->mesh.nverts + (int)extra, .parts = REFINE_MODELS },
+                         err);
 }
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, else where
- * the plan calls for it (the floor's report, the glossy models), and its plan lines. Returns 0 or -1. */
+ * the plan calls for it (the floor's report, the models), and its plan lines. Returns 0 or -1. */
 static int pc_refine(pc_run *r, prt_error *err) {
     if (r->d.force_refine == -1) {
         plan_add(r->plan, r->pcap, "  refinement: off (forced)\n");
@@ -800,7 +822,7 @@ static int pc_refine(pc_run *r, prt_error *err) {
     if (r->d.refine_threshold > 0 && pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
                                                                      .parts = r->d.refine_parts }, err))
         return -1;
-    return pc_refine_glossy(r, err);
+    return pc_refine_models(r, err);
 }
 
 /* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,
@@ -916,7 +938,7 @@ static int pc_begin(pc_run *r, prt_error *err) {
 }
 
 /* Stage paths: the path of every material with the reason (see precompute.h), before refinement,
- * which refines the view path's models (plan_refine_glossy); a view-path material's factor becomes
+ * whose room for the models depends on them (pc_model_room); a view-path material's factor becomes
  * its diffuse part. Returns 0 or -1. */
 static int pc_paths(pc_run *r, prt_error *err) {
     int nm = r->out->scene.nmaterials;

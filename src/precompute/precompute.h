@@ -62,9 +62,9 @@
  *
  * Refinement (stage refine, after the BRDFs' paths are chosen and before the passes): the scene's
  * mesh is refined where visibility changes (refine.h; Laurijssen et al. 2011 section 6.1) as asked
- * (refine_threshold > 0, the floor's by default), else, unless force_refine is -1, the models on the
- * view path (the glossy ones) up to PLANFX_GLOSSY_GROWTH times their vertices within the room the
- * view grid's byte budget leaves (planfx.h; the floor too with force_refine 1); the refined mesh
+ * (refine_threshold > 0, the floor's by default), else, unless force_refine is -1, the models up
+ * to PLANFX_MODEL_GROWTH times their vertices within the room the file's and the view grid's byte
+ * budgets leave (planfx.h; the floor too with force_refine 1); the refined mesh
  * is what is precomputed, stored and drawn; the plan's first lines say vertices before and after,
  * models and floor, and the time.
  *
@@ -132,7 +132,7 @@ typedef struct precompute_desc {
     int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
     int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */
     int force_refine;       /* -1: no refinement whatever refine_threshold says; otherwise refine_threshold > 0
-                             * asks for it, else the plan refines the glossy models and measures the
+                             * asks for it, else the plan refines the models and measures the
                              * receivers (planfx.h) and, with 1, refines the floor where they need it
                              * (0: it only says so) */
     float refine_threshold; /* > 0: first refine the mesh where visibility changes (refine.h), splitting edges whose

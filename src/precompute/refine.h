@@ -53,8 +53,9 @@
  *
  * Parts: with a floor, only the floor's edges are compared by default (REFINE_FLOOR; only floor
  * vertices are traced), REFINE_ALL takes the models' too (the default without a floor), and
- * REFINE_MODELS the edges of the models whose material is in a mask (a glossy model's highlight
- * is cut at its vertices' resolution: precompute refines those where the plan says so).
+ * REFINE_MODELS the edges of the models (those whose material is in a mask, or all: a self-shadow
+ * edge or a glossy highlight an occluder cuts is held at the vertices' resolution, so precompute
+ * refines the models by default).
  * An edge is compared when both its vertices are of a compared part. On the
  * bunny + 31K floor at the paper's threshold, 94K of the 132K new vertices of an all-parts run
  * went to the bunny, whose scanned surface differs from vertex to vertex; the floor is where
@@ -64,7 +65,7 @@
  * grows with the vertex count: this keeps the bunny + floor's within 120 s), mask_res 32,
  * max_levels 6 (edges at most 64 times shorter than the input's; a contact line where a
  * model touches the floor stays marked at every level, so the budget and this cap end it).
- * precompute refines the glossy models by default (REFINE_MODELS, planfx.h PLANFX_GLOSSY_GROWTH)
+ * precompute refines the models by default (REFINE_MODELS, planfx.h PLANFX_MODEL_GROWTH)
  * and keeps the floor's refinement OFF unless asked for (precompute_desc.refine_threshold,
  * `prt precompute --refine`, a JSON scene's "refine", or force_refine 1 / --refine-auto where its
  * plan finds the floor coarser than a sun's penumbra: planfx.h): on the teapot's floor it brought

@@ -212,6 +212,9 @@ typedef struct transfer_linear {
                     const int *nvec, prt_error *err);
     /* Optional: adds what the passes' results depend on beyond cfg (its prior) to a checkpoint key. */
     void (*key)(const transfer_linear_run *run, transfer_key_fn add, void *key);
+    /* Optional (NULL: not modelled): the file bytes one stored vector is expected to take, for the
+     * plan's byte budget (how far refinement may grow the mesh). */
+    double (*vector_bytes)(const transfer_config *cfg);
     /* Optional: frees what begin and init_set made (after the passes). */
     void (*end)(transfer_linear_run *run);
     /* One channel of a vertex's transport cube (CUBE_TEXELS, cubemap.h order, Eq. 3 texels that

@@ -58,8 +58,9 @@ static float *cube_of(const float *rgb) {
  * the direct pass alone. 0 or -1. */
 static int precompute(prt_scene *sc, const char *basis, const char *options, prt_data *out) {
     prt_error err;
+    /* not refined: the plan's refinement depends on the basis's bytes, and this compares bases on one mesh */
     precompute_desc d = { .no_open_sky = true, .N = CUBE_TEXELS, .qbits = 32, .vis_res = 64, .quiet = true, .nthreads = 2, .force_bounces = -1,
-                          .glossy = PRECOMPUTE_GLOSSY_SVD, .basis = basis, .basis_options = options };
+                          .force_refine = -1, .glossy = PRECOMPUTE_GLOSSY_SVD, .basis = basis, .basis_options = options };
     int rc = precompute_run(sc, &d, out, &err);
     CHECK(rc == 0, "%s: %s", basis, err.msg);
     return rc;

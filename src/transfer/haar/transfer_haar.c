@@ -182,6 +182,7 @@ static const transfer_linear k_linear = {
     .end = haar_end,
     .project_transport = haar_project_transport,
     .compress = linear_compress,
+    .vector_bytes = linear_vector_bytes,
     .project_light = haar_project_light,
     .light_range = transport_light_range,
     .glsl = &linear_glsl,

@@ -43,6 +43,11 @@ int linear_init_set(const transfer_config *cfg, const transfer_linear_run *run, 
     return 0;
 }
 
+double linear_vector_bytes(const transfer_config *cfg) {
+    linear_config lc = linear_config_of(cfg);
+    return lc.N * (3.0 * lc.qbits / 8 + 1.5);
+}
+
 double linear_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch) {
     return transport_store(t, i, r, g, b, scratch);
 }

@@ -83,6 +83,10 @@ size_t linear_bytes(const prt_transfer *tr);
 /* transport_init with cfg's N and qbits and no other policy: every vector its N largest (transport.h). */
 int linear_init_set(const transfer_config *cfg, const transfer_linear_run *run, prt_transport *t, int nverts,
                     const int *nvec, prt_error *err);
+/* transfer_linear.vector_bytes for N coefficients of qbits: three channels of qbits and about 1.5
+ * bytes of index and runs per coefficient (teapot-lambert's 547 bytes per vector of 128 at 8 bits,
+ * the bench's 570). */
+double linear_vector_bytes(const transfer_config *cfg);
 double linear_compress(prt_transport *t, int i, const float *r, const float *g, const float *b, void *scratch);
 extern const transfer_glsl linear_glsl;
 #endif

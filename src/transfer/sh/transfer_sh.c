@@ -77,6 +77,7 @@ static const transfer_linear k_linear = {
     .init_set = linear_init_set,
     .project_transport = sh_project_transport,
     .compress = linear_compress,
+    .vector_bytes = linear_vector_bytes,
     .project_light = sh_project_light,
     .light_range = transport_light_range,
     .glsl = &linear_glsl,
