@@ -337,6 +337,53 @@ static void models_by_material(void) {
     scene_free(&s);
 }
 
+/* A non-manifold edge (real scans have them): three pages around one spine, each two triangles, so
+ * the spine is an edge of three triangles, over a floor; the spine's vertices of their own material,
+ * the only one refined, so the spine is the only edge compared. Splitting it gives each of the three
+ * triangles on it two children (more than the two a manifold edge has: the children's count must
+ * not assume two). */
+static void non_manifold(void) {
+    prt_error err;
+    prt_mesh m = { 0 };
+    m.nverts = 8, m.ntris = 6;
+    m.pos = calloc(3 * 8, sizeof(float));
+    m.tris = calloc(3 * 6, sizeof(uint32_t));
+    if (!m.pos || !m.tris) { free(m.pos); free(m.tris); CHECK(0, "out of memory"); return; }
+    const float spine[2][3] = { { 0, 0.05f, 0 }, { 0, 1, 0 } };
+    memcpy(m.pos, spine, sizeof spine);
+    for (int p = 0; p < 3; p++) {
+        const float a = 2.0943951f * (float)p, x = 0.5f * cosf(a), z = 0.5f * sinf(a);
+        const float outer[2][3] = { { x, 0.05f, z }, { x, 1, z } };
+        memcpy(m.pos + 3 * (2 + 2 * p), outer, sizeof outer);
+        const uint32_t b = 0, t = 1, ob = 2 + 2 * (uint32_t)p, ot = ob + 1;
+        const uint32_t tri[6] = { b, ob, ot, b, ot, t };
+        memcpy(m.tris + 6 * p, tri, sizeof tri);
+    }
+    mesh_compute_normals(&m);
+    prt_scene s;
+    if (scene_from_mesh(&m, "lambert:kd=0.5", &s, &err) || scene_material(&s, "lambert:kd=0.4", &err) != 1 ||
+        scene_add_floor(&s, 400, 2, NULL, &err)) {
+        CHECK(0, "%s", err.msg);
+        return;
+    }
+    s.mesh.mat[0] = s.mesh.mat[1] = 1;   /* the spine's two vertices: its edge is the only one compared */
+    const int models0 = s.floor_first_vertex;
+    refine_stats st;
+    int rc = refine_scene(&s, &(refine_desc){ .threshold = 1e-4f, .max_levels = 1, .parts = REFINE_MODELS, .materials = 2 }, &st, &err);
+    CHECK(rc == 0, "%s", err.msg);
+    int mid = -1;
+    for (int v = models0; v < s.floor_first_vertex && rc == 0; v++) {
+        const float *q = s.mesh.pos + 3 * (size_t)v;
+        if (fabsf(q[0]) < 1e-6f && fabsf(q[2]) < 1e-6f && fabsf(q[1] - 0.525f) < 1e-6f) mid = v;
+    }
+    CHECK(mid >= 0, "the spine was split (%d -> %d model vertices)", models0, s.floor_first_vertex);
+    int on_mid = 0;
+    for (int t = 0; t < s.mesh.ntris && mid >= 0; t++)
+        for (int k = 0; k < 3; k++) on_mid += s.mesh.tris[3 * t + k] == (uint32_t)mid;
+    CHECK(mid < 0 || on_mid >= 6, "the spine's midpoint is in %d triangles (two children of each of three)", on_mid);
+    scene_free(&s);
+}
+
 /* Byte for byte: exact by construction for runs of the same code on the same machine (refine's
  * choices do not depend on the thread count), which is all it compares. */
 static bool same_mesh(const prt_mesh *a, const prt_mesh *b) {
@@ -472,6 +519,7 @@ int main(int argc, char **argv) {
     CHECK_CASE(floor_order);
     CHECK_CASE(parts);
     CHECK_CASE(models_by_material);
+    CHECK_CASE(non_manifold);
     CHECK_CASE(deterministic);
     CHECK_CASE(budget);
     CHECK_CASE(precompute);

@@ -35,7 +35,8 @@ f=$W/$tag.prt
 /usr/bin/env time -f "%e s wall, %U s user" "$PRT" precompute "$OBJ" --material lambert:kd=0.8 --floor $FLOOR --no-bounces \
   --quiet -o "$f" "$@" 2> $W/$tag.log || { cat $W/$tag.log >&2; exit 1; }
 "$PRT" info "$f" > $W/$tag.info
-r=$W/ref-$P
+# the reference per vertex is of this mesh (refinement changes it): keyed by its vertex count
+r=$W/ref-$P-v$(awk '/^geometry/ { print $2; exit }' $W/$tag.info)
 if [ ! -f $r.csv ]; then
   "$PRT" reference "$f" --probe "$DATA/probes/$P.exr" --spp 256 --vertex-spp 4096 --size 400x300 --no-background \
     --vertices $r.csv -o $r.exr --quiet 2> $r.log

@@ -279,9 +279,11 @@ static int rf_split_tri(const rf_ctx *c, int t, uint32_t *out) {
 }
 
 /* Replaces the triangles by their children. Returns 0 or -1 (OOM). */
-static int rf_retriangulate(rf_ctx *c, int nsplit, prt_error *err) {
-    /* each split edge adds one child to each of its (at most two) triangles */
-    size_t cap = (size_t)c->m.ntris + 2 * (size_t)nsplit;
+static int rf_retriangulate(rf_ctx *c, prt_error *err) {
+    /* each split side adds one child to its triangle (an edge of a non-manifold mesh, as real scans
+     * have, may have more than two triangles) */
+    size_t cap = (size_t)c->m.ntris;
+    for (size_t k = 0; k < 3 * (size_t)c->m.ntris; k++) cap += c->mid[c->tedge[k]] >= 0;
     uint32_t *tris = prt_calloc(3 * cap, sizeof(uint32_t), err);
     if (!tris) return -1;
     size_t nt = 0;
@@ -316,7 +318,7 @@ static int rf_iterate(rf_ctx *c, const refine_desc *d, int level, refine_stats *
     if ((int64_t)c->m.nverts + nsplit > INT32_MAX / 4) return prt_fail(err, "refine: too many vertices");
     if (rf_grow(c, c->m.nverts + nsplit, err)) return -1;
     rf_add_midpoints(c);
-    if (rf_retriangulate(c, nsplit, err)) return -1;
+    if (rf_retriangulate(c, err)) return -1;
     return nsplit;
 }
 
