@@ -813,16 +813,13 @@ static int pc_refine(pc_run *r, prt_error *err) {
         plan_add(r->plan, r->pcap, "  refinement: off (forced)\n");
         return 0;
     }
-    if (r->d.refine_threshold > 0) {
-        plan_add(r->plan, r->pcap, "  refinement: asked for (the scene's \"refine\" or a refine option)\n");
-        return pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
-                                              .parts = r->d.refine_parts }, err);
-    }
-    plan_refine(r);
+    const bool asked = r->d.refine_threshold > 0;
+    if (asked) plan_add(r->plan, r->pcap, "  refinement: asked for (the scene's \"refine\" or a refine option)\n");
+    else plan_refine(r);   /* the floor's report; with force_refine 1 it asks for the floor */
     if (r->d.refine_threshold > 0 && pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
                                                                      .parts = r->d.refine_parts }, err))
         return -1;
-    return pc_refine_models(r, err);
+    return asked ? 0 : pc_refine_models(r, err);
 }
 
 /* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,

@@ -337,9 +337,8 @@ static int rf_check(const refine_desc *in, const prt_mesh *m, bool has_floor, re
     if (d->mask_res < 8 || d->mask_res > 64 || d->mask_res % 4)
         return prt_fail(err, "refine: mask_res %d (must be a multiple of 4 in 8..64)", d->mask_res);
     if (d->parts == 0) d->parts = has_floor ? REFINE_FLOOR : REFINE_ALL;
-    if (d->parts != REFINE_ALL && (d->parts & ~(REFINE_FLOOR | REFINE_MODELS)))
-        return prt_fail(err, "refine: parts %d (must be %d, everything, or %d the floor and/or %d the models)", d->parts, REFINE_ALL,
-                        REFINE_FLOOR, REFINE_MODELS);
+    if (d->parts & ~REFINE_ALL)
+        return prt_fail(err, "refine: parts %d (must be %d the floor and/or %d the models)", d->parts, REFINE_FLOOR, REFINE_MODELS);
     if (d->parts == REFINE_FLOOR && !has_floor) return prt_fail(err, "refine: the floor only, but the scene has no floor");
     if (d->materials && !(d->parts & REFINE_MODELS))
         return prt_fail(err, "refine: a material mask (0x%llx) without REFINE_MODELS", (unsigned long long)d->materials);
@@ -353,7 +352,6 @@ static int rf_check(const refine_desc *in, const prt_mesh *m, bool has_floor, re
 
 /* Whether a vertex of the floor (or of a model of material mat) has its edges compared under d->parts. */
 static bool rf_compared(const refine_desc *d, bool floor, int mat) {
-    if (d->parts == REFINE_ALL) return true;
     if (floor) return (d->parts & REFINE_FLOOR) != 0;
     return (d->parts & REFINE_MODELS) && (d->materials == 0 || ((d->materials >> mat) & 1));
 }
@@ -471,13 +469,10 @@ done:
     return rc;
 }
 
-static const char *rf_parts_name(int parts) {
-    switch (parts) {
-    case REFINE_FLOOR: return "floor";
-    case REFINE_MODELS: return "models'";
-    case REFINE_FLOOR | REFINE_MODELS: return "floor and models'";
-    default: return "all";
-    }
+static const char *rf_parts_name(const refine_stats *st) {
+    if (st->parts == REFINE_FLOOR) return "floor";
+    if (st->materials) return st->parts == REFINE_MODELS ? "some models'" : "the floor's and some models'";
+    return st->parts == REFINE_MODELS ? "models'" : "all";
 }
 
 /* The plan's refinement line. */
@@ -492,6 +487,6 @@ void refine_describe(const refine_stats *st, char *buf, size_t cap) {
              "refinement: %d -> %d vertices (%s), %d -> %d triangles, %d level%s; %s edges whose %dx%dx6 visibility masks "
              "differ in > %.2f%% of directions split, budget %d%s; %.1fM mask rays in %.1fs",
              st->verts_before, st->verts_after, where, st->tris_before, st->tris_after, st->levels,
-             st->levels == 1 ? "" : "s", rf_parts_name(st->parts), st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
+             st->levels == 1 ? "" : "s", rf_parts_name(st), st->mask_res, st->mask_res, 100 * st->threshold, st->budget,
              st->budget_hit ? " (reached)" : "", st->rays / 1e6, st->seconds);
 }

@@ -90,8 +90,8 @@
 #define REFINE_BUDGET_FACTOR 1.5  /* default budget: this many times the input's vertices */
 #define REFINE_MIN_COS 0.15f      /* directions compared: n.w above this for both vertices */
 
-/* refine_desc.parts: REFINE_FLOOR and REFINE_MODELS combine; REFINE_ALL is every edge. */
-enum { REFINE_FLOOR = 1, REFINE_ALL = 2, REFINE_MODELS = 4 };
+/* refine_desc.parts, bits: the floor's edges, the models'; REFINE_ALL both. */
+enum { REFINE_FLOOR = 1, REFINE_MODELS = 2, REFINE_ALL = REFINE_FLOOR | REFINE_MODELS };
 
 typedef struct refine_desc {
     float threshold;    /* mark an edge whose masks differ in more than this share; 0: REFINE_THRESHOLD */
@@ -99,7 +99,7 @@ typedef struct refine_desc {
     int mask_res;       /* mask cube resolution, a multiple of 4 in 8..64; 0: 32 */
     int max_levels;     /* most iterations, 1..16; 0: 6 */
     int parts;          /* REFINE_FLOOR: the floor's edges; REFINE_MODELS: the models' (those of
-                         * `materials`); both or'ed; REFINE_ALL: every edge;
+                         * `materials`); REFINE_ALL: both;
                          * 0: REFINE_FLOOR when the scene has a floor, else REFINE_ALL */
     uint64_t materials; /* with REFINE_MODELS: bit i compares the edges of material i's models; 0: all */
     int nthreads;       /* 0: all cores */
