@@ -307,7 +307,7 @@ static void basis_choice(void) {
         CHECK(out.transfers[0].materials == 1 && lc.N == 64 && lc.qbits == 8, "mask and config");
         const char *want = q ? "basis: spherical harmonics of order 4 (16 coefficients; N=64); the material: asked for\n"
                              : "basis: Haar wavelets, N=64 of 24576 coefficients per vector, 8-bit, per steradian; the material: "
-                               "the default (all-frequency)\n";
+                               "the default (all-frequency; the closest to the path tracer per byte)\n";
         CHECK(strstr(out.plan, want) != NULL, "plan: %s", out.plan);
         prt_data_free(&out);
     }

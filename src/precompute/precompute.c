@@ -958,8 +958,9 @@ static int pc_paths(pc_run *r, prt_error *err) {
 }
 
 /* Stage choose: the scene line (after refinement) and the lines pc_factor and pc_paths kept, then the
- * linear transfer (desc.basis, else the table's default, Haar wavelets: the paper's all-frequency basis)
- * over every material with its begin, and, when some material took the view path, the view-dependent
+ * linear transfer (desc.basis, else the table's default, Haar wavelets: the paper's all-frequency basis,
+ * and at the same bytes the closest to the path tracer of the three, docs/design/cpca.md) over every
+ * material with its begin, and, when some material took the view path, the view-dependent
  * transfer over those. Returns 0 or -1. */
 static int pc_choose(pc_run *r, prt_error *err) {
     int nm = r->out->scene.nmaterials;
@@ -976,7 +977,7 @@ static int pc_choose(pc_run *r, prt_error *err) {
     char line[256];
     r->rp.lops->describe(&r->tr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  basis: %s; %s: %s\n", line, nm == 1 ? "the material" : "every material",
-             r->d.basis ? "asked for" : "the default (all-frequency)");
+             r->d.basis ? "asked for" : "the default (all-frequency; the closest to the path tracer per byte)");
     if (pc_begin(r, err)) return -1;
     if (r->vmask) pc_add_view(r, r->vmask);
     return 0;
