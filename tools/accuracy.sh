@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # make accuracy: how far PRT's relighting is from the path tracer, the same way every time, over
 # scenes x probes x light yaws x effect settings. Not a test: it measures, prints the matrix and
-# writes it with contact sheets per scene, setting and yaw; a failed step stops it with its log rather
+# writes it with contact sheets per scene, setting and yaw (and, when measured, hard-cases.png: the
+# README's low sun and studio key light on the Lambertian teapot); a failed step stops it with its log rather
 # than writing a made-up number.
 #
 #   tools/accuracy.sh [build/prt]     the whole matrix (needs ../shared/data; hours on 2 cores:
@@ -199,6 +200,22 @@ for s in $SCENES; do
   done
 done
 
+# The README's picture of a light not known at precompute time: the Lambertian teapot's long shadow
+# under a low sun and its handle's under the studio key light (yaw 135, direct), when measured.
+hard_cases() {
+  local list=$W/hard-cases.sheet.txt out=$OUT/hard-cases.png p b
+  : > $list
+  for p in studio sunrise; do
+    b=$W/teapot-lambert-direct-$p-135
+    [ -f $b.exr ] && [ -f $b.err.png ] || return 0
+    grep "^$p:" $W/teapot-lambert-direct-135.sheet.txt >> $list || return 0
+  done
+  $IMG sheet $out 240 "teapot lambert:kd=0.8 over its floor, direct, yaw 135, no light prior ($SIZE, ref. $SPP spp)" $list ||
+    die "contact sheet $out failed"
+  echo "wrote $out"
+}
+hard_cases
+
 # --- the matrix: printed and written as Markdown --------------------------------------------------
 T1=$(date +%s.%N)
 wall=$(awk -v a="$T0" -v b="$T1" -v w="$WALL0" 'BEGIN { printf "%.0f", w + b - a }')
@@ -253,6 +270,7 @@ md=$OUT/matrix.md
   for s in $SCENES; do for e in $EFFECTS; do
     echo "* $s, $e:$(for y in $YAWS; do printf " [yaw %s](%s-%s-yaw%s.png)" "$y" "$s" "$e" "$y"; done)"
   done; done
+  [ -f $OUT/hard-cases.png ] && echo "* the README's hard cases (teapot-lambert, studio and sunrise at yaw 135): [hard-cases.png](hard-cases.png)"
   echo
   echo "Every number per image, with the reference's own estimate of its noise from its per-pixel standard errors"
   echo "(ref_noise_stderr) and its seconds: [matrix.csv](matrix.csv)."
