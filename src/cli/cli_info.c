@@ -74,9 +74,11 @@ int cli_info(int argc, char **argv) {
                transport_bytes(t) / 1e6);
         printf("              truncation+quantization error %.3f%% (RMS relative L2)\n", 100 * ps->trunc_rel_err);
         if (tr->open_sky) {
-            int split = 0;
-            for (int v = 0; v < s->mesh.nverts; v++) split += tr->open_vert[v];
+            int split = 0, folded = 0;
+            for (int v = 0; v < s->mesh.nverts; v++) split += tr->open_vert[v] != 0, folded += tr->open_vert[v] == OPENSKY_FOLDED;
             printf("open sky      added exactly at runtime; %d vertices store what occluders block, the rest whole\n", split);
+            if (folded)
+                printf("              %d of them the floor's, folded: without the cosine, which the light takes\n", folded);
         } else
             printf("open sky      not split (--no-open-sky): every vector whole\n");
     }

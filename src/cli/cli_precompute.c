@@ -105,6 +105,8 @@ static void help(void) {
          "                         the viewer's direct/bounces toggle; about doubles the file)\n"
          "  --no-open-sky          store Lambertian transport whole (default: the open sky is added exactly at\n"
          "                         runtime and the coefficients hold only what occluders block)\n"
+         "  --no-fold              keep the floor's cosine in its coefficients (default, without interreflections:\n"
+         "                         the light takes it, so a low sun's shadow keeps its shape)\n"
          "local lights (a JSON scene's \"lights\"; the plan measures what their indirect light carries):\n"
          "  --local-bounce, --no-local-bounce   plan the local lights' one bounce (two VSGLs) or not\n"
          "                         (default: where it carries >= 2% of their direct light, measured)\n"
@@ -402,6 +404,7 @@ int cli_precompute(int argc, char **argv) {
         CLI_SETV("--no-bounces", &pd.force_bounces, -1),
         CLI_B("--keep-direct", &pd.keep_direct),
         CLI_B("--no-open-sky", &pd.no_open_sky),
+        CLI_B("--no-fold", &pd.no_fold),
         CLI_SETV("--local-bounce", &pd.force_local_bounce, 1),
         CLI_SETV("--no-local-bounce", &pd.force_local_bounce, -1),
         CLI_SETV("--highlights", &pd.force_highlights, 1),

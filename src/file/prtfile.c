@@ -274,6 +274,10 @@ static bool transfers_ok(const prt_data *d, char *why) {
             if (tr->open_vert[v] && !(((tr->materials >> m) & 1) && d->factors[m].lambertian))
                 return BAD(why, "%s transfer: vertex %d's open sky split, but its material %d is not a Lambertian one it shades",
                            tr->ops->name, v, m);
+            const float *n = d->scene.mesh.nrm + 3 * (size_t)v;
+            if (tr->open_vert[v] == OPENSKY_FOLDED && (tr->ops->linear->light || n[0] != 0 || n[1] != 1 || n[2] != 0))
+                return BAD(why, "%s transfer: vertex %d's open sky split is folded, but %s", tr->ops->name, v,
+                           tr->ops->linear->light ? "the representation lights its own model" : "its normal is not (0, 1, 0)");
         }
     }
     return true;

@@ -636,6 +636,9 @@ int gather_pass(const prt_data *d, const vis_scene *vs, const prt_transport *pre
         memset(next, 0, sizeof *next);
         return prt_fail(err, "gather: the open-sky set is not %d float vectors", OPENSKY_NORMALS);
     }
+    /* a folded vector is not in the light's space (transfer.h OPENSKY_FOLDED): precompute folds only
+     * files without interreflections */
+    for (int v = 0; c.open && v < prev->nverts; v++) PRT_CHECK(desc->open_vert[v] != OPENSKY_FOLDED);
     int nth = prt_thread_count(desc ? desc->nthreads : 0);
     if (ctx_tables(&c, err) || threads_alloc(&c, nth, err)) {
         ctx_free(&c, nth);

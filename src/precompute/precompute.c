@@ -44,7 +44,10 @@
  * at the 48x48 map resolution). A Lambertian factor is constant, so its value
  * is looked up once per material; with the open sky split (opensky.h, the default)
  * such a vertex stores g (a_j - a0_j), what occluders block, where that is the
- * smaller part (pc_split), and the runtime adds the open sky g a0 back. Each of the K x 3 cubes is projected by the
+ * smaller part (pc_split), and the runtime adds the open sky g a0 back. A floor vertex of a file without
+ * interreflections stores that blocked part folded, g (a_j - a0_j) / c_j with c_j = a0_j / Omega_j its
+ * texel's mean cosine (open flag 2, opensky.h "The floor's fold"): the silhouette without the cosine's
+ * fall to the horizon, which the runtime's light L_j c_j carries exactly. Each of the K x 3 cubes is projected by the
  * linear representation (transfer.h: its project_transport) and handed to its
  * compress op, which keeps its N best coefficients and quantizes them. The ops
  * are called once per vector channel, never per texel. Nothing here names a
@@ -126,6 +129,7 @@ typedef struct pc_scratch {
     float *w0;          /* [vres^2] max(n.w,0) dw of one face (the open sky split only) */
     float *acc;         /* [CUBE_TEXELS] box-filtered a_j */
     float *acc0;        /* [CUBE_TEXELS] the same with V = 1, a0_j (the open sky split only) */
+    bool fold;          /* this vertex is the floor's and the transfer folds it (pc_ctx.fold_first) */
     float *T;           /* [Kmax * 3][PC_TSTRIDE] planar transport cubes */
     float *wav;         /* [3 * CUBE_TEXELS] one vector's coefficients (planar R, G, B) */
     float *wav0;        /* [CUBE_TEXELS] the open sky's coefficients P(a0) (its energy only) */
@@ -149,6 +153,7 @@ typedef struct pc_ctx {
     uint64_t materials;             /* materials it shades (the others get no vectors) */
     int vres, ss;
     bool open;              /* the open sky split (opensky.h): Lambertian vectors store what is blocked */
+    int fold_first;         /* the floor's first vertex when its blocked parts are folded (pc_fold_first), else -1 */
     float lwinv[CUBE_RES * CUBE_RES];   /* 1 / the lighting texels' solid angles (pc_split) */
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
@@ -304,10 +309,15 @@ static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3],
     *open = 0;
     if (fac->lambertian) {
         const float *g = c->lambert_g[mat];
-        *open = c->open && pc_split(c, s);
+        *open = c->open && pc_split(c, s) ? 1 + s->fold : 0;
         for (int ch = 0; ch < 3; ch++) {
             float *T = s->T + (size_t)ch * PC_TSTRIDE;
-            if (*open)   /* what the occluders block, negated: the runtime adds g E(n) (opensky.h) */
+            if (*open && s->fold)   /* folded: over the texel's mean cosine, which the runtime's light takes */
+                for (size_t j = 0; j < ct; j++) {
+                    float cj = s->acc0[j] * c->lwinv[j % (CUBE_RES * CUBE_RES)];
+                    T[j] = cj > 0 ? g[ch] * (s->acc[j] - s->acc0[j]) / cj : 0.f;
+                }
+            else if (*open)   /* what the occluders block, negated: the runtime adds g E(n) (opensky.h) */
                 for (size_t j = 0; j < ct; j++) T[j] = g[ch] * (s->acc[j] - s->acc0[j]);
             else
                 for (size_t j = 0; j < ct; j++) T[j] = g[ch] * s->acc[j];
@@ -354,10 +364,11 @@ static double pc_dot(const float *x, const float *y, size_t n) {
 }
 
 /* |vector|^2 of vertex v's whole transport (K = 1) whose stored part is s->wav: with the open sky split,
- * |P(R) + g P(a0)|^2 per channel, P(a0) projected into s->wav0 once. */
-static double pc_whole_norm2(const pc_ctx *c, pc_scratch *s, int mat, bool open) {
+ * |P(R) + g P(a0)|^2 per channel, P(a0) projected into s->wav0 once; a folded vector's own (its space is
+ * not the light's, and a file that folds has no interreflections to compare with). */
+static double pc_whole_norm2(const pc_ctx *c, pc_scratch *s, int mat, int open) {
     const size_t ct = CUBE_TEXELS;
-    if (!open) return pc_dot(s->wav, s->wav, 3 * ct);
+    if (open != 1) return pc_dot(s->wav, s->wav, 3 * ct);
     c->lin->project_transport(c->cfg, s->acc0, s->wav0, s->tmp);
     double b2 = pc_dot(s->wav0, s->wav0, ct), n2 = 0;
     for (int ch = 0; ch < 3; ch++) {
@@ -409,6 +420,7 @@ static void pc_vertex(pc_ctx *c, pc_scratch *s, int v) {
     vs->hits = hi;
     pc_box_filter(c, s, n);
     if (c->rays) pc_weighted_texels(c, s, p, n, vs);
+    s->fold = c->fold_first >= 0 && v >= c->fold_first && n[0] == 0 && n[1] == 1 && n[2] == 0;
     pc_transport_cubes(c, s, n, mat, &vs->open);
     pc_store(c, s, v, mat, vs);
     ckpt_add(c->ck, 0, c->t, v, vs);
@@ -682,6 +694,7 @@ typedef struct pc_run {
     double *cost;               /* [nverts] per-vertex seconds: the direct pass's, then each gathering pass's */
     pc_scratch scratch[PC_MAX_THREADS];
     prt_transport direct, total, last;
+    int fold_first;             /* pc_ctx.fold_first (pc_fold_first) */
     pc_ctx c;
     ckpt_vstats *vst;           /* pc_ctx's per-vertex statistics */
     uint8_t *restored;
@@ -1029,6 +1042,31 @@ static int pc_stream(pc_run *r, prt_error *err) {
 
 /* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
  * scratch and the direct pass's shared context. Returns 0 or -1. */
+/* Whether the floor's blocked parts are folded (pc_transport_cubes; opensky.h "The floor's fold"), with
+ * the plan's line: the floor's first vertex, or -1. Only in a file without interreflections (a gathering
+ * pass reads a neighbour's vector in the light's space, and a bounce has no fold: light from near the
+ * floor's horizon reaches it by way of the models), without a light prior (its selection and refit weigh
+ * the light, not the folded light) and where the runtime lights the sparse sets themselves. */
+static int pc_fold_first(pc_run *r) {
+    const char *why = NULL;
+    if (!r->tr->open_sky || r->out->scene.floor_first_vertex < 0) return -1;
+    if (r->d.no_fold) {
+        plan_add(r->plan, r->pcap, "  the floor's shadows: its blocked parts keep the cosine (--no-fold)\n");
+        return -1;
+    }
+    if (r->rp.lops->linear->light) why = "the representation lights its own model";
+    else if (r->rp.lsetup.light_prior && r->rp.lsetup.light_prior[0]) why = "the light prior weighs the light itself";
+    else if (!(r->d.force_bounces == -1 || (r->d.bounces == 0 && r->d.force_bounces != 1)))
+        why = "interreflections read the floor's vectors in the light's space";
+    if (why) {
+        plan_add(r->plan, r->pcap, "  the floor's shadows: its blocked parts keep the cosine (%s)\n", why);
+        return -1;
+    }
+    plan_add(r->plan, r->pcap, "  the floor's shadows: its blocked parts stored without the cosine's fall to the horizon, which the "
+                               "light takes (a low sun's shadow)\n");
+    return r->out->scene.floor_first_vertex;
+}
+
 static int pc_setup(pc_run *r, prt_error *err) {
     const prt_mesh *m = &r->out->scene.mesh;
     const int R = r->d.vis_res;
@@ -1073,6 +1111,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->vres = R;
     c->ss = R / CUBE_RES;
     c->open = r->tr->open_sky;
+    c->fold_first = r->fold_first = pc_fold_first(r);
     cube_face_solid_angles(CUBE_RES, c->lwinv);
     for (int i = 0; i < CUBE_RES * CUBE_RES; i++) c->lwinv[i] = 1.f / c->lwinv[i];
     c->vdir = r->vdir;
@@ -1126,7 +1165,7 @@ static uint64_t pc_key(const pc_run *r) {
         ckpt_key_add(&k, &t->materials, sizeof t->materials);
     }
     if (r->rp.lops->linear->key) r->rp.lops->linear->key(&r->lrun, pc_key_add, &k);
-    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->no_open_sky };
+    int iv[] = { d->vis_res, d->bounces, d->gather_res, d->force_bounces, d->keep_direct, (int)d->glossy, d->no_open_sky, d->no_fold };
     ckpt_key_add(&k, iv, sizeof iv);
     ckpt_key_add(&k, &d->bounce_threshold, sizeof d->bounce_threshold);
     return ckpt_key_value(&k);
@@ -1446,7 +1485,7 @@ static int pc_direct(pc_run *r, prt_error *err) {
     if (pc_share_direct(r, err)) return -1;
     if (r->tr->open_sky) {
         if (!(r->tr->open_vert = prt_calloc((size_t)m->nverts, 1, err))) return -1;
-        for (int v = 0; v < m->nverts; v++) r->tr->open_vert[v] = r->vst[v].open != 0;
+        for (int v = 0; v < m->nverts; v++) r->tr->open_vert[v] = (uint8_t)r->vst[v].open;
     }
     double tv = 0, tb = 0, es = 0;
     long ec = 0;

@@ -128,6 +128,8 @@ typedef struct precompute_desc {
     bool keep_direct;       /* also keep the direct-only transport in the file (viewer toggle; doubles the size) */
     bool no_open_sky;       /* store Lambertian vectors whole, without the open sky split (opensky.h; the default
                              * splits: the vectors hold what occluders block, the runtime adds the open sky) */
+    bool no_fold;           /* keep the cosine in the floor's blocked parts (the default folds it into the light in
+                             * a file without interreflections: opensky.h "The floor's fold") */
     int force_bounces;      /* 1: always do `bounces` passes; -1: never; 0: as the plan decides */
     int force_local_bounce; /* the local lights' one bounce in the plan: 1 on, -1 off, 0 as measured (planfx.h) */
     int force_highlights;   /* their indirect highlights: 1 on, -1 off, 0 as measured */

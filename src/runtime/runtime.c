@@ -46,6 +46,8 @@ struct prt_runtime {
     float sky_Rt[9];            /* the light's rotation transposed: E_R(n) = E(R^T n) for the unrotated grid */
     float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector, 0 for the others */
     float lambert_g[PRT_MAX_MATERIALS][3];  /* constant light map of each Lambertian factor */
+    float *fold_c;              /* [CUBE_TEXELS] the floor's texel mean cosines when a transfer folds (rt_fold_create), or NULL */
+    float *fold_g[PRT_MAX_TRANSFERS];   /* [3 * nvecs] per folding transfer: scratch of the folded vectors' products */
 };
 
 /* The open sky of transfer i's Lambertian vectors for the grid's light (opensky.h), per vertex range. */
@@ -125,6 +127,72 @@ static int rt_open_create(prt_runtime *rt, prt_error *err) {
     }
     for (int k = 0; k < d->scene.nmaterials && k < PRT_MAX_MATERIALS; k++)
         if (d->factors[k].lambertian) brdf_factor_lambert_light(&d->factors[k], rt->lambert_g[k]);
+    return 0;
+}
+
+/* The floor's fold (opensky.h, prt_transfer.open_vert): where some transfer's vertices are folded, the
+ * mean cosine c_j = a0_j(0, 1, 0) / Omega_j of every lighting texel for the floor's normal, from the open
+ * sky's tables (the visibility sub-texels the precompute summed, so both sides divide and multiply by
+ * the same c_j to float rounding), and each such transfer's scratch. -1 with err. */
+static int rt_fold_create(prt_runtime *rt, prt_error *err) {
+    const prt_data *d = rt->d;
+    for (int i = 0; i < d->ntransfers; i++) {
+        const prt_transfer *tr = &d->transfers[i];
+        bool any = false;
+        for (int v = 0; tr->open_sky && v < d->scene.mesh.nverts && !any; v++) any = tr->open_vert[v] == OPENSKY_FOLDED;
+        if (any && !(rt->fold_g[i] = prt_calloc(3 * (size_t)tr->transport.nvecs, sizeof(float), err))) return -1;
+        if (!any || rt->fold_c) continue;
+        float *a0 = prt_calloc(2 * CUBE_TEXELS, sizeof(float), err), om[CUBE_RES * CUBE_RES], w[4];
+        if (!a0 || !(rt->fold_c = prt_calloc(CUBE_TEXELS, sizeof(float), err))) { free(a0); return -1; }
+        int q[4];
+        opensky_weights((const float[3]){ 0, 1, 0 }, q, w);
+        for (int k = 0; k < 4; k++) {
+            if (!(w[k] != 0)) continue;
+            opensky_grid_texels(rt->sky, q[k], a0 + CUBE_TEXELS);
+            for (int j = 0; j < CUBE_TEXELS; j++) a0[j] += w[k] * a0[CUBE_TEXELS + j];
+        }
+        cube_face_solid_angles(CUBE_RES, om);
+        for (int j = 0; j < CUBE_TEXELS; j++) rt->fold_c[j] = a0[j] / om[j % (CUBE_RES * CUBE_RES)];
+        free(a0);
+    }
+    return 0;
+}
+
+/* The folded vectors of transfer i over a vertex range: open += T . (L' - L) (rt_fold_light). */
+typedef struct rt_fold_job { const prt_transfer *tr; const float (*D)[4]; float *g, *open; } rt_fold_job;
+static void rt_fold_range(void *ctx, int begin, int end, int thread) {
+    (void)thread;
+    const rt_fold_job *j = ctx;
+    const prt_transport *t = &j->tr->transport;
+    for (int v = begin; v < end; v++) {
+        if (j->tr->open_vert[v] != OPENSKY_FOLDED) continue;
+        int q0 = (int)t->vec_first[v], q1 = (int)t->vec_first[v + 1];
+        transport_light_range(t, j->D, j->g, q0, q1);
+        for (size_t k = 3 * (size_t)q0; k < 3 * (size_t)q1; k++) j->open[k] += j->g[k];
+    }
+}
+
+/* A folded vector F holds the blocked part over c_j and reads the light L'_j = L_j c_j (the cube times
+ * the floor's mean cosines, projected like any light): the backends' kernels take T . L for every
+ * vector, so the open sky term of a folded one gets T . (L' - L) besides g E(n). -1 with err. */
+static int rt_fold_light(prt_runtime *rt, const float *cube, runtime_light *light, prt_error *err) {
+    if (!rt->fold_c) return 0;
+    float *c2 = malloc(sizeof(float) * 3 * CUBE_TEXELS);
+    if (!c2) return prt_fail(err, "out of memory");
+    for (int j = 0; j < CUBE_TEXELS; j++)
+        for (int ch = 0; ch < 3; ch++) c2[3 * j + ch] = cube[3 * j + ch] * rt->fold_c[j];
+    for (int i = 0; i < rt->d->ntransfers; i++) {
+        const prt_transfer *tr = &rt->d->transfers[i];
+        if (!rt->fold_g[i]) continue;
+        float (*D)[4] = transfer_light_vector(tr, c2);
+        if (!D) { free(c2); return prt_fail(err, "out of memory"); }
+        for (int j = 0; j < CUBE_TEXELS; j++)
+            for (int k = 0; k < 4; k++) D[j][k] -= light->L[i][j][k];
+        rt_fold_job job = { tr, (const float (*)[4])D, rt->fold_g[i], rt->open[i] };
+        prt_parallel_for(rt->d->scene.mesh.nverts, 1024, rt->threads, rt_fold_range, &job);
+        free(D);
+    }
+    free(c2);
     return 0;
 }
 
@@ -214,7 +282,7 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
     rt->be = be;
     rt->d = d;
     rt->threads = dd.threads;
-    if (rt_open_create(rt, err)) {
+    if (rt_open_create(rt, err) || rt_fold_create(rt, err)) {
         runtime_destroy_parts(rt);
         return NULL;
     }
@@ -228,7 +296,8 @@ prt_runtime *runtime_create(const prt_data *d, const runtime_desc *desc, prt_err
 static void runtime_destroy_parts(prt_runtime *rt) {
     opensky_destroy(rt->sky);
     free(rt->sky_need);
-    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free(rt->open[i]);
+    for (int i = 0; i < PRT_MAX_TRANSFERS; i++) free(rt->open[i]), free(rt->fold_g[i]);
+    free(rt->fold_c);
     prefilter_destroy(rt->env);
     free(rt);
 }
@@ -300,6 +369,7 @@ static int rt_set_light(prt_runtime *rt, const float *cube, const prt_probe *p, 
     memset(&light, 0, sizeof light);
     int rc = rt_light_vectors(rt, cube, &light, err);
     if (rc == 0) rc = rt_open_light(rt, cube, p, R, &light, err);
+    if (rc == 0) rc = rt_fold_light(rt, cube, &light, err);
     if (rc == 0) rc = rt_prefilter(rt, p, R, &light, err);
     rt->light_vector_ms = 1e3 * (prt_now() - t0);
     if (rc == 0) rc = rt->be->set_light(rt->self, &light, err);

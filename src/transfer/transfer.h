@@ -132,6 +132,10 @@ typedef struct transfer_ops transfer_ops;
 struct prt_transfer;
 
 /* One representation's data in a prt_data. */
+/* prt_transfer.open_vert's values besides 0 (the whole transport). */
+#define OPENSKY_SPLIT 1
+#define OPENSKY_FOLDED 2
+
 typedef struct prt_transfer {
     const transfer_ops *ops;
     transfer_config cfg;        /* as configured (defaults filled) */
@@ -142,9 +146,12 @@ typedef struct prt_transfer {
     bool open_sky;              /* LINEAR: the open sky split (opensky.h): the vectors of the vertices open_vert
                                  * marks hold what the occluders block, negated, and the runtime adds the
                                  * open sky g E(n) */
-    uint8_t *open_vert;         /* with open_sky, [nverts]: 1 where vertex v's vectors are split (a Lambertian
-                                 * factor seeing more of its sky than it misses), 0 where they hold the whole
-                                 * transport; owned here, freed by linear_release (or prt_data_free) */
+    uint8_t *open_vert;         /* with open_sky, [nverts]: OPENSKY_SPLIT where vertex v's vectors are split (a
+                                 * Lambertian factor seeing more of its sky than it misses), OPENSKY_FOLDED where
+                                 * they are split and folded (a floor vertex, normal (0, 1, 0), of a file without
+                                 * interreflections: the blocked part over its texels' mean cosine, which the
+                                 * runtime's light takes: opensky.h), 0 where they hold the whole transport;
+                                 * owned here, freed by linear_release (or prt_data_free) */
     void *priv;                 /* its own data: VIEW (vmf: lobe sets in a perfect hash), made by its
                                  * precompute; LINEAR with a finish (cpca: its clusters), made by finish;
                                  * or by its read; freed by its release; NULL else */

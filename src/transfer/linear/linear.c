@@ -104,7 +104,7 @@ bool linear_get_open(prt_reader *r, prt_transfer *tr, char *why) {
     size_t n = (size_t)tr->transport.nverts;
     if (!(tr->open_vert = prtio_get_arr(r, n, 1))) return BAD(why, "transfer section too short (open sky)");
     for (size_t v = 0; v < n; v++)
-        if (tr->open_vert[v] > 1) return BAD(why, "open sky: vertex %zu has flag %u", v, tr->open_vert[v]);
+        if (tr->open_vert[v] > OPENSKY_FOLDED) return BAD(why, "open sky: vertex %zu has flag %u", v, tr->open_vert[v]);
     return true;
 }
 

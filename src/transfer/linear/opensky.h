@@ -25,6 +25,17 @@
  * The sub-texels are those of the default visibility cube (CUBE_RES x 2 per face): files ray cast at
  * another --vis-res differ from them at second order in the sub-texel size.
  *
+ * The floor's fold. The blocked part of a floor vertex (normal (0, 1, 0)) is still its texels' cosine where
+ * the occluders are, and a low sun sits where that cosine falls steeply to the horizon: truncated, the
+ * blocked part's coarse blocks over-subtract the sun and the long shadow turns dark and blotchy. A file
+ * without interreflections therefore stores the floor's blocked part over each texel's mean cosine,
+ *     F_j = g (a_j - a0_j) / c_j,    c_j = a0_j((0, 1, 0)) / Omega_j,
+ * an occluder's plain silhouette (prt_transfer.open_vert OPENSKY_FOLDED), and the runtime lights it with
+ * L'_j = L_j c_j, the cube times the floor's mean cosines projected like any light: sum F_j L'_j is the
+ * blocked light exactly before truncation. The backends' kernels take T . L for every vector, so the
+ * runtime adds F . (L' - L) to such a vector's open sky term (runtime.c rt_fold_light); c_j comes from
+ * this module's tables on both sides (opensky_grid_texels at the +y face's centre, a grid normal).
+ *
  * Usage:
  *     opensky *o = opensky_create(&err);
  *     opensky_need(n, need);                       // once per normal that will be looked up (optional)
