@@ -52,11 +52,15 @@
 /* Directions per sampled vertex: at 200 vertices, 12,800 rays give the share to about 1% of
  * itself (independent rays: 1 / sqrt(12,800)), far finer than the 2% threshold needs. */
 #define PLANFX_RAYS 64
-/* Why the plan reports the receivers' need without refining by default (force_refine 1 refines):
- * on the teapot over its 2,500-vertex floor, direct light, sunrise and studio at two yaws, the
- * floor's shadow region was no closer to the path tracer after refinement within 1.5x or 3x the
- * vertices (docs/design/plan.md), while the passes and the file grow with the vertices. */
+/* Why the plan reports the receivers' need without refining the floor where its shadows keep the cosine
+ * (force_refine 1 refines): on the teapot over its 2,500-vertex floor, direct light, sunrise and studio
+ * at two yaws, the floor's shadow region was no closer to the path tracer after refinement within 1.5x
+ * or 3x the vertices (docs/design/plan.md), while the passes and the file grow with the vertices. Where
+ * they are folded (opensky.h "The floor's fold") a low sun's silhouette survives truncation, the floor's
+ * vertex spacing is then what blurs it, and refining it up to PLANFX_FLOOR_GROWTH times its vertices
+ * measured closer in every cell of the Lambertian teapot's matrix (docs/design/shadows.md). */
 #define PLANFX_REFINE_MEASURED "refining 1.5x or 3x measured no closer to the path tracer on such a floor"
+#define PLANFX_FLOOR_GROWTH 2.5
 /* The models are refined by default where visibility changes across their edges, up to this many
  * times their vertices: a self-shadow edge (the spout's on the body, the lid's rim) and a glossy lobe
  * cut by an occluder change within a vertex, and the vertices interpolate them. Against the path

@@ -695,6 +695,7 @@ typedef struct pc_run {
     pc_scratch scratch[PC_MAX_THREADS];
     prt_transport direct, total, last;
     int fold_first;             /* pc_ctx.fold_first (pc_fold_first) */
+    bool refine_floor;          /* the plan refines the floor after the models (plan_refine, pc_refine_floor) */
     pc_ctx c;
     ckpt_vstats *vst;           /* pc_ctx's per-vertex statistics */
     uint8_t *restored;
@@ -711,6 +712,25 @@ typedef struct pc_run {
     char *later;                /* [pcap] the BRDF and path lines, decided before refinement, printed after
                                  * the scene line that follows it (pc_choose) */
 } pc_run;
+
+/* Why the floor's blocked parts are not folded (pc_transport_cubes; opensky.h "The floor's fold"): "" where
+ * there is no Lambertian floor with the open sky split, a reason for the plan, or NULL: they are. Folded
+ * only in a file without interreflections (a gathering pass reads a neighbour's vector in the light's
+ * space, and a bounce has no fold: light from near the floor's horizon reaches it by way of the models),
+ * without a light prior (its selection and refit weigh the light, not the folded light) and where the
+ * runtime lights the sparse sets themselves. */
+static const char *pc_fold_why(const pc_run *r) {
+    const prt_scene *s = &r->out->scene;
+    if (r->d.no_open_sky || s->floor_first_vertex < 0 || s->floor_first_vertex >= s->mesh.nverts) return "";
+    int fm = s->mesh.mat ? s->mesh.mat[s->floor_first_vertex] : 0;
+    if (!r->out->factors[fm].lambertian) return "";
+    if (r->d.no_fold) return "--no-fold";
+    if (r->rp.lops->linear->light) return "the representation lights its own model";
+    if (r->rp.lsetup.light_prior && r->rp.lsetup.light_prior[0]) return "the light prior weighs the light itself";
+    if (!(r->d.force_bounces == -1 || (r->d.bounces == 0 && r->d.force_bounces != 1)))
+        return "interreflections read the floor's vectors in the light's space";
+    return NULL;
+}
 
 /* The plan's refinement line from the receivers (planfx.h) when nothing asked for or ruled out
  * refinement; with force_refine 1 it also sets d's threshold and parts where the floor is coarser
@@ -731,6 +751,13 @@ static void plan_refine(pc_run *r) {
     }
     int n = r->out->scene.mesh.nverts, budget = r->d.refine_budget > 0 ? r->d.refine_budget : (int)(REFINE_BUDGET_FACTOR * n);
     bool apply = r->d.force_refine == 1;
+    if (!apply && !pc_fold_why(r)) {   /* folded: its vertices are what blurs a low sun's shadow (PLANFX_REFINE_MEASURED) */
+        plan_add(r->plan, r->pcap, "%s the floor's too: vertex spacing %.3g > the penumbra of a sun %.3g at the models' height %.3g, "
+                 "and its shadows are folded (a low sun's silhouette kept), so its vertices blur them\n", k, rc.spacing, rc.penumbra,
+                 rc.height);
+        r->refine_floor = true;
+        return;
+    }
     plan_add(r->plan, r->pcap, "%s %s: vertex spacing %.3g > ", k, apply ? "on for the floor" : "off", rc.spacing);
     if (rc.spacing > rc.penumbra)
         plan_add(r->plan, r->pcap, "the penumbra of a sun %.3g at the models' height %.3g", rc.penumbra, rc.height);
@@ -819,6 +846,30 @@ static int pc_refine_models(pc_run *r, prt_error *err) {
                          err);
 }
 
+/* The floor refined where visibility changes after the models, when plan_refine calls for it, up to
+ * PLANFX_FLOOR_GROWTH times its vertices within the file's byte budget (its Lambertian vectors'
+ * vector_bytes each; the view grid's room is the models'). Returns 0 or -1. */
+static int pc_refine_floor(pc_run *r, prt_error *err) {
+    const prt_scene *s = &r->out->scene;
+    if (!r->refine_floor || !r->rp.lops->linear->vector_bytes) return 0;
+    const prt_mesh *m = &s->mesh;
+    double vecs = 0;
+    for (int v = 0; v < m->nverts; v++) vecs += r->out->factors[m->mat ? m->mat[v] : 0].K;
+    const double vb = r->rp.lops->linear->vector_bytes(&r->rp.lcfg), lin = (PLANFX_FILE_BYTES - vecs * vb) / vb;
+    long floor = m->nverts - s->floor_first_vertex, room = lin > 0 ? (long)lin : 0;
+    long grow = (long)(PLANFX_FLOOR_GROWTH * floor) - floor, extra = room < grow ? room : grow;
+    const char *k = "  refinement of the floor:";
+    if (extra < floor / 20) {
+        plan_add(r->plan, r->pcap, "%s off: the file's byte budget holds %ld more vertices than its %ld\n", k, room, floor);
+        return 0;
+    }
+    char cap[48];
+    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_FLOOR_GROWTH);
+    plan_add(r->plan, r->pcap, "%s its %ld vertices may grow by %ld (%s), where visibility changes across its edges\n", k, floor,
+             extra, extra < grow ? "the room the file's byte budget leaves" : cap);
+    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = m->nverts + (int)extra, .parts = REFINE_FLOOR }, err);
+}
+
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, else where
  * the plan calls for it (the floor's report, the models), and its plan lines. Returns 0 or -1. */
 static int pc_refine(pc_run *r, prt_error *err) {
@@ -832,7 +883,7 @@ static int pc_refine(pc_run *r, prt_error *err) {
     if (r->d.refine_threshold > 0 && pc_refine_run(r, (refine_desc){ .threshold = r->d.refine_threshold, .budget = r->d.refine_budget,
                                                                      .parts = r->d.refine_parts }, err))
         return -1;
-    return asked ? 0 : pc_refine_models(r, err);
+    return asked ? 0 : pc_refine_models(r, err) || pc_refine_floor(r, err) ? -1 : 0;
 }
 
 /* Stage factor: BRDF factorization (section 3.3), the constant light maps of Lambertian factors,
@@ -1042,22 +1093,10 @@ static int pc_stream(pc_run *r, prt_error *err) {
 
 /* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
  * scratch and the direct pass's shared context. Returns 0 or -1. */
-/* Whether the floor's blocked parts are folded (pc_transport_cubes; opensky.h "The floor's fold"), with
- * the plan's line: the floor's first vertex, or -1. Only in a file without interreflections (a gathering
- * pass reads a neighbour's vector in the light's space, and a bounce has no fold: light from near the
- * floor's horizon reaches it by way of the models), without a light prior (its selection and refit weigh
- * the light, not the folded light) and where the runtime lights the sparse sets themselves. */
+/* The floor's first vertex when its blocked parts are folded (pc_fold_why), else -1, with the plan's line. */
 static int pc_fold_first(pc_run *r) {
-    const char *why = NULL;
-    if (!r->tr->open_sky || r->out->scene.floor_first_vertex < 0) return -1;
-    if (r->d.no_fold) {
-        plan_add(r->plan, r->pcap, "  the floor's shadows: its blocked parts keep the cosine (--no-fold)\n");
-        return -1;
-    }
-    if (r->rp.lops->linear->light) why = "the representation lights its own model";
-    else if (r->rp.lsetup.light_prior && r->rp.lsetup.light_prior[0]) why = "the light prior weighs the light itself";
-    else if (!(r->d.force_bounces == -1 || (r->d.bounces == 0 && r->d.force_bounces != 1)))
-        why = "interreflections read the floor's vectors in the light's space";
+    const char *why = pc_fold_why(r);
+    if (why && !why[0]) return -1;   /* no Lambertian floor with the open sky split: nothing to say */
     if (why) {
         plan_add(r->plan, r->pcap, "  the floor's shadows: its blocked parts keep the cosine (%s)\n", why);
         return -1;
