@@ -154,6 +154,7 @@ typedef struct pc_ctx {
     int vres, ss;
     bool open;              /* the open sky split (opensky.h): Lambertian vectors store what is blocked */
     int fold_first;         /* the floor's first vertex when its blocked parts are folded (pc_fold_first), else -1 */
+    float *vweight;         /* the shared budget's weight per vector (pc_vector_weights), or NULL; pc_fold_weight scales a folded one's */
     float lwinv[CUBE_RES * CUBE_RES];   /* 1 / the lighting texels' solid angles (pc_split) */
     const float *vdir;      /* [3][6 vres^2] unit directions of the visibility texels (planar x, y, z) */
     const float *vdw;       /* [vres^2] their solid angles (same on every face) */
@@ -379,6 +380,23 @@ static double pc_whole_norm2(const pc_ctx *c, pc_scratch *s, int mat, int open) 
     return n2;
 }
 
+/* A folded vector's share of a shared budget as if unfolded: its weight times |P(a - a0)|^2 / |P(F)|^2 (the
+ * blocked part's energy over the folded one's, the same for every channel: g cancels). The selection
+ * weighs a coefficient's energy, and folding inflates the blocked part near the horizon by 1 / c_j, where
+ * the light it meets is c_j L_j: unscaled, the floor's vectors take the models' coefficients. */
+static void pc_fold_weight(const pc_ctx *c, pc_scratch *s, uint32_t q) {
+    float *x = s->wav, *y = s->wav + CUBE_TEXELS, *p = s->wav + 2 * CUBE_TEXELS;
+    for (int j = 0; j < CUBE_TEXELS; j++) {
+        float cj = s->acc0[j] * c->lwinv[j % (CUBE_RES * CUBE_RES)];
+        x[j] = s->acc[j] - s->acc0[j], y[j] = cj > 0 ? x[j] / cj : 0.f;
+    }
+    c->lin->project_transport(c->cfg, x, p, s->tmp);
+    double eb = pc_dot(p, p, CUBE_TEXELS);
+    c->lin->project_transport(c->cfg, y, p, s->tmp);
+    double ef = pc_dot(p, p, CUBE_TEXELS);
+    if (ef > 0) c->vweight[q] = (float)(c->vweight[q] * (eb / ef));
+}
+
 /* Projection (the representation's op, once per vector channel) and compression of vertex v's
  * K vectors, with the truncation + quantization error statistics (relative to the whole vector,
  * the open sky included) and the whole vectors' energy. */
@@ -386,6 +404,7 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int mat, ckpt_vstats
     const size_t ct = CUBE_TEXELS;
     const int K = c->factors[mat].K;
     uint32_t vec0 = c->t->vec_first[v];
+    if (vs->open == OPENSKY_FOLDED && c->vweight) pc_fold_weight(c, s, vec0);   /* K = 1: Lambertian */
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++)
             c->lin->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
@@ -1151,6 +1170,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->ss = R / CUBE_RES;
     c->open = r->tr->open_sky;
     c->fold_first = r->fold_first = pc_fold_first(r);
+    c->vweight = r->direct.stage_key ? r->vweight : NULL;
     cube_face_solid_angles(CUBE_RES, c->lwinv);
     for (int i = 0; i < CUBE_RES * CUBE_RES; i++) c->lwinv[i] = 1.f / c->lwinv[i];
     c->vdir = r->vdir;
