@@ -40,7 +40,7 @@ r=$W/ref-$P-v$(awk '/^geometry/ { print $2; exit }' $W/$tag.info)
 if [ ! -f $r.csv ]; then
   "$PRT" reference "$f" --probe "$DATA/probes/$P.exr" --spp 256 --vertex-spp 4096 --size 400x300 --no-background \
     --vertices $r.csv -o $r.exr --quiet 2> $r.log
-  ff=$(awk '/floor:/ { gsub(/\)/, ""); print $NF }' $W/$tag.info)
+  ff=$(awk '/^ *floor: [0-9]+ vertices \(from vertex/ { gsub(/\)/, ""); print $NF }' $W/$tag.info)
   awk -F, 'NR == 1 || $2 != 0 || $3 != 0 || $4 != 0 || $5 != 0 || $6 != 0 || $7 != 0' $r.csv > $r.front.csv
   med=$(awk -F, -v f="$ff" 'NR > 1 && $1 >= f { print $2 + $3 + $4 }' $r.front.csv | sort -g | awk '{ a[NR] = $1 } END { print a[int((NR + 1) / 2)] }')
   awk -F, -v f="$ff" -v m="$med" 'NR == 1 || ($1 >= f && $2 + $3 + $4 < 0.6 * m)' $r.front.csv > $r.shadow.csv
@@ -53,13 +53,20 @@ if [ ! -f $r.shadow-hi.csv ]; then
 fi
 o=$W/$tag-$P
 "$PRT" render "$f" --probe "$DATA/probes/$P.exr" --size 400x300 --no-background -o $o.exr --vertices $o.csv 2>/dev/null
+# The per-vertex figures are over the input's vertices: refinement adds vertices on visibility edges, the
+# hardest places, and keeps the input's indices (refine.h: the models' first, the floor's own after the
+# new model vertices, its new ones last), so a refined file is measured where an unrefined one is.
+ff=$(awk '/^ *floor: [0-9]+ vertices \(from vertex/ { gsub(/\)/, ""); print $NF }' $W/$tag.info)
+read -r m0 f0 < <(sed -n 's/.*(models \([0-9]*\) -> [0-9]*, floor \([0-9]*\) -> .*/\1 \2/p' $W/$tag.info | head -1)
+inp() { awk -F, -v m="${m0:--1}" -v f="$ff" -v n="${f0:-0}" 'FNR == 1 || m < 0 || $1 < m || ($1 >= f && $1 < f + n)' "$1" > "$2"; }
+inp $r.front.csv $o.rfront.csv; inp $r.shadow.csv $o.rshadow.csv; inp $r.shadow-hi.csv $o.rshadow-hi.csv
 keep() { awk -F, 'NR == FNR { k[$1] = 1; next } FNR == 1 || ($1 in k)' "$1" $o.csv > "$2"; }
-keep $r.front.csv $o.front.csv; keep $r.shadow.csv $o.shadow.csv
-cs=$("$PRT" compare $o.shadow.csv $r.shadow-hi.csv); ca=$("$PRT" compare $o.front.csv $r.front.csv); ci=$("$PRT" compare $o.exr $r.exr 2>/dev/null)
+keep $o.rfront.csv $o.front.csv; keep $o.rshadow.csv $o.shadow.csv
+cs=$("$PRT" compare $o.shadow.csv $o.rshadow-hi.csv); ca=$("$PRT" compare $o.front.csv $o.rfront.csv); ci=$("$PRT" compare $o.exr $r.exr 2>/dev/null)
 kv() { echo "$1" | tr ' ' '\n' | awk -F= -v k="$2" '$1 == k { printf "%.2f", 100 * $2 }'; }
 noise=$(awk '/\.exr/ { for (i = 1; i < NF; i++) if ($i == "noise") print $(i+1) }' $r.log | tr -d ',')
 echo "shadows: $(grep -m1 geometry $W/$tag.info | sed 's/^geometry *//'), $P, flags: ${*:-none}; precompute $(tail -n 1 $W/$tag.log)"
-echo "  floor sun shadow ($(( $(wc -l < $r.shadow.csv) - 1 )) vertices)  $(kv "$cs" rel_rmse)%   target <= 4%  (reference noise $(kv "$cs" ref_noise)%)"
+echo "  floor sun shadow ($(( $(wc -l < $o.shadow.csv) - 1 )) of the input's vertices)  $(kv "$cs" rel_rmse)%   target <= 4%  (reference noise $(kv "$cs" ref_noise)%)"
 echo "  its worst vertex                   $(kv "$cs" max_rel_err)%   target < 20%"
 echo "  every vertex facing the camera     $(kv "$ca" rel_rmse)%   (reference noise $(kv "$ca" ref_noise)%)"
 echo "  image 400x300                      $(kv "$ci" rel_rmse)%   target: within 2 points of the reference's noise, $(awk -v n="$noise" 'BEGIN { printf "%.2f", 100 * n }')%"

@@ -40,7 +40,7 @@ for s in teapot-floor teapot-shadows; do
   [ $W/$s.vref.csv -nt $W/$s.prt ] || "$PRT" reference $W/$s.prt --probe "$DATA/probes/city.exr" --vertex-spp 4096 --no-image \
     --vertices $W/$s.vref.csv --quiet 2>> $W/ref.log
   "$PRT" render $W/$s.prt --probe "$DATA/probes/city.exr" --size 64x48 -o $W/x.exr --vertices $W/$s.v.csv 2>/dev/null
-  ff=$("$PRT" info $W/$s.prt | awk '/floor:/ { gsub(/\)/, ""); print $NF }')
+  ff=$("$PRT" info $W/$s.prt | awk '/^ *floor: [0-9]+ vertices \(from vertex/ { gsub(/\)/, ""); print $NF }')
   med=$(awk -F, -v f="$ff" 'NR > 1 && $1 >= f { print $2 + $3 + $4 }' $W/$s.vref.csv | sort -g | awk '{ a[NR] = $1 } END { print a[int((NR + 1) / 2)] }')
   awk -F, -v f="$ff" -v m="$med" 'NR == 1 || ($1 >= f && $2 + $3 + $4 < 0.6 * m)' $W/$s.vref.csv > $W/$s.vref-sh.csv
   awk -F, 'NR == FNR { k[$1] = 1; next } FNR == 1 || ($1 in k)' $W/$s.vref-sh.csv $W/$s.v.csv > $W/$s.v-sh.csv

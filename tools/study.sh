@@ -219,7 +219,7 @@ reference() { # scene probe bounces base-id [image-from]
   # median, i.e. where the model's shadow falls (sharp under the sun of city, soft otherwise).
   # Whole-scene errors are dominated by smoothly lit surfaces; this is where bases differ.
   local ff med
-  ff=$(awk '/floor:/ { gsub(/\)/, ""); print $NF }' "$WORK/log/$base.info")
+  ff=$(awk '/^ *floor: [0-9]+ vertices \(from vertex/ { gsub(/\)/, ""); print $NF }' "$WORK/log/$base.info")
   med=$(awk -F, -v f="${ff:-999999999}" 'NR > 1 && $1 >= f { print $2 + $3 + $4 }' "$r.front.csv" | sort -g \
         | awk '{ a[NR] = $1 } END { print (NR ? a[int((NR + 1) / 2)] : 0) }')
   awk -F, -v f="${ff:-999999999}" -v m="$med" 'NR == 1 || ($1 >= f && $2 + $3 + $4 < 0.6 * m)' "$r.front.csv" > "$r.shadow.csv"
