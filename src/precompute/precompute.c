@@ -310,7 +310,7 @@ static void pc_transport_cubes(const pc_ctx *c, pc_scratch *s, const float n[3],
     *open = 0;
     if (fac->lambertian) {
         const float *g = c->lambert_g[mat];
-        *open = c->open && pc_split(c, s) ? 1 + s->fold : 0;
+        *open = c->open && pc_split(c, s) ? (s->fold ? OPENSKY_FOLDED : OPENSKY_SPLIT) : 0;
         for (int ch = 0; ch < 3; ch++) {
             float *T = s->T + (size_t)ch * PC_TSTRIDE;
             if (*open && s->fold)   /* folded: over the texel's mean cosine, which the runtime's light takes */
@@ -1110,8 +1110,6 @@ static int pc_stream(pc_run *r, prt_error *err) {
     return 0;
 }
 
-/* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
- * scratch and the direct pass's shared context. Returns 0 or -1. */
 /* The floor's first vertex when its blocked parts are folded (pc_fold_why), else -1, with the plan's line. */
 static int pc_fold_first(pc_run *r) {
     const char *why = pc_fold_why(r);
@@ -1125,6 +1123,8 @@ static int pc_fold_first(pc_run *r) {
     return r->out->scene.floor_first_vertex;
 }
 
+/* Stage setup: texel direction tables, the direct transport set, the visibility scene, per-thread
+ * scratch and the direct pass's shared context. Returns 0 or -1. */
 static int pc_setup(pc_run *r, prt_error *err) {
     const prt_mesh *m = &r->out->scene.mesh;
     const int R = r->d.vis_res;

@@ -44,7 +44,8 @@ struct prt_runtime {
     const prt_probe *sky_probe; /* the probe (pointer and pixels) whose unrotated light the grid holds, or NULL */
     const float *sky_pixels;
     float sky_Rt[9];            /* the light's rotation transposed: E_R(n) = E(R^T n) for the unrotated grid */
-    float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector, 0 for the others */
+    float *open[PRT_MAX_TRANSFERS];     /* [3 * nvecs] per such transfer: g E(n) per vector (a folded one's plus
+                                         * T . (L' - L), rt_fold_light), 0 for the others */
     float lambert_g[PRT_MAX_MATERIALS][3];  /* constant light map of each Lambertian factor */
     float *fold_c;              /* [CUBE_TEXELS] the floor's texel mean cosines when a transfer folds (rt_fold_create), or NULL */
     float *fold_g[PRT_MAX_TRANSFERS];   /* [3 * nvecs] per folding transfer: scratch of the folded vectors' products */

@@ -288,7 +288,8 @@ typedef struct runtime_light {
     bool env_new;                           /* env was made in this call (a new probe); false: only its
                                              * rotation changed, so a backend's copy of its texels still holds */
     const float *open[PRT_MAX_TRANSFERS];   /* transfer i with the open sky split (prt_transfer.open_sky): what
-                                             * to add to g = T x L, [3 * nvecs] (opensky.h); NULL: nothing */
+                                             * to add to g = T x L, [3 * nvecs] (opensky.h: g E(n), and a folded
+                                             * vector's T . (L' - L)); NULL: nothing */
 } runtime_light;
 
 typedef struct runtime_backend {
