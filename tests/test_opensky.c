@@ -441,11 +441,12 @@ static int vertex_radiance(const prt_data *d, const char *backend, const float *
 
 /* The floor's fold is exact before truncation: with every coefficient in floats, the folded file and
  * the unfolded one (--no-fold) give the same radiance at every vertex under a sky and a sun 2 degrees
- * up. Only the floor's split vertices are folded. */
-static void fold_exact(void) {
+ * up, at the default visibility resolution and at 64 (the runtime's c_j sums the file's sub-texels).
+ * Only the floor's split vertices are folded. */
+static void fold_exact_at(int vis_res) {
     prt_error err;
     prt_data a, b;
-    precompute_desc full = { .N = CUBE_TEXELS, .qbits = 32 };
+    precompute_desc full = { .N = CUBE_TEXELS, .qbits = 32, .vis_res = vis_res };
     int rc = floor_box_data(full, &a, &err);
     CHECK(rc == 0, "%s", err.msg);
     full.no_fold = true;
@@ -472,8 +473,8 @@ static void fold_exact(void) {
          * to 1 / c_j (about 30 at the sun's texel) times the result's, so its rounding is ~30 x 24,576
          * float additions' relative 6e-8 of a blocked sun: 1e-3 of the open floor is a bound with margin. */
         CHECK_LE(worst, 1e-3 * top, "folded against unfolded, every coefficient: %.3g of %.4g", worst, top);
-        printf("fold, every coefficient in floats: within %.2e of the unfolded (largest %.4g); %d folded vertices\n", worst, top,
-               folded);
+        printf("fold, every coefficient in floats, --vis-res %d: within %.2e of the unfolded (largest %.4g); %d folded vertices\n",
+               a.vis_res, worst, top, folded);
     } else
         CHECK(0, "%s", err.msg);
     free(cube);
@@ -481,6 +482,11 @@ static void fold_exact(void) {
     free(rb2);
     prt_data_free(&a);
     prt_data_free(&b);
+}
+
+static void fold_exact(void) {
+    fold_exact_at(0);
+    fold_exact_at(64);
 }
 
 /* At the defaults (N = 128, 8-bit) the fold holds the box's long shadow under a sun 2 degrees up closer to

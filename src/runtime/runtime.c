@@ -131,10 +131,37 @@ static int rt_open_create(prt_runtime *rt, prt_error *err) {
     return 0;
 }
 
+/* c_j of rt_fold_create into a new [CUBE_TEXELS] array: (sum over texel j's sub-texels s of the vis_res cube
+ * of max(d_s.y, 0) dw_s) times 1 / Omega_j, as pc_box_filter and pc_transport_cubes form it. -1 with err. */
+static int rt_fold_cosines(int vis_res, float **out, prt_error *err) {
+    const int R = vis_res > 0 && vis_res % CUBE_RES == 0 ? vis_res : CUBE_RES, ss = R / CUBE_RES;
+    float *dw = prt_calloc((size_t)R * R, sizeof(float), err), *c = dw ? prt_calloc(CUBE_TEXELS, sizeof(float), err) : NULL;
+    float om[CUBE_RES * CUBE_RES];
+    if (!c) { free(dw); return -1; }
+    cube_face_solid_angles(R, dw);
+    cube_face_solid_angles(CUBE_RES, om);
+    for (int f = 0; f < 6; f++)
+        for (int j = 0; j < CUBE_RES * CUBE_RES; j++) {
+            int ti = j % CUBE_RES, tj = j / CUBE_RES;
+            float a = 0;
+            for (int b = 0; b < ss; b++)
+                for (int q = 0; q < ss; q++) {
+                    int si = (tj * ss + b) * R + ti * ss + q;
+                    float dir[3];
+                    cube_texel_dir(R, f * R * R + si, dir);
+                    a += (dir[1] > 0.f ? dir[1] : 0.f) * dw[si];
+                }
+            c[f * CUBE_RES * CUBE_RES + j] = a * (1.f / om[j]);
+        }
+    free(dw);
+    *out = c;
+    return 0;
+}
+
 /* The floor's fold (opensky.h, prt_transfer.open_vert): where some transfer's vertices are folded, the
- * mean cosine c_j = a0_j(0, 1, 0) / Omega_j of every lighting texel for the floor's normal, from the open
- * sky's tables (the visibility sub-texels the precompute summed, so both sides divide and multiply by
- * the same c_j to float rounding), and each such transfer's scratch. -1 with err. */
+ * mean cosine c_j = a0_j((0, 1, 0)) / Omega_j of every lighting texel for the floor's normal, summed over
+ * the file's visibility sub-texels as the precompute summed a0 (pc_box_filter), so both sides divide and
+ * multiply by the same c_j to float rounding at any --vis-res; and each such transfer's scratch. -1 with err. */
 static int rt_fold_create(prt_runtime *rt, prt_error *err) {
     const prt_data *d = rt->d;
     for (int i = 0; i < d->ntransfers; i++) {
@@ -142,19 +169,7 @@ static int rt_fold_create(prt_runtime *rt, prt_error *err) {
         bool any = false;
         for (int v = 0; tr->open_sky && v < d->scene.mesh.nverts && !any; v++) any = tr->open_vert[v] == OPENSKY_FOLDED;
         if (any && !(rt->fold_g[i] = prt_calloc(3 * (size_t)tr->transport.nvecs, sizeof(float), err))) return -1;
-        if (!any || rt->fold_c) continue;
-        float *a0 = prt_calloc(2 * CUBE_TEXELS, sizeof(float), err), om[CUBE_RES * CUBE_RES], w[4];
-        if (!a0 || !(rt->fold_c = prt_calloc(CUBE_TEXELS, sizeof(float), err))) { free(a0); return -1; }
-        int q[4];
-        opensky_weights((const float[3]){ 0, 1, 0 }, q, w);
-        for (int k = 0; k < 4; k++) {
-            if (!(w[k] != 0)) continue;
-            opensky_grid_texels(rt->sky, q[k], a0 + CUBE_TEXELS);
-            for (int j = 0; j < CUBE_TEXELS; j++) a0[j] += w[k] * a0[CUBE_TEXELS + j];
-        }
-        cube_face_solid_angles(CUBE_RES, om);
-        for (int j = 0; j < CUBE_TEXELS; j++) rt->fold_c[j] = a0[j] / om[j % (CUBE_RES * CUBE_RES)];
-        free(a0);
+        if (any && !rt->fold_c && rt_fold_cosines(d->vis_res, &rt->fold_c, err)) return -1;
     }
     return 0;
 }
