@@ -33,8 +33,8 @@
  * an occluder's plain silhouette (prt_transfer.open_vert OPENSKY_FOLDED), and the runtime lights it with
  * L'_j = L_j c_j, the cube times the floor's mean cosines projected like any light: sum F_j L'_j is the
  * blocked light exactly before truncation. The backends' kernels take T . L for every vector, so the
- * runtime adds F . (L' - L) to such a vector's open sky term (runtime.c rt_fold_light); c_j comes from
- * this module's tables on both sides (opensky_grid_texels at the +y face's centre, a grid normal).
+ * runtime adds F . (L' - L) to such a vector's open sky term (runtime.c rt_fold_light); both sides sum
+ * c_j over the file's visibility sub-texels alike (precompute.c pc_box_filter, runtime.c rt_fold_cosines).
  *
  * Usage:
  *     opensky *o = opensky_create(&err);
