@@ -380,20 +380,17 @@ static double pc_whole_norm2(const pc_ctx *c, pc_scratch *s, int mat, int open) 
     return n2;
 }
 
-/* A folded vector's share of a shared budget as if unfolded: its weight times |P(a - a0)|^2 / |P(F)|^2 (the
- * blocked part's energy over the folded one's, the same for every channel: g cancels). The selection
- * weighs a coefficient's energy, and folding inflates the blocked part near the horizon by 1 / c_j, where
- * the light it meets is c_j L_j: unscaled, the floor's vectors take the models' coefficients. */
-static void pc_fold_weight(const pc_ctx *c, pc_scratch *s, uint32_t q) {
-    float *x = s->wav, *y = s->wav + CUBE_TEXELS, *p = s->wav + 2 * CUBE_TEXELS;
-    for (int j = 0; j < CUBE_TEXELS; j++) {
-        float cj = s->acc0[j] * c->lwinv[j % (CUBE_RES * CUBE_RES)];
-        x[j] = s->acc[j] - s->acc0[j], y[j] = cj > 0 ? x[j] / cj : 0.f;
-    }
-    c->lin->project_transport(c->cfg, x, p, s->tmp);
-    double eb = pc_dot(p, p, CUBE_TEXELS);
-    c->lin->project_transport(c->cfg, y, p, s->tmp);
-    double ef = pc_dot(p, p, CUBE_TEXELS);
+/* A folded vector's share of a shared budget as if unfolded: its weight times |P(g (a - a0))|^2 / |P(F)|^2,
+ * the blocked part's energy over the folded one's (s->wav, projected). The selection weighs a
+ * coefficient's energy, and folding inflates the blocked part near the horizon by 1 / c_j, where the
+ * light it meets is c_j L_j: unscaled, the floor's vectors take the models' coefficients. Called after
+ * the projection, so the first transport plane is free for a - a0 and s->wav0 for its projection. */
+static void pc_fold_weight(const pc_ctx *c, pc_scratch *s, int mat, uint32_t q) {
+    const float *g = c->lambert_g[mat];
+    for (int j = 0; j < CUBE_TEXELS; j++) s->T[j] = s->acc[j] - s->acc0[j];
+    c->lin->project_transport(c->cfg, s->T, s->wav0, s->tmp);
+    double eb = pc_dot(s->wav0, s->wav0, CUBE_TEXELS) * ((double)g[0] * g[0] + (double)g[1] * g[1] + (double)g[2] * g[2]);
+    double ef = pc_dot(s->wav, s->wav, 3 * (size_t)CUBE_TEXELS);
     if (ef > 0) c->vweight[q] = (float)(c->vweight[q] * (eb / ef));
 }
 
@@ -404,10 +401,10 @@ static void pc_store(const pc_ctx *c, pc_scratch *s, int v, int mat, ckpt_vstats
     const size_t ct = CUBE_TEXELS;
     const int K = c->factors[mat].K;
     uint32_t vec0 = c->t->vec_first[v];
-    if (vs->open == OPENSKY_FOLDED && c->vweight) pc_fold_weight(c, s, vec0);   /* K = 1: Lambertian */
     for (int k = 0; k < K; k++) {
         for (int ch = 0; ch < 3; ch++)
             c->lin->project_transport(c->cfg, s->T + (size_t)(k * 3 + ch) * PC_TSTRIDE, s->wav + (size_t)ch * ct, s->tmp);
+        if (vs->open == OPENSKY_FOLDED && c->vweight) pc_fold_weight(c, s, mat, vec0);   /* K = 1: Lambertian */
         double norm2 = pc_whole_norm2(c, s, mat, vs->open);
         double ts = pc_cpu_now();
         double e2 = c->lin->compress(c->t, (int)(vec0 + (uint32_t)k), s->wav, s->wav + ct, s->wav + 2 * ct, s->tscratch);
@@ -732,6 +729,12 @@ typedef struct pc_run {
                                  * the scene line that follows it (pc_choose) */
 } pc_run;
 
+/* The passes a transfer may make, the direct one and the bounces: the bounces' plan comes later (it
+ * measures the direct pass), so its upper bound. */
+static int pc_max_passes(const pc_run *r) {
+    return r->d.force_bounces == -1 ? 1 : 1 + (r->d.force_bounces == 1 && r->d.bounces == 0 ? 1 : r->d.bounces);
+}
+
 /* Why the floor's blocked parts are not folded (pc_transport_cubes; opensky.h "The floor's fold"): "" where
  * there is no Lambertian floor with the open sky split, a reason for the plan, or NULL: they are. Folded
  * only in a file without interreflections (a gathering pass reads a neighbour's vector in the light's
@@ -746,8 +749,7 @@ static const char *pc_fold_why(const pc_run *r) {
     if (r->d.no_fold) return "--no-fold";
     if (r->rp.lops->linear->light) return "the representation lights its own model";
     if (r->rp.lsetup.light_prior && r->rp.lsetup.light_prior[0]) return "the light prior weighs the light itself";
-    if (!(r->d.force_bounces == -1 || (r->d.bounces == 0 && r->d.force_bounces != 1)))
-        return "interreflections read the floor's vectors in the light's space";
+    if (pc_max_passes(r) > 1) return "interreflections read the floor's vectors in the light's space";
     return NULL;
 }
 
@@ -791,12 +793,6 @@ static void plan_refine(pc_run *r) {
     r->d.refine_parts = REFINE_FLOOR;
 }
 
-/* The reflection passes the view-dependent transfer may make: the bounces' plan comes later, so
- * its upper bound. */
-static int pc_view_passes(const pc_run *r) {
-    return r->d.force_bounces == -1 ? 1 : 1 + (r->d.force_bounces == 1 && r->d.bounces == 0 ? 1 : r->d.bounces);
-}
-
 /* Runs refine_scene with rd's threshold, budget and parts, and prints its line. Returns 0 or -1. */
 static int pc_refine_run(pc_run *r, refine_desc rd, prt_error *err) {
     rd.nthreads = r->nthreads;
@@ -811,6 +807,35 @@ static int pc_refine_run(pc_run *r, refine_desc rd, prt_error *err) {
     return 0;
 }
 
+/* The vertices of per_vertex vectors each that the file's byte budget (PLANFX_FILE_BYTES) holds beside the
+ * scene's vectors, by the linear transfer's vector_bytes; -1 where it has no byte model. */
+static long pc_file_room(const pc_run *r, double per_vertex) {
+    if (!r->rp.lops->linear->vector_bytes) return -1;
+    const prt_mesh *m = &r->out->scene.mesh;
+    double vecs = 0;
+    for (int v = 0; v < m->nverts; v++) vecs += r->out->factors[m->mat ? m->mat[v] : 0].K;
+    const double vb = r->rp.lops->linear->vector_bytes(&r->rp.lcfg), lin = (PLANFX_FILE_BYTES - vecs * vb) / (per_vertex * vb);
+    return lin > 0 ? (long)lin : 0;
+}
+
+/* Refines parts where visibility changes: n vertices ("its" the possessive for them) growing by at most
+ * (growth - 1) n within room (why: what binds it), with the plan's line "refinement of WHAT"; off where
+ * that is under 5% of n. Returns 0 or -1. */
+static int pc_refine_grow(pc_run *r, const char *what, const char *its, long n, double growth, long room, const char *why,
+                          int parts, prt_error *err) {
+    long grow = (long)(growth * n) - n, extra = room < grow ? room : grow;
+    if (extra < n / 20) {
+        plan_add(r->plan, r->pcap, "  refinement of %s: off: %s holds %ld more vertices than %s %ld\n", what, why, room, its, n);
+        return 0;
+    }
+    char cap[48];
+    snprintf(cap, sizeof cap, "at most %.2gx", growth);
+    plan_add(r->plan, r->pcap, "  refinement of %s: %s %ld vertices may grow by %ld (%s), where visibility changes across %s edges\n", what,
+             its, n, extra, extra < grow ? why : cap, its);
+    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = r->out->scene.mesh.nverts + (int)extra, .parts = parts },
+                         err);
+}
+
 /* The most vertices the models may gain within the plan's bytes (PLANFX_FILE_BYTES): the linear
  * transfer's (its vector_bytes per vector, each new vertex with the models' mean vector count); and
  * for the view path's, the room the view grid's byte budget leaves at the level
@@ -818,26 +843,21 @@ static int pc_refine_run(pc_run *r, refine_desc rd, prt_error *err) {
  * than the vertices gain; every new vertex counted as one of theirs). *why gets the binding limit. */
 static long pc_model_room(pc_run *r, long models, const char **why) {
     const prt_mesh *m = &r->out->scene.mesh;
-    double vecs = 0, model_vecs = 0;
+    double model_vecs = 0;
     long view = 0;
     for (int v = 0; v < m->nverts; v++) {
         int mat = m->mat ? m->mat[v] : 0, K = r->out->factors[mat].K;
-        vecs += K;
         model_vecs += r->out->scene.floor_first_vertex >= 0 && v >= r->out->scene.floor_first_vertex ? 0 : K;
         view += (r->vmask >> mat) & 1;
     }
-    long room = LONG_MAX;
-    *why = "";
-    if (r->rp.lops->linear->vector_bytes) {
-        const double vb = r->rp.lops->linear->vector_bytes(&r->rp.lcfg), lin = (PLANFX_FILE_BYTES - vecs * vb) / (model_vecs / models * vb);
-        room = lin > 0 ? (long)lin : 0;
-        *why = "the room the file's byte budget leaves";
-    }
+    long room = pc_file_room(r, model_vecs / models);
+    *why = room < 0 ? "" : "the room the file's byte budget leaves";
+    if (room < 0) room = LONG_MAX;
     if (view && r->rp.vops->view->settle) {
         transfer_config cfg = r->rp.vcfg;
         long vroom = 0;
         char line[256];
-        r->rp.vops->view->settle(&cfg, view, pc_view_passes(r), &vroom, line, sizeof line);
+        r->rp.vops->view->settle(&cfg, view, pc_max_passes(r), &vroom, line, sizeof line);
         if (vroom - view < room) room = vroom - view > 0 ? vroom - view : 0, *why = "the room the view grid's byte budget leaves";
     }
     return room;
@@ -850,19 +870,8 @@ static int pc_refine_models(pc_run *r, prt_error *err) {
     long models = s->floor_first_vertex >= 0 ? s->floor_first_vertex : s->mesh.nverts;
     if (models == 0) return 0;
     const char *why;
-    long room = pc_model_room(r, models, &why), grow = (long)(PLANFX_MODEL_GROWTH * models) - models;
-    long extra = room < grow ? room : grow;
-    const char *k = "  refinement of the models:";
-    if (extra < models / 20) {
-        plan_add(r->plan, r->pcap, "%s off: %s holds %ld more vertices than their %ld\n", k, why, room, models);
-        return 0;
-    }
-    char cap[48];
-    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_MODEL_GROWTH);
-    plan_add(r->plan, r->pcap, "%s their %ld vertices may grow by %ld (%s), where visibility changes across their edges\n", k,
-             models, extra, extra < grow ? why : cap);
-    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = s->mesh.nverts + (int)extra, .parts = REFINE_MODELS },
-                         err);
+    long room = pc_model_room(r, models, &why);
+    return pc_refine_grow(r, "the models", "their", models, PLANFX_MODEL_GROWTH, room, why, REFINE_MODELS, err);
 }
 
 /* The floor refined where visibility changes after the models, when plan_refine calls for it, up to
@@ -870,23 +879,9 @@ static int pc_refine_models(pc_run *r, prt_error *err) {
  * vector_bytes each; the view grid's room is the models'). Returns 0 or -1. */
 static int pc_refine_floor(pc_run *r, prt_error *err) {
     const prt_scene *s = &r->out->scene;
-    if (!r->refine_floor || !r->rp.lops->linear->vector_bytes) return 0;
-    const prt_mesh *m = &s->mesh;
-    double vecs = 0;
-    for (int v = 0; v < m->nverts; v++) vecs += r->out->factors[m->mat ? m->mat[v] : 0].K;
-    const double vb = r->rp.lops->linear->vector_bytes(&r->rp.lcfg), lin = (PLANFX_FILE_BYTES - vecs * vb) / vb;
-    long floor = m->nverts - s->floor_first_vertex, room = lin > 0 ? (long)lin : 0;
-    long grow = (long)(PLANFX_FLOOR_GROWTH * floor) - floor, extra = room < grow ? room : grow;
-    const char *k = "  refinement of the floor:";
-    if (extra < floor / 20) {
-        plan_add(r->plan, r->pcap, "%s off: the file's byte budget holds %ld more vertices than its %ld\n", k, room, floor);
-        return 0;
-    }
-    char cap[48];
-    snprintf(cap, sizeof cap, "at most %.2gx", PLANFX_FLOOR_GROWTH);
-    plan_add(r->plan, r->pcap, "%s its %ld vertices may grow by %ld (%s), where visibility changes across its edges\n", k, floor,
-             extra, extra < grow ? "the room the file's byte budget leaves" : cap);
-    return pc_refine_run(r, (refine_desc){ .threshold = REFINE_THRESHOLD, .budget = m->nverts + (int)extra, .parts = REFINE_FLOOR }, err);
+    if (!r->refine_floor || !r->rp.lops->linear->vector_bytes) return 0;   /* no byte model: no bound for it */
+    return pc_refine_grow(r, "the floor", "its", s->mesh.nverts - s->floor_first_vertex, PLANFX_FLOOR_GROWTH, pc_file_room(r, 1),
+                          "the room the file's byte budget leaves", REFINE_FLOOR, err);
 }
 
 /* Stage refine: adaptive refinement where visibility changes (refine.h) when asked for, else where
@@ -991,7 +986,7 @@ static void pc_add_view(pc_run *r, uint64_t mask) {
     for (int v = 0; v < m->nverts; v++) n += (mask >> m->mat[v]) & 1;
     transfer_config cfg = r->rp.vcfg;
     char line[256], why[256] = "";
-    if (r->rp.vops->view->settle) r->rp.vops->view->settle(&cfg, n, pc_view_passes(r), NULL, why, sizeof why);
+    if (r->rp.vops->view->settle) r->rp.vops->view->settle(&cfg, n, pc_max_passes(r), NULL, why, sizeof why);
     r->vtr = prt_data_add_transfer(r->out, r->rp.vops, &cfg, mask);
     r->rp.vops->describe(&r->vtr->cfg, line, sizeof line);
     plan_add(r->plan, r->pcap, "  specular: %s for the materials on the %s path\n", line, r->rp.vops->label);
@@ -1170,7 +1165,7 @@ static int pc_setup(pc_run *r, prt_error *err) {
     c->ss = R / CUBE_RES;
     c->open = r->tr->open_sky;
     c->fold_first = r->fold_first = pc_fold_first(r);
-    c->vweight = r->direct.stage_key ? r->vweight : NULL;
+    c->vweight = r->vweight;   /* NULL without a shared budget (pc_vector_weights) */
     cube_face_solid_angles(CUBE_RES, c->lwinv);
     for (int i = 0; i < CUBE_RES * CUBE_RES; i++) c->lwinv[i] = 1.f / c->lwinv[i];
     c->vdir = r->vdir;
